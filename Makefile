@@ -1,0 +1,50 @@
+# labkit — two commands for people (`make lab`, `make test`), a few more for developers.
+# The virtual environment is created on first use; every later target reuses it.
+
+PYTHON ?= python3
+VENV ?= .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+LAB_ARGS ?=
+PYTEST_ARGS ?=
+
+.PHONY: lab test test-fast bench firmware clean browser-deps
+
+$(STAMP): pyproject.toml
+	@$(PYTHON) -c 'import sys; assert sys.version_info >= (3, 11), "labkit needs Python >= 3.11, found " + sys.version.split()[0]'
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e '.[lab,test]'
+	touch $(STAMP)
+
+## make lab: set up (first time) and open JupyterLab on the index notebook.
+lab: $(STAMP)
+	$(VENV)/bin/jupyter lab notebooks/00-index.ipynb $(LAB_ARGS)
+
+## make test: set up (first time), then unit tests, doctests, notebooks (nbval) and the browser test.
+test: $(STAMP) browser-deps
+	$(PY) -m pytest $(PYTEST_ARGS)
+
+## make test-fast: everything but the notebooks and the browser.
+test-fast: $(STAMP)
+	$(PY) -m pytest -o addopts="--doctest-modules --strict-markers -p no:cacheprovider" -m "not browser" tests labkit $(PYTEST_ARGS)
+
+## make bench: install the peer libraries and run every benchmark, printing ratios.
+bench: $(STAMP)
+	$(PY) -m pip install --quiet -e '.[bench]'
+	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
+
+## The browser test needs Debian's chromium and chromedriver; install them when we can.
+browser-deps:
+	@if [ -x /usr/bin/chromium ] && [ -x /usr/bin/chromedriver ]; then :; \
+	elif command -v apt-get >/dev/null 2>&1 && [ "$$(id -u)" = 0 ]; then \
+		echo "installing chromium and chromium-driver (apt) for the browser test"; \
+		DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium chromium-driver >/dev/null \
+		|| (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium chromium-driver >/dev/null); \
+	else \
+		echo "note: chromium/chromedriver missing and no root apt-get; see environment.md (browser test will be skipped unless LABKIT_REQUIRE_BROWSER=1)"; \
+	fi
+
+clean:
+	rm -rf build .pytest_cache
+	find . -name __pycache__ -prune -exec rm -rf {} +

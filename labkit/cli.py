@@ -1,0 +1,91 @@
+"""``python -m labkit <command>`` (installed as ``labkit``).
+
+Each command lives in a module under :mod:`labkit.commands` that is imported
+only when the command runs, so ``labkit --help`` is instant and a command's
+heavy dependencies (matplotlib, scikit-image) load only when needed. A
+command module defines, for a command named ``name`` (dashes → underscores):
+
+``add_<name>_arguments(parser)``
+    configures an :class:`argparse.ArgumentParser`;
+``run_<name>(args) -> int``
+    does the work and returns the exit status.
+
+Errors that labkit raises on purpose (:class:`labkit.errors.LabkitError`) and
+file errors are printed as one line on stderr with exit status 1, never as a
+traceback; ``--traceback`` shows the traceback for debugging.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from labkit import __version__
+
+__all__ = ["COMMANDS", "main"]
+
+#: command → (module under labkit.commands, one-line help). Order = order in --help.
+COMMANDS: dict[str, tuple[str, str]] = {
+    "check": ("gcode", "validate a G-code file; print every diagnostic as file:line:col"),
+    "info": ("gcode", "summarise a G-code file: moves, bounds, lengths, times"),
+    "preview": ("gcode", "draw a G-code file to a PNG"),
+    "svg2gcode": ("vector", "convert SVG artwork to laser G-code"),
+    "dxf2gcode": ("vector", "convert DXF drawings to laser G-code"),
+    "img2gcode": ("raster", "engrave a raster image: zig-zag, spiral, edges, gray, dither"),
+    "plan": ("motion", "plan a G-code job: blocks, speed profiles, look-ahead, job time"),
+    "steps": ("motion", "write the Bresenham step sequence of a G-code job"),
+}
+
+
+def _load(name: str):
+    module = importlib.import_module(f"labkit.commands.{COMMANDS[name][0]}")
+    attr = name.replace("-", "_")
+    return getattr(module, f"add_{attr}_arguments"), getattr(module, f"run_{attr}")
+
+
+def _top_parser() -> argparse.ArgumentParser:
+    width = max(len(n) for n in COMMANDS)
+    listing = "\n".join(f"  {n:<{width}}  {h}" for n, (_, h) in COMMANDS.items())
+    parser = argparse.ArgumentParser(
+        prog="labkit",
+        description="labkit: laser CNC toolkit for teaching and research.",
+        epilog=f"commands:\n{listing}\n\nrun 'labkit COMMAND --help' for a command's options",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--version", action="version", version=f"labkit {__version__}")
+    parser.add_argument("command", choices=list(COMMANDS), metavar="COMMAND", help="what to do")
+    parser.add_argument("args", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit status (0 ok, 1 failure, 2 usage)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    top = _top_parser()
+    if not argv:
+        top.print_help()
+        return 2
+    ns = top.parse_args(argv[:1] if not argv[0].startswith("-") else argv)
+    name = ns.command
+    add_arguments, run = _load(name)
+    parser = argparse.ArgumentParser(prog=f"labkit {name}", description=COMMANDS[name][1])
+    parser.add_argument("--traceback", action="store_true", help="show a traceback on errors")
+    add_arguments(parser)
+    args = parser.parse_args(argv[1:])
+    from labkit.errors import LabkitError
+
+    try:
+        return int(run(args) or 0)
+    except (LabkitError, OSError) as exc:
+        if args.traceback:
+            raise
+        print(f"labkit {name}: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"labkit {name}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

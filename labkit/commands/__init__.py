@@ -1,0 +1,1 @@
+"""Command-line commands, one module per area, loaded on demand by :mod:`labkit.cli`."""

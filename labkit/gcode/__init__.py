@@ -1,0 +1,1 @@
+"""G-code: parse text into Moves, arcs, emit Moves as text, simulate."""

@@ -1,0 +1,151 @@
+"""G-code dialects: where laser controllers disagree on the same words.
+
+A :class:`Dialect` is a small frozen record of settings used by both the
+parser (how to read F, P, S; which codes exist) and the emitter (how to write
+them). Three are defined:
+
+``grbl``
+    GRBL 1.1 in laser mode (``$32=1``): F in mm/min, ``G4 P`` in seconds,
+    S 0–1000 (``$30``), M3 constant and M4 dynamic power, arcs by I J K or R;
+    an R arc whose chord exceeds its diameter by any amount is rejected
+    (GRBL error 33), so is an I J K arc whose radius at start and end differs
+    by more than 0.005 mm and by more than 0.1 %.
+``labkit-fw``
+    The labkit firmware (``firmware/``), which follows seeds 000 and 004: F in
+    mm/s, ``G4 P`` in milliseconds, S 0–255 (8-bit PWM duty; power in mW is
+    S/255 × the laser's maximum), ``G5 P<n>`` sets the look-ahead depth in
+    blocks, M3/M4/M5 laser words, and an answer ``ok`` or ``er`` per line.
+    An R arc whose radius is short of half the chord by at most 0.0005 mm is
+    taken as a half circle (text rounding), a larger shortfall is an error.
+``marlin``
+    Marlin 2 with its laser feature: F in mm/min, ``G4 P`` in milliseconds,
+    S 0–255, M3/M4/M5 plus the fan words M106 S/M107 that seed 003's
+    Dobot-era tools used for the laser; emitted lines carry N numbers and
+    ``*`` checksums as Marlin's host protocol expects.
+
+Examples
+--------
+>>> get_dialect("grbl").feed_to_mm_min(1500.0)
+1500.0
+>>> get_dialect("labkit-fw").feed_to_mm_min(25.0)     # F is mm/s there
+1500.0
+>>> get_dialect("labkit-fw").dwell_to_s(250.0)        # P is ms there
+0.25
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+__all__ = ["Dialect", "DIALECTS", "get_dialect"]
+
+
+@dataclass(frozen=True)
+class Dialect:
+    """Settings of one controller's G-code flavour.
+
+    Attributes
+    ----------
+    name : str
+        Key in :data:`DIALECTS`.
+    feed_per_second : bool
+        F is mm/s (True) or mm/min (False). Moves always hold mm/min.
+    dwell_in_ms : bool
+        ``G4 P`` counts milliseconds (True) or seconds (False).
+    s_max : float
+        S value meaning full laser power.
+    laser_on_codes, laser_off_codes : tuple of int
+        M numbers that switch the beam on (3 = constant, 4 = dynamic,
+        106 = fan output used as laser) and off (5, 107).
+    lookahead_g5 : bool
+        ``G5 P<n>`` sets the look-ahead depth (seed 000) instead of being unsupported.
+    arc_r_tol_mm : float
+        How far |R| may fall short of half the chord and still be taken as a
+        half circle (GRBL: 0, any shortfall is error 33).
+    arc_radius_tol_mm, arc_radius_tol_rel : float
+        An I J K arc is rejected when the radius at start and at end differ by
+        more than both of these (GRBL: 0.005 mm and 0.1 %).
+    line_numbers, checksums : bool
+        The emitter prefixes ``N<n>`` and suffixes ``*<xor>``.
+    extra_letters : str
+        Word letters this dialect accepts beyond the common set.
+    """
+
+    name: str
+    feed_per_second: bool = False
+    dwell_in_ms: bool = False
+    s_max: float = 1000.0
+    laser_on_codes: tuple[int, ...] = (3, 4)
+    laser_off_codes: tuple[int, ...] = (5,)
+    lookahead_g5: bool = False
+    arc_r_tol_mm: float = 0.0
+    arc_radius_tol_mm: float = 0.005
+    arc_radius_tol_rel: float = 0.001
+    line_numbers: bool = False
+    checksums: bool = False
+    extra_letters: str = ""
+    description: str = field(default="", compare=False)
+
+    def feed_to_mm_min(self, f: float) -> float:
+        """Value of an F word → mm/min."""
+        return f * 60.0 if self.feed_per_second else f
+
+    def feed_from_mm_min(self, feed_mm_min: float) -> float:
+        """mm/min → value to write after F."""
+        return feed_mm_min / 60.0 if self.feed_per_second else feed_mm_min
+
+    def dwell_to_s(self, p: float) -> float:
+        """Value of a G4 P word → seconds."""
+        return p / 1000.0 if self.dwell_in_ms else p
+
+    def dwell_from_s(self, seconds: float) -> float:
+        """Seconds → value to write after G4 P."""
+        return seconds * 1000.0 if self.dwell_in_ms else seconds
+
+
+DIALECTS: dict[str, Dialect] = {
+    "grbl": Dialect(
+        name="grbl",
+        extra_letters="T",
+        description="GRBL 1.1 laser mode: F mm/min, G4 P s, S 0-1000, M3/M4/M5",
+    ),
+    "labkit-fw": Dialect(
+        name="labkit-fw",
+        feed_per_second=True,
+        dwell_in_ms=True,
+        s_max=255.0,
+        lookahead_g5=True,
+        arc_r_tol_mm=0.0005,
+        description="labkit firmware (seeds 000/004): F mm/s, G4 P ms, S 0-255, G5 P look-ahead",
+    ),
+    "marlin": Dialect(
+        name="marlin",
+        dwell_in_ms=True,
+        s_max=255.0,
+        laser_on_codes=(3, 4, 106),
+        laser_off_codes=(5, 107),
+        line_numbers=True,
+        checksums=True,
+        extra_letters="T",
+        description="Marlin 2 laser: F mm/min, G4 P ms, S 0-255, M3/M4/M5 and M106/M107, N + checksum",
+    ),
+}
+
+
+def get_dialect(dialect: str | Dialect) -> Dialect:
+    """Return a :class:`Dialect` by name (or pass one through).
+
+    >>> get_dialect("marlin").s_max
+    255.0
+    >>> get_dialect("fanuc")
+    Traceback (most recent call last):
+    ...
+    ValueError: unknown G-code dialect 'fanuc'; choose one of grbl, labkit-fw, marlin
+    """
+    if isinstance(dialect, Dialect):
+        return dialect
+    try:
+        return DIALECTS[dialect]
+    except KeyError:
+        raise ValueError(f"unknown G-code dialect {dialect!r}; choose one of "
+                         f"{', '.join(DIALECTS)}") from None
