@@ -67,6 +67,17 @@ class Dialect:
         more than both of these (GRBL: 0.005 mm and 0.1 %).
     line_numbers, checksums : bool
         The emitter prefixes ``N<n>`` and suffixes ``*<xor>``.
+    inline_power : bool
+        S may ride on G1/G2/G3 lines (GRBL); otherwise power changes are
+        written as ``M3 S…`` lines.
+    rapids_beam_off : bool
+        The controller keeps the beam off during G0 by itself (GRBL laser
+        mode); otherwise the emitter writes M5 before travel and M3/M4 after.
+    full_circle_without_axes : bool
+        ``G2 I… J…`` with no end-point words is a full circle (GRBL instead
+        rejects it: error 32).
+    require_axis_words : bool
+        An explicit G0/G1 without X Y Z is an error (GRBL ignores it).
     extra_letters : str
         Word letters this dialect accepts beyond the common set.
     """
@@ -84,6 +95,10 @@ class Dialect:
     line_numbers: bool = False
     checksums: bool = False
     extra_letters: str = ""
+    inline_power: bool = True
+    rapids_beam_off: bool = True
+    full_circle_without_axes: bool = True
+    require_axis_words: bool = False
     description: str = field(default="", compare=False)
 
     def feed_to_mm_min(self, f: float) -> float:
@@ -107,6 +122,7 @@ DIALECTS: dict[str, Dialect] = {
     "grbl": Dialect(
         name="grbl",
         extra_letters="T",
+        full_circle_without_axes=False,
         description="GRBL 1.1 laser mode: F mm/min, G4 P s, S 0-1000, M3/M4/M5",
     ),
     "labkit-fw": Dialect(
@@ -116,6 +132,7 @@ DIALECTS: dict[str, Dialect] = {
         s_max=255.0,
         lookahead_g5=True,
         arc_r_tol_mm=0.0005,
+        require_axis_words=True,
         description="labkit firmware (seeds 000/004): F mm/s, G4 P ms, S 0-255, G5 P look-ahead",
     ),
     "marlin": Dialect(
@@ -127,6 +144,8 @@ DIALECTS: dict[str, Dialect] = {
         line_numbers=True,
         checksums=True,
         extra_letters="T",
+        inline_power=False,
+        rapids_beam_off=False,
         description="Marlin 2 laser: F mm/min, G4 P ms, S 0-255, M3/M4/M5 and M106/M107, N + checksum",
     ),
 }

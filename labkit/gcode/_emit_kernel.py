@@ -1,0 +1,257 @@
+"""Compiled G-code writer: Moves columns → bytes.
+
+Numbers are handled as integers scaled by 10^decimals, so that modal
+suppression compares exactly what is written (no float noise) and a number
+is printed by integer arithmetic, without trailing zeros.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+RAPID, LINE, ARC_CW, ARC_CCW, DWELL = 0, 1, 2, 3, 4
+_PLANE_AXES = np.array([[0, 1, 2], [2, 0, 1], [1, 2, 0]], dtype=np.int64)
+_AXIS_LETTER = np.array([88, 89, 90], dtype=np.uint8)      # X Y Z
+_OFFSET_LETTER = np.array([73, 74, 75], dtype=np.uint8)    # I J K
+
+
+@nb.njit(cache=True)
+def _ensure(out, used, extra):
+    if used + extra <= out.shape[0]:
+        return out
+    bigger = np.empty(max(2 * out.shape[0], used + extra + 64), np.uint8)
+    bigger[:used] = out[:used]
+    return bigger
+
+
+@nb.njit(cache=True)
+def _put(out, used, c):
+    out[used] = c
+    return used + 1
+
+
+@nb.njit(cache=True)
+def _put_scaled(out, used, value, decimals):
+    """Write value / 10**decimals without trailing zeros (``-0`` written as ``0``)."""
+    if value < 0:
+        out[used] = 45
+        used += 1
+        value = -value
+    scale = 1
+    for _ in range(decimals):
+        scale *= 10
+    whole = value // scale
+    frac = value - whole * scale
+    # Integer part.
+    digits = np.empty(20, np.uint8)
+    nd = 0
+    if whole == 0:
+        digits[0] = 48
+        nd = 1
+    while whole > 0:
+        digits[nd] = 48 + whole % 10
+        whole //= 10
+        nd += 1
+    for k in range(nd - 1, -1, -1):
+        out[used] = digits[k]
+        used += 1
+    if frac > 0:
+        nf = decimals
+        while frac % 10 == 0:
+            frac //= 10
+            nf -= 1
+        out[used] = 46
+        used += 1
+        for k in range(nf - 1, -1, -1):
+            d = frac
+            for _ in range(k):
+                d //= 10
+            out[used] = 48 + d % 10
+            used += 1
+    return used
+
+
+@nb.njit(cache=True)
+def _put_word(out, used, letter, value, decimals):
+    out[used] = 32
+    out[used + 1] = letter
+    return _put_scaled(out, used + 2, value, decimals)
+
+
+@nb.njit(cache=True)
+def _end_line(out, used, line_start, numbered, checksums, number):
+    """Finish a line: drop the leading space, prefix ``N`` and add ``*checksum`` when asked."""
+    if used > line_start and out[line_start] == 32:
+        for k in range(line_start, used - 1):
+            out[k] = out[k + 1]
+        used -= 1
+    if numbered:
+        # Write "N<number> " in front of the line already written.
+        tmp = np.empty(24, np.uint8)
+        t = 0
+        tmp[t] = 78
+        t += 1
+        t = _put_scaled(tmp, t, number, 0)
+        tmp[t] = 32
+        t += 1
+        for k in range(used - 1, line_start - 1, -1):
+            out[k + t] = out[k]
+        for k in range(t):
+            out[line_start + k] = tmp[k]
+        used += t
+    if checksums:
+        x = 0
+        for k in range(line_start, used):
+            x ^= out[k]
+        out[used] = 42
+        used = _put_scaled(out, used + 1, x, 0)
+    out[used] = 10
+    return used + 1
+
+
+@nb.njit(cache=True)
+def write_moves(kind, end_i, centre, plane, feed_i, power_i, laser, dwell_i, r_mode_rows,
+                start_i, decimals, value_decimals, inline_power, rapid_laser_off,
+                numbered, checksums, first_number, rec_row, rec_text, rec_span, rec_reset):
+    """Write the program body. Integer inputs are already scaled:
+
+    end_i, start_i : positions × 10**decimals; feed_i, power_i, dwell_i : values
+    × 10**value_decimals in the dialect's units (-1 = undefined feed).
+    centre : float mm (offsets are computed from the *written* previous point).
+    rec_row[j] : the row before which record line j goes (n = after the last);
+    its text is rec_text[rec_span[j, 0]:rec_span[j, 1]]; rec_reset[j] marks a
+    program end, after which the controller is back in its default modes.
+    Returns (bytes, next line number).
+    """
+    n = kind.shape[0]
+    out = np.empty(64 + 48 * n, np.uint8)
+    used = 0
+    number = first_number
+    scale = 1.0
+    for _ in range(decimals):
+        scale *= 10.0
+    cur = np.empty(3, np.int64)
+    for a in range(3):
+        cur[a] = start_i[a]
+    cur_motion = -1
+    cur_plane = 17
+    cur_feed = np.int64(-2)
+    cur_power = np.int64(-1)
+    cur_laser = 0
+    beam_parked = False     # laser switched off for a rapid on a dialect that needs it
+    j = 0
+    nrec = rec_row.shape[0]
+    for i in range(n + 1):
+        # Records (system lines, pauses, program ends …) that stand before this row.
+        while j < nrec and rec_row[j] <= i:
+            s0 = rec_span[j, 0]
+            s1 = rec_span[j, 1]
+            out = _ensure(out, used, s1 - s0 + 64)
+            ls = used
+            for q in range(s0, s1):
+                out[used] = rec_text[q]
+                used += 1
+            used = _end_line(out, used, ls, numbered, checksums, number)
+            number += 1
+            if rec_reset[j]:
+                cur_motion = -1
+                cur_plane = 17
+                cur_laser = 0
+                beam_parked = False
+            j += 1
+        if i == n:
+            break
+        out = _ensure(out, used, 256)
+        k = kind[i]
+        feed_row = k == LINE or k == ARC_CW or k == ARC_CCW
+        want_laser = laser[i]
+        # Laser mode first (GRBL order: spindle words before motion).
+        if k == RAPID and rapid_laser_off == 0 and cur_laser != 0:
+            ls = used
+            used = _put(out, used, 77)
+            used = _put(out, used, 53)        # M5
+            used = _end_line(out, used, ls, numbered, checksums, number)
+            number += 1
+            cur_laser = 0
+            beam_parked = True
+        elif k != RAPID or rapid_laser_off == 1:
+            if want_laser != cur_laser or (beam_parked and want_laser != 0):
+                ls = used
+                used = _put(out, used, 77)
+                if want_laser == 0:
+                    used = _put(out, used, 53)
+                else:
+                    used = _put(out, used, 48 + want_laser)
+                    used = _put_word(out, used, 83, power_i[i], value_decimals)
+                    cur_power = power_i[i]
+                used = _end_line(out, used, ls, numbered, checksums, number)
+                number += 1
+                cur_laser = want_laser
+                beam_parked = False
+            elif feed_row and inline_power == 0 and want_laser != 0 and power_i[i] != cur_power:
+                ls = used
+                used = _put(out, used, 77)
+                used = _put(out, used, 48 + want_laser)
+                used = _put_word(out, used, 83, power_i[i], value_decimals)
+                cur_power = power_i[i]
+                used = _end_line(out, used, ls, numbered, checksums, number)
+                number += 1
+        if k == DWELL:
+            ls = used
+            used = _put(out, used, 71)
+            used = _put(out, used, 52)
+            used = _put_word(out, used, 80, dwell_i[i], value_decimals)
+            used = _end_line(out, used, ls, numbered, checksums, number)
+            number += 1
+            continue
+        arc = k == ARC_CW or k == ARC_CCW
+        pl = plane[i]
+        if arc and pl != cur_plane:
+            ls = used
+            used = _put(out, used, 71)
+            used = _put(out, used, 49)
+            used = _put(out, used, 48 + (pl - 10))
+            used = _end_line(out, used, ls, numbered, checksums, number)
+            number += 1
+            cur_plane = pl
+        ls = used
+        if k != cur_motion:
+            used = _put(out, used, 71)
+            used = _put(out, used, 48 + k)
+            cur_motion = k
+        wrote_axis = False
+        a0 = _PLANE_AXES[pl - 17, 0]
+        a1 = _PLANE_AXES[pl - 17, 1]
+        for a in range(3):
+            v = end_i[i, a]
+            must = arc and (a == a0 or a == a1)
+            if must or v != cur[a]:
+                used = _put_word(out, used, _AXIS_LETTER[a], v, decimals)
+                wrote_axis = True
+        if not wrote_axis:
+            # A zero-length move still states an axis, so it stays a move when read back.
+            used = _put_word(out, used, _AXIS_LETTER[0], end_i[i, 0], decimals)
+        if arc:
+            if r_mode_rows[i] != 0:
+                # Signed radius from the written start: negative for sweeps over 180°.
+                r = math.hypot(cur[a0] / scale - centre[i, a0], cur[a1] / scale - centre[i, a1])
+                ri = np.int64(round(r * scale))
+                used = _put_word(out, used, 82, ri * r_mode_rows[i], decimals)
+            else:
+                for a in (a0, a1):
+                    off = np.int64(round((centre[i, a] - cur[a] / scale) * scale))
+                    used = _put_word(out, used, _OFFSET_LETTER[a], off, decimals)
+        for a in range(3):
+            cur[a] = end_i[i, a]
+        if feed_row and feed_i[i] != cur_feed:
+            used = _put_word(out, used, 70, feed_i[i], value_decimals)
+            cur_feed = feed_i[i]
+        if feed_row and inline_power != 0 and power_i[i] != cur_power:
+            used = _put_word(out, used, 83, power_i[i], value_decimals)
+            cur_power = power_i[i]
+        used = _end_line(out, used, ls, numbered, checksums, number)
+        number += 1
+    return out[:used], number

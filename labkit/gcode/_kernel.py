@@ -1,0 +1,748 @@
+"""The compiled G-code interpreter: bytes in, Moves columns and diagnostics out.
+
+One pass over the text, one line at a time, in three phases per line:
+
+1. *scan* — split the line into words (letter + number), skipping comments
+   ``( … )`` and ``; …``, verifying a ``*`` checksum, and recognising ``$``
+   system lines and ``%`` delimiters;
+2. *check and compute* — classify G and M words into modal groups, convert
+   units, work out the target, the arc centre and the dwell, and find every
+   reason to reject the line — without touching the modal state;
+3. *commit* — only an accepted line changes the state and appends rows.
+
+A rejected line therefore changes nothing, exactly as a controller that
+answers ``error:N`` (GRBL) or ``er`` (labkit firmware). In lenient mode the
+scan continues with the next line and every rejection is reported; in strict
+mode it stops at the first.
+
+The order of execution inside a line follows GRBL (and RS274/NGC): feed, S,
+laser M words, coolant, dwell, plane, units, distance modes, motion, then
+program stop/end. Numbers are read exactly: the digits form an integer
+mantissa that is divided once by a power of ten, so any number with at most
+15 significant digits equals Python's ``float()`` of the same text.
+
+This module is the only compiled part of the parser; :mod:`labkit.gcode.parse`
+wraps it. Run with ``NUMBA_DISABLE_JIT=1`` to step through it as Python.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+# Move kinds (labkit.toolpath.MoveKind).
+RAPID, LINE, ARC_CW, ARC_CCW, DWELL = 0, 1, 2, 3, 4
+
+# Record kinds.
+REC_SYSTEM, REC_PAUSE, REC_OPTIONAL_PAUSE, REC_END, REC_LOOKAHEAD, REC_COOLANT = 1, 2, 3, 4, 5, 6
+RECORD_NAMES = {REC_SYSTEM: "system", REC_PAUSE: "pause", REC_OPTIONAL_PAUSE: "optional_pause",
+                REC_END: "end", REC_LOOKAHEAD: "lookahead", REC_COOLANT: "coolant"}
+
+# Status codes (labkit/status_codes.csv).
+E_EXPECTED_LETTER = 1
+E_BAD_NUMBER = 2
+E_NEGATIVE = 4
+E_UNSUPPORTED = 20
+E_MODAL_GROUP = 21
+E_UNDEFINED_FEED = 22
+E_NON_INTEGER = 23
+E_REPEATED = 25
+E_NO_AXIS_WORDS = 26
+E_LINE_NUMBER = 27
+E_MISSING_VALUE = 28
+E_NO_PLANE_AXIS = 32
+E_INVALID_ARC = 33
+E_NO_OFFSET = 35
+E_UNUSED = 36
+E_CHECKSUM = 100
+E_DELIMITER = 101
+
+# Details that select the message for a status code (see parse._MESSAGES).
+D_NONE = 0
+D_UNCLOSED_COMMENT = 1
+D_AFTER_CHECKSUM = 2
+D_UNKNOWN_LETTER = 3
+D_UNKNOWN_G = 4
+D_UNKNOWN_M = 5
+D_R_FULL_CIRCLE = 6
+D_R_TOO_SMALL = 7
+D_RADIUS_MISMATCH = 8
+D_ZERO_RADIUS = 9
+D_DWELL_P = 10
+D_LOOKAHEAD_P = 11
+D_TOO_MANY = 12
+D_CHECKSUM_DIGITS = 13
+D_NUMBER_NO_DIGITS = 14
+D_NUMBER_TRAILING = 15
+D_ABS_CENTRE = 16
+
+# Letters (index = letter − 'A').
+L_F, L_G, L_I, L_J, L_K, L_M, L_N, L_P, L_R, L_S, L_T, L_X, L_Y, L_Z = (
+    5, 6, 8, 9, 10, 12, 13, 15, 17, 18, 19, 23, 24, 25)
+
+# Modal groups (bit numbers).
+G_MOTION, G_NONMODAL, G_PLANE, G_UNITS, G_DISTANCE, G_ARCDIST, G_FEEDMODE, G_CUTTER, \
+    G_TOOLLEN, G_COORD, G_PATH, M_STOP, M_LASER, M_COOLANT = range(14)
+
+MAX_COMMANDS = 16   # G or M words per line; more cannot be valid (fewer groups exist)
+MAX_LINE_NUMBER = 9_999_999  # GRBL's limit for N
+
+# Exact powers of ten up to 1e22; beyond that the division is done in two steps.
+_POW10 = np.array([10.0 ** k for k in range(23)])
+
+# Plane → (first axis, second axis, linear axis), as in labkit.toolpath.PLANE_AXES.
+_PLANE_AXES = np.array([[0, 1, 2], [2, 0, 1], [1, 2, 0]], dtype=np.int64)
+
+
+@nb.njit(cache=True)
+def _grow_f2(a, cap):
+    b = np.empty((cap, a.shape[1]), a.dtype)
+    b[: a.shape[0]] = a
+    return b
+
+
+@nb.njit(cache=True)
+def _grow(a, cap):
+    b = np.empty(cap, a.dtype)
+    b[: a.shape[0]] = a
+    return b
+
+
+@nb.njit(cache=True)
+def _is_space(c):
+    return c == 32 or c == 9 or c == 13 or c == 11 or c == 12
+
+
+@nb.njit(cache=True)
+def _read_number(buf, i, end):
+    """Read ``[+-]digits[.digits]`` at ``buf[i]``.
+
+    Returns (value, next index, status) with status 0 ok, 1 no digits,
+    2 followed by something that cannot end a number (``1.2.3``, ``5x``…).
+    """
+    neg = False
+    if i < end and (buf[i] == 45 or buf[i] == 43):   # '-' '+'
+        neg = buf[i] == 45
+        i += 1
+    mant = 0
+    frac = 0
+    extra_exp = 0
+    ndigits = 0
+    nsig = 0
+    dot = False
+    while i < end:
+        c = buf[i]
+        if 48 <= c <= 57:
+            ndigits += 1
+            if mant == 0 and c == 48:
+                if dot:
+                    frac += 1
+            elif nsig < 18:
+                mant = mant * 10 + (c - 48)
+                nsig += 1
+                if dot:
+                    frac += 1
+            elif not dot:
+                extra_exp += 1   # digits past 18 significant ones only scale the integer part
+        elif c == 46 and not dot:   # '.'
+            dot = True
+        else:
+            break
+        i += 1
+    if ndigits == 0:
+        return 0.0, i, 1
+    if i < end:
+        c = buf[i]
+        ok_end = (_is_space(c) or c == 10 or c == 40 or c == 59 or c == 42
+                  or (65 <= c <= 90) or (97 <= c <= 122))
+        if not ok_end:
+            return 0.0, i, 2
+    value = float(mant)
+    if extra_exp > 0:
+        value = value * 10.0 ** extra_exp
+    while frac > 22:
+        value = value / 1e22
+        frac -= 22
+    if frac > 0:
+        value = value / _POW10[frac]
+    return (-value if neg else value), i, 0
+
+
+@nb.njit(cache=True)
+def _contains(arr, v):
+    for k in range(arr.shape[0]):
+        if arr[k] == v:
+            return True
+    return False
+
+
+@nb.njit(cache=True)
+def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwell_scale,
+              lookahead_g5, arc_r_tol, arc_tol_abs, arc_tol_rel, full_circle_ok,
+              require_axis_words, lenient, trace):
+    """Interpret G-code bytes. See the module docstring; outputs are documented in parse.py."""
+    n = buf.shape[0]
+    nlines_est = 1
+    for k in range(n):
+        if buf[k] == 10:
+            nlines_est += 1
+    cap = nlines_est + 8
+
+    # Output rows.
+    kind = np.empty(cap, np.int8)
+    start = np.empty((cap, 3), np.float64)
+    endp = np.empty((cap, 3), np.float64)
+    centre = np.empty((cap, 3), np.float64)
+    plane_col = np.empty(cap, np.int8)
+    feed_col = np.empty(cap, np.float64)
+    power_col = np.empty(cap, np.float32)
+    laser_col = np.empty(cap, np.int8)
+    dwell_col = np.empty(cap, np.float64)
+    line_col = np.empty(cap, np.int32)
+    nrows = 0
+
+    # Diagnostics: line, byte offset of the culprit, its end, code, detail, two numbers.
+    ecap = 16
+    e_line = np.empty(ecap, np.int64)
+    e_pos = np.empty(ecap, np.int64)
+    e_end = np.empty(ecap, np.int64)
+    e_code = np.empty(ecap, np.int64)
+    e_detail = np.empty(ecap, np.int64)
+    e_aux = np.empty((ecap, 2), np.float64)
+    nerr = 0
+
+    # Records: line, kind, text span, value, row index.
+    rcap = 16
+    r_line = np.empty(rcap, np.int64)
+    r_kind = np.empty(rcap, np.int64)
+    r_span = np.empty((rcap, 2), np.int64)
+    r_value = np.empty(rcap, np.float64)
+    r_index = np.empty(rcap, np.int64)
+    nrec = 0
+
+    # Per-line modal state trace (only when asked).
+    tcap = nlines_est if trace else 0
+    t_state = np.zeros((tcap, 8), np.float64)   # motion, plane, units, distance, arc dist, feed, S, laser
+    t_pos = np.zeros((tcap, 3), np.float64)
+
+    line_starts = np.empty(nlines_est + 1, np.int64)
+
+    # Modal state (GRBL's power-on defaults).
+    pos = np.zeros(3)
+    motion = 0            # G0
+    plane = 0             # index into _PLANE_AXES: 0 G17, 1 G18, 2 G19
+    inches = False
+    absolute = True
+    arc_absolute = False  # G91.1
+    feed = 0.0            # mm/min; 0 = undefined
+    power = 0.0
+    laser = 0
+
+    # Per-line word storage.
+    present = np.zeros(26, np.bool_)
+    val = np.zeros(26, np.float64)
+    wpos = np.zeros(26, np.int64)
+    wend = np.zeros(26, np.int64)
+    g_val = np.zeros(MAX_COMMANDS, np.float64)
+    g_pos = np.zeros(MAX_COMMANDS, np.int64)
+    g_end = np.zeros(MAX_COMMANDS, np.int64)
+    m_val = np.zeros(MAX_COMMANDS, np.float64)
+    m_pos = np.zeros(MAX_COMMANDS, np.int64)
+    m_end = np.zeros(MAX_COMMANDS, np.int64)
+    target = np.zeros(3)
+    ctr = np.zeros(3)
+
+    ls = 0
+    lineno = 0
+    while ls <= n:
+        # Line bounds [ls, le).
+        le = ls
+        while le < n and buf[le] != 10:
+            le += 1
+        lineno += 1
+        line_starts[lineno - 1] = ls
+
+        err = 0
+        detail = D_NONE
+        epos = ls
+        eend = le
+        aux0 = 0.0
+        aux1 = 0.0
+        is_system = False
+
+        # ---- phase 1: scan ----------------------------------------------------------
+        for k in range(26):
+            present[k] = False
+        ng = 0
+        nm = 0
+        checksum_seen = False
+        first = True
+        i = ls
+        while i < le and err == 0:
+            c = buf[i]
+            if _is_space(c):
+                i += 1
+                continue
+            if c == 40:   # '(' comment to ')'
+                j = i + 1
+                while j < le and buf[j] != 41:
+                    j += 1
+                if j >= le:
+                    err, detail, epos, eend = E_DELIMITER, D_UNCLOSED_COMMENT, i, le
+                    break
+                i = j + 1
+                continue
+            if c == 59:   # ';' comment to end of line
+                break
+            if c == 42:   # '*' checksum: XOR of every byte before it
+                x = 0
+                for k in range(ls, i):
+                    x ^= buf[k]
+                j = i + 1
+                cs = 0
+                nd = 0
+                while j < le and 48 <= buf[j] <= 57:
+                    cs = cs * 10 + (buf[j] - 48)
+                    nd += 1
+                    j += 1
+                if nd == 0 or nd > 3:
+                    err, detail, epos, eend = E_BAD_NUMBER, D_CHECKSUM_DIGITS, i, j
+                    break
+                if cs != x:
+                    err, epos, eend, aux0, aux1 = E_CHECKSUM, i, j, float(x), float(cs)
+                    break
+                checksum_seen = True
+                i = j
+                continue
+            if first and c == 36:   # '$' system line, kept whole
+                is_system = True
+                break
+            if first and c == 37:   # '%' program delimiter: nothing else on the line counts
+                i = le
+                break
+            first = False
+            if checksum_seen:
+                err, detail, epos, eend = E_DELIMITER, D_AFTER_CHECKSUM, i, i + 1
+                break
+            u = c - 32 if 97 <= c <= 122 else c
+            if not (65 <= u <= 90):
+                err, epos, eend = E_EXPECTED_LETTER, i, i + 1
+                break
+            letter = u - 65
+            wp = i
+            i += 1
+            while i < le and _is_space(buf[i]):
+                i += 1
+            v, i2, st = _read_number(buf, i, le)
+            if st != 0:
+                j = i2
+                while j < le and not (_is_space(buf[j]) or buf[j] == 40 or buf[j] == 59):
+                    j += 1
+                err, epos, eend = E_BAD_NUMBER, wp, j
+                detail = D_NUMBER_NO_DIGITS if st == 1 else D_NUMBER_TRAILING
+                break
+            i = i2
+            if letter == L_G:
+                if ng == MAX_COMMANDS:
+                    err, detail, epos, eend = E_MODAL_GROUP, D_TOO_MANY, wp, i
+                    break
+                g_val[ng] = v
+                g_pos[ng] = wp
+                g_end[ng] = i
+                ng += 1
+            elif letter == L_M:
+                if nm == MAX_COMMANDS:
+                    err, detail, epos, eend = E_MODAL_GROUP, D_TOO_MANY, wp, i
+                    break
+                m_val[nm] = v
+                m_pos[nm] = wp
+                m_end[nm] = i
+                nm += 1
+            else:
+                if not letters_ok[letter]:
+                    err, detail, epos, eend = E_UNSUPPORTED, D_UNKNOWN_LETTER, wp, i
+                    break
+                if present[letter]:
+                    err, epos, eend = E_REPEATED, wp, i
+                    break
+                present[letter] = True
+                val[letter] = v
+                wpos[letter] = wp
+                wend[letter] = i
+
+        # ---- phase 2: check and compute ----------------------------------------------
+        groups = 0
+        motion_new = -1
+        dwell = False
+        lookahead = False
+        plane_new = plane
+        inches_new = inches
+        absolute_new = absolute
+        arc_absolute_new = arc_absolute
+        stop = -1
+        laser_new = laser
+        coolant = -1
+        gcol_motion = ls
+        gcol_nonmodal = ls
+        if err == 0 and not is_system:
+            for k in range(ng):
+                v = g_val[k]
+                t10 = int(round(v * 10.0))
+                grp = -1
+                if v < 0 or abs(v * 10.0 - t10) > 1e-6:
+                    err, detail, epos, eend = E_UNSUPPORTED, D_UNKNOWN_G, g_pos[k], g_end[k]
+                    break
+                if t10 % 10 != 0:
+                    if t10 == 901 or t10 == 911:
+                        grp = G_ARCDIST
+                        arc_absolute_new = t10 == 901
+                    elif t10 // 10 in (0, 1, 2, 3, 4, 17, 18, 19, 20, 21, 90, 91, 94):
+                        err, epos, eend = E_NON_INTEGER, g_pos[k], g_end[k]
+                        break
+                    else:
+                        err, detail, epos, eend = E_UNSUPPORTED, D_UNKNOWN_G, g_pos[k], g_end[k]
+                        break
+                else:
+                    code = t10 // 10
+                    if code <= 3:
+                        grp = G_MOTION
+                        motion_new = code
+                        gcol_motion = g_pos[k]
+                    elif code == 4:
+                        grp = G_NONMODAL
+                        dwell = True
+                        gcol_nonmodal = g_pos[k]
+                    elif code == 5 and lookahead_g5:
+                        grp = G_NONMODAL
+                        lookahead = True
+                        gcol_nonmodal = g_pos[k]
+                    elif code == 17 or code == 18 or code == 19:
+                        grp = G_PLANE
+                        plane_new = code - 17
+                    elif code == 20 or code == 21:
+                        grp = G_UNITS
+                        inches_new = code == 20
+                    elif code == 90 or code == 91:
+                        grp = G_DISTANCE
+                        absolute_new = code == 90
+                    elif code == 94:
+                        grp = G_FEEDMODE
+                    elif code == 40:
+                        grp = G_CUTTER
+                    elif code == 49:
+                        grp = G_TOOLLEN
+                    elif code == 54:
+                        grp = G_COORD
+                    elif code == 61:
+                        grp = G_PATH
+                    else:
+                        err, detail, epos, eend = E_UNSUPPORTED, D_UNKNOWN_G, g_pos[k], g_end[k]
+                        break
+                if groups & (1 << grp):
+                    err, epos, eend = E_MODAL_GROUP, g_pos[k], g_end[k]
+                    break
+                groups |= 1 << grp
+        if err == 0 and not is_system:
+            for k in range(nm):
+                v = m_val[k]
+                code = int(round(v))
+                grp = -1
+                if v < 0 or abs(v - code) > 1e-9:
+                    err, epos, eend = E_NON_INTEGER, m_pos[k], m_end[k]
+                    break
+                if code == 0 or code == 1 or code == 2 or code == 30:
+                    grp = M_STOP
+                    stop = code
+                elif _contains(laser_on_codes, code):
+                    grp = M_LASER
+                    laser_new = 4 if code == 4 else 3
+                elif _contains(laser_off_codes, code):
+                    grp = M_LASER
+                    laser_new = 0
+                elif code == 7 or code == 8 or code == 9:
+                    grp = M_COOLANT
+                    coolant = code
+                else:
+                    err, detail, epos, eend = E_UNSUPPORTED, D_UNKNOWN_M, m_pos[k], m_end[k]
+                    break
+                if groups & (1 << grp):
+                    err, epos, eend = E_MODAL_GROUP, m_pos[k], m_end[k]
+                    break
+                groups |= 1 << grp
+
+        scale = 25.4 if inches_new else 1.0
+        feed_new = feed
+        power_new = power
+        dwell_s = 0.0
+        lookahead_p = 0.0
+        axis_words = present[L_X] or present[L_Y] or present[L_Z]
+        motion_mode = motion_new if motion_new >= 0 else motion
+        moving = False
+        move_kind = RAPID
+        if err == 0 and not is_system:
+            if present[L_N]:
+                nv = val[L_N]
+                if nv < 0 or nv > MAX_LINE_NUMBER or nv != math.floor(nv):
+                    err, epos, eend = E_LINE_NUMBER, wpos[L_N], wend[L_N]
+            if err == 0 and present[L_F]:
+                if val[L_F] < 0:
+                    err, epos, eend = E_NEGATIVE, wpos[L_F], wend[L_F]
+                else:
+                    feed_new = val[L_F] * scale * feed_scale
+            if err == 0 and present[L_S]:
+                if val[L_S] < 0:
+                    err, epos, eend = E_NEGATIVE, wpos[L_S], wend[L_S]
+                else:
+                    power_new = val[L_S]
+            if err == 0 and (dwell or lookahead):
+                if not present[L_P]:
+                    err, epos, eend = E_MISSING_VALUE, gcol_nonmodal, gcol_nonmodal + 2
+                    detail = D_DWELL_P if dwell else D_LOOKAHEAD_P
+                elif val[L_P] < 0:
+                    err, epos, eend = E_NEGATIVE, wpos[L_P], wend[L_P]
+                elif dwell:
+                    dwell_s = val[L_P] * dwell_scale
+                else:
+                    lookahead_p = val[L_P]
+            if err == 0 and (motion_new >= 0 or axis_words):
+                for a in range(3):
+                    if present[L_X + a]:
+                        v = val[L_X + a] * scale
+                        target[a] = v if absolute_new else pos[a] + v
+                    else:
+                        target[a] = pos[a]
+                if motion_mode == 0 or motion_mode == 1:
+                    if not axis_words:
+                        if require_axis_words and motion_new >= 0:
+                            err, epos, eend = E_NO_AXIS_WORDS, gcol_motion, gcol_motion + 2
+                    elif motion_mode == 1 and feed_new <= 0:
+                        err, epos, eend = E_UNDEFINED_FEED, gcol_motion, gcol_motion + 2
+                    else:
+                        moving = True
+                        move_kind = RAPID if motion_mode == 0 else LINE
+                else:
+                    a0 = _PLANE_AXES[plane_new, 0]
+                    a1 = _PLANE_AXES[plane_new, 1]
+                    lin = _PLANE_AXES[plane_new, 2]
+                    in_plane = present[L_X + a0] or present[L_X + a1]
+                    if feed_new <= 0:
+                        err, epos, eend = E_UNDEFINED_FEED, gcol_motion, gcol_motion + 2
+                    elif present[L_R]:
+                        r = val[L_R] * scale
+                        dx = target[a0] - pos[a0]
+                        dy = target[a1] - pos[a1]
+                        q = math.sqrt(dx * dx + dy * dy)
+                        if not in_plane:
+                            err, epos, eend = E_NO_PLANE_AXIS, gcol_motion, gcol_motion + 2
+                        elif q <= 1e-9:
+                            err, detail, epos, eend = E_INVALID_ARC, D_R_FULL_CIRCLE, wpos[L_R], wend[L_R]
+                        else:
+                            h2 = r * r - 0.25 * q * q
+                            if h2 < 0.0:
+                                if 0.5 * q - abs(r) <= arc_r_tol:
+                                    h2 = 0.0
+                                else:
+                                    err, detail, epos, eend = E_INVALID_ARC, D_R_TOO_SMALL, wpos[L_R], wend[L_R]
+                                    aux0, aux1 = abs(r), 0.5 * q
+                            if err == 0:
+                                h = math.sqrt(h2)
+                                # Centre left of the chord for a short CCW arc; R < 0 or CW flips it.
+                                left = (motion_mode == 3) != (r < 0)
+                                sgn = 1.0 if left else -1.0
+                                ctr[a0] = 0.5 * (pos[a0] + target[a0]) - sgn * h * dy / q
+                                ctr[a1] = 0.5 * (pos[a1] + target[a1]) + sgn * h * dx / q
+                                ctr[lin] = pos[lin]
+                                moving = True
+                    else:
+                        io0 = L_I + a0
+                        io1 = L_I + a1
+                        if not (present[io0] or present[io1]):
+                            err, epos, eend = E_NO_OFFSET, gcol_motion, gcol_motion + 2
+                        elif arc_absolute_new and not (present[io0] and present[io1]):
+                            err, detail, epos, eend = E_NO_OFFSET, D_ABS_CENTRE, gcol_motion, gcol_motion + 2
+                        elif not in_plane and not full_circle_ok:
+                            err, epos, eend = E_NO_PLANE_AXIS, gcol_motion, gcol_motion + 2
+                        else:
+                            o0 = val[io0] * scale if present[io0] else 0.0
+                            o1 = val[io1] * scale if present[io1] else 0.0
+                            if arc_absolute_new:
+                                ctr[a0] = o0
+                                ctr[a1] = o1
+                            else:
+                                ctr[a0] = pos[a0] + o0
+                                ctr[a1] = pos[a1] + o1
+                            ctr[lin] = pos[lin]
+                            r0 = math.hypot(pos[a0] - ctr[a0], pos[a1] - ctr[a1])
+                            r1 = math.hypot(target[a0] - ctr[a0], target[a1] - ctr[a1])
+                            dr = abs(r1 - r0)
+                            if r0 <= 1e-9:
+                                err, detail, epos, eend = E_INVALID_ARC, D_ZERO_RADIUS, gcol_motion, gcol_motion + 2
+                            elif dr > arc_tol_abs and dr > arc_tol_rel * r0:
+                                err, detail, epos, eend = E_INVALID_ARC, D_RADIUS_MISMATCH, gcol_motion, gcol_motion + 2
+                                aux0, aux1 = r0, r1
+                            else:
+                                moving = True
+                    if moving:
+                        move_kind = ARC_CW if motion_mode == 2 else ARC_CCW
+            # Value words no command used.
+            if err == 0:
+                arc_r = moving and move_kind >= ARC_CW and present[L_R]
+                arc_ijk = moving and move_kind >= ARC_CW and not present[L_R]
+                for letter in (L_I, L_J, L_K, L_R, L_P):
+                    if not present[letter]:
+                        continue
+                    used = False
+                    if letter == L_R:
+                        used = arc_r
+                    elif letter == L_P:
+                        used = dwell or lookahead
+                    else:
+                        used = arc_ijk
+                    if not used and (err == 0 or wpos[letter] < epos):
+                        err, epos, eend = E_UNUSED, wpos[letter], wend[letter]
+
+        if err != 0:
+            if nerr == ecap:
+                ecap *= 2
+                e_line = _grow(e_line, ecap)
+                e_pos = _grow(e_pos, ecap)
+                e_end = _grow(e_end, ecap)
+                e_code = _grow(e_code, ecap)
+                e_detail = _grow(e_detail, ecap)
+                e_aux = _grow_f2(e_aux, ecap)
+            e_line[nerr] = lineno
+            e_pos[nerr] = epos
+            e_end[nerr] = eend
+            e_code[nerr] = err
+            e_detail[nerr] = detail
+            e_aux[nerr, 0] = aux0
+            e_aux[nerr, 1] = aux1
+            nerr += 1
+            if not lenient:
+                break
+        else:
+            # ---- phase 3: commit ---------------------------------------------------
+            nnew = (1 if dwell else 0) + (1 if moving else 0)
+            if nrows + nnew > cap:
+                cap = 2 * cap + nnew
+                kind = _grow(kind, cap)
+                start = _grow_f2(start, cap)
+                endp = _grow_f2(endp, cap)
+                centre = _grow_f2(centre, cap)
+                plane_col = _grow(plane_col, cap)
+                feed_col = _grow(feed_col, cap)
+                power_col = _grow(power_col, cap)
+                laser_col = _grow(laser_col, cap)
+                dwell_col = _grow(dwell_col, cap)
+                line_col = _grow(line_col, cap)
+            nrec_new = (1 if is_system else 0) + (1 if lookahead else 0) + (1 if coolant >= 0 else 0) \
+                + (1 if stop >= 0 else 0)
+            if nrec + nrec_new > rcap:
+                rcap = 2 * rcap + nrec_new
+                r_line = _grow(r_line, rcap)
+                r_kind = _grow(r_kind, rcap)
+                r_span = _grow_f2(r_span, rcap)
+                r_value = _grow(r_value, rcap)
+                r_index = _grow(r_index, rcap)
+            if is_system:
+                s0 = ls
+                while _is_space(buf[s0]):
+                    s0 += 1
+                s1 = le
+                while s1 > s0 and _is_space(buf[s1 - 1]):
+                    s1 -= 1
+                r_line[nrec] = lineno
+                r_kind[nrec] = REC_SYSTEM
+                r_span[nrec, 0] = s0
+                r_span[nrec, 1] = s1
+                r_value[nrec] = np.nan
+                r_index[nrec] = nrows
+                nrec += 1
+            else:
+                feed = feed_new
+                power = power_new
+                laser = laser_new
+                if coolant >= 0:
+                    r_line[nrec] = lineno
+                    r_kind[nrec] = REC_COOLANT
+                    r_span[nrec, 0] = ls
+                    r_span[nrec, 1] = le
+                    r_value[nrec] = coolant
+                    r_index[nrec] = nrows
+                    nrec += 1
+                if dwell:
+                    kind[nrows] = DWELL
+                    for a in range(3):
+                        start[nrows, a] = pos[a]
+                        endp[nrows, a] = pos[a]
+                        centre[nrows, a] = np.nan
+                    plane_col[nrows] = 17 + plane
+                    feed_col[nrows] = feed if feed > 0 else np.nan
+                    power_col[nrows] = power
+                    laser_col[nrows] = laser
+                    dwell_col[nrows] = dwell_s
+                    line_col[nrows] = lineno
+                    nrows += 1
+                if lookahead:
+                    r_line[nrec] = lineno
+                    r_kind[nrec] = REC_LOOKAHEAD
+                    r_span[nrec, 0] = ls
+                    r_span[nrec, 1] = le
+                    r_value[nrec] = lookahead_p
+                    r_index[nrec] = nrows
+                    nrec += 1
+                plane = plane_new
+                inches = inches_new
+                absolute = absolute_new
+                arc_absolute = arc_absolute_new
+                if motion_new >= 0:
+                    motion = motion_new
+                if moving:
+                    kind[nrows] = move_kind
+                    for a in range(3):
+                        start[nrows, a] = pos[a]
+                        endp[nrows, a] = target[a]
+                        centre[nrows, a] = ctr[a] if move_kind >= ARC_CW else np.nan
+                        pos[a] = target[a]
+                    plane_col[nrows] = 17 + plane
+                    feed_col[nrows] = feed if feed > 0 else np.nan
+                    power_col[nrows] = power
+                    laser_col[nrows] = laser
+                    dwell_col[nrows] = 0.0
+                    line_col[nrows] = lineno
+                    nrows += 1
+                if stop >= 0:
+                    r_line[nrec] = lineno
+                    r_kind[nrec] = REC_PAUSE if stop == 0 else (REC_OPTIONAL_PAUSE if stop == 1 else REC_END)
+                    r_span[nrec, 0] = ls
+                    r_span[nrec, 1] = le
+                    r_value[nrec] = stop
+                    r_index[nrec] = nrows
+                    nrec += 1
+                    if stop == 2 or stop == 30:
+                        # GRBL's program-end reset: G1 G17 G90 G94 G54 M5 M9.
+                        motion = 1
+                        plane = 0
+                        absolute = True
+                        laser = 0
+        if trace:
+            t_state[lineno - 1, 0] = motion
+            t_state[lineno - 1, 1] = 17 + plane
+            t_state[lineno - 1, 2] = 20 if inches else 21
+            t_state[lineno - 1, 3] = 90 if absolute else 91
+            t_state[lineno - 1, 4] = 90.1 if arc_absolute else 91.1
+            t_state[lineno - 1, 5] = feed if feed > 0 else np.nan
+            t_state[lineno - 1, 6] = power
+            t_state[lineno - 1, 7] = laser
+            for a in range(3):
+                t_pos[lineno - 1, a] = pos[a]
+        ls = le + 1
+
+    return (kind[:nrows], start[:nrows], endp[:nrows], centre[:nrows], plane_col[:nrows],
+            feed_col[:nrows], power_col[:nrows], laser_col[:nrows], dwell_col[:nrows],
+            line_col[:nrows],
+            e_line[:nerr], e_pos[:nerr], e_end[:nerr], e_code[:nerr], e_detail[:nerr], e_aux[:nerr],
+            r_line[:nrec], r_kind[:nrec], r_span[:nrec], r_value[:nrec], r_index[:nrec],
+            line_starts[:lineno], t_state[:lineno], t_pos[:lineno])

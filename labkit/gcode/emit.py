@@ -1,0 +1,215 @@
+"""Moves → G-code text, in the dialect of the machine that will run it.
+
+The writer keeps the modal state the controller will have and writes only
+what changes: the motion word when the motion mode changes, an axis only
+when its written coordinate changes, F and S only when they change.
+Numbers get the decimals the tolerance needs (seed 001 §6.1.5: the
+generator works out the digits from the tolerance) and no trailing zeros.
+
+Arc offsets I J K are measured from the point actually written for the
+arc's start, so rounding never makes an arc fail the controller's radius
+check; arcs always state their in-plane end point, which lets GRBL accept
+full circles. Reading the text back with :func:`labkit.gcode.parse`
+reproduces the program within the written resolution.
+
+Examples
+--------
+>>> from labkit.toolpath import MovesBuilder, LaserMode
+>>> b = MovesBuilder(feed_mm_min=1200, power_s=300, laser=LaserMode.CONSTANT)
+>>> b.rapid(x=5, y=5); b.line(x=15); b.line(y=15); b.arc_ccw(x=5, y=15, i=-5, j=0)
+>>> print(emit(b.build(), header=False, footer=False))
+M3 S300
+G0 X5 Y5
+G1 X15 F1200
+Y15
+G3 X5 Y15 I-5 J0
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+
+from labkit import __version__
+from labkit.gcode import _emit_kernel as EK
+from labkit.gcode.dialects import Dialect, get_dialect
+from labkit.toolpath.moves import MoveKind, Moves
+
+__all__ = ["emit", "write_gcode", "decimals_for", "format_number", "VALUE_DECIMALS"]
+
+#: Decimals written for F, S and P values.
+VALUE_DECIMALS = 4
+
+# Records that are written back as they were read, and what a program end resets.
+_RECORD_WORD = {"pause": "M0", "optional_pause": "M1", "end": "M2"}
+
+
+def decimals_for(tol_mm: float) -> int:
+    """Decimals needed so that rounding stays within half of ``tol_mm``.
+
+    Rounding to d decimals moves a coordinate by at most ½·10⁻ᵈ mm, so
+    d = ⌈−log₁₀ tol⌉ keeps the written error within tol/2, leaving the other
+    half of the budget to the geometry (curve flattening, arc fitting).
+
+    >>> decimals_for(0.01), decimals_for(0.005), decimals_for(0.001), decimals_for(1.0)
+    (2, 3, 3, 0)
+    """
+    if not tol_mm > 0:
+        raise ValueError(f"tol_mm must be > 0 mm, got {tol_mm!r}")
+    return max(0, math.ceil(-math.log10(tol_mm) - 1e-9))
+
+
+def format_number(value: float, decimals: int) -> str:
+    """A number as the emitter writes it: rounded, no trailing zeros, no ``-0``.
+
+    >>> format_number(12.50, 3), format_number(-0.0001, 3), format_number(3.0, 2)
+    ('12.5', '0', '3')
+    """
+    scaled = int(round(value * 10 ** decimals))
+    out = np.zeros(48, np.uint8)
+    used = EK._put_scaled(out, 0, scaled, decimals)
+    return out[:used].tobytes().decode()
+
+
+def _scaled(values, decimals, undefined=-1):
+    arr = np.asarray(values, dtype=np.float64)
+    out = np.round(arr * 10.0 ** decimals)
+    out[~np.isfinite(arr)] = undefined
+    return out.astype(np.int64)
+
+
+def _record_line(rec, dialect: Dialect) -> str | None:
+    if rec.kind == "system":
+        return rec.text
+    if rec.kind in _RECORD_WORD:
+        return "M30" if rec.kind == "end" and rec.value == 30 else _RECORD_WORD[rec.kind]
+    if rec.kind == "coolant":
+        return f"M{int(rec.value)}"
+    if rec.kind == "lookahead":
+        return f"G5 P{format_number(rec.value, 0)}" if dialect.lookahead_g5 else None
+    return None
+
+
+def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001,
+         arcs: str = "ijk", header: bool = True, footer: bool = True,
+         comment: str | None = None) -> str:
+    """Write a program as G-code text.
+
+    Parameters
+    ----------
+    moves : Moves
+        The program (positions in mm, feeds in mm/min, dwells in s).
+    dialect : str or Dialect
+        Target controller: ``"grbl"``, ``"labkit-fw"`` or ``"marlin"``. Sets
+        the units of F and G4 P, the S range (S is rescaled from
+        ``moves.s_max``), whether rapids switch the beam off by themselves
+        and whether lines carry ``N`` numbers and ``*`` checksums.
+    tol_mm : float
+        Coordinate resolution budget, mm: coordinates get
+        :func:`decimals_for` ``(tol_mm)`` decimals (at least 3 when the
+        program has arcs, so that written arcs pass GRBL's radius check).
+    arcs : {"ijk", "r"}
+        Centre offsets (exact) or signed radius R. With ``"r"``, full circles
+        and near-half circles (where R pins the centre badly) still use I J K.
+    header, footer : bool
+        Write the preamble (units, absolute mode, laser off) and the epilogue
+        (laser off, program end).
+    comment : str, optional
+        A comment line for the header (e.g. what made the file).
+
+    Returns
+    -------
+    str
+        The program, one block per line, ending with a newline.
+
+    Raises
+    ------
+    ValueError
+        For a feed move without a feed rate, or an unknown option.
+    """
+    d = get_dialect(dialect)
+    if arcs not in ("ijk", "r"):
+        raise ValueError(f"arcs must be 'ijk' or 'r', got {arcs!r}")
+    n = len(moves)
+    feed_rows = moves.is_feed
+    bad = feed_rows & ~np.isfinite(moves.feed_mm_min)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise ValueError(f"move {i} (source line {int(moves.line[i])}) is a feed move without "
+                         f"a feed rate; set feed_mm_min")
+    is_arc = moves.is_arc
+    decimals = decimals_for(tol_mm)
+    if is_arc.any():
+        decimals = max(decimals, 3)
+
+    end_i = _scaled(moves.end, decimals)
+    start_i = _scaled(moves.start[0] if n else np.zeros(3), decimals)
+    feed_i = _scaled(d.feed_from_mm_min(moves.feed_mm_min), VALUE_DECIMALS)
+    power_i = _scaled(moves.power_s.astype(np.float64) * (d.s_max / moves.s_max), VALUE_DECIMALS)
+    dwell_i = _scaled(d.dwell_from_s(moves.dwell_s), VALUE_DECIMALS)
+    r_mode = np.zeros(n, np.int64)
+    if arcs == "r" and is_arc.any():
+        sweep = np.abs(moves.sweep_rad())
+        full = sweep > 2 * math.pi - 1e-6
+        near_half = np.abs(sweep - math.pi) < 0.05     # H/R < sin(0.025): the centre is ill-defined
+        use_r = is_arc & ~full & ~near_half
+        r_mode[use_r] = np.where(sweep[use_r] > math.pi, -1, 1)
+
+    rec_lines, rec_rows, rec_reset = [], [], []
+    for rec in moves.records:
+        text = _record_line(rec, d)
+        if text is not None:
+            rec_lines.append(text.encode("utf-8"))
+            rec_rows.append(min(rec.index, n))
+            rec_reset.append(rec.kind == "end")
+    rec_text = np.frombuffer(b"".join(rec_lines) or b"\0", np.uint8)
+    bounds = np.cumsum([0] + [len(t) for t in rec_lines])
+    rec_span = np.stack([bounds[:-1], bounds[1:]], axis=1).astype(np.int64) if rec_lines \
+        else np.zeros((0, 2), np.int64)
+
+    pre, number = _header_lines(d, comment) if header else ([], 1)
+    body, number = EK.write_moves(
+        moves.kind.astype(np.int64), end_i, np.nan_to_num(moves.centre), moves.plane.astype(np.int64),
+        feed_i, power_i, moves.laser.astype(np.int64), dwell_i, r_mode, start_i, decimals,
+        VALUE_DECIMALS, int(d.inline_power), int(d.rapids_beam_off), int(d.line_numbers),
+        int(d.checksums), number, np.asarray(rec_rows, np.int64), rec_text, rec_span,
+        np.asarray(rec_reset, np.bool_))
+    post = ["M5", "M2"] if footer else []
+    return _number_lines(pre, d, 1) + body.tobytes().decode("ascii") + _number_lines(post, d, number)
+
+
+def _header_lines(d: Dialect, comment):
+    lines = [f"; labkit {__version__}, dialect {d.name}"]
+    if comment:
+        lines += [f"; {c}" for c in comment.splitlines()]
+    lines += ["G21 G90", "M5"]
+    numbered = sum(1 for line in lines if not line.startswith(";"))
+    return lines, 1 + numbered
+
+
+def _number_lines(lines, d: Dialect, first: int) -> str:
+    out, number = [], first
+    for line in lines:
+        if line.startswith(";") or not (d.line_numbers or d.checksums):
+            out.append(line)
+            continue
+        if d.line_numbers:
+            line = f"N{number} {line}"
+            number += 1
+        if d.checksums:
+            x = 0
+            for b in line.encode("ascii"):
+                x ^= b
+            line = f"{line}*{x}"
+        out.append(line)
+    return "".join(f"{line}\n" for line in out)
+
+
+def write_gcode(path, moves: Moves, **options) -> int:
+    """Write :func:`emit` ``(moves, **options)`` to ``path``; returns the number of lines."""
+    text = emit(moves, **options)
+    with open(os.fspath(path), "w", encoding="ascii", newline="\n") as fh:
+        fh.write(text)
+    return text.count("\n")

@@ -1,0 +1,308 @@
+"""G-code text → :class:`~labkit.toolpath.Moves`.
+
+What is read
+------------
+- One block per line: an optional ``N`` number, words ``LETTER number``
+  (letters in either case, numbers signed and fractional, spaces allowed
+  between letter and number), comments ``( … )`` and ``; …``, an optional
+  ``*checksum`` last (the RepRap rule: XOR of every byte before ``*``).
+- ``%`` lines (program delimiters) and blank lines are skipped; GRBL ``$``
+  system lines are kept as :class:`~labkit.toolpath.Record` of kind
+  ``"system"``.
+- Motion G0 G1 G2 G3, dwell G4 P, planes G17 G18 G19, units G20 G21,
+  distance G90 G91, arc centres G90.1 G91.1, feed F, laser M3 M4 M5 with S
+  (M106/M107 in the marlin dialect), stops M0 M1 M2 M30, coolant/air assist
+  M7 M8 M9 (recorded), look-ahead G5 P (labkit-fw dialect, recorded). G94,
+  G40, G49, G54 and G61 are accepted as the only modes labkit has.
+- Inch input is converted to mm; feeds become mm/min; dwells seconds.
+
+Errors
+------
+Each rejected line raises (strict) or reports (lenient) a
+:class:`~labkit.errors.GcodeError` with file, line, column, the offending
+text and what was expected, numbered like GRBL's errors. A rejected line
+changes nothing, as on a controller; lenient parsing goes on with the next
+line and returns every diagnostic in ``moves.diagnostics``.
+
+The work happens in the compiled interpreter :mod:`labkit.gcode._kernel`.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from labkit.errors import GcodeError
+from labkit.gcode import _kernel as K
+from labkit.gcode.dialects import Dialect, get_dialect
+from labkit.toolpath.moves import MoveKind, Moves, Record
+
+__all__ = ["parse", "parse_file", "check", "modal_trace", "ParseOptions"]
+
+_COMMON_LETTERS = "FGIJKMNPRSXYZ"
+
+
+@dataclass(frozen=True)
+class ParseOptions:
+    """Settings of the interpreter derived from a dialect (see :class:`~labkit.gcode.dialects.Dialect`)."""
+
+    letters_ok: np.ndarray
+    laser_on_codes: np.ndarray
+    laser_off_codes: np.ndarray
+    feed_scale: float
+    dwell_scale: float
+    lookahead_g5: bool
+    arc_r_tol: float
+    arc_tol_abs: float
+    arc_tol_rel: float
+    full_circle_ok: bool
+    require_axis_words: bool
+
+    @classmethod
+    def from_dialect(cls, dialect: Dialect) -> "ParseOptions":
+        ok = np.zeros(26, np.bool_)
+        for ch in _COMMON_LETTERS + dialect.extra_letters:
+            ok[ord(ch) - 65] = True
+        ok[ord("G") - 65] = ok[ord("M") - 65] = False   # commands are handled apart
+        return cls(
+            letters_ok=ok,
+            laser_on_codes=np.array(dialect.laser_on_codes, np.int64),
+            laser_off_codes=np.array(dialect.laser_off_codes, np.int64),
+            feed_scale=60.0 if dialect.feed_per_second else 1.0,
+            dwell_scale=0.001 if dialect.dwell_in_ms else 1.0,
+            lookahead_g5=dialect.lookahead_g5,
+            arc_r_tol=dialect.arc_r_tol_mm,
+            arc_tol_abs=dialect.arc_radius_tol_mm,
+            arc_tol_rel=dialect.arc_radius_tol_rel,
+            full_circle_ok=dialect.full_circle_without_axes,
+            require_axis_words=dialect.require_axis_words,
+        )
+
+
+def _as_bytes(text) -> bytes:
+    if isinstance(text, str):
+        data = text.encode("utf-8", "surrogateescape")
+    elif isinstance(text, (bytes, bytearray, memoryview)):
+        data = bytes(text)
+    else:
+        raise TypeError(f"G-code must be str or bytes, got {type(text).__name__}")
+    if data.startswith(b"\xef\xbb\xbf"):
+        data = b"   " + data[3:]           # a UTF-8 BOM: blank it, keep the columns
+    if b"\n" not in data and b"\r" in data:
+        data = data.replace(b"\r", b"\n")  # classic Mac line ends
+    return data
+
+
+def _run(data: bytes, dialect: Dialect, lenient: bool, trace: bool):
+    o = ParseOptions.from_dialect(dialect)
+    buf = np.frombuffer(data, dtype=np.uint8)
+    return K.interpret(buf, o.letters_ok, o.laser_on_codes, o.laser_off_codes, o.feed_scale,
+                       o.dwell_scale, o.lookahead_g5, o.arc_r_tol, o.arc_tol_abs, o.arc_tol_rel,
+                       o.full_circle_ok, o.require_axis_words, lenient, trace)
+
+
+def parse(text, *, dialect: str | Dialect = "grbl", filename: str | None = None,
+          lenient: bool = False) -> Moves:
+    """Interpret G-code text as a machine program.
+
+    Parameters
+    ----------
+    text : str or bytes
+        The program.
+    dialect : str or Dialect
+        ``"grbl"`` (default), ``"labkit-fw"`` or ``"marlin"``: how F, G4 P and
+        S are read and which words exist (see :mod:`labkit.gcode.dialects`).
+    filename : str, optional
+        Name used in messages and kept as ``moves.source``.
+    lenient : bool
+        False (default): raise at the first rejected line. True: skip
+        rejected lines, as a controller would, and return their errors in
+        ``moves.diagnostics``.
+
+    Returns
+    -------
+    Moves
+        Positions in mm (machine coordinates), feeds in mm/min, dwells in s,
+        S as written; ``moves.records`` holds ``$`` lines, stops, coolant and
+        look-ahead settings.
+
+    Raises
+    ------
+    GcodeError
+        In strict mode, for the first line that cannot be accepted.
+
+    Examples
+    --------
+    >>> m = parse("G21 G90\\nM3 S500\\nG1 X10 F600\\nG2 X20 Y0 I5 J0\\nM5")
+    >>> [MoveKind(k).name for k in m.kind]
+    ['LINE', 'ARC_CW']
+    >>> m.end[-1].tolist(), m.centre[-1].tolist()
+    ([20.0, 0.0, 0.0], [15.0, 0.0, 0.0])
+    >>> parse("G1 X1 X2 F100")
+    Traceback (most recent call last):
+    ...
+    labkit.errors.GcodeError: <string>:1:7: error 25: a word is repeated in one line (got 'X2'; expected each letter at most once per line)
+    """
+    d = get_dialect(dialect)
+    data = _as_bytes(text)
+    out = _run(data, d, lenient, trace=False)
+    (kind, start, end, centre, plane, feed, power, laser, dwell, line,
+     e_line, e_pos, e_end, e_code, e_detail, e_aux,
+     r_line, r_kind, r_span, r_value, r_index, line_starts, _, _) = out
+    errors = [_make_error(data, line_starts, filename, *row)
+              for row in zip(e_line, e_pos, e_end, e_code, e_detail, e_aux)]
+    if errors and not lenient:
+        raise errors[0]
+    records = [Record(int(ln), int(ix), K.RECORD_NAMES[int(kd)],
+                      data[s0:s1].decode("utf-8", "replace").strip(), float(v))
+               for ln, kd, (s0, s1), v, ix in zip(r_line, r_kind, r_span, r_value, r_index)]
+    return Moves(kind=kind, start=start, end=end, centre=centre, plane=plane, feed_mm_min=feed,
+                 power_s=power, laser=laser, dwell_s=dwell, line=line, source=filename,
+                 s_max=d.s_max, records=records, diagnostics=errors)
+
+
+def parse_file(path, *, dialect: str | Dialect = "grbl", lenient: bool = False) -> Moves:
+    """Read and :func:`parse` a G-code file (``moves.source`` is its path).
+
+    Examples
+    --------
+    >>> m = parse_file("data/gcode/cncjs/jsdc-laser.gcode")    # doctest: +SKIP
+    """
+    path = os.fspath(path)
+    with open(path, "rb") as fh:
+        data = fh.read()
+    return parse(data, dialect=dialect, filename=path, lenient=lenient)
+
+
+def check(text, *, dialect: str | Dialect = "grbl", filename: str | None = None) -> list[GcodeError]:
+    """Every diagnostic of a program (empty list when it is valid).
+
+    >>> [e.code for e in check("G1 X1 F100\\nG5 P3\\nG1 Y2 Y3")]
+    [20, 25]
+    """
+    return list(parse(text, dialect=dialect, filename=filename, lenient=True).diagnostics)
+
+
+def modal_trace(text, *, dialect: str | Dialect = "grbl", filename: str | None = None):
+    """The modal state after every line, as a pandas DataFrame (for teaching).
+
+    Columns: ``line``, ``text``, ``motion`` (G0…G3), ``plane``, ``units``,
+    ``distance``, ``arc_centres``, ``feed_mm_min``, ``S``, ``laser`` (M3/M4/M5)
+    and the position ``x``, ``y``, ``z`` in mm. Rejected lines keep the
+    previous state and are marked in ``error``.
+    """
+    import pandas as pd
+
+    d = get_dialect(dialect)
+    data = _as_bytes(text)
+    out = _run(data, d, lenient=True, trace=True)
+    e_line, e_code = out[10], out[13]
+    line_starts, state, pos = out[21], out[22], out[23]
+    lines = data.decode("utf-8", "replace").split("\n")
+    if lines and lines[-1] == "" and len(lines) > 1:
+        lines = lines[:-1]
+    n = len(lines)
+    errs = dict(zip(e_line.tolist(), e_code.tolist()))
+    laser_names = {0: "M5", 3: "M3", 4: "M4"}
+    return pd.DataFrame({
+        "line": np.arange(1, n + 1),
+        "text": [s.rstrip("\r") for s in lines],
+        "motion": [f"G{int(v)}" for v in state[:n, 0]],
+        "plane": [f"G{int(v)}" for v in state[:n, 1]],
+        "units": ["G20" if v == 20 else "G21" for v in state[:n, 2]],
+        "distance": [f"G{int(v)}" for v in state[:n, 3]],
+        "arc_centres": ["G90.1" if v == 90.1 else "G91.1" for v in state[:n, 4]],
+        "feed_mm_min": state[:n, 5],
+        "S": state[:n, 6],
+        "laser": [laser_names[int(v)] for v in state[:n, 7]],
+        "x": pos[:n, 0], "y": pos[:n, 1], "z": pos[:n, 2],
+        "error": [errs.get(i, 0) for i in range(1, n + 1)],
+    })
+
+
+# ---- messages -------------------------------------------------------------------------
+
+# (code, detail) → (status name, message, expected). A detail of 0 is the default for its code.
+_MESSAGES = {
+    (K.E_EXPECTED_LETTER, 0): ("expected_letter", "a word must start with a letter",
+                               "a letter A-Z followed by a number, a comment or a line end"),
+    (K.E_BAD_NUMBER, K.D_NUMBER_NO_DIGITS): ("bad_number", "the word has no number",
+                                             "a number like 12, -0.5 or +3.25 after the letter"),
+    (K.E_BAD_NUMBER, K.D_NUMBER_TRAILING): ("bad_number", "malformed number",
+                                            "a number like 12, -0.5 or +3.25 (one sign, one point, no exponent)"),
+    (K.E_BAD_NUMBER, K.D_CHECKSUM_DIGITS): ("bad_number", "malformed checksum",
+                                            "'*' followed by 1 to 3 digits (0-255)"),
+    (K.E_NEGATIVE, 0): ("negative_value", "value must not be negative", "a value >= 0"),
+    (K.E_UNSUPPORTED, K.D_UNKNOWN_LETTER): ("unsupported_command", "unknown word for this dialect",
+                                            "one of the letters F G I J K M N P R S X Y Z (and the dialect's extras)"),
+    (K.E_UNSUPPORTED, K.D_UNKNOWN_G): ("unsupported_command", "unsupported G command",
+                                       "G0 G1 G2 G3 G4 G17 G18 G19 G20 G21 G90 G91 G90.1 G91.1 G94 "
+                                       "(G5 in labkit-fw)"),
+    (K.E_UNSUPPORTED, K.D_UNKNOWN_M): ("unsupported_command", "unsupported M command",
+                                       "M0 M1 M2 M30, the laser words (M3 M4 M5) or M7 M8 M9"),
+    (K.E_MODAL_GROUP, 0): ("modal_group_violation", "two commands of one modal group in one line",
+                           "at most one command per group (e.g. one of G0/G1/G2/G3)"),
+    (K.E_MODAL_GROUP, K.D_TOO_MANY): ("modal_group_violation", "too many commands in one line",
+                                      f"at most {K.MAX_COMMANDS} G and {K.MAX_COMMANDS} M words"),
+    (K.E_UNDEFINED_FEED, 0): ("undefined_feed", "feed motion without a feed rate",
+                              "an F word on this line or an earlier one"),
+    (K.E_NON_INTEGER, 0): ("non_integer_command", "command number must be an integer",
+                           "a whole number like G1 or M3"),
+    (K.E_REPEATED, 0): ("repeated_word", "a word is repeated in one line",
+                        "each letter at most once per line"),
+    (K.E_NO_AXIS_WORDS, 0): ("missing_axis_words", "motion command without axis words",
+                             "at least one of X Y Z"),
+    (K.E_LINE_NUMBER, 0): ("bad_line_number", "line number out of range",
+                           f"a whole N from 0 to {K.MAX_LINE_NUMBER}"),
+    (K.E_MISSING_VALUE, K.D_DWELL_P): ("missing_value_word", "dwell without its time",
+                                       "G4 P<time>"),
+    (K.E_MISSING_VALUE, K.D_LOOKAHEAD_P): ("missing_value_word", "look-ahead without its depth",
+                                           "G5 P<blocks>"),
+    (K.E_NO_PLANE_AXIS, 0): ("missing_plane_axis", "arc without an end point in its plane",
+                             "an end point word of the arc plane (X or Y for G17)"),
+    (K.E_INVALID_ARC, K.D_R_FULL_CIRCLE): ("invalid_arc", "a full circle cannot be given by R",
+                                           "an end point different from the start, or I J K offsets"),
+    (K.E_INVALID_ARC, K.D_R_TOO_SMALL): ("invalid_arc", "arc radius is smaller than half the chord",
+                                         "|R| >= half the distance from start to end"),
+    (K.E_INVALID_ARC, K.D_RADIUS_MISMATCH): ("invalid_arc", "arc radius at start and end differ",
+                                             "an end point on the circle through the start around the "
+                                             "centre (within the dialect's tolerance)"),
+    (K.E_INVALID_ARC, K.D_ZERO_RADIUS): ("invalid_arc", "arc centre is the start point",
+                                         "I J K offsets that put the centre away from the start"),
+    (K.E_NO_OFFSET, 0): ("missing_offset_words", "arc without a centre offset in its plane",
+                         "R, or an I J K word of the arc plane (I or J for G17)"),
+    (K.E_NO_OFFSET, K.D_ABS_CENTRE): ("missing_offset_words",
+                                      "absolute arc centre (G90.1) needs both in-plane words",
+                                      "both in-plane centre words (I and J for G17)"),
+    (K.E_UNUSED, 0): ("unused_words", "value word that no command in the line uses",
+                      "I J K or R only with G2/G3, P only with G4 (or G5)"),
+    (K.E_CHECKSUM, 0): ("bad_checksum", "checksum does not match the line",
+                        "'*' followed by the XOR of every byte before it"),
+    (K.E_DELIMITER, K.D_UNCLOSED_COMMENT): ("bad_delimiter", "comment is not closed",
+                                            "')' before the end of the line"),
+    (K.E_DELIMITER, K.D_AFTER_CHECKSUM): ("bad_delimiter", "text after the checksum",
+                                          "the checksum last on the line"),
+}
+
+
+def _make_error(data: bytes, line_starts, filename, line, pos, end, code, detail, aux) -> GcodeError:
+    line = int(line)
+    ls = int(line_starts[line - 1])
+    le = data.find(b"\n", ls)
+    le = len(data) if le < 0 else le
+    source_line = data[ls:le].decode("utf-8", "replace").rstrip("\r")
+    text = data[int(pos):int(end)].decode("utf-8", "replace").strip()
+    column = len(data[ls:int(pos)].decode("utf-8", "replace")) + 1
+    name, message, expected = _MESSAGES.get((int(code), int(detail))) or _MESSAGES[(int(code), 0)]
+    a0, a1 = float(aux[0]), float(aux[1])
+    if code == K.E_CHECKSUM:
+        message = f"checksum does not match the line (computed {a0:.0f}, written {a1:.0f})"
+    elif code == K.E_INVALID_ARC and detail == K.D_R_TOO_SMALL:
+        message = f"arc radius {a0:.6g} mm is smaller than half the chord {a1:.6g} mm"
+    elif code == K.E_INVALID_ARC and detail == K.D_RADIUS_MISMATCH:
+        message = (f"arc radius at start {a0:.6g} mm and at end {a1:.6g} mm differ by "
+                   f"{abs(a1 - a0):.3g} mm")
+    return GcodeError(message, filename=filename, line=line, column=column, text=text,
+                      expected=expected, code=name, source_line=source_line)
