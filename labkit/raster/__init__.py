@@ -1,0 +1,28 @@
+"""Raster images → laser moves (seed 000 §2.5, §3.4.1).
+
+color       gray conversion (seed, Rec. 601, Rec. 709), threshold, invert, gamma
+filters     3×3 blur and sharpen
+edges       SXOR, Roberts, Sobel, Prewitt (kernel and pseudo-convolution); Canny to compare
+resample    one pixel = one beam diameter, with the size error in mm
+islands     4-connected segmentation
+"""
+
+from labkit.raster.color import (GRAY_WEIGHTS, SEED_DEPTHS, adjust_gamma, depth_to_level, invert,
+                                 threshold, threshold_depths, to_gray)
+from labkit.raster.edges import (OPERATORS, SKIMAGE_FACTOR, canny, detect_edges, edge_angle, gradients,
+                                 max_magnitude, prewitt, roberts, sobel, sxor)
+from labkit.raster.filters import BLUR_KERNEL, BOX_KERNEL, SHARPEN_KERNEL, blur, convolve3x3, sharpen
+from labkit.raster.io import RasterImage, read_image
+from labkit.raster.islands import island_sizes, label_islands
+from labkit.raster.resample import Resampled, physical_size_mm, resample_to_beam
+
+__all__ = [
+    "GRAY_WEIGHTS", "SEED_DEPTHS", "to_gray", "threshold", "depth_to_level", "threshold_depths",
+    "invert", "adjust_gamma",
+    "SHARPEN_KERNEL", "BLUR_KERNEL", "BOX_KERNEL", "convolve3x3", "blur", "sharpen",
+    "OPERATORS", "SKIMAGE_FACTOR", "sxor", "roberts", "sobel", "prewitt", "gradients", "edge_angle",
+    "max_magnitude", "detect_edges", "canny",
+    "Resampled", "physical_size_mm", "resample_to_beam",
+    "label_islands", "island_sizes",
+    "RasterImage", "read_image",
+]
