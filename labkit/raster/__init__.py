@@ -26,3 +26,17 @@ __all__ = [
     "label_islands", "island_sizes",
     "RasterImage", "read_image",
 ]
+
+from labkit.raster.coverage import burn_map  # noqa: E402
+from labkit.raster.dither import DIFFUSION, dither  # noqa: E402
+from labkit.raster.engrave import (MODES, RasterJob, RasterReport, gray_job, image_to_job,  # noqa: E402
+                                   mask_job, power_map, segments_to_moves, summarize)
+from labkit.raster.pathing import (Connection, Segments, choose_axis, connect, scan_order,  # noqa: E402
+                                   spiral_segments, zigzag_segments)
+
+__all__ += [
+    "Segments", "Connection", "zigzag_segments", "spiral_segments", "connect", "scan_order", "choose_axis",
+    "DIFFUSION", "dither", "burn_map",
+    "MODES", "RasterJob", "RasterReport", "segments_to_moves", "mask_job", "gray_job", "power_map",
+    "image_to_job", "summarize",
+]

@@ -1,0 +1,469 @@
+"""Image → Moves: binary paths (zig-zag, spiral, edges) and gray engraving (power or dither).
+
+The image's bottom-left corner is machine X0 Y0, one pixel is ``pixel_mm``
+(normally the beam diameter, see :mod:`labkit.raster.resample`). Cuts are
+G1 with the laser on; travel between segments is G0 (beam off). Gray
+engraving adds G1 moves at S 0 — overscan lead-ins/outs and short white
+gaps crossed at speed — which burn nothing.
+
+The report carries the figures of seed 000's tables 4.3–4.8: segments before
+and after pathing, tool lines, G-code lines, cut and travel distance and an
+estimated time at constant speed (the seed's assumption: no acceleration).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from labkit.errors import RasterError
+from labkit.raster import _scanlines
+from labkit.raster._border import check_image_2d, check_mask
+from labkit.raster.color import adjust_gamma, invert as _invert, threshold, to_gray
+from labkit.raster.dither import DIFFUSION, dither as _dither
+from labkit.raster.edges import detect_edges
+from labkit.raster.filters import blur as _blur, sharpen as _sharpen
+from labkit.raster.islands import label_islands
+from labkit.raster.pathing import Connection, Segments, connect, spiral_segments, zigzag_segments
+from labkit.raster.resample import resample_to_beam
+from labkit.toolpath.moves import LaserMode, MoveKind, Moves
+
+__all__ = ["MODES", "RasterReport", "RasterJob", "segments_to_moves", "mask_job", "gray_job",
+           "power_map", "image_to_job", "summarize"]
+
+#: Modes of :func:`image_to_job` (and ``labkit img2gcode --mode``).
+MODES = ("zigzag", "spiral", "edges", "gray", "dither")
+
+
+@dataclass(frozen=True)
+class RasterReport:
+    """What a raster job will do (seed 000 tables 4.3–4.8 and more).
+
+    Distances in mm, time in s, feeds in mm/min. ``segments_before`` is the
+    seed's "segments pre-pathing" (scan lines holding marked pixels for
+    zig-zag, islands for spiral); ``segments`` the segments after pathing;
+    ``tool_lines`` the laser-on cuts. ``gcode_lines`` is filled in once the
+    program is written (:meth:`with_gcode`).
+    """
+
+    mode: str
+    shape: tuple[int, int]
+    pixel_mm: float
+    marked_pixels: int
+    segments_before: int
+    segments: int
+    tool_lines: int
+    moves: int
+    rapids: int
+    cut_mm: float
+    travel_mm: float
+    idle_feed_mm: float
+    time_s: float
+    feed_mm_min: float
+    rapid_mm_min: float
+    distance_evaluations: int = 0
+    size_error_mm: tuple[float, float] = (0.0, 0.0)
+    gcode_lines: int | None = None
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def size_mm(self) -> tuple[float, float]:
+        """Engraved (width, height), mm."""
+        return (self.shape[1] * self.pixel_mm, self.shape[0] * self.pixel_mm)
+
+    def with_gcode(self, text: str) -> "RasterReport":
+        """The report with ``gcode_lines`` counted from the program text."""
+        return replace(self, gcode_lines=text.count("\n"))
+
+    def rows(self) -> list[tuple[str, str]]:
+        """(label, value) pairs, rounded for printing."""
+        w, h = self.size_mm
+        out = [
+            ("mode", self.mode),
+            ("image", f"{self.shape[1]} × {self.shape[0]} px at {self.pixel_mm:g} mm = {w:.2f} × {h:.2f} mm"),
+            ("size error", f"{self.size_error_mm[0]:+.3f} × {self.size_error_mm[1]:+.3f} mm"),
+            ("marked pixels", f"{self.marked_pixels}"),
+            ("segments before / after pathing", f"{self.segments_before} / {self.segments}"),
+            ("tool lines (laser on)", f"{self.tool_lines}"),
+            ("moves / rapids", f"{self.moves} / {self.rapids}"),
+            ("G-code lines", "-" if self.gcode_lines is None else f"{self.gcode_lines}"),
+            ("cut distance", f"{self.cut_mm:.1f} mm"),
+            ("travel distance (G0)", f"{self.travel_mm:.1f} mm"),
+            ("laser-off feed (overscan, gaps)", f"{self.idle_feed_mm:.1f} mm"),
+            ("estimated time", f"{_hms(self.time_s)} at F{self.feed_mm_min:g}, G0 at {self.rapid_mm_min:g} mm/min"),
+        ]
+        if self.distance_evaluations:
+            out.append(("connection distance evaluations", f"{self.distance_evaluations}"))
+        return out
+
+    def format(self) -> str:
+        """The report as aligned text lines."""
+        rows = self.rows()
+        width = max(len(k) for k, _ in rows)
+        return "\n".join(f"{k:<{width}}  {v}" for k, v in rows)
+
+
+def _hms(seconds: float) -> str:
+    s = int(round(seconds))
+    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}"
+
+
+@dataclass(frozen=True)
+class RasterJob:
+    """A raster job: the moves, the report, and what the moves should burn.
+
+    Attributes
+    ----------
+    moves : Moves
+    report : RasterReport
+    target : ndarray
+        The mask the moves must burn (binary modes and dither), or the S value
+        each pixel must get (gray mode, 0 = not burned).
+    segments : Segments or None
+        The ordered segments (binary modes).
+    connection : Connection or None
+    """
+
+    moves: Moves
+    report: RasterReport
+    target: np.ndarray
+    segments: Segments | None = None
+    connection: Connection | None = None
+
+
+def summarize(moves: Moves, *, feed_mm_min: float, rapid_mm_min: float | None = None) -> dict:
+    """Cut, travel and laser-off feed distances (mm) and the constant-speed time (s).
+
+    Seed 000 §4.1 estimates time as distance / speed with no acceleration;
+    travel (G0) runs at ``rapid_mm_min`` (default: the feed, as the seed's
+    estimate assumes one speed for everything).
+
+    Examples
+    --------
+    >>> m = Moves.from_cuts([[0, 0], [5, 0]], [[3, 0], [9, 0]], feed_mm_min=600, power_s=800)
+    >>> summarize(m, feed_mm_min=600)
+    {'cut_mm': 7.0, 'travel_mm': 2.0, 'idle_feed_mm': 0.0, 'time_s': 0.9, 'tool_lines': 2, 'rapids': 1}
+    """
+    rapid = feed_mm_min if rapid_mm_min is None else rapid_mm_min
+    if not (feed_mm_min > 0 and rapid > 0):
+        raise RasterError(f"feed_mm_min and rapid_mm_min must be > 0, got {feed_mm_min!r}, {rapid_mm_min!r}")
+    lengths = moves.lengths_mm()
+    on = moves.laser_on
+    rapid_rows = moves.kind == MoveKind.RAPID
+    cut = float(lengths[on].sum())
+    travel = float(lengths[rapid_rows].sum())
+    idle = float(lengths[moves.is_feed & ~on].sum())
+    time_s = (cut + idle) / feed_mm_min * 60.0 + travel / rapid * 60.0
+    return {"cut_mm": round(cut, 6), "travel_mm": round(travel, 6), "idle_feed_mm": round(idle, 6),
+            "time_s": round(time_s, 6), "tool_lines": int(on.sum()), "rapids": int(rapid_rows.sum())}
+
+
+def _check_positive(name, value):
+    if not (value > 0 and math.isfinite(value)):
+        raise RasterError(f"{name} must be a finite number > 0, got {value!r}")
+
+
+def segments_to_moves(segments: Segments, *, pixel_mm: float, feed_mm_min: float, power_s: float,
+                      laser=LaserMode.CONSTANT, s_max: float = 1000.0) -> Moves:
+    """Cuts along the segments in their order, joined by rapids (image corner at X0 Y0).
+
+    Examples
+    --------
+    >>> s = zigzag_segments(np.array([[True, True, False, True]]), axis="rows")
+    >>> m = segments_to_moves(s, pixel_mm=0.5, feed_mm_min=900, power_s=1000)
+    >>> [MoveKind(k).name for k in m.kind], m.end[:, 0].tolist()
+    (['RAPID', 'LINE', 'RAPID', 'LINE'], [0.0, 1.0, 1.5, 2.0])
+    """
+    _check_positive("pixel_mm", pixel_mm)
+    _check_positive("feed_mm_min", feed_mm_min)
+    if not 0 < power_s <= s_max:
+        raise RasterError(f"power_s must be in (0, {s_max:g}], got {power_s!r}")
+    a, b = segments.cuts()
+    scale = 0.5 * float(pixel_mm)
+    return Moves.from_cuts(a * scale, b * scale, feed_mm_min=feed_mm_min, power_s=power_s,
+                           laser=laser, s_max=s_max)
+
+
+def _report(mode, moves, *, shape, pixel_mm, marked, before, segments, feed_mm_min, rapid_mm_min,
+            evaluations=0, size_error_mm=(0.0, 0.0), **extra) -> RasterReport:
+    s = summarize(moves, feed_mm_min=feed_mm_min, rapid_mm_min=rapid_mm_min)
+    return RasterReport(
+        mode=mode, shape=(int(shape[0]), int(shape[1])), pixel_mm=float(pixel_mm),
+        marked_pixels=int(marked), segments_before=int(before), segments=int(segments),
+        tool_lines=s["tool_lines"], moves=len(moves), rapids=s["rapids"], cut_mm=s["cut_mm"],
+        travel_mm=s["travel_mm"], idle_feed_mm=s["idle_feed_mm"], time_s=s["time_s"],
+        feed_mm_min=float(feed_mm_min), rapid_mm_min=float(rapid_mm_min or feed_mm_min),
+        distance_evaluations=int(evaluations), size_error_mm=tuple(float(e) for e in size_error_mm),
+        extra=extra)
+
+
+def mask_job(mask, *, pixel_mm: float, mode: str = "zigzag", feed_mm_min: float = 1000.0,
+             power_s: float = 1000.0, order: str = "indexed", axis: str = "auto",
+             direction: str = "bidirectional", ends: str = "edge", laser=LaserMode.CONSTANT,
+             s_max: float = 1000.0, rapid_mm_min: float | None = None,
+             size_error_mm=(0.0, 0.0), report_mode: str | None = None) -> RasterJob:
+    """Path a one-bit image by zig-zag or spiral and turn it into Moves.
+
+    Parameters
+    ----------
+    mask : ndarray of bool, 2-D
+        True = burn.
+    pixel_mm : float
+        Pixel size (beam diameter), mm.
+    mode : {"zigzag", "spiral"}
+        The path generator (:func:`~labkit.raster.pathing.zigzag_segments`,
+        :func:`~labkit.raster.pathing.spiral_segments`).
+    feed_mm_min : float
+        Cutting feed, mm/min.
+    power_s : float
+        Laser power word S for the cuts (0 < S ≤ ``s_max``).
+    order : {"indexed", "reference", "scan"}
+        Segment connection (:func:`~labkit.raster.pathing.connect`).
+    axis, direction : str
+        Zig-zag scan lines and direction (see ``zigzag_segments``).
+    ends : {"edge", "centre"}
+        Path ends at pixel edges or centres.
+    laser : LaserMode
+        M3 (constant) or M4 (dynamic).
+    s_max : float
+        S meaning full power.
+    rapid_mm_min : float, optional
+        Travel speed for the time estimate (default = feed, the seed's assumption).
+    size_error_mm : (float, float)
+        Resampling size error to carry into the report.
+    report_mode : str, optional
+        Name of the mode in the report (default ``mode``).
+
+    Returns
+    -------
+    RasterJob
+
+    Examples
+    --------
+    >>> m = np.zeros((4, 6), bool); m[1:3, 1:5] = True
+    >>> job = mask_job(m, pixel_mm=0.1, mode="zigzag")
+    >>> r = job.report
+    >>> r.segments_before, r.segments, r.tool_lines, round(r.cut_mm, 3)
+    (2, 2, 2, 0.8)
+    """
+    m = check_mask(mask)
+    if mode == "zigzag":
+        segs = zigzag_segments(m, axis=axis, direction=direction, ends=ends)
+        lines_axis = axis if axis != "auto" else ("rows" if m.shape[0] < m.shape[1] else "columns")
+        before = int(m.any(axis=1 if lines_axis == "rows" else 0).sum())
+    elif mode == "spiral":
+        segs = spiral_segments(m, ends=ends)
+        before = label_islands(m)[1]
+    else:
+        raise RasterError(f"mode must be 'zigzag' or 'spiral' for a mask, got {mode!r}")
+    conn = connect(segs, method=order)
+    ordered = segs.reordered(conn)
+    moves = segments_to_moves(ordered, pixel_mm=pixel_mm, feed_mm_min=feed_mm_min, power_s=power_s,
+                              laser=laser, s_max=s_max)
+    report = _report(report_mode or mode, moves, shape=m.shape, pixel_mm=pixel_mm, marked=m.sum(),
+                     before=before, segments=len(segs), feed_mm_min=feed_mm_min,
+                     rapid_mm_min=rapid_mm_min, evaluations=conn.examined, size_error_mm=size_error_mm)
+    return RasterJob(moves, report, m, ordered, conn)
+
+
+def power_map(gray, *, s_max: float = 1000.0, min_power: float = 0.0, max_power: float = 1.0,
+              white_level: float = 255.0) -> np.ndarray:
+    """Power S per pixel, proportional to darkness.
+
+    S = round(s_max · (min_power + (1 − g/255) · (max_power − min_power))) for
+    pixels darker than ``white_level``; 0 (not burned) for the others.
+
+    Parameters
+    ----------
+    gray : array_like, 2-D
+        labkit gray (0…255).
+    s_max : float
+        S for full power (GRBL ``$30``).
+    min_power, max_power : float
+        Fractions 0…1 of full power for the lightest and the darkest pixel
+        (a laser needs a minimum power to mark at all).
+    white_level : float
+        Pixels at or above it are white: skipped.
+
+    Examples
+    --------
+    >>> power_map(np.array([[0.0, 127.5, 254.0, 255.0]]), min_power=0.2, max_power=0.8).tolist()
+    [[800, 500, 202, 0]]
+    """
+    arr = check_image_2d(gray, "gray").astype(np.float64)
+    if not 0 <= min_power <= max_power <= 1:
+        raise RasterError(f"need 0 <= min_power <= max_power <= 1, got {min_power!r}, {max_power!r}")
+    _check_positive("s_max", s_max)
+    darkness = 1.0 - np.clip(arr, 0, 255) / 255.0
+    s = np.rint(s_max * (min_power + darkness * (max_power - min_power))).astype(np.int64)
+    s[arr >= white_level] = 0
+    return s
+
+
+def gray_job(gray, *, pixel_mm: float, feed_mm_min: float = 3000.0, s_max: float = 1000.0,
+             min_power: float = 0.0, max_power: float = 1.0, white_level: float = 255.0,
+             dither: str | None = None, serpentine: bool = False, overscan_mm: float = 2.0,
+             skip_white_mm: float = 5.0, bidirectional: bool = True, laser=LaserMode.DYNAMIC,
+             rapid_mm_min: float | None = None, size_error_mm=(0.0, 0.0)) -> RasterJob:
+    """Line-by-line gray engraving: power follows darkness, or dithered dots at full power.
+
+    Parameters
+    ----------
+    gray : array_like, 2-D
+        labkit gray (0…255), one pixel per beam diameter.
+    pixel_mm : float
+        Pixel size = line spacing, mm.
+    feed_mm_min : float
+        Scanning feed, mm/min.
+    s_max, min_power, max_power, white_level
+        Power mapping (:func:`power_map`). With ``dither`` every dot gets
+        ``max_power``.
+    dither : str, optional
+        Error diffusion method (:data:`~labkit.raster.dither.DIFFUSION`);
+        None for proportional power.
+    serpentine : bool
+        Serpentine scan for the dithering.
+    overscan_mm : float
+        How far the head runs on past each burn span, laser off, so that it
+        burns only at full speed (≥ 0).
+    skip_white_mm : float
+        White gaps longer than this (and longer than two overscans) are
+        crossed by a rapid; shorter ones at the feed with S 0.
+    bidirectional : bool
+        Alternate the scan direction line by line.
+    laser : LaserMode
+        M4 (dynamic, default: power scales with the actual speed) or M3.
+
+    Returns
+    -------
+    RasterJob
+        ``target`` is the S map the moves must burn.
+
+    Examples
+    --------
+    >>> g = np.array([[255.0, 0.0, 127.5, 255.0, 255.0, 0.0]])
+    >>> job = gray_job(g, pixel_mm=1.0, overscan_mm=1.0, skip_white_mm=1.0)
+    >>> [(float(a), float(b), float(s)) for a, b, s in
+    ...  zip(job.moves.start[:, 0], job.moves.end[:, 0], job.moves.power_s)]   # doctest: +NORMALIZE_WHITESPACE
+    [(0.0, 0.0, 0.0), (0.0, 1.0, 0.0), (1.0, 2.0, 1000.0), (2.0, 3.0, 500.0), (3.0, 4.0, 0.0),
+     (4.0, 5.0, 0.0), (5.0, 6.0, 1000.0), (6.0, 7.0, 0.0)]
+    """
+    arr = check_image_2d(gray, "gray")
+    _check_positive("pixel_mm", pixel_mm)
+    _check_positive("feed_mm_min", feed_mm_min)
+    if not (overscan_mm >= 0 and skip_white_mm >= 0):
+        raise RasterError(f"overscan_mm and skip_white_mm must be >= 0, got {overscan_mm!r}, {skip_white_mm!r}")
+    if dither is not None:
+        if dither not in DIFFUSION:
+            raise RasterError(f"dither must be one of {sorted(DIFFUSION)} or None, got {dither!r}")
+        dots = _dither(arr, dither, serpentine=serpentine)
+        power = np.where(dots, int(round(s_max * max_power)), 0).astype(np.int64)
+        if not 0 < max_power <= 1:
+            raise RasterError(f"max_power must be in (0, 1] for dithering, got {max_power!r}")
+    else:
+        power = power_map(arr, s_max=s_max, min_power=min_power, max_power=max_power,
+                          white_level=white_level)
+    overscan_px = overscan_mm / pixel_mm
+    skip_px = max(skip_white_mm, 2.0 * overscan_mm) / pixel_mm
+    args = (power, bool(bidirectional), float(skip_px), float(overscan_px))
+    n = _scanlines.scan_lines(*args, False, *_empty_cut_arrays(0))
+    x0, x1, row, s = _empty_cut_arrays(n)
+    _scanlines.scan_lines(*args, True, x0, x1, row, s)
+    rows = arr.shape[0]
+    y = (rows - row - 0.5) * pixel_mm
+    starts = np.stack([x0 * pixel_mm, y], axis=1)
+    ends = np.stack([x1 * pixel_mm, y], axis=1)
+    if overscan_mm == 0 and n:
+        keep = x0 != x1    # no zero-length lead-ins
+        starts, ends, s = starts[keep], ends[keep], s[keep]
+    moves = Moves.from_cuts(starts, ends, feed_mm_min=feed_mm_min, power_s=s, laser=laser, s_max=s_max)
+    burn_lines = int((power > 0).any(axis=1).sum())
+    report = _report("dither" if dither else "gray", moves, shape=arr.shape, pixel_mm=pixel_mm,
+                     marked=(power > 0).sum(), before=burn_lines, segments=burn_lines,
+                     feed_mm_min=feed_mm_min, rapid_mm_min=rapid_mm_min, size_error_mm=size_error_mm,
+                     overscan_mm=overscan_mm)
+    return RasterJob(moves, report, power)
+
+
+def _empty_cut_arrays(n):
+    return (np.zeros(n, np.float64), np.zeros(n, np.float64), np.zeros(n, np.int64),
+            np.zeros(n, np.int64))
+
+
+def image_to_job(image, *, mode: str = "zigzag", beam_mm: float = 0.1, width_mm=None, height_mm=None,
+                 pixel_mm=None, dpi=None, resample: str = "bicubic", weights="seed",
+                 level: float = 128, invert: bool = False, blur: bool = False,
+                 sharpen: bool = False, gamma: float = 1.0, edge_operator: str = "sobel",
+                 edge_threshold: float | None = None, edge_pseudo: bool = False,
+                 edge_path: str = "spiral", **options) -> RasterJob:
+    """The whole chain of seed 000 §3.4.1 from an image array to Moves.
+
+    gray → (invert, sharpen, blur, gamma) → resample to the beam → then by mode:
+    ``zigzag``/``spiral`` threshold at ``level`` and path; ``edges`` runs an
+    edge detector and paths the edge pixels (``edge_path``); ``gray`` maps
+    darkness to power; ``dither`` diffuses to full-power dots.
+
+    Parameters
+    ----------
+    image : array_like
+        Any image :func:`~labkit.raster.color.to_gray` takes (a bool mask
+        is used as is, True = burn).
+    mode : {"zigzag", "spiral", "edges", "gray", "dither"}
+    beam_mm : float
+        Beam diameter = output pixel size, mm.
+    width_mm, height_mm, pixel_mm, dpi : float
+        The engraved size (exactly one; see :func:`~labkit.raster.resample.resample_to_beam`).
+    resample : {"bicubic", "nearest"}
+    weights : str
+        Gray weights (:data:`~labkit.raster.color.GRAY_WEIGHTS`).
+    level : float
+        Threshold for the binary modes (0…256).
+    invert, blur, sharpen : bool
+        The seed's filters, applied before resampling.
+    gamma : float
+        Gamma for the gray modes.
+    edge_operator, edge_threshold, edge_pseudo
+        Edge detector for ``mode="edges"`` (:func:`~labkit.raster.edges.detect_edges`).
+    edge_path : {"spiral", "zigzag"}
+        How the edge pixels are pathed.
+    **options
+        Passed to :func:`mask_job` or :func:`gray_job` (feeds, power, order, overscan …).
+
+    Returns
+    -------
+    RasterJob
+    """
+    if mode not in MODES:
+        raise RasterError(f"mode must be one of {MODES}, got {mode!r}")
+    arr = np.asarray(image)
+    is_mask = arr.dtype == bool and arr.ndim == 2
+    if is_mask and (mode in ("gray", "dither", "edges") or blur or sharpen):
+        arr = np.where(arr, 0, 255).astype(np.uint8)     # a mask means True = burn = black
+        is_mask = False
+    if is_mask:
+        arr = ~arr if invert else arr
+    else:
+        arr = to_gray(arr, weights)
+        if invert:
+            arr = _invert(arr)
+        if sharpen:
+            arr = _sharpen(arr)
+        if blur:
+            arr = _blur(arr)
+    res = resample_to_beam(arr, beam_mm=beam_mm, width_mm=width_mm, height_mm=height_mm,
+                           pixel_mm=pixel_mm, dpi=dpi, method=resample, level=level)
+    img = res.image
+    common = dict(pixel_mm=beam_mm, size_error_mm=res.error_mm)
+    if mode in ("gray", "dither"):
+        if gamma != 1.0:
+            img = adjust_gamma(img, gamma)
+        if mode == "dither":
+            options.setdefault("dither", "floyd-steinberg")
+        return gray_job(img, **common, **options)
+    if mode == "edges":
+        mask = detect_edges(img, edge_operator, threshold=edge_threshold, pseudo=edge_pseudo, level=level)
+        return mask_job(mask, mode=edge_path, report_mode="edges", **common, **options)
+    mask = img if is_mask else threshold(img, level)
+    return mask_job(mask, mode=mode, **common, **options)
