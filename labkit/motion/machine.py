@@ -1,0 +1,287 @@
+"""Machine description: what the motion reference needs to know about a machine.
+
+A :class:`Machine` holds the mechanics (steps per mm, maximum rates,
+accelerations, travel), the controller settings the planners use (the seed's
+ramp slopes in Hz per step, GRBL's junction deviation, the look-ahead depth),
+the laser (maximum optical power, the S value of full power) and the step
+timer (clock, prescaler, width). It is frozen; :meth:`Machine.replace` makes a
+changed copy. Descriptions live as small TOML files in ``data/machines/`` and
+load with :func:`load_machine`.
+
+The default, :data:`CBR40`, is seed 004's machine: a Colinbus CBR-40 frame
+whose lead screws advance 3 mm per turn, driven at 1/32 microstep (6400 steps
+per turn: 0.46875 µm per step), 300 × 400 × 100 mm of travel, at most
+1546.0875 mm/min (54 972 steps/s), a 2500 mW diode laser and a 48 MHz step
+timer. The seed gives neither ramp slopes nor accelerations nor a prescaler;
+the values here are chosen (and said so in ``data/machines/README.md``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from labkit.errors import MotionError
+
+__all__ = ["Machine", "CBR40", "AXES", "load_machine", "machine_files", "MACHINES_DIR"]
+
+#: Axis names in column order.
+AXES = ("x", "y", "z")
+
+#: Folder of the machine description files shipped with the repository.
+MACHINES_DIR = Path(__file__).resolve().parents[2] / "data" / "machines"
+
+
+def _triple(name: str, value) -> tuple[float, float, float]:
+    arr = np.broadcast_to(np.asarray(value, dtype=float), (3,))
+    return tuple(float(v) for v in arr)
+
+
+@dataclass(frozen=True)
+class Machine:
+    """A laser CNC machine as the motion planner sees it.
+
+    Parameters
+    ----------
+    name : str
+        Short name (the file stem of its description).
+    steps_per_mm : float or sequence of 3 floats
+        Steps per mm of X, Y, Z (microsteps per turn / lead in mm).
+    max_rate_mm_min : float or sequence of 3 floats
+        Highest speed of each axis, mm/min (GRBL ``$110…$112``).
+    accel_mm_s2 : float or sequence of 3 floats
+        Acceleration of each axis, mm/s² (GRBL ``$120…$122``); used by the
+        constant-acceleration ramp law and by junction speeds.
+    travel_mm : float or sequence of 3 floats
+        Length of each axis, mm.
+    accel_hz_per_step, decel_hz_per_step : int
+        Seed 004's ramp slopes: the driver axis' step rate rises (falls) by
+        this many Hz per step, ≥ 1.
+    start_rate_hz : int
+        Step rate the motors start and stop at without a ramp, Hz; the floor
+        of every step rate (and the rest speed of the seed's linear ramps).
+    junction_deviation_mm : float
+        GRBL ``$11``: how far the path may deviate at a corner, mm (> 0).
+    arc_tolerance_mm : float
+        GRBL ``$12``: chord tolerance when arcs are cut into lines, mm (> 0).
+    buffer_blocks : int
+        Look-ahead depth: planner buffer (GRBL: 16) or super block size
+        (seed 000's ``G5 P``), ≥ 1.
+    laser_max_power_mw : float
+        Optical power at full duty, mW (seed 004: 2500 mW).
+    s_max : float
+        S word of full power (GRBL ``$30``: 1000).
+    timer_clock_hz : int
+        Step timer input clock, Hz (seed 004: 48 MHz).
+    prescaler : int
+        Timer prescaler register: the timer counts at clock / (prescaler + 1).
+    timer_bits : int
+        Width of the period register (16 or 32).
+    step_pulse_us : float
+        Width of each step pulse, µs (seed 004: 5 µs).
+    description : str
+        One line for people.
+
+    Examples
+    --------
+    >>> CBR40.steps_per_mm[0], round(CBR40.resolution_um[0], 5)
+    (2133.3333333333335, 0.46875)
+    >>> CBR40.max_step_rate_hz
+    (54972, 54972, 54972)
+    >>> CBR40.replace(prescaler=3).tick_hz
+    12000000.0
+    """
+
+    name: str = "cbr40-laser"
+    steps_per_mm: tuple[float, float, float] = (6400 / 3,) * 3
+    max_rate_mm_min: tuple[float, float, float] = (1546.0875,) * 3
+    accel_mm_s2: tuple[float, float, float] = (500.0,) * 3
+    travel_mm: tuple[float, float, float] = (300.0, 400.0, 100.0)
+    accel_hz_per_step: int = 40
+    decel_hz_per_step: int = 40
+    start_rate_hz: int = 1000
+    junction_deviation_mm: float = 0.01
+    arc_tolerance_mm: float = 0.002
+    buffer_blocks: int = 16
+    laser_max_power_mw: float = 2500.0
+    s_max: float = 1000.0
+    timer_clock_hz: int = 48_000_000
+    prescaler: int = 0
+    timer_bits: int = 16
+    step_pulse_us: float = 5.0
+    description: str = dataclasses.field(default="", compare=False)
+
+    def __post_init__(self):
+        set_ = object.__setattr__
+        for name in ("steps_per_mm", "max_rate_mm_min", "accel_mm_s2", "travel_mm"):
+            vals = _triple(name, getattr(self, name))
+            if not all(v > 0 and math.isfinite(v) for v in vals):
+                raise MotionError(f"machine {self.name!r}: {name} must be > 0 and finite "
+                                  f"for every axis, got {vals}")
+            set_(self, name, vals)
+        for name in ("accel_hz_per_step", "decel_hz_per_step", "start_rate_hz",
+                     "buffer_blocks", "timer_clock_hz", "prescaler", "timer_bits"):
+            v = getattr(self, name)
+            if isinstance(v, float) and v.is_integer():
+                v = int(v)
+            if not isinstance(v, (int, np.integer)) or isinstance(v, bool):
+                raise MotionError(f"machine {self.name!r}: {name} must be an integer, got {v!r}")
+            set_(self, name, int(v))
+        checks = [
+            ("accel_hz_per_step", self.accel_hz_per_step >= 1, ">= 1 Hz per step"),
+            ("decel_hz_per_step", self.decel_hz_per_step >= 1, ">= 1 Hz per step"),
+            ("start_rate_hz", self.start_rate_hz >= 1, ">= 1 Hz"),
+            ("buffer_blocks", self.buffer_blocks >= 1, ">= 1 block"),
+            ("junction_deviation_mm", self.junction_deviation_mm > 0, "> 0 mm"),
+            ("arc_tolerance_mm", self.arc_tolerance_mm > 0, "> 0 mm"),
+            ("laser_max_power_mw", self.laser_max_power_mw > 0, "> 0 mW"),
+            ("s_max", self.s_max > 0, "> 0"),
+            ("timer_clock_hz", self.timer_clock_hz >= 1, ">= 1 Hz"),
+            ("prescaler", 0 <= self.prescaler < 2 ** 16, "in 0…65535"),
+            ("timer_bits", self.timer_bits in (16, 32), "16 or 32"),
+            ("step_pulse_us", self.step_pulse_us > 0, "> 0 µs"),
+        ]
+        for name, ok, allowed in checks:
+            if not ok:
+                raise MotionError(f"machine {self.name!r}: {name} must be {allowed}, "
+                                  f"got {getattr(self, name)!r}")
+        top = max(self.max_step_rate_hz)
+        if self.start_rate_hz > top:
+            raise MotionError(f"machine {self.name!r}: start_rate_hz ({self.start_rate_hz} Hz) "
+                              f"exceeds the fastest axis step rate ({top} Hz)")
+        # The slowest step rate must fit the period register (see labkit.motion.timer).
+        longest = self.timer_clock_hz // (self.start_rate_hz * (self.prescaler + 1)) - 1
+        if longest > 2 ** self.timer_bits - 1:
+            raise MotionError(
+                f"machine {self.name!r}: start_rate_hz {self.start_rate_hz} Hz needs a timer "
+                f"period of {longest} ticks, more than a {self.timer_bits}-bit register holds; "
+                f"raise the prescaler or start_rate_hz")
+        if top * (self.prescaler + 1) > self.timer_clock_hz:
+            raise MotionError(f"machine {self.name!r}: the timer ({self.tick_hz:g} Hz) is slower "
+                              f"than the fastest step rate ({top} Hz); lower the prescaler")
+
+    # -- derived values ------------------------------------------------------------------
+
+    @property
+    def resolution_um(self) -> tuple[float, float, float]:
+        """Distance of one step per axis, µm (seed 004 eq. 1: lead / steps per turn)."""
+        return tuple(1000.0 / s for s in self.steps_per_mm)
+
+    @property
+    def max_rate_mm_s(self) -> np.ndarray:
+        """Maximum axis speeds, mm/s (array of 3)."""
+        return np.asarray(self.max_rate_mm_min) / 60.0
+
+    @property
+    def max_step_rate_hz(self) -> tuple[int, int, int]:
+        """Fastest step rate of each axis, Hz (floor of max rate × steps per mm)."""
+        return tuple(int(math.floor(r / 60.0 * s + 1e-9))
+                     for r, s in zip(self.max_rate_mm_min, self.steps_per_mm))
+
+    @property
+    def tick_hz(self) -> float:
+        """Counting rate of the step timer, Hz: clock / (prescaler + 1)."""
+        return self.timer_clock_hz / (self.prescaler + 1)
+
+    def replace(self, **changes) -> "Machine":
+        """A copy with some fields changed (validated again)."""
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict:
+        """Every field as plain Python values (the TOML keys)."""
+        return dataclasses.asdict(self)
+
+
+#: Seed 004's machine (Colinbus CBR-40 frame, 6400 steps per 3 mm lead, 2500 mW laser).
+CBR40 = Machine(description="Colinbus CBR-40 frame with a 2500 mW diode laser (seed 004)")
+
+_FIELDS = {f.name for f in dataclasses.fields(Machine)}
+
+
+def machine_files() -> list[Path]:
+    """The machine descriptions in ``data/machines/`` (sorted)."""
+    return sorted(MACHINES_DIR.glob("*.toml")) if MACHINES_DIR.is_dir() else []
+
+
+def load_machine(source: str | Path | Machine | None = None) -> Machine:
+    """Read a machine description.
+
+    Parameters
+    ----------
+    source : str, Path, Machine or None
+        A TOML file, or the stem of a file in ``data/machines/``
+        (``"cbr40-laser"``), or a :class:`Machine` (returned as is).
+        ``None`` gives :data:`CBR40`.
+
+    Returns
+    -------
+    Machine
+
+    Raises
+    ------
+    MotionError
+        Unknown name, unreadable TOML, unknown keys or bad values — the
+        message names the file and the key.
+
+    Notes
+    -----
+    The file is flat or grouped in tables; table names are ignored, keys are
+    the :class:`Machine` field names. ``steps_per_mm`` may be given instead as
+    ``steps_per_rev`` and ``lead_mm`` (seed 004 eq. 1: steps per mm = steps
+    per turn / lead). A scalar applies to all three axes.
+
+    Examples
+    --------
+    >>> load_machine("cbr40-laser") == CBR40
+    True
+    """
+    if source is None:
+        return CBR40
+    if isinstance(source, Machine):
+        return source
+    path = Path(source)
+    if not path.suffix and not path.exists():
+        candidate = MACHINES_DIR / f"{source}.toml"
+        if not candidate.exists():
+            names = ", ".join(p.stem for p in machine_files()) or "none"
+            raise MotionError(f"unknown machine {str(source)!r}: give a TOML file or one of: {names}")
+        path = candidate
+    try:
+        data = tomllib.loads(path.read_text("utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise MotionError(f"{path}: not valid TOML ({exc})") from None
+    flat: dict = {}
+    for key, value in data.items():
+        if isinstance(value, dict):
+            for k, v in value.items():
+                if k in flat:
+                    raise MotionError(f"{path}: key {k!r} given twice")
+                flat[k] = v
+        else:
+            flat[key] = value
+    if "steps_per_rev" in flat or "lead_mm" in flat:
+        if "steps_per_mm" in flat:
+            raise MotionError(f"{path}: give steps_per_mm or steps_per_rev with lead_mm, not both")
+        try:
+            rev = np.broadcast_to(np.asarray(flat.pop("steps_per_rev"), float), (3,))
+            lead = np.broadcast_to(np.asarray(flat.pop("lead_mm"), float), (3,))
+        except KeyError as exc:
+            raise MotionError(f"{path}: steps_per_rev and lead_mm go together; {exc} is missing") from None
+        if not (lead > 0).all():
+            raise MotionError(f"{path}: lead_mm must be > 0 mm, got {lead.tolist()}")
+        flat["steps_per_mm"] = tuple(float(r / ld) for r, ld in zip(rev, lead))
+    unknown = set(flat) - _FIELDS
+    if unknown:
+        raise MotionError(f"{path}: unknown key(s) {sorted(unknown)}; known keys: {sorted(_FIELDS)}")
+    flat.setdefault("name", path.stem)
+    try:
+        return Machine(**flat)
+    except MotionError as exc:
+        raise MotionError(f"{path}: {exc}") from None
+    except (TypeError, ValueError) as exc:
+        raise MotionError(f"{path}: bad value ({exc})") from None
