@@ -1,0 +1,104 @@
+"""``labkit img2gcode``: a raster image to laser G-code, with the report and a preview PNG."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+__all__ = ["add_img2gcode_arguments", "run_img2gcode"]
+
+
+def add_img2gcode_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``labkit img2gcode``."""
+    from labkit.raster.dither import DIFFUSION
+    from labkit.raster.engrave import MODES
+
+    parser.add_argument("input", help="image file (PNG, BMP, JPEG, …)")
+    parser.add_argument("-o", "--output", required=True, help="G-code file to write")
+    parser.add_argument("--mode", choices=MODES, default="zigzag", help="how to engrave (default zigzag)")
+    parser.add_argument("--beam", type=float, default=0.1, metavar="MM",
+                        help="beam diameter = pixel size of the job, mm (default 0.1)")
+    size = parser.add_mutually_exclusive_group()
+    size.add_argument("--width", type=float, metavar="MM", help="engraved width, mm")
+    size.add_argument("--height", type=float, metavar="MM", help="engraved height, mm")
+    size.add_argument("--dpi", type=float, help="image resolution (default: the file's, else 96)")
+    parser.add_argument("--resample", choices=("bicubic", "nearest"), default="bicubic",
+                        help="resampling to the beam (nearest for pixel art)")
+    parser.add_argument("--feed", type=float, default=1000.0, metavar="MM_MIN", help="feed, mm/min")
+    parser.add_argument("--rapid", type=float, default=None, metavar="MM_MIN",
+                        help="travel speed for the time estimate (default: the feed, as the seed)")
+    parser.add_argument("--power", type=float, default=1000.0, metavar="S",
+                        help="S for binary modes (default 1000)")
+    parser.add_argument("--s-max", type=float, default=1000.0, help="S of full power (GRBL $30)")
+    parser.add_argument("--threshold", type=float, default=128, metavar="LEVEL",
+                        help="gray level 0…256 below which a pixel burns (binary modes)")
+    parser.add_argument("--invert", action="store_true", help="negative image first")
+    parser.add_argument("--blur", action="store_true", help="3×3 blur first")
+    parser.add_argument("--sharpen", action="store_true", help="3×3 sharpen first")
+    parser.add_argument("--order", choices=("indexed", "reference", "scan"), default="indexed",
+                        help="segment connection: greedy nearest (indexed or the seed's O(n²)) or scan order")
+    parser.add_argument("--axis", choices=("auto", "rows", "columns"), default="auto", help="zig-zag lines")
+    parser.add_argument("--unidirectional", action="store_true", help="zig-zag in one direction only")
+    parser.add_argument("--edge-operator", choices=("sobel", "prewitt", "roberts", "sxor", "canny"),
+                        default="sobel", help="edges mode: the detector")
+    parser.add_argument("--edge-threshold", type=float, default=None,
+                        help="edges mode: magnitude threshold (default a quarter of the maximum)")
+    parser.add_argument("--edge-path", choices=("spiral", "zigzag"), default="spiral",
+                        help="edges mode: how edge pixels are pathed")
+    parser.add_argument("--min-power", type=float, default=0.0, help="gray: power of the lightest pixel, 0…1")
+    parser.add_argument("--max-power", type=float, default=1.0, help="gray/dither: power of the darkest, 0…1")
+    parser.add_argument("--gamma", type=float, default=1.0, help="gray/dither: gamma")
+    parser.add_argument("--dither", choices=sorted(DIFFUSION), default="floyd-steinberg",
+                        help="dither mode: error diffusion method")
+    parser.add_argument("--overscan", type=float, default=2.0, metavar="MM", help="gray/dither: overscan, mm")
+    parser.add_argument("--skip-white", type=float, default=5.0, metavar="MM",
+                        help="gray/dither: rapid over white gaps longer than this, mm")
+    parser.add_argument("--dialect", default="grbl", help="G-code dialect (grbl, labkit-fw, marlin)")
+    parser.add_argument("--preview", default=None, metavar="PNG",
+                        help="preview image (default: OUTPUT with .png); 'none' for no preview")
+
+
+def run_img2gcode(args) -> int:
+    """Convert, write the G-code and the preview, print the report."""
+    from labkit.gcode import emit
+    from labkit.raster.engrave import image_to_job
+    from labkit.raster.io import read_image
+
+    img = read_image(args.input)
+    size = {}
+    if args.width is not None:
+        size["width_mm"] = args.width
+    elif args.height is not None:
+        size["height_mm"] = args.height
+    else:
+        size["dpi"] = args.dpi or img.dpi or 96.0
+    common = dict(feed_mm_min=args.feed, rapid_mm_min=args.rapid, s_max=args.s_max)
+    if args.mode in ("gray", "dither"):
+        opts = dict(min_power=args.min_power, max_power=args.max_power, overscan_mm=args.overscan,
+                    skip_white_mm=args.skip_white, gamma=args.gamma)
+        if args.mode == "dither":
+            opts["dither"] = args.dither
+    else:
+        opts = dict(power_s=args.power, order=args.order, axis=args.axis,
+                    direction="unidirectional" if args.unidirectional else "bidirectional")
+    job = image_to_job(img.pixels, mode=args.mode, beam_mm=args.beam, resample=args.resample,
+                       level=args.threshold, invert=args.invert, blur=args.blur, sharpen=args.sharpen,
+                       edge_operator=args.edge_operator, edge_threshold=args.edge_threshold,
+                       edge_path=args.edge_path, **size, **common, **opts)
+    text = emit(job.moves, dialect=args.dialect,
+                comment=f"img2gcode {Path(args.input).name}: mode {args.mode}, beam {args.beam:g} mm")
+    Path(args.output).write_text(text, encoding="ascii")
+    report = job.report.with_gcode(text)
+    print(report.format())
+    print(f"{'G-code':<{_label_width(report)}}  {args.output}")
+    if (args.preview or "").lower() != "none":
+        from labkit.viz.raster import save_job_preview
+
+        preview = args.preview or str(Path(args.output).with_suffix(".png"))
+        save_job_preview(job, preview)
+        print(f"{'preview':<{_label_width(report)}}  {preview}")
+    return 0
+
+
+def _label_width(report) -> int:
+    return max(len(k) for k, _ in report.rows())
