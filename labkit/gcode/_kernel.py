@@ -338,8 +338,9 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
             v, i2, st = _read_number(buf, i, le)
             if st != 0:
                 j = i2
-                while j < le and not (_is_space(buf[j]) or buf[j] == 40 or buf[j] == 59):
-                    j += 1
+                if st == 2:   # show the whole malformed token, e.g. "X1.2.3"
+                    while j < le and not (_is_space(buf[j]) or buf[j] == 40 or buf[j] == 59):
+                        j += 1
                 err, epos, eend = E_BAD_NUMBER, wp, j
                 detail = D_NUMBER_NO_DIGITS if st == 1 else D_NUMBER_TRAILING
                 break

@@ -33,7 +33,7 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
-from labkit.geometry.circle import arc_bounds, sweep_angle
+from labkit.geometry.circle import sweep_angle
 
 __all__ = ["MoveKind", "LaserMode", "Record", "Moves", "MovesBuilder", "PLANE_AXES"]
 
@@ -344,6 +344,43 @@ class Moves:
         length[self.kind == MoveKind.DWELL] = 0.0
         return length
 
+    def extents(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per-row axis-aligned box: (lo, hi), each (n, 3) mm, arcs exact.
+
+        An arc reaches beyond its end points wherever it crosses one of the
+        four axis directions through its centre; those extreme points are
+        included. Dwell rows give their position.
+        """
+        lo = np.minimum(self.start, self.end)
+        hi = np.maximum(self.start, self.end)
+        arc = np.flatnonzero(self.is_arc)
+        if len(arc) == 0:
+            return lo, hi
+        sub = self[arc]
+        p0, _ = sub.plane_coords(sub.start)
+        c, _ = sub.plane_coords(sub.centre)
+        r = np.hypot(*(p0 - c).T)
+        a0 = np.arctan2(p0[:, 1] - c[:, 1], p0[:, 0] - c[:, 0])
+        sweep = self.sweep_rad()[arc]
+        ang_lo = np.minimum(a0, a0 + sweep)
+        ang_hi = np.maximum(a0, a0 + sweep)
+        axes = np.array([PLANE_AXES[17], PLANE_AXES[18], PLANE_AXES[19]])[sub.plane.astype(int) - 17]
+        for k, (dx, dy) in enumerate(((1, 0), (0, 1), (-1, 0), (0, -1))):
+            direction = k * math.pi / 2
+            m = np.ceil((ang_lo - direction) / (2 * math.pi) - 1e-12)
+            crossed = direction + 2 * math.pi * m <= ang_hi + 1e-12
+            for axis_pos, comp in ((0, dx), (1, dy)):
+                if comp == 0:
+                    continue
+                value = c[:, axis_pos] + comp * r
+                col = axes[:, axis_pos]
+                rows = arc[crossed]
+                cols = col[crossed]
+                vals = value[crossed]
+                lo[rows, cols] = np.minimum(lo[rows, cols], vals)
+                hi[rows, cols] = np.maximum(hi[rows, cols], vals)
+        return lo, hi
+
     def bounds(self, mask: np.ndarray | None = None) -> np.ndarray:
         """Axis-aligned box of the path, arcs included exactly.
 
@@ -356,23 +393,19 @@ class Moves:
         -------
         ndarray, shape (2, 3)
             ``[[xmin, ymin, zmin], [xmax, ymax, zmax]]`` in mm; NaN when empty.
+
+        Examples
+        --------
+        >>> b = MovesBuilder(feed_mm_min=600)
+        >>> b.rapid(x=10); b.arc_ccw(x=-10, i=-10)         # upper half circle, r = 10
+        >>> b.build().bounds().tolist()
+        [[-10.0, 0.0, 0.0], [10.0, 10.0, 0.0]]
         """
-        sel = self if mask is None else self[np.asarray(mask, dtype=bool)]
-        sel = sel[sel.is_motion]
-        if len(sel) == 0:
+        keep = self.is_motion if mask is None else (np.asarray(mask, dtype=bool) & self.is_motion)
+        if not keep.any():
             return np.full((2, 3), np.nan)
-        pts = np.vstack([sel.start, sel.end])
-        lo, hi = pts.min(axis=0), pts.max(axis=0)
-        arc_idx = np.flatnonzero(sel.is_arc)
-        if len(arc_idx):
-            sweeps = sel.sweep_rad()
-            for i in arc_idx:
-                a0, a1, lin = PLANE_AXES[int(sel.plane[i])]
-                box = arc_bounds(sel.start[i, [a0, a1]], sel.end[i, [a0, a1]],
-                                 sel.centre[i, [a0, a1]], sweeps[i])
-                lo[[a0, a1]] = np.minimum(lo[[a0, a1]], box[0])
-                hi[[a0, a1]] = np.maximum(hi[[a0, a1]], box[1])
-        return np.array([lo, hi])
+        lo, hi = self[keep].extents()
+        return np.array([lo.min(axis=0), hi.max(axis=0)])
 
     def to_dataframe(self):
         """The columns as a pandas DataFrame (one row per move, XYZ split into columns)."""

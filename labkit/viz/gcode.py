@@ -1,0 +1,234 @@
+"""Pictures of G-code programs, and the arc widget of chapter 02.
+
+:func:`plot_moves` draws a program the way a laser user reads it: burning
+moves coloured by power, travel dashed, arcs as arcs (flattened well below a
+pixel), the start marked. :func:`plot_arc_choice` and :func:`arc_explorer`
+show how G2/G3 with R picks one of two centres.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from labkit.geometry.circle import chord_segments
+from labkit.toolpath.moves import PLANE_AXES, MoveKind, Moves
+
+__all__ = ["plot_moves", "moves_to_segments", "plot_arc_choice", "arc_explorer", "save_preview"]
+
+_PLANE_VIEW = {"xy": (0, 1), "xz": (0, 2), "yz": (1, 2)}
+
+
+def moves_to_segments(moves: Moves, *, tol_mm: float, view: str = "xy"):
+    """Every move as 2-D line pieces for drawing (arcs flattened within ``tol_mm``).
+
+    Returns
+    -------
+    segments : ndarray, shape (m, 2, 2)
+        Line pieces in the view's coordinates, mm.
+    row : ndarray of int, shape (m,)
+        The move each piece belongs to.
+    """
+    ax0, ax1 = _PLANE_VIEW[view]
+    motion = np.flatnonzero(moves.is_motion & ~moves.is_arc)
+    segs = [np.stack([moves.start[motion][:, [ax0, ax1]], moves.end[motion][:, [ax0, ax1]]], axis=1)]
+    rows = [motion]
+    arcs = np.flatnonzero(moves.is_arc)
+    if len(arcs):
+        sub = moves[arcs]
+        radius = sub.radius_mm()
+        sweep = sub.sweep_rad()
+        counts = np.atleast_1d(chord_segments(radius, sweep, tol_mm))
+        for k, i in enumerate(arcs):
+            a0, a1, lin = PLANE_AXES[int(moves.plane[i])]
+            c = moves.centre[i]
+            ang0 = math.atan2(moves.start[i, a1] - c[a1], moves.start[i, a0] - c[a0])
+            t = np.linspace(0.0, 1.0, int(counts[k]) + 1)
+            pts = np.empty((len(t), 3))
+            pts[:, a0] = c[a0] + radius[k] * np.cos(ang0 + sweep[k] * t)
+            pts[:, a1] = c[a1] + radius[k] * np.sin(ang0 + sweep[k] * t)
+            pts[:, lin] = moves.start[i, lin] + (moves.end[i, lin] - moves.start[i, lin]) * t
+            p2 = pts[:, [ax0, ax1]]
+            segs.append(np.stack([p2[:-1], p2[1:]], axis=1))
+            rows.append(np.full(len(t) - 1, i))
+    return np.concatenate(segs), np.concatenate(rows)
+
+
+def plot_moves(moves: Moves, ax=None, *, view: str = "xy", show_travel: bool = True,
+               cmap: str = "plasma", linewidth: float = 1.2, colorbar: bool = True,
+               title: str | None = None):
+    """Draw a program: cuts coloured by laser power, travel dashed, start marked.
+
+    Parameters
+    ----------
+    moves : Moves
+    ax : matplotlib Axes, optional
+        Drawn into a new figure when omitted.
+    view : {"xy", "xz", "yz"}
+        Projection.
+    show_travel : bool
+        Draw rapids (dashed grey) and feed moves with the beam off (thin cyan).
+    cmap : str
+        Colour map of the power (0…100 % of ``moves.s_max``).
+    colorbar : bool
+        Add a power colour bar.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import LineCollection
+
+    if view not in _PLANE_VIEW:
+        raise ValueError(f"view must be one of {sorted(_PLANE_VIEW)}, got {view!r}")
+    if ax is None:
+        _, ax = plt.subplots(figsize=(7, 6))
+    if len(moves) == 0 or not moves.is_motion.any():
+        ax.set_title(title or "empty program")
+        return ax
+    ax0, ax1 = _PLANE_VIEW[view]
+    box = moves.bounds()
+    extent = float(np.nanmax(box[1, [ax0, ax1]] - box[0, [ax0, ax1]])) or 1.0
+    segs, rows = moves_to_segments(moves, tol_mm=extent * 2e-4, view=view)
+    burning = moves.laser_on[rows]
+    rapid = moves.kind[rows] == MoveKind.RAPID
+    dark_feed = ~burning & ~rapid
+    if show_travel and rapid.any():
+        ax.add_collection(LineCollection(segs[rapid], colors="0.55", linewidths=0.7,
+                                         linestyles=(0, (3, 3)), label="rapid (G0)"))
+    if show_travel and dark_feed.any():
+        ax.add_collection(LineCollection(segs[dark_feed], colors="tab:cyan", linewidths=0.8,
+                                         alpha=0.8, label="feed, laser off"))
+    if burning.any():
+        power = 100.0 * moves.power_fraction()[rows[burning]]
+        lc = LineCollection(segs[burning], cmap=cmap, linewidths=linewidth, label="cut")
+        lc.set_array(power)
+        lc.set_clim(0.0, 100.0)
+        ax.add_collection(lc)
+        if colorbar:
+            ax.figure.colorbar(lc, ax=ax, label="laser power (% of full)", shrink=0.6, pad=0.02)
+    first = int(np.flatnonzero(moves.is_motion)[0])
+    ax.plot(*moves.start[first, [ax0, ax1]], "o", color="tab:green", ms=7, label="start", zorder=5)
+    ax.set_xlim(box[0, ax0] - 0.03 * extent, box[1, ax0] + 0.03 * extent)
+    ax.set_ylim(box[0, ax1] - 0.03 * extent, box[1, ax1] + 0.03 * extent)
+    ax.set_aspect("equal")
+    ax.set_xlabel(f"{'XYZ'[ax0]} (mm)")
+    ax.set_ylabel(f"{'XYZ'[ax1]} (mm)")
+    ax.legend(loc="upper right", fontsize="small")
+    if title is None and moves.source:
+        title = str(moves.source).rsplit("/", 1)[-1]
+    if title:
+        ax.set_title(title)
+    return ax
+
+
+def save_preview(moves: Moves, path, *, dpi: int = 120, **options) -> None:
+    """Draw :func:`plot_moves` into a PNG file (headless)."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 7))
+    plot_moves(moves, ax, **options)
+    fig.tight_layout()
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+
+
+def plot_arc_choice(start, end, radius, clockwise, ax=None):
+    """Draw both circles of radius |R| through start and end, and the arc G2/G3 R picks.
+
+    Parameters
+    ----------
+    start, end : (float, float)
+        mm.
+    radius : float
+        R in mm; negative asks for the arc over 180°.
+    clockwise : bool
+        G2 (True) or G3 (False).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
+    import matplotlib.pyplot as plt
+
+    from labkit.errors import GeometryError
+    from labkit.gcode.arcs import arc_angles, centre_from_radius, centres_from_radius
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6, 6))
+    p1 = np.asarray(start, dtype=float)
+    p2 = np.asarray(end, dtype=float)
+    word = "G2" if clockwise else "G3"
+    ax.plot(*zip(p1, p2), ":", color="0.5", lw=1)
+    ax.plot(*p1, "o", color="tab:green", ms=8, label="start P1")
+    ax.plot(*p2, "s", color="tab:red", ms=8, label="end P2")
+    try:
+        both = centres_from_radius(p1, p2, radius)
+    except GeometryError as exc:
+        ax.set_title(f"{word} R{radius:g}: {exc}", fontsize="small", color="tab:red")
+        ax.set_aspect("equal")
+        ax.legend(loc="upper right", fontsize="small")
+        return ax
+    chosen = centre_from_radius(p1, p2, radius, clockwise)
+    r = abs(radius)
+    t = np.linspace(0, 2 * math.pi, 361)
+    for k, c in enumerate(both):
+        ax.plot(c[0] + r * np.cos(t), c[1] + r * np.sin(t), "--", color="0.75", lw=1)
+        ax.plot(*c, "x", color="0.4", ms=9, mew=2, label="candidate centres" if k == 0 else None)
+    a0, sweep = arc_angles(p1, p2, chosen, clockwise)
+    ts = a0 + sweep * np.linspace(0, 1, 200)
+    ax.plot(chosen[0] + r * np.cos(ts), chosen[1] + r * np.sin(ts), color="tab:blue", lw=3,
+            label=f"{word} arc, sweep {math.degrees(abs(sweep)):.1f}°")
+    ax.plot(*chosen, "+", color="tab:blue", ms=14, mew=3, label="chosen centre")
+    mid = chosen + r * np.array([math.cos(a0 + sweep / 2), math.sin(a0 + sweep / 2)])
+    ax.annotate("", xy=mid + 0.08 * r * np.array([-math.sin(a0 + sweep / 2), math.cos(a0 + sweep / 2)])
+                * np.sign(sweep), xytext=mid, arrowprops=dict(arrowstyle="->", color="tab:blue", lw=2))
+    rule = "R > 0: the sweep under 180°" if radius > 0 else "R < 0: the sweep over 180°"
+    ax.set_title(f"{word} X{p2[0]:g} Y{p2[1]:g} R{radius:g}  —  {rule}", fontsize="medium")
+    ax.set_aspect("equal")
+    ax.set_xlabel("X (mm)")
+    ax.set_ylabel("Y (mm)")
+    ax.legend(loc="upper right", fontsize="small")
+    return ax
+
+
+def arc_explorer(start=(0.0, 0.0), end=(30.0, 10.0), radius=25.0):
+    """An ipywidgets panel: move the end point, change R, flip its sign, switch G2/G3.
+
+    Returns
+    -------
+    ipywidgets.VBox
+        Sliders for end X, end Y and |R|, toggles for the sign of R and the
+        direction, and the plot of :func:`plot_arc_choice`.
+    """
+    import ipywidgets as w
+    import matplotlib.pyplot as plt
+
+    end_x = w.FloatSlider(value=end[0], min=-40, max=40, step=0.5, description="end X (mm)")
+    end_y = w.FloatSlider(value=end[1], min=-40, max=40, step=0.5, description="end Y (mm)")
+    r_abs = w.FloatSlider(value=abs(radius), min=1, max=60, step=0.5, description="|R| (mm)")
+    sign = w.ToggleButtons(options=[("R > 0 (short arc)", 1), ("R < 0 (long arc)", -1)],
+                           value=1 if radius >= 0 else -1, description="sign")
+    direction = w.ToggleButtons(options=[("G2 (CW)", True), ("G3 (CCW)", False)], value=True,
+                                description="motion")
+    out = w.Output()
+
+    def redraw(*_):
+        with out:
+            out.clear_output(wait=True)
+            fig, ax = plt.subplots(figsize=(6, 6))
+            plot_arc_choice(start, (end_x.value, end_y.value), sign.value * r_abs.value,
+                            direction.value, ax=ax)
+            ax.set_xlim(-70, 70)
+            ax.set_ylim(-70, 70)
+            plt.show()
+
+    for widget in (end_x, end_y, r_abs, sign, direction):
+        widget.observe(redraw, names="value")
+    redraw()
+    return w.VBox([w.HBox([end_x, end_y, r_abs]), w.HBox([sign, direction]), out])

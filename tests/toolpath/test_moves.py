@@ -1,0 +1,87 @@
+"""The Moves model: construction, selection, lengths and boxes against dense samples."""
+
+import math
+
+import numpy as np
+import pytest
+
+from labkit.gcode import parse
+from labkit.gcode.arcs import moves_polylines
+from labkit.toolpath import LaserMode, MoveKind, Moves, MovesBuilder
+
+
+def test_from_cuts_joins_with_rapids_only_where_needed():
+    m = Moves.from_cuts([[0, 0], [2, 0], [5, 5]], [[2, 0], [3, 0], [6, 5]],
+                        feed_mm_min=[100, 200, 300], power_s=[1, 2, 3], origin=(0, 0, 0))
+    assert [MoveKind(k).name for k in m.kind] == ["LINE", "LINE", "RAPID", "LINE"]
+    np.testing.assert_array_equal(m.start[2], [3, 0, 0])
+    np.testing.assert_array_equal(m.end[2], [5, 5, 0])
+    assert m.feed_mm_min.tolist() == [100, 200, 300, 300]
+    assert m.laser_on.tolist() == [True, True, False, True]
+    assert m.lengths_mm().sum() == pytest.approx(2 + 1 + math.hypot(2, 5) + 1)
+
+
+def test_from_cuts_validates_shapes():
+    with pytest.raises(ValueError, match=r"shape \(n, 2\) or \(n, 3\)"):
+        Moves.from_cuts([0, 1], [1, 2], feed_mm_min=1, power_s=1)
+    with pytest.raises(ValueError, match="starts and ends differ in shape"):
+        Moves.from_cuts([[0, 0]], [[1, 1], [2, 2]], feed_mm_min=1, power_s=1)
+
+
+def test_columns_are_checked():
+    with pytest.raises(TypeError, match="unknown Moves column"):
+        Moves(kind=[0], speed=[1])
+    with pytest.raises(ValueError, match="column 'end' has shape"):
+        Moves(kind=[0, 1], end=[[1, 2, 3]])
+    with pytest.raises(TypeError, match="at least the 'kind' column"):
+        Moves(end=[[1, 2, 3]])
+
+
+def test_selection_concat_copy_equality():
+    m = parse("G0 X1\nG1 X2 F10\nG4 P1\nG1 X3")
+    assert len(m[1:3]) == 2 and m[-1].end[0, 0] == 3
+    assert len(m[m.is_feed]) == 2
+    both = Moves.concat([m, m])
+    assert len(both) == 8 and both == Moves.concat([m.copy(), m])
+    assert m != m[:3]
+    assert repr(m) == "<Moves n=4: rapid=1, line=2, dwell=1>"
+    assert Moves.concat([]) == Moves.empty()
+
+
+def test_memory_per_move_is_small():
+    m = parse("\n".join(f"G1 X{i} Y{i % 7} F1000 S{i % 1000}" for i in range(1000)))
+    assert m.nbytes / len(m) <= 150
+
+
+def test_lengths_and_bounds_match_dense_polylines():
+    m = parse("G0 X10\nG3 X-10 Y0 I-10 J0 F100\nG18 G2 X0 Z10 I10 K0\nG17 G2 X5 Y5 Z12 I5 J-0")
+    lengths = m.lengths_mm()
+    polylines = moves_polylines(m, tol_mm=1e-5)
+    for i, pts in enumerate(polylines):
+        dense = np.linalg.norm(np.diff(pts, axis=0), axis=1).sum() if len(pts) > 1 else 0.0
+        assert lengths[i] == pytest.approx(dense, rel=1e-6)
+    allpts = np.vstack(polylines)
+    # Polyline vertices may fall short of an arc extreme by up to the chord tolerance.
+    np.testing.assert_allclose(m.bounds(), [allpts.min(axis=0), allpts.max(axis=0)], atol=1.1e-5)
+
+
+def test_power_in_mw_and_dataframe():
+    m = parse("M3 S500\nG1 X1 F100\nG0 X0\nM4 S1000\nG1 X2")
+    np.testing.assert_allclose(m.power_mw(2500), [1250, 0, 2500])
+    df = m.to_dataframe()
+    assert list(df["kind"]) == ["LINE", "RAPID", "LINE"]
+    assert df["laser_on"].tolist() == [True, False, True]
+    assert df["length_mm"].tolist() == [1, 1, 2]
+
+
+def test_builder_errors_and_records():
+    b = MovesBuilder()
+    with pytest.raises(ValueError, match="dwell must be >= 0 s"):
+        b.dwell(-1)
+    with pytest.raises(ValueError, match="plane must be 17, 18 or 19"):
+        b.set(plane=20)
+    b.record("pause", "M0")
+    m = b.build()
+    assert len(m) == 0 and m.records[0].kind == "pause"
+    assert Moves.empty().bounds().shape == (2, 3)
+    assert MovesBuilder(laser=LaserMode.DYNAMIC).laser == LaserMode.DYNAMIC
