@@ -90,3 +90,55 @@ def spiral_walk(mask):
         ns += 1
         offsets[ns] = nv
     return vr[:nv], vc[:nv], offsets[:ns + 1]
+
+
+@numba.njit(cache=True)
+def row_runs(mask, fill, line, first, stop):
+    """Runs of marked pixels along each row, row by row, left to right.
+
+    With ``fill`` False only counts them; otherwise writes (row, first
+    column, column after the last) of run k into ``line[k], first[k], stop[k]``.
+    """
+    n_rows, n_cols = mask.shape
+    k = 0
+    for r in range(n_rows):
+        c = 0
+        while c < n_cols:
+            if not mask[r, c]:
+                c += 1
+                continue
+            c0 = c
+            while c < n_cols and mask[r, c]:
+                c += 1
+            if fill:
+                line[k] = r
+                first[k] = c0
+                stop[k] = c
+            k += 1
+    return k
+
+
+@numba.njit(cache=True)
+def column_runs(mask, fill, line, first, stop):
+    """Runs along each column, found in one row-major pass (cache friendly).
+
+    A run is recorded when it closes, so the output is ordered by its last
+    row; the caller sorts it by column. Same output convention as
+    :func:`row_runs` with ``line`` the column and ``first``/``stop`` rows.
+    """
+    n_rows, n_cols = mask.shape
+    open_since = np.full(n_cols, -1, dtype=np.int64)
+    k = 0
+    for r in range(n_rows + 1):
+        for c in range(n_cols):
+            on = r < n_rows and mask[r, c]
+            if on and open_since[c] < 0:
+                open_since[c] = r
+            elif not on and open_since[c] >= 0:
+                if fill:
+                    line[k] = c
+                    first[k] = open_since[c]
+                    stop[k] = r
+                k += 1
+                open_since[c] = -1
+    return k

@@ -145,15 +145,17 @@ def choose_axis(shape) -> str:
     return "rows" if shape[0] < shape[1] else "columns"
 
 
-def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(line, first, stop) of every run of True along axis 1, in row-major order."""
-    lines, length = mask.shape
-    padded = np.zeros((lines, length + 2), dtype=np.int8)
-    padded[:, 1:-1] = mask
-    step = np.diff(padded, axis=1)
-    line, first = np.nonzero(step == 1)
-    _, stop = np.nonzero(step == -1)
-    return line.astype(np.int64), first.astype(np.int64), stop.astype(np.int64)
+def _runs(mask: np.ndarray, columns: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(line, first, stop) of every run of marked pixels, line by line, along the line."""
+    kernel = _walk.column_runs if columns else _walk.row_runs
+    empty = np.zeros(0, np.int64)
+    n = kernel(mask, False, empty, empty, empty)
+    line, first, stop = (np.empty(n, np.int64) for _ in range(3))
+    kernel(mask, True, line, first, stop)
+    if columns:
+        order = np.lexsort((first, line))
+        line, first, stop = line[order], first[order], stop[order]
+    return line, first, stop
 
 
 def zigzag_segments(mask, *, axis: str = "auto", direction: str = "bidirectional",
@@ -203,11 +205,11 @@ def zigzag_segments(mask, *, axis: str = "auto", direction: str = "bidirectional
     rows = m.shape[0]
     inset = 1 if ends == "centre" else 0
     if axis == "rows":
-        line, first, stop = _runs(m)
+        line, first, stop = _runs(m, columns=False)
         y = 2 * (rows - line) - 1
         pts = np.stack([2 * first + inset, y, 2 * stop - inset, y], axis=1)
     else:
-        line, first, stop = _runs(m.T)      # line = column, first/stop = rows (top → bottom)
+        line, first, stop = _runs(m, columns=True)   # line = column, first/stop = rows (top → bottom)
         x = 2 * line + 1
         pts = np.stack([x, 2 * (rows - stop) + inset, x, 2 * (rows - first) - inset], axis=1)
     n = len(line)
