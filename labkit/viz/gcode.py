@@ -14,8 +14,10 @@ import numpy as np
 
 from labkit.geometry.circle import chord_segments
 from labkit.toolpath.moves import PLANE_AXES, MoveKind, Moves
+from labkit.viz._widgets import show
 
-__all__ = ["plot_moves", "moves_to_segments", "plot_arc_choice", "arc_explorer", "save_preview"]
+__all__ = ["plot_moves", "moves_to_segments", "plot_arc_choice", "arc_explorer", "gcode_playground",
+           "save_preview"]
 
 _PLANE_VIEW = {"xy": (0, 1), "xz": (0, 2), "yz": (1, 2)}
 
@@ -219,16 +221,48 @@ def arc_explorer(start=(0.0, 0.0), end=(30.0, 10.0), radius=25.0):
     out = w.Output()
 
     def redraw(*_):
-        with out:
-            out.clear_output(wait=True)
-            fig, ax = plt.subplots(figsize=(6, 6))
-            plot_arc_choice(start, (end_x.value, end_y.value), sign.value * r_abs.value,
-                            direction.value, ax=ax)
-            ax.set_xlim(-70, 70)
-            ax.set_ylim(-70, 70)
-            plt.show()
+        fig, ax = plt.subplots(figsize=(6, 6))
+        plot_arc_choice(start, (end_x.value, end_y.value), sign.value * r_abs.value,
+                        direction.value, ax=ax)
+        ax.set_xlim(-70, 70)
+        ax.set_ylim(-70, 70)
+        show(out, figure=fig)
 
     for widget in (end_x, end_y, r_abs, sign, direction):
         widget.observe(redraw, names="value")
     redraw()
     return w.VBox([w.HBox([end_x, end_y, r_abs]), w.HBox([sign, direction]), out])
+
+
+def gcode_playground(text: str = "G21 G90\nM3 S600\nG0 X10 Y10\nG1 X40 F1200\nG2 X40 Y40 I0 J15\n"
+                     "G1 X10\nG3 X10 Y10 R15\nM5\n", dialect: str = "grbl"):
+    """An ipywidgets panel: edit G-code, see its diagnostics, summary and preview as you type.
+
+    Returns
+    -------
+    ipywidgets.VBox
+    """
+    import ipywidgets as w
+    import matplotlib.pyplot as plt
+
+    from labkit.gcode import parse
+    from labkit.gcode.dialects import DIALECTS
+    from labkit.gcode.simulate import summarize
+
+    editor = w.Textarea(value=text, layout=w.Layout(width="420px", height="260px"))
+    choose = w.Dropdown(options=list(DIALECTS), value=dialect, description="dialect")
+    report = w.Output(layout=w.Layout(width="420px"))
+    picture = w.Output()
+
+    def redraw(*_):
+        moves = parse(editor.value, dialect=choose.value, lenient=True)
+        lines = [err.format() for err in moves.diagnostics] or ["no errors"]
+        show(report, text="\n".join(lines + [summarize(moves).format()]))
+        fig, ax = plt.subplots(figsize=(5, 4.5))
+        plot_moves(moves, ax, colorbar=False, title="preview")
+        show(picture, figure=fig)
+
+    editor.observe(redraw, names="value")
+    choose.observe(redraw, names="value")
+    redraw()
+    return w.VBox([w.HBox([w.VBox([choose, editor, report]), picture])])
