@@ -5,6 +5,11 @@ filters     3×3 blur and sharpen
 edges       SXOR, Roberts, Sobel, Prewitt (kernel and pseudo-convolution); Canny to compare
 resample    one pixel = one beam diameter, with the size error in mm
 islands     4-connected segmentation
+pathing     zig-zag runs, spiral corner walk, greedy segment connection (O(n²) and indexed)
+dither      error diffusion (Floyd–Steinberg, Atkinson, Jarvis–Judice–Ninke, Stucki)
+engrave     image → Moves for every mode, with the seed's report figures
+coverage    Moves → burned pixels (the independent check of every path)
+io          image files with their dpi
 """
 
 from labkit.raster.color import (GRAY_WEIGHTS, SEED_DEPTHS, adjust_gamma, depth_to_level, invert,
