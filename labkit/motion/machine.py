@@ -73,9 +73,8 @@ class Machine:
         Look-ahead depth: planner buffer (GRBL: 16) or super block size
         (seed 000's ``G5 P``), ≥ 1.
     laser_max_power_mw : float
-        Optical power at full duty, mW (seed 004: 2500 mW).
-    s_max : float
-        S word of full power (GRBL ``$30``: 1000).
+        Optical power at full duty, mW (seed 004: 2500 mW). The S word of
+        full power belongs to the program (``Moves.s_max``, set by the dialect).
     timer_clock_hz : int
         Step timer input clock, Hz (seed 004: 48 MHz).
     prescaler : int
@@ -109,7 +108,6 @@ class Machine:
     arc_tolerance_mm: float = 0.002
     buffer_blocks: int = 16
     laser_max_power_mw: float = 2500.0
-    s_max: float = 1000.0
     timer_clock_hz: int = 48_000_000
     prescaler: int = 0
     timer_bits: int = 16
@@ -140,7 +138,6 @@ class Machine:
             ("junction_deviation_mm", self.junction_deviation_mm > 0, "> 0 mm"),
             ("arc_tolerance_mm", self.arc_tolerance_mm > 0, "> 0 mm"),
             ("laser_max_power_mw", self.laser_max_power_mw > 0, "> 0 mW"),
-            ("s_max", self.s_max > 0, "> 0"),
             ("timer_clock_hz", self.timer_clock_hz >= 1, ">= 1 Hz"),
             ("prescaler", 0 <= self.prescaler < 2 ** 16, "in 0…65535"),
             ("timer_bits", self.timer_bits in (16, 32), "16 or 32"),
@@ -155,7 +152,7 @@ class Machine:
             raise MotionError(f"machine {self.name!r}: start_rate_hz ({self.start_rate_hz} Hz) "
                               f"exceeds the fastest axis step rate ({top} Hz)")
         # The slowest step rate must fit the period register (see labkit.motion.timer).
-        longest = self.timer_clock_hz // (self.start_rate_hz * (self.prescaler + 1)) - 1
+        longest = -(-self.timer_clock_hz // (self.start_rate_hz * (self.prescaler + 1))) - 1
         if longest > 2 ** self.timer_bits - 1:
             raise MotionError(
                 f"machine {self.name!r}: start_rate_hz {self.start_rate_hz} Hz needs a timer "

@@ -50,7 +50,6 @@ def test_scalars_broadcast_and_replace_validates():
     (dict(junction_deviation_mm=0.0), "junction_deviation_mm must be > 0 mm"),
     (dict(arc_tolerance_mm=-1.0), "arc_tolerance_mm must be > 0 mm"),
     (dict(laser_max_power_mw=0.0), "laser_max_power_mw must be > 0 mW"),
-    (dict(s_max=0.0), "s_max must be > 0"),
     (dict(timer_bits=8), "timer_bits must be 16 or 32"),
     (dict(step_pulse_us=0.0), "step_pulse_us must be > 0"),
     (dict(start_rate_hz=100_000), "start_rate_hz .* exceeds the fastest axis step rate"),

@@ -1,0 +1,49 @@
+"""Compiled kernels of :mod:`labkit.motion.lookahead`: grouping and the two passes."""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from labkit.motion._ramp import reach_nb
+
+
+@numba.njit(cache=True)
+def windowed_passes(length, up, down, jcap, jrest, window, law):
+    """Junction speeds (n + 1) of n blocks planned through a buffer of ``window`` blocks.
+
+    ``jcap[j]`` caps the speed at junction j (entry of block j; j = n is the
+    end), ``jrest[j]`` is the rest speed there. Block k's entry is fixed when
+    it starts running; its exit is the smaller of (a) the backward pass over
+    the blocks k+1 … k+window−1 from a stop at the end of the buffer and
+    (b) what accelerating from the entry over block k reaches (forward pass).
+    """
+    n = length.shape[0]
+    v = np.empty(n + 1)
+    v[0] = jcap[0]
+    for k in range(n):
+        j_end = min(k + window, n)
+        vb = jrest[j_end]
+        for j in range(j_end - 1, k, -1):
+            vb = min(jcap[j], reach_nb(vb, length[j], down[j], law))
+        v[k + 1] = min(vb, reach_nb(v[k], length[k], up[k], law))
+    return v
+
+
+@numba.njit(cache=True)
+def group_blocks(breaks, same_dir, max_size, need_same_dir):
+    """Super block id of each block: a new group starts at a break, when the group is
+    full, or (high quality) when the direction changes. ``breaks[k]`` / ``same_dir[k]``
+    describe the junction before block k."""
+    n = breaks.shape[0]
+    gid = np.empty(n, np.int64)
+    g = -1
+    size = 0
+    for k in range(n):
+        new = k == 0 or breaks[k] or size >= max_size or (need_same_dir and not same_dir[k])
+        if new:
+            g += 1
+            size = 0
+        gid[k] = g
+        size += 1
+    return gid
