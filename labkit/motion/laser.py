@@ -22,7 +22,7 @@ from labkit._array import scalar_or_array
 from labkit.errors import MotionError
 from labkit.toolpath.moves import LaserMode
 
-__all__ = ["power_ratio", "laser_power_mw", "dose_mj_per_mm"]
+__all__ = ["power_ratio", "laser_power_mw", "dose_mj_per_mm", "dose_uniformity"]
 
 
 def power_ratio(power_mw, speed):
@@ -105,3 +105,37 @@ def dose_mj_per_mm(power_mw, speed_mm_s):
     v = np.asarray(speed_mm_s, float)
     with np.errstate(divide="ignore", invalid="ignore"):
         return scalar_or_array(np.where(v > 0, np.asarray(power_mw, float) / v, np.nan))
+
+
+def dose_uniformity(dose_mj_per_mm, speed_mm_s=None, feed_mm_s=None) -> dict:
+    """How even a cut is: statistics of the dose sampled evenly along the burned path.
+
+    Parameters
+    ----------
+    dose_mj_per_mm : array
+        Dose samples at equal spacing along the path (e.g. from
+        :meth:`~labkit.motion.plan.Plan.burn_profile`).
+    speed_mm_s, feed_mm_s : array, optional
+        Speed and programmed speed at the same samples, for the slow fraction.
+
+    Returns
+    -------
+    dict
+        ``cv`` (standard deviation / mean), ``max_over_mean``, ``min_over_mean``
+        and, with speeds, ``slow_fraction``: the share of the burned length
+        run below 99 % of the programmed speed.
+
+    Examples
+    --------
+    >>> dose_uniformity([100.0, 100.0, 200.0, 100.0])["max_over_mean"]
+    1.6
+    """
+    d = np.asarray(dose_mj_per_mm, float)
+    if d.size == 0:
+        raise MotionError("no dose samples: nothing burns")
+    mean = float(d.mean())
+    out = {"cv": float(d.std() / mean), "max_over_mean": float(d.max() / mean),
+           "min_over_mean": float(d.min() / mean)}
+    if speed_mm_s is not None and feed_mm_s is not None:
+        out["slow_fraction"] = float(np.mean(np.asarray(speed_mm_s) < 0.99 * np.asarray(feed_mm_s)))
+    return out

@@ -18,6 +18,7 @@ from labkit.motion.blocks import BlockKind, Blocks, build_blocks
 from labkit.motion.laser import laser_power_mw
 from labkit.motion.lookahead import PLANNERS, Lookahead, lookahead
 from labkit.motion.machine import Machine, load_machine
+from labkit.motion import _ramp
 from labkit.motion.profile import RAMP_LAWS, Profiles, block_profiles
 from labkit.toolpath.moves import Moves
 
@@ -152,6 +153,42 @@ class Plan:
             "power_mw": self.blocks.power_mw, "laser": self.blocks.laser_mode,
             "start_s": self.block_start_s, "time_s": self.block_time_s,
         })
+
+    def burn_profile(self, step_mm: float = 0.01):
+        """Speed, power and dose along the burned path, sampled every ``step_mm`` of it.
+
+        Parameters
+        ----------
+        step_mm : float
+            Sample spacing along the burning blocks, mm (> 0); samples sit in
+            the middle of equal pieces of each block.
+
+        Returns
+        -------
+        dict of ndarray
+            ``distance_mm`` (along the burned path only), ``speed_mm_s``,
+            ``power_mw``, ``dose_mj_per_mm`` (power / speed), ``feed_mm_s``
+            (programmed) and ``block``.
+        """
+        if not step_mm > 0:
+            raise MotionError(f"step_mm must be > 0 mm, got {step_mm!r}")
+        b = self.blocks[self.motion]
+        on = np.flatnonzero(b.laser_on)
+        p = self.profiles
+        L = p.length_mm[on]
+        n = np.maximum(1, np.ceil(L / step_mm).astype(np.int64))
+        j = np.repeat(on, n)
+        k = np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)
+        s = (k + 0.5) * p.length_mm[j] / np.repeat(n, n)
+        law = RAMP_LAWS[self.law]
+        v = np.minimum(np.minimum(_ramp.reach(p.entry_mm_s[j], s, p.up[j], law), p.peak_mm_s[j]),
+                       _ramp.reach(p.exit_mm_s[j], p.length_mm[j] - s, p.down[j], law))
+        power = np.asarray(laser_power_mw(v, mode=b.laser_mode[j], power_mw=b.power_mw[j],
+                                          feed_mm_s=b.feed_mm_s[j],
+                                          max_power_mw=self.machine.laser_max_power_mw))
+        start = np.concatenate([[0.0], np.cumsum(L)[:-1]])
+        return {"distance_mm": np.repeat(start, n) + s, "speed_mm_s": v, "power_mw": power,
+                "dose_mj_per_mm": power / v, "feed_mm_s": b.feed_mm_s[j], "block": self.motion[j]}
 
     def sample(self, n: int = 2000):
         """Sample the motion uniformly in time for plots.
