@@ -102,7 +102,7 @@ def add_steps_arguments(parser):
     _add_common(parser)
     parser.add_argument("-o", "--output", required=True, metavar="OUT.csv",
                         help="CSV: time_s, cycle, block, line, x, y, z (-1/0/+1 steps), "
-                             "dir (bit i: axis i negative), period (timer register)")
+                             "dir (bit i: axis i negative), period (timer register), power_mw")
 
 
 def run_steps(args) -> int:

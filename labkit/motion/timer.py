@@ -35,6 +35,11 @@ cycles, and the step pulse of tick k fires at its end. A dwell lasts
 round(dwell_s · Timer_clk) cycles. Times are kept as integer clock cycles
 from the start of the job.
 
+The laser follows the same ticks (seed 004 §IV, ratio = power / speed with
+the speed as a step rate): with f_feed = floor(feed · N / L) the programmed
+rate, an M4 block burns min(P_max, P · f_k / f_feed) mW during tick k, an M3
+block P, a dark block 0 (IEEE double: one multiply and one divide).
+
 Because every tick runs at the rate of its start, the step-timed job is a
 little slower than the continuous profiles (:attr:`Plan.job_time_s`): about
 half a tick at the start rate per ramp from or to rest.
@@ -53,7 +58,7 @@ from labkit.motion.bresenham import arc_points, lines_points
 from labkit.toolpath.moves import PLANE_AXES
 
 __all__ = ["timer_period", "tick_cycles", "StepBlocks", "step_blocks", "tick_rates",
-           "block_periods", "block_points", "StepTrace", "step_trace", "iter_step_chunks", "isqrt"]
+           "block_periods", "block_points", "tick_power_mw", "StepTrace", "step_trace", "iter_step_chunks", "isqrt"]
 
 
 def timer_period(freq_hz, *, timer_clock_hz: int = 48_000_000, prescaler: int = 0):
@@ -131,6 +136,13 @@ class StepBlocks:
         Slopes: Hz per step (linear) or steps/s² (accel).
     dwell_cycles : int64
         Timer clock cycles of a dwell (0 for motion).
+    f_feed : int64
+        Programmed driver rate, Hz (0 for rapids and dwells): the seed's
+        power/speed ratio is ``power_mw / f_feed``.
+    laser : int64
+        0 off, 3 M3, 4 M4.
+    power_mw : float64
+        Programmed power, mW.
     """
 
     law: str
@@ -143,14 +155,20 @@ class StepBlocks:
     up: np.ndarray
     down: np.ndarray
     dwell_cycles: np.ndarray
+    f_feed: np.ndarray
+    laser: np.ndarray
+    power_mw: np.ndarray
 
     def __len__(self) -> int:
         return len(self.block)
 
     def row(self, i: int) -> dict:
         """Row ``i`` as a dict of Python ints (and the law)."""
-        return {f.name: (getattr(self, f.name) if f.name == "law" else int(getattr(self, f.name)[i]))
-                for f in fields(self)}
+        out = {}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            out[f.name] = v if f.name == "law" else (float(v[i]) if f.name == "power_mw" else int(v[i]))
+        return out
 
 
 def step_blocks(plan) -> StepBlocks:
@@ -190,8 +208,13 @@ def step_blocks(plan) -> StepBlocks:
     ticks = np.where(blocks.is_motion, blocks.ticks, 0).astype(np.int64)
     dwell = np.where(blocks.kind == BlockKind.DWELL,
                      np.floor(blocks.dwell_s * m.timer_clock_hz + 0.5), 0).astype(np.int64)
+    f_feed = z.copy()
+    feed = np.where(np.isfinite(b.feed_mm_s), b.feed_mm_s, 0.0)
+    f_feed[mot] = np.floor(feed * scale + 1e-9).astype(np.int64)
     return StepBlocks(law=plan.law, block=np.arange(n, dtype=np.int64), ticks=ticks, f_entry=f_e,
-                      f_peak=f_p, f_exit=f_x, f_min=f_min, up=up, down=down, dwell_cycles=dwell)
+                      f_peak=f_p, f_exit=f_x, f_min=f_min, up=up, down=down, dwell_cycles=dwell,
+                      f_feed=f_feed, laser=blocks.laser_mode.astype(np.int64),
+                      power_mw=blocks.power_mw.astype(float))
 
 
 def tick_rates(ticks, f_entry, f_peak, f_exit, f_min, up, down, law="linear"):
@@ -215,6 +238,21 @@ def tick_rates(ticks, f_entry, f_peak, f_exit, f_min, up, down, law="linear"):
         rise = isqrt(f_entry * f_entry + 2 * up * k)
         fall = isqrt(f_exit * f_exit + 2 * down * back)
     return np.maximum(f_min, np.minimum(np.minimum(rise, f_peak), fall))
+
+
+def tick_power_mw(row: dict, rates, *, max_power_mw: float) -> np.ndarray:
+    """Laser power (mW) during each tick of a :class:`StepBlocks` row at step rates ``rates``.
+
+    >>> row = {"laser": 4, "power_mw": 1000.0, "f_feed": 1000}
+    >>> tick_power_mw(row, np.array([500, 1000, 4000]), max_power_mw=2500.0).tolist()
+    [500.0, 1000.0, 2500.0]
+    """
+    rates = np.asarray(rates)
+    if row["laser"] == 4 and row["f_feed"] > 0:
+        return np.minimum(max_power_mw, row["power_mw"] * rates / row["f_feed"])
+    if row["laser"] == 3:
+        return np.full(len(rates), min(row["power_mw"], max_power_mw))
+    return np.zeros(len(rates))
 
 
 def block_periods(row: dict, *, timer_clock_hz: int, prescaler: int) -> np.ndarray:
@@ -241,6 +279,8 @@ class StepTrace:
         −1, 0, +1 per axis.
     period : int64
         Period register of the tick.
+    power_mw : float64
+        Laser power during the tick.
     """
 
     cycle: np.ndarray
@@ -249,6 +289,7 @@ class StepTrace:
     line: np.ndarray
     step: np.ndarray
     period: np.ndarray
+    power_mw: np.ndarray
 
     def __len__(self) -> int:
         return len(self.cycle)
@@ -259,12 +300,13 @@ class StepTrace:
         return ((self.step < 0).astype(np.int64) << np.arange(3)).sum(axis=1)
 
     def to_dataframe(self):
-        """Columns ``time_s, cycle, block, line, x, y, z, dir, period``."""
+        """Columns ``time_s, cycle, block, line, x, y, z, dir, period, power_mw``."""
         import pandas as pd
 
         return pd.DataFrame({"time_s": self.time_s, "cycle": self.cycle, "block": self.block,
                              "line": self.line, "x": self.step[:, 0], "y": self.step[:, 1],
-                             "z": self.step[:, 2], "dir": self.dir_bits, "period": self.period})
+                             "z": self.step[:, 2], "dir": self.dir_bits, "period": self.period,
+                             "power_mw": self.power_mw})
 
 
 def iter_step_chunks(plan, *, max_ticks: int = 1_000_000):
@@ -282,11 +324,15 @@ def iter_step_chunks(plan, *, max_ticks: int = 1_000_000):
             clock += row["dwell_cycles"]
             continue
         pts = block_points(blocks, i, spm)
-        per = block_periods(row, timer_clock_hz=m.timer_clock_hz, prescaler=m.prescaler)
+        rates = tick_rates(row["ticks"], row["f_entry"], row["f_peak"], row["f_exit"], row["f_min"],
+                           row["up"], row["down"], row["law"])
+        per = np.asarray(timer_period(rates, timer_clock_hz=m.timer_clock_hz, prescaler=m.prescaler),
+                         dtype=np.int64)
         cyc = clock + np.cumsum((per + 1) * (m.prescaler + 1))
         clock = int(cyc[-1])
         parts.append((cyc, np.full(len(per), i), np.full(len(per), blocks.line[i]),
-                      np.diff(pts, axis=0).astype(np.int8), per))
+                      np.diff(pts, axis=0).astype(np.int8), per,
+                      tick_power_mw(row, rates, max_power_mw=m.laser_max_power_mw)))
         size += len(per)
         if size >= max_ticks:
             yield _join(parts, m.timer_clock_hz)
@@ -298,10 +344,12 @@ def iter_step_chunks(plan, *, max_ticks: int = 1_000_000):
 def _join(parts, clock_hz) -> StepTrace:
     if not parts:
         e = np.zeros(0, np.int64)
-        return StepTrace(e, e.astype(float), e, e.astype(np.int32), np.zeros((0, 3), np.int8), e)
-    cyc, blk, line, step, per = (np.concatenate(x) for x in zip(*parts))
+        return StepTrace(e, e.astype(float), e, e.astype(np.int32), np.zeros((0, 3), np.int8), e,
+                         e.astype(float))
+    cyc, blk, line, step, per, pw = (np.concatenate(x) for x in zip(*parts))
     return StepTrace(cycle=cyc.astype(np.int64), time_s=cyc / clock_hz, block=blk.astype(np.int64),
-                     line=line.astype(np.int32), step=step, period=per.astype(np.int64))
+                     line=line.astype(np.int32), step=step, period=per.astype(np.int64),
+                     power_mw=pw.astype(float))
 
 
 def step_trace(plan) -> StepTrace:
