@@ -18,8 +18,9 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 ## make lab: set up (first time) and open JupyterLab on the index notebook.
+ROOT_ARGS := $(if $(filter 0,$(shell id -u 2>/dev/null)),--allow-root,)
 lab: $(STAMP)
-	$(VENV)/bin/jupyter lab notebooks/00-index.ipynb $(LAB_ARGS)
+	$(VENV)/bin/jupyter lab notebooks/00-index.ipynb $(ROOT_ARGS) $(LAB_ARGS)
 
 ## make test: set up (first time), then unit tests, doctests, notebooks (nbval) and the browser test.
 test: $(STAMP) browser-deps
