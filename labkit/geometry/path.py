@@ -1,0 +1,326 @@
+"""The Path model: one chain of line and circular-arc segments in millimetres.
+
+A :class:`Path` holds numpy columns, one row per segment:
+
+===========  =============  ==================================================
+column       shape          meaning
+===========  =============  ==================================================
+vertices     (n + 1, 2)     segment end points in order, mm (segment i runs
+                            from ``vertices[i]`` to ``vertices[i + 1]``)
+centres      (n, 2)         arc centre in mm; NaN for straight segments
+sweeps       (n,)           signed arc sweep, rad (CCW > 0, CW < 0); 0 for lines
+===========  =============  ==================================================
+
+A closed path ends where it starts. An arc never sweeps a full turn (a circle
+is two arcs), so an arc's end differs from its start. Everything that came
+from a curve carries ``deviation_mm``: the largest distance, measured by the
+converter, between this path and the curve it stands for.
+
+The attributes ``layer``, ``stroke``, ``fill`` and ``fill_rule`` travel with
+the geometry so that per-layer power and speed (seed 003's settings per
+operation) and fill rules survive import, ordering and offsetting.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Iterable, Sequence
+
+import numpy as np
+
+from labkit.errors import GeometryError
+from labkit.geometry.circle import arc_bounds, chord_segments
+from labkit.geometry import transform as _tf
+
+__all__ = ["Path", "total_length", "paths_bounds", "count_segments", "max_deviation"]
+
+_META = ("layer", "stroke", "fill", "fill_rule", "source")
+
+
+class Path:
+    """A chain of lines and circular arcs in mm (see the module docstring).
+
+    Parameters
+    ----------
+    vertices : array_like, shape (n + 1, 2)
+        Segment end points, mm.
+    centres : array_like, shape (n, 2), optional
+        Arc centres (NaN rows are lines). Default: all lines.
+    sweeps : array_like, shape (n,), optional
+        Signed arc sweeps in rad (0 for lines). Required where a centre is given.
+    closed : bool
+        The path is a loop. If the last vertex differs from the first, a
+        closing line is added.
+    layer : str
+        Layer name (an SVG colour such as ``"#ff0000"`` or a DXF layer).
+    stroke, fill : str or None
+        Colours as ``#rrggbb`` (None = none).
+    fill_rule : {"evenodd", "nonzero"}
+        How :func:`labkit.geometry.hatch` decides the inside.
+    source : str
+        Where the path came from (element id, DXF handle…), for messages.
+    deviation_mm : float
+        Largest measured distance from the curve this path approximates.
+
+    Examples
+    --------
+    >>> p = Path.rectangle(0, 0, 20, 10)
+    >>> p.closed, p.n_segments, p.length_mm
+    (True, 4, 60.0)
+    >>> c = Path.circle((0, 0), 5)
+    >>> c.n_segments, round(c.length_mm, 6), c.bounds().tolist()
+    (2, 31.415927, [[-5.0, -5.0], [5.0, 5.0]])
+    """
+
+    __slots__ = ("vertices", "centres", "sweeps", "closed", "deviation_mm") + _META
+
+    def __init__(self, vertices, centres=None, sweeps=None, *, closed=False, layer="0",
+                 stroke=None, fill=None, fill_rule="evenodd", source="", deviation_mm=0.0):
+        v = np.array(vertices, dtype=float).reshape(-1, 2)
+        if len(v) < 2:
+            raise GeometryError(f"a path needs at least 2 vertices, got {len(v)} (source {source!r})")
+        n = len(v) - 1
+        if centres is None:
+            c = np.full((n, 2), np.nan)
+            s = np.zeros(n)
+        else:
+            c = np.array(centres, dtype=float).reshape(-1, 2)
+            s = np.zeros(n) if sweeps is None else np.array(sweeps, dtype=float).reshape(-1)
+            if c.shape != (n, 2) or s.shape != (n,):
+                raise GeometryError(f"centres must be ({n}, 2) and sweeps ({n},) for {n + 1} vertices, "
+                                    f"got {c.shape} and {s.shape}")
+        line = np.isnan(c[:, 0]) | (s == 0)
+        c[line] = np.nan
+        s[line] = 0.0
+        if np.any(np.abs(s) >= 2 * math.pi - 1e-12):
+            raise GeometryError("an arc segment must sweep less than a full turn; split circles in two")
+        if closed and not np.allclose(v[0], v[-1], rtol=0, atol=1e-9):
+            v = np.vstack([v, v[:1]])
+            c = np.vstack([c, [[np.nan, np.nan]]])
+            s = np.append(s, 0.0)
+        if fill_rule not in ("evenodd", "nonzero"):
+            raise GeometryError(f"fill_rule must be 'evenodd' or 'nonzero', got {fill_rule!r}")
+        self.vertices, self.centres, self.sweeps = v, c, s
+        self.closed = bool(closed)
+        self.layer, self.stroke, self.fill, self.fill_rule, self.source = (
+            str(layer), stroke, fill, fill_rule, source)
+        self.deviation_mm = float(deviation_mm)
+
+    # -- construction -----------------------------------------------------------------
+
+    @classmethod
+    def polyline(cls, points, *, closed=False, **meta) -> "Path":
+        """Straight segments through ``points`` (mm)."""
+        return cls(points, closed=closed, **meta)
+
+    @classmethod
+    def rectangle(cls, x, y, width, height, **meta) -> "Path":
+        """Closed axis-aligned rectangle with a corner at (x, y), mm."""
+        pts = [(x, y), (x + width, y), (x + width, y + height), (x, y + height), (x, y)]
+        return cls(pts, closed=True, **meta)
+
+    @classmethod
+    def arc(cls, centre, radius, start_rad, sweep_rad, **meta) -> "Path":
+        """One arc (split in two when it sweeps a full turn or more)."""
+        if not radius > 0:
+            raise GeometryError(f"arc radius must be > 0 mm, got {radius!r}")
+        if sweep_rad == 0:
+            raise GeometryError("arc sweep must be non-zero")
+        k = 1 if abs(sweep_rad) < 2 * math.pi - 1e-12 else 2
+        ang = start_rad + sweep_rad * np.linspace(0, 1, k + 1)
+        c = np.asarray(centre, dtype=float)
+        v = c + radius * np.stack([np.cos(ang), np.sin(ang)], axis=1)
+        closed = abs(abs(sweep_rad) - 2 * math.pi) < 1e-12
+        if closed:
+            v[-1] = v[0]
+        return cls(v, np.tile(c, (k, 1)), np.full(k, sweep_rad / k), closed=closed, **meta)
+
+    @classmethod
+    def circle(cls, centre, radius, *, ccw=True, **meta) -> "Path":
+        """Closed circle as two half-circle arcs, starting at angle 0."""
+        return cls.arc(centre, radius, 0.0, 2 * math.pi if ccw else -2 * math.pi, **meta)
+
+    def _meta(self) -> dict:
+        return {k: getattr(self, k) for k in _META}
+
+    def with_geometry(self, vertices, centres=None, sweeps=None, *, closed=None,
+                      deviation_mm=None) -> "Path":
+        """A new path with other geometry and the same layer, colours and source."""
+        return Path(vertices, centres, sweeps, closed=self.closed if closed is None else closed,
+                    deviation_mm=self.deviation_mm if deviation_mm is None else deviation_mm,
+                    **self._meta())
+
+    def copy(self) -> "Path":
+        return self.with_geometry(self.vertices.copy(), self.centres.copy(), self.sweeps.copy())
+
+    # -- queries ----------------------------------------------------------------------
+
+    @property
+    def n_segments(self) -> int:
+        return len(self.sweeps)
+
+    @property
+    def is_arc(self) -> np.ndarray:
+        """Mask of arc segments."""
+        return self.sweeps != 0
+
+    @property
+    def start(self) -> np.ndarray:
+        return self.vertices[0]
+
+    @property
+    def end(self) -> np.ndarray:
+        return self.vertices[-1]
+
+    def radii_mm(self) -> np.ndarray:
+        """Arc radius per segment in mm (NaN for lines)."""
+        return np.hypot(*(self.vertices[:-1] - self.centres).T)
+
+    def lengths_mm(self) -> np.ndarray:
+        """Length of each segment, mm (arcs along the arc)."""
+        chord = np.hypot(*np.diff(self.vertices, axis=0).T)
+        arc = self.is_arc
+        chord[arc] = np.abs(self.sweeps[arc]) * self.radii_mm()[arc]
+        return chord
+
+    @property
+    def length_mm(self) -> float:
+        """Total length in mm."""
+        return float(self.lengths_mm().sum())
+
+    def bounds(self) -> np.ndarray:
+        """``[[xmin, ymin], [xmax, ymax]]`` in mm, arcs included exactly."""
+        lo = self.vertices.min(axis=0)
+        hi = self.vertices.max(axis=0)
+        for i in np.flatnonzero(self.is_arc):
+            box = arc_bounds(self.vertices[i], self.vertices[i + 1], self.centres[i], self.sweeps[i])
+            lo, hi = np.minimum(lo, box[0]), np.maximum(hi, box[1])
+        return np.array([lo, hi])
+
+    def signed_area_mm2(self) -> float:
+        """Signed area of a closed path, mm² (CCW > 0), arcs' circular segments included."""
+        v = self.vertices
+        area = 0.5 * float(np.sum(v[:-1, 0] * v[1:, 1] - v[1:, 0] * v[:-1, 1]))
+        arc = self.is_arc
+        if arc.any():
+            r = self.radii_mm()[arc]
+            s = self.sweeps[arc]
+            area += float(np.sum(0.5 * r * r * (s - np.sin(s))))
+        return area
+
+    def sample(self, tol_mm=0.01) -> np.ndarray:
+        """A polyline (k, 2) through the path whose chords stay within ``tol_mm`` of the arcs."""
+        if not tol_mm > 0:
+            raise GeometryError(f"tol_mm must be > 0 mm, got {tol_mm!r}")
+        out = [self.vertices[:1]]
+        for i in range(self.n_segments):
+            if self.sweeps[i] == 0:
+                out.append(self.vertices[i + 1:i + 2])
+                continue
+            c = self.centres[i]
+            p0 = self.vertices[i] - c
+            r = math.hypot(*p0)
+            n = int(chord_segments(r, self.sweeps[i], tol_mm))
+            a = math.atan2(p0[1], p0[0]) + self.sweeps[i] * np.arange(1, n + 1) / n
+            pts = c + r * np.stack([np.cos(a), np.sin(a)], axis=1)
+            pts[-1] = self.vertices[i + 1]
+            out.append(pts)
+        return np.vstack(out)
+
+    # -- operations -------------------------------------------------------------------
+
+    def reversed(self) -> "Path":
+        """The same path run backwards (arcs change direction)."""
+        return self.with_geometry(self.vertices[::-1], self.centres[::-1], -self.sweeps[::-1])
+
+    def rolled(self, index: int) -> "Path":
+        """A closed path started at vertex ``index`` instead of vertex 0."""
+        if not self.closed:
+            raise GeometryError("only a closed path can start at another vertex")
+        n = self.n_segments
+        index %= n
+        if index == 0:
+            return self
+        seg = np.r_[index:n, 0:index]
+        v = np.vstack([self.vertices[seg], self.vertices[index:index + 1]])
+        return self.with_geometry(v, self.centres[seg], self.sweeps[seg])
+
+    def transformed(self, m, *, tol_mm=0.01) -> "Path":
+        """Apply an affine transform (3×3). Arcs stay arcs under a similarity.
+
+        Under any other transform an arc's image is an elliptical arc; it is
+        replaced by circular arcs from :func:`labkit.geometry.ellipse_to_arcs`
+        within ``tol_mm`` (never by a wrong circle).
+
+        Examples
+        --------
+        >>> from labkit.geometry import transform as tf
+        >>> c = Path.circle((0, 0), 10).transformed(tf.scale(2, 1), tol_mm=0.01)
+        >>> c.bounds().round(6).tolist(), c.deviation_mm <= 0.01, c.n_segments > 2
+        ([[-20.0, -10.0], [20.0, 10.0]], True, True)
+        """
+        m = np.asarray(m, dtype=float)
+        v = _tf.apply(m, self.vertices)
+        if not self.is_arc.any():
+            return self.with_geometry(v)
+        mirror = np.linalg.det(m[:2, :2]) < 0
+        if _tf.is_similarity(m):
+            c = _tf.apply(m, self.centres)
+            return self.with_geometry(v, c, -self.sweeps if mirror else self.sweeps)
+        from labkit.geometry.ellipse import ellipse_arc_to_arcs
+
+        a = m[:2, :2]
+        pieces_v, pieces_c, pieces_s = [v[:1]], [], []
+        dev = self.deviation_mm
+        for i in range(self.n_segments):
+            if self.sweeps[i] == 0:
+                pieces_v.append(v[i + 1:i + 2])
+                pieces_c.append([[np.nan, np.nan]])
+                pieces_s.append([0.0])
+                continue
+            c0 = self.centres[i]
+            p0 = self.vertices[i] - c0
+            r = math.hypot(*p0)
+            t0 = math.atan2(p0[1], p0[0])
+            sub = ellipse_arc_to_arcs(_tf.apply(m, c0), a * r, t0, self.sweeps[i], tol_mm=tol_mm)
+            sub_v = sub.vertices.copy()
+            sub_v[0], sub_v[-1] = v[i], v[i + 1]
+            pieces_v.append(sub_v[1:])
+            pieces_c.append(sub.centres)
+            pieces_s.append(sub.sweeps)
+            dev = max(dev, self.deviation_mm + sub.deviation_mm)
+        return self.with_geometry(np.vstack(pieces_v), np.vstack(pieces_c), np.concatenate(pieces_s),
+                                  deviation_mm=dev)
+
+    def __repr__(self) -> str:
+        kind = "closed" if self.closed else "open"
+        return (f"<Path {kind} n={self.n_segments} arcs={int(self.is_arc.sum())} "
+                f"length={self.length_mm:.3f} mm layer={self.layer!r}>")
+
+
+def total_length(paths: Iterable[Path]) -> float:
+    """Sum of path lengths, mm."""
+    return float(sum(p.length_mm for p in paths))
+
+
+def count_segments(paths: Iterable[Path]) -> tuple[int, int]:
+    """(line segments, arc segments) over all paths."""
+    lines = arcs = 0
+    for p in paths:
+        a = int(p.is_arc.sum())
+        arcs += a
+        lines += p.n_segments - a
+    return lines, arcs
+
+
+def max_deviation(paths: Iterable[Path]) -> float:
+    """Largest ``deviation_mm`` over the paths (0 for none)."""
+    return max((p.deviation_mm for p in paths), default=0.0)
+
+
+def paths_bounds(paths: Sequence[Path]) -> np.ndarray:
+    """Box around all paths, ``[[xmin, ymin], [xmax, ymax]]`` mm (NaN when empty)."""
+    if not len(paths):
+        return np.full((2, 2), np.nan)
+    boxes = np.array([p.bounds() for p in paths])
+    return np.array([boxes[:, 0].min(axis=0), boxes[:, 1].max(axis=0)])

@@ -1,0 +1,55 @@
+"""Kerf offsets against exact offsets of simple shapes."""
+
+import math
+
+import numpy as np
+import pytest
+
+from labkit.errors import GeometryError
+from labkit.geometry import Path, hausdorff, offset_paths
+
+
+@pytest.mark.parametrize("d", [0.1, 1.5, -2.0])
+def test_circle_offsets_to_concentric_arcs(d):
+    [p] = offset_paths([Path.circle((3, 4), 10)], d, tol_mm=0.01)
+    assert p.is_arc.all() and p.n_segments == 2
+    assert hausdorff(p, Path.circle((3, 4), 10 + d)) <= 0.01
+
+
+def test_square_round_join_is_the_exact_rounded_square():
+    w, h, d = 20.0, 10.0, 1.5
+    [p] = offset_paths([Path.rectangle(0, 0, w, h)], d, tol_mm=0.005)
+    assert p.signed_area_mm2() == pytest.approx(w * h + 2 * d * (w + h) + math.pi * d * d, abs=0.05)
+    assert p.n_segments == 8 and int(p.is_arc.sum()) == 4
+    np.testing.assert_allclose(p.radii_mm()[p.is_arc], d, atol=0.005)
+
+
+def test_square_miter_and_inward():
+    [p] = offset_paths([Path.rectangle(0, 0, 20, 10)], 1.0, join="miter")
+    assert hausdorff(p, Path.rectangle(-1, -1, 22, 12)) <= 1e-9
+    [q] = offset_paths([Path.rectangle(0, 0, 20, 10)], -1.0)
+    assert hausdorff(q, Path.rectangle(1, 1, 18, 8)) <= 1e-9
+
+
+def test_hole_shrinks_when_part_grows():
+    part = Path.rectangle(0, 0, 40, 40)
+    hole = Path.circle((20, 20), 8)
+    out = offset_paths([part, hole], 0.5)
+    areas = sorted(p.signed_area_mm2() for p in out)
+    assert areas[0] == pytest.approx(-math.pi * 7.5**2, rel=1e-3)      # hole ring runs clockwise
+    assert areas[1] == pytest.approx(41 * 41 - (4 - math.pi) * 0.25, rel=1e-4)
+
+
+def test_vanishing_region_gives_nothing():
+    assert offset_paths([Path.circle((0, 0), 1)], -2) == []
+
+
+def test_errors():
+    with pytest.raises(GeometryError, match="closed paths"):
+        offset_paths([Path([(0, 0), (1, 0)])], 1)
+    with pytest.raises(GeometryError, match="join must be"):
+        offset_paths([Path.circle((0, 0), 1)], 1, join="square")
+    with pytest.raises(GeometryError, match="tol_mm must be > 0"):
+        offset_paths([Path.circle((0, 0), 1)], 1, tol_mm=0)
+    with pytest.raises(GeometryError, match="finite"):
+        offset_paths([Path.circle((0, 0), 1)], float("nan"))
