@@ -58,6 +58,36 @@ def line_walk(start, end):
 
 
 @numba.njit(cache=True)
+def lines_walk(starts, ends, offsets, out):
+    """Many Bresenham lines into one preallocated array: line j fills
+    ``out[offsets[j]:offsets[j + 1]]`` by the same integer-error walk as :func:`line_walk`."""
+    n_lines, d = starts.shape
+    delta = np.empty(d, np.int64)
+    sgn = np.empty(d, np.int64)
+    err = np.empty(d, np.int64)
+    pos = np.empty(d, np.int64)
+    for j in range(n_lines):
+        n = 0
+        for i in range(d):
+            delta[i] = abs(ends[j, i] - starts[j, i])
+            sgn[i] = 1 if ends[j, i] > starts[j, i] else -1
+            if delta[i] > n:
+                n = delta[i]
+        row = offsets[j]
+        for i in range(d):
+            err[i] = 2 * delta[i] - n
+            pos[i] = starts[j, i]
+            out[row, i] = pos[i]
+        for k in range(1, n + 1):
+            for i in range(d):
+                if err[i] >= 0:
+                    pos[i] += sgn[i]
+                    err[i] -= 2 * n
+                err[i] += 2 * delta[i]
+                out[row + k, i] = pos[i]
+
+
+@numba.njit(cache=True)
 def octant_ccw(X, Y):
     """CCW octant 0…7 of the relative point (X, Y): angle in [45k°, 45(k+1)°)."""
     if Y >= 0 and X > 0 and Y < X:

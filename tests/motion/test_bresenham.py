@@ -16,6 +16,7 @@ from labkit.motion.bresenham import (
     line_points,
     line_steps,
     lines_points,
+    lines_points_closed_form,
     steps_from_points,
 )
 
@@ -38,12 +39,14 @@ def test_100k_random_lines_match_skimage_line():
         assert np.array_equal(ours[:, 0], cc) and np.array_equal(ours[:, 1], rr), (starts[j], ends[j])
 
 
-def test_sequential_walk_equals_closed_form():
+def test_sequential_walk_batch_kernel_and_closed_form_agree():
     rng = np.random.default_rng(7)
     for dims in (2, 3):
         starts = rng.integers(-500, 500, (400, dims))
         ends = rng.integers(-500, 500, (400, dims))
         pts, off = lines_points(starts, ends)
+        closed, off2 = lines_points_closed_form(starts, ends)
+        assert np.array_equal(pts, closed) and np.array_equal(off, off2)
         for j in range(len(starts)):
             assert np.array_equal(line_points(starts[j], ends[j]), pts[off[j]:off[j + 1]])
 
