@@ -20,7 +20,8 @@ $(STAMP): pyproject.toml
 ## make lab: set up (first time) and open JupyterLab on the index notebook.
 ROOT_ARGS := $(if $(filter 0,$(shell id -u 2>/dev/null)),--allow-root,)
 lab: $(STAMP)
-	$(VENV)/bin/jupyter lab notebooks/00-index.ipynb $(ROOT_ARGS) $(LAB_ARGS)
+	$(VENV)/bin/jupyter lab --ServerApp.root_dir="$(CURDIR)" \
+		--LabApp.default_url=/lab/tree/notebooks/00-index.ipynb $(ROOT_ARGS) $(LAB_ARGS)
 
 ## make test: set up (first time), then unit tests, doctests, notebooks (nbval) and the browser test.
 test: $(STAMP) browser-deps

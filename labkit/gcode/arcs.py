@@ -204,7 +204,7 @@ def arc_polyline(start, end, centre, clockwise, *, plane=17, tol_mm=0.01):
     --------
     >>> pts = arc_polyline([1, 0, 0], [1, 0, 2], [0, 0, 0], False, tol_mm=0.01)   # one helix turn
     >>> len(pts), pts[len(pts) // 2].round(6).tolist()
-    (24, [-0.990686, -0.136167, 0.956522])
+    (24, [-0.990686, -0.136167, 1.043478])
     """
     start = np.asarray(start, dtype=float)
     end = np.asarray(end, dtype=float)

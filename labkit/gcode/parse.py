@@ -164,12 +164,7 @@ def parse(text, *, dialect: str | Dialect = "grbl", filename: str | None = None,
 
 
 def parse_file(path, *, dialect: str | Dialect = "grbl", lenient: bool = False) -> Moves:
-    """Read and :func:`parse` a G-code file (``moves.source`` is its path).
-
-    Examples
-    --------
-    >>> m = parse_file("data/gcode/cncjs/jsdc-laser.gcode")    # doctest: +SKIP
-    """
+    """Read and :func:`parse` a G-code file (``moves.source`` is its path, used in messages)."""
     path = os.fspath(path)
     with open(path, "rb") as fh:
         data = fh.read()

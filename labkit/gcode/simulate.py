@@ -53,7 +53,8 @@ def check_bounds(moves: Moves, envelope: Envelope, *, tol_mm: float = 1e-6) -> N
     """Raise :class:`~labkit.errors.BoundsError` at the first move that leaves ``envelope``.
 
     Arcs are checked along the arc (their extreme points), not only at
-    their ends. The error names the source line of the offending move.
+    their ends. The error names the source line of the offending move, and
+    quotes it when the moves came from a file.
 
     Examples
     --------
@@ -62,7 +63,7 @@ def check_bounds(moves: Moves, envelope: Envelope, *, tol_mm: float = 1e-6) -> N
     >>> check_bounds(m, Envelope.from_size(100, 15))
     Traceback (most recent call last):
     ...
-    labkit.errors.BoundsError: <string>:2:1: error 102: move leaves the machine envelope: Y reaches 20 mm, the limit is 15 mm (got 'G2 X30 Y10 I10 J0 F600'; expected 0 <= X <= 100, 0 <= Y <= 15)
+    labkit.errors.BoundsError: <string>:2:1: error 102: move leaves the machine envelope: Y reaches 20 mm, the limit is 15 mm (expected 0 <= X <= 100, 0 <= Y <= 15)
     """
     lo, hi = moves.extents()
     motion = moves.is_motion[:, None]
