@@ -335,8 +335,9 @@ def build_blocks(moves: Moves, machine: Machine | str | None = None, *,
     ------
     MotionError
         A feed move with no feed rate, a move that does not start where the
-        previous one ended, an arc on axes with different steps/mm, or a
-        helix whose linear axis needs more steps than the arc has ticks —
+        previous one ended, an arc whose end is off its circle (GRBL's
+        0.005 mm and 0.1 % rule), an arc on axes with different steps/mm, or
+        a helix whose linear axis needs more steps than the arc has ticks —
         each naming the source line.
 
     Examples
@@ -403,6 +404,10 @@ def build_blocks(moves: Moves, machine: Machine | str | None = None, *,
         sw = float(all_sweeps[i])
         r = float(all_radii[i])
         c = moves.centre[i]
+        r_end = math.hypot(moves.end[i, a0] - c[a0], moves.end[i, a1] - c[a1])
+        if abs(r_end - r) > 0.005 and abs(r_end - r) > 0.001 * r:
+            raise MotionError(f"move {i} (line {moves.line[i]}): arc radius {r:g} mm at the start but "
+                              f"{r_end:g} mm at the end (GRBL allows 0.005 mm and 0.1 %)")
         pts = arc_points(start_steps[i, [a0, a1]], end_steps[i, [a0, a1]], c[[a0, a1]] * spm[a0],
                          clockwise=moves.kind[i] == MoveKind.ARC_CW, radius=r * spm[a0], sweep_rad=sw)
         n_ticks = len(pts) - 1

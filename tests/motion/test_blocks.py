@@ -140,6 +140,10 @@ def test_build_errors_name_the_line():
     b.arc_ccw(x=0, y=0, z=50, i=0.01, j=0, line=3)        # tiny circle, tall helix
     with pytest.raises(MotionError, match=r"line 3.*helix rises"):
         build_blocks(b.build())
+    b = MovesBuilder(feed_mm_min=600)
+    b.arc_ccw(x=0, y=2, i=0, j=1.1, line=5)             # radius 1.1 at the start, 0.9 at the end
+    with pytest.raises(MotionError, match=r"line 5.*arc radius 1.1 mm at the start but 0.9 mm"):
+        build_blocks(b.build())
     with pytest.raises(MotionError, match="moves must be a labkit.toolpath.Moves"):
         build_blocks([1, 2, 3])
 
