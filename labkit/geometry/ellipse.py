@@ -279,7 +279,16 @@ def ellipse_arc_to_arcs(centre, jacobian, t0, dt, *, arcs_per_quadrant=None, tol
     full = abs(abs(dt) - 2 * math.pi) < 1e-9
     if not b > 1e-12 * max(a, 1.0):
         raise GeometryError(f"ellipse is degenerate (radii {a:.6g} and {b:.6g} mm): it has no area")
-    if arcs_per_quadrant is not None:
+    is_circle = arcs_per_quadrant is None and abs(a - b) <= 1e-9 * a
+    if is_circle:
+        # a circle: exact arcs, cut only so that none sweeps more than a half turn
+        k = max(1, math.ceil(abs(du) / math.pi - 1e-9))
+        ang = u0 + du * np.linspace(0, 1, k + 1)
+        verts = np.stack([a * np.cos(ang), a * np.sin(ang)], axis=1)
+        c = np.zeros((k, 2))
+        sweep = np.full(k, du / k)
+        dev = 0.0
+    elif arcs_per_quadrant is not None:
         if int(arcs_per_quadrant) < 1:
             raise GeometryError(f"arcs_per_quadrant must be >= 1, got {arcs_per_quadrant!r}")
         n = int(arcs_per_quadrant)
@@ -287,7 +296,9 @@ def ellipse_arc_to_arcs(centre, jacobian, t0, dt, *, arcs_per_quadrant=None, tol
         n = default_arcs_per_quadrant(a, b)
     else:
         n = 2
-    if method == "seed" and tol_mm is not None and arcs_per_quadrant is None:
+    if is_circle:
+        pass
+    elif method == "seed" and tol_mm is not None and arcs_per_quadrant is None:
         while True:     # the seed's scheme has no local refinement: raise the count
             verts, c, sweep, dev = _canonical_arcs(a, b, u0, du, n, method)
             if dev <= tol_mm or n >= _MAX_PER_QUADRANT:

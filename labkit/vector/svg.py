@@ -1,0 +1,381 @@
+"""SVG artwork → Paths in millimetres, through svgelements.
+
+svgelements parses the file (paths with every command, shapes, ``use``,
+nested transforms, viewBox, CSS units); labkit does the geometry. Each shape
+is read *untransformed* (``reify=False``): its segments in its own frame plus
+the full matrix that maps that frame to the page. The matrix then goes
+through :mod:`labkit.geometry` exactly:
+
+* lines and Bezier control points map exactly (Beziers are affine-invariant);
+* an elliptical arc's image is an ellipse whose radii and rotation come from
+  the SVD of the matrix's 2×2 part times the arc's own axes
+  (:func:`labkit.geometry.transform.ellipse_image`), then circular arcs within
+  the tolerance. svgelements' own ``reify()`` bakes arcs wrongly under skew or
+  non-uniform scale with rotation (errors of millimetres) — it is not used.
+
+Units: svgelements resolves lengths to user units (px at 96 per inch) and
+folds the viewBox into each shape's matrix; labkit scales px → mm
+(25.4/96; svgelements itself takes 1 mm as 3.7795296 px, 0.55 ppm more) and by default flips y so the drawing is upright on a machine
+whose y axis points away from the operator (``flip_y``).
+
+Text and images cannot be cut as vectors; they are skipped with a warning
+naming each one (convert text to paths in the drawing program first).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from labkit.errors import GeometryError
+from labkit.geometry import transform as tf
+from labkit.geometry.arcfit import cubics_to_arcs
+from labkit.geometry.bezier import flatten_cubics, quad_to_cubic
+from labkit.geometry.ellipse import ellipse_arc_to_arcs
+from labkit.geometry.path import Path
+
+__all__ = ["Drawing", "read_svg", "svg_reference_samples", "PX_PER_INCH", "MM_PER_PX"]
+
+PX_PER_INCH = 96.0
+MM_PER_PX = 25.4 / PX_PER_INCH
+
+
+@dataclass
+class Drawing:
+    """Paths read from a vector file.
+
+    Attributes
+    ----------
+    paths : list of Path
+        In document order, in mm.
+    width_mm, height_mm : float
+        Page size (NaN when the file gives none).
+    skipped : list of str
+        Elements that could not be converted (text, images, …), named.
+    source : str
+        File name or ``"<string>"``.
+    """
+
+    paths: list[Path]
+    width_mm: float = math.nan
+    height_mm: float = math.nan
+    skipped: list[str] = field(default_factory=list)
+    source: str = "<string>"
+
+    @property
+    def layers(self) -> list[str]:
+        """Layer names in first-seen order."""
+        return list(dict.fromkeys(p.layer for p in self.paths))
+
+
+def _load(source):
+    import io
+
+    import svgelements as se
+
+    if isinstance(source, (bytes, bytearray)):
+        stream, name = io.BytesIO(source), "<bytes>"
+    elif str(source).lstrip().startswith("<"):
+        stream, name = io.StringIO(str(source)), "<string>"
+    else:
+        name = os.fspath(source)
+        if not os.path.exists(name):
+            raise FileNotFoundError(f"SVG file not found: {name}")
+        stream = name
+    try:
+        return se.SVG.parse(stream, reify=False, ppi=PX_PER_INCH), name
+    except (ValueError, SyntaxError) as exc:       # svgelements: unresolvable units, bad XML
+        raise GeometryError(f"{name}: cannot read this SVG ({exc})") from None
+
+
+def _page_matrix(doc, flip_y):
+    h = float(doc.height) if doc.height is not None else 0.0
+    if flip_y:
+        return tf.matrix(MM_PER_PX, 0, 0, -MM_PER_PX, 0, h * MM_PER_PX)
+    return tf.scale(MM_PER_PX)
+
+
+def _element_matrix(el, page):
+    m = el.transform
+    return page @ tf.matrix(m.a, m.b, m.c, m.d, m.e, m.f)
+
+
+def _colour(value):
+    if value is None:
+        return None
+    try:
+        if value.value is None or value.alpha == 0:
+            return None
+        return value.hex[:7]
+    except AttributeError:
+        return None
+
+
+def _name(el, index):
+    ident = getattr(el, "id", None)
+    return f"{type(el).__name__.lower()}#{ident}" if ident else f"{type(el).__name__.lower()}[{index}]"
+
+
+class _Builder:
+    """Accumulates one subpath's segments as lines and arcs."""
+
+    def __init__(self, start, tol_mm, arcs, meta):
+        self.v = [np.asarray(start, float)]
+        self.c: list = []
+        self.s: list = []
+        self.cubics: list = []
+        self.tol, self.arcs, self.meta = tol_mm, arcs, meta
+        self.dev = 0.0
+
+    @property
+    def here(self):
+        return self.cubics[-1][3] if self.cubics else self.v[-1]
+
+    def _flush(self):
+        if not self.cubics:
+            return
+        ctrl = np.array(self.cubics)
+        self.cubics = []
+        start = self.v[-1]
+        if self.arcs:
+            p = cubics_to_arcs(ctrl, self.tol, start=start)
+            self._append(p)
+        else:
+            pts, _ = flatten_cubics(ctrl, self.tol)
+            pts[-1] = ctrl[-1, 3]
+            for q in pts:
+                self.line(q)
+            self.dev = max(self.dev, 0.0)
+
+    def _append(self, p: Path):
+        self.v.extend(p.vertices[1:])
+        self.c.extend(p.centres)
+        self.s.extend(p.sweeps)
+        self.dev = max(self.dev, p.deviation_mm)
+
+    def line(self, end):
+        self._flush()
+        end = np.asarray(end, float)
+        if np.array_equal(end, self.v[-1]):
+            return
+        self.v.append(end)
+        self.c.append((np.nan, np.nan))
+        self.s.append(0.0)
+
+    def cubic(self, ctrl):
+        ctrl = np.asarray(ctrl, float)
+        if np.ptp(ctrl, axis=0).max() == 0:
+            return
+        if not self.cubics:
+            ctrl[0] = self.v[-1]
+        self.cubics.append(ctrl)
+
+    def ellipse_arc(self, centre, jac, t0, dt, end):
+        self._flush()
+        if dt == 0:
+            return self.line(end)
+        budget = self.tol if self.arcs else 0.5 * self.tol
+        p = ellipse_arc_to_arcs(centre, jac, t0, dt, tol_mm=budget)
+        v = p.vertices.copy()
+        v[0], v[-1] = self.v[-1], end
+        p = p.with_geometry(v, p.centres, p.sweeps)
+        if not self.arcs:
+            for q in p.sample(0.5 * self.tol)[1:]:
+                self.line(q)
+            self.dev = max(self.dev, p.deviation_mm + 0.5 * self.tol)
+            return
+        self._append(p)
+
+    def finish(self, closed) -> Path | None:
+        self._flush()
+        if len(self.v) < 2:
+            return None
+        v = np.array(self.v)
+        if closed and not np.allclose(v[0], v[-1], rtol=0, atol=1e-9):
+            v = np.vstack([v, v[:1]])
+            self.c.append((np.nan, np.nan))
+            self.s.append(0.0)
+        elif closed:
+            v[-1] = v[0]
+        if len(v) == 2 and closed:
+            return None
+        return Path(v, np.array(self.c, float).reshape(-1, 2), np.array(self.s, float),
+                    closed=closed, deviation_mm=self.dev, **self.meta)
+
+
+def _shape_paths(el, m, tol_mm, arcs, meta) -> list[Path]:
+    import svgelements as se
+
+    out: list[Path] = []
+    b: _Builder | None = None
+    start = None
+    a2 = m[:2, :2]
+    P = lambda pt: tf.apply(m, [pt.x, pt.y])            # noqa: E731
+    for seg in el.segments(transformed=False):
+        if isinstance(seg, se.Move):
+            if b is not None:
+                p = b.finish(False)
+                if p is not None:
+                    out.append(p)
+            start = P(seg.end)
+            b = _Builder(start, tol_mm, arcs, meta)
+            continue
+        if b is None:             # a path that does not start with M (svgelements allows it)
+            start = P(seg.start)
+            b = _Builder(start, tol_mm, arcs, meta)
+        if isinstance(seg, se.Close):
+            p = b.finish(True)
+            if p is not None:
+                out.append(p)
+            b = _Builder(start, tol_mm, arcs, meta)
+        elif isinstance(seg, se.Line):
+            b.line(P(seg.end))
+        elif isinstance(seg, se.CubicBezier):
+            b.cubic(np.array([P(seg.start), P(seg.control1), P(seg.control2), P(seg.end)]))
+        elif isinstance(seg, se.QuadraticBezier):
+            b.cubic(quad_to_cubic(P(seg.start), P(seg.control), P(seg.end)))
+        elif isinstance(seg, se.Arc):
+            if seg.rx == 0 or seg.ry == 0:
+                b.line(P(seg.end))
+                continue
+            rot = seg.get_rotation()
+            rot = float(rot.as_radians) if hasattr(rot, "as_radians") else float(rot)
+            cr, sr = math.cos(rot), math.sin(rot)
+            jac = a2 @ np.array([[cr, -sr], [sr, cr]]) @ np.diag([seg.rx, seg.ry])
+            b.ellipse_arc(P(seg.center), jac, float(seg.get_start_t()), float(seg.sweep), P(seg.end))
+        else:  # pragma: no cover - svgelements has no other segment kinds
+            raise GeometryError(f"unknown SVG segment {type(seg).__name__} in {meta['source']}")
+    if b is not None:
+        p = b.finish(False)
+        if p is not None:
+            out.append(p)
+    return out
+
+
+def _iter_shapes(doc):
+    import svgelements as se
+
+    for index, el in enumerate(doc.elements()):
+        if isinstance(el, (se.SVGText, se.Text)):
+            yield index, el, "text"
+        elif isinstance(el, (se.SVGImage, se.Image)):
+            yield index, el, "image"
+        elif isinstance(el, se.Shape):
+            if el.values.get("visibility") in ("hidden", "collapse") or el.values.get("display") == "none":
+                continue
+            yield index, el, "shape"
+
+
+def read_svg(source, *, tol_mm=0.01, arcs=True, flip_y=True, warn=True) -> Drawing:
+    """Read an SVG file (or SVG text) into Paths in mm.
+
+    Parameters
+    ----------
+    source : str, path or bytes
+        File name, or the SVG document itself (text starting with ``<``).
+    tol_mm : float
+        Largest distance of any output path from the true curve, mm.
+    arcs : bool
+        Keep circular arcs (G2/G3) and fit arcs to Beziers; False gives
+        straight segments only (for controllers without arcs).
+    flip_y : bool
+        Mirror y so the drawing's top is at +y (SVG's y points down).
+    warn : bool
+        Issue a :class:`UserWarning` naming skipped text and images.
+
+    Returns
+    -------
+    Drawing
+        Paths in document order; each keeps its stroke and fill colour, its
+        layer (the stroke colour, else the fill colour), its fill rule and
+        its source element (``path#id`` or ``rect[12]``).
+
+    Examples
+    --------
+    >>> svg = '''<svg xmlns="http://www.w3.org/2000/svg" width="40mm" height="20mm"
+    ...   viewBox="0 0 40 20"><circle cx="10" cy="10" r="5" stroke="red" fill="none"/>
+    ...   <rect x="20" y="5" width="10" height="10" stroke="#0000ff" fill="none"/></svg>'''
+    >>> d = read_svg(svg)
+    >>> [(p.layer, p.closed, p.n_segments, int(p.is_arc.sum())) for p in d.paths]
+    [('#ff0000', True, 4, 4), ('#0000ff', True, 4, 0)]
+    >>> d.paths[0].bounds().round(9).tolist(), round(d.height_mm, 9)
+    ([[5.0, 5.0], [15.0, 15.0]], 20.0)
+    """
+    if not tol_mm > 0:
+        raise GeometryError(f"tol_mm must be > 0 mm, got {tol_mm!r}")
+    doc, name = _load(source)
+    page = _page_matrix(doc, flip_y)
+    paths: list[Path] = []
+    skipped: list[str] = []
+    for index, el, kind in _iter_shapes(doc):
+        label = _name(el, index)
+        if kind != "shape":
+            skipped.append(label)
+            continue
+        stroke, fill = _colour(el.stroke), _colour(el.fill)
+        rule = str(el.values.get("fill-rule", "nonzero")).strip().lower()
+        meta = dict(layer=stroke or fill or "none", stroke=stroke, fill=fill,
+                    fill_rule="evenodd" if rule == "evenodd" else "nonzero", source=label)
+        m = _element_matrix(el, page)
+        try:
+            paths += _shape_paths(el, m, tol_mm, arcs, meta)
+        except GeometryError:
+            raise
+        except ValueError as exc:                  # svgelements resolves some units lazily
+            raise GeometryError(f"{name}: cannot read this SVG ({exc}) at {label}") from None
+    if skipped and warn:
+        warnings.warn(f"{name}: skipped {len(skipped)} element(s) that are not vector shapes "
+                      f"(convert text to paths first): {', '.join(skipped)}", stacklevel=2)
+    width = float(doc.width) * MM_PER_PX if doc.width is not None else math.nan
+    height = float(doc.height) * MM_PER_PX if doc.height is not None else math.nan
+    return Drawing(paths, width, height, skipped, name)
+
+
+def svg_reference_samples(source, *, per_segment=2000, flip_y=True) -> dict[str, list[np.ndarray]]:
+    """Dense true samples of every shape, for checking conversions.
+
+    Each segment is sampled by svgelements (``npoint``) in the element's own
+    frame and mapped to mm by the element's exact matrix — the independent
+    reference the tests and the benchmark measure Hausdorff distances against.
+
+    Returns
+    -------
+    dict
+        Element label (as in ``Path.source``) → list of polylines (k, 2) in mm,
+        one per subpath.
+    """
+    import svgelements as se
+
+    doc, _ = _load(source)
+    page = _page_matrix(doc, flip_y)
+    out: dict[str, list[np.ndarray]] = {}
+    t = np.linspace(0.0, 1.0, per_segment)
+    for index, el, kind in _iter_shapes(doc):
+        if kind != "shape":
+            continue
+        m = _element_matrix(el, page)
+        polys, cur = [], []
+        for seg in el.segments(transformed=False):
+            if isinstance(seg, se.Move):
+                if len(cur) > 1:
+                    polys.append(np.vstack(cur))
+                cur = [tf.apply(m, [[seg.end.x, seg.end.y]])]
+                continue
+            if seg.start is None or seg.end is None:
+                continue
+            if isinstance(seg, se.Close):
+                pts = np.array([[seg.start.x, seg.start.y], [seg.end.x, seg.end.y]])
+            elif isinstance(seg, se.Line):
+                pts = np.array([[seg.start.x, seg.start.y], [seg.end.x, seg.end.y]])
+            else:
+                pts = np.asarray(seg.npoint(t), dtype=float)
+            cur.append(tf.apply(m, pts))
+        if len(cur) > 1:
+            polys.append(np.vstack(cur))
+        if polys:
+            out[_name(el, index)] = polys
+    return out
