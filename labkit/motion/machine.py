@@ -82,7 +82,8 @@ class Machine:
     timer_bits : int
         Width of the period register (16 or 32).
     step_pulse_us : float
-        Width of each step pulse, µs (seed 004: 5 µs).
+        Width of each step pulse, µs (seed 004: 5 µs); the fastest tick must
+        hold the pulse high and as long low.
     description : str
         One line for people.
 
@@ -158,6 +159,9 @@ class Machine:
                 f"machine {self.name!r}: start_rate_hz {self.start_rate_hz} Hz needs a timer "
                 f"period of {longest} ticks, more than a {self.timer_bits}-bit register holds; "
                 f"raise the prescaler or start_rate_hz")
+        if 2e-6 * self.step_pulse_us * top > 1.0:
+            raise MotionError(f"machine {self.name!r}: {self.step_pulse_us:g} µs step pulses do not fit "
+                              f"twice in a tick at {top} Hz; shorten the pulse or lower max_rate_mm_min")
         if top * (self.prescaler + 1) > self.timer_clock_hz:
             raise MotionError(f"machine {self.name!r}: the timer ({self.tick_hz:g} Hz) is slower "
                               f"than the fastest step rate ({top} Hz); lower the prescaler")

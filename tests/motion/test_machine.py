@@ -55,6 +55,7 @@ def test_scalars_broadcast_and_replace_validates():
     (dict(start_rate_hz=100_000), "start_rate_hz .* exceeds the fastest axis step rate"),
     (dict(start_rate_hz=500), "more than a 16-bit register holds"),
     (dict(prescaler=1000), "lower the prescaler"),
+    (dict(step_pulse_us=10.0), "10 µs step pulses do not fit twice in a tick at 54972 Hz"),
     (dict(timer_clock_hz=True), "timer_clock_hz must be an integer"),
 ])
 def test_bad_values_are_rejected_with_the_field_name(changes, match):
