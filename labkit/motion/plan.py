@@ -186,7 +186,7 @@ class Plan:
         power = np.asarray(laser_power_mw(v, mode=b.laser_mode[j], power_mw=b.power_mw[j],
                                           feed_mm_s=b.feed_mm_s[j],
                                           max_power_mw=self.machine.laser_max_power_mw))
-        start = np.concatenate([[0.0], np.cumsum(L)[:-1]])
+        start = np.concatenate([[0.0], np.cumsum(L)[:-1]]) if len(L) else np.zeros(0)
         return {"distance_mm": np.repeat(start, n) + s, "speed_mm_s": v, "power_mw": power,
                 "dose_mj_per_mm": power / v, "feed_mm_s": b.feed_mm_s[j], "block": self.motion[j]}
 
@@ -196,8 +196,9 @@ class Plan:
         Parameters
         ----------
         n : int
-            Number of samples over the whole job (≥ 2); every block also gets
-            its start and end so short blocks are not lost.
+            Number of samples over the whole job (≥ 2); in plans of up to 4n
+            blocks every block also gets its start and end, so short blocks
+            are not lost.
 
         Returns
         -------
@@ -208,27 +209,29 @@ class Plan:
         """
         if not (isinstance(n, (int, np.integer)) and n >= 2):
             raise MotionError(f"n must be an integer >= 2 samples, got {n!r}")
+        if len(self.blocks) == 0:
+            z = np.zeros(n)
+            return {"time_s": z, "distance_mm": z.copy(), "speed_mm_s": z.copy(), "power_mw": z.copy(),
+                    "block": np.zeros(n, np.int64)}
         start = self.block_start_s
         times = self.block_time_s
         total = self.job_time_s
         grid = np.linspace(0.0, total, n)
-        t_all = np.unique(np.concatenate([grid, start, start + times]))
+        if len(start) <= 4 * n:        # small plans: every block's ends too
+            grid = np.concatenate([grid, start, start + times])
+        t_all = np.unique(grid)
         blk = np.clip(np.searchsorted(start, t_all, side="right") - 1, 0, max(len(start) - 1, 0))
         dist0 = np.zeros(len(self.blocks))
-        lengths = self.blocks.length_mm
-        dist0[1:] = np.cumsum(lengths)[:-1]
+        dist0[1:] = np.cumsum(self.blocks.length_mm)[:-1]
         pos = np.full(len(self.blocks), -1)
         pos[self.motion] = np.arange(len(self.motion))
-        s = np.zeros_like(t_all)
+        s = dist0[blk].copy()
         v = np.zeros_like(t_all)
-        for j in np.unique(blk):
-            sel = blk == j
-            if pos[j] >= 0:
-                ss, vv = self.profiles.sample(pos[j], t_all[sel] - start[j])
-                s[sel] = dist0[j] + ss
-                v[sel] = vv
-            else:
-                s[sel] = dist0[j]
+        moving = pos[blk] >= 0
+        if moving.any():
+            ss, vv = self.profiles.sample(pos[blk[moving]], t_all[moving] - start[blk[moving]])
+            s[moving] += ss
+            v[moving] = vv
         b = self.blocks
         power = laser_power_mw(v, mode=b.laser_mode[blk], power_mw=b.power_mw[blk],
                                feed_mm_s=np.where(np.isfinite(b.feed_mm_s[blk]), b.feed_mm_s[blk], 1.0),

@@ -159,8 +159,11 @@ class Profiles:
                        _ramp.reach(self.exit_mm_s[i], self.length_mm[i] - s, self.down[i], law))
         return scalar_or_array(v)
 
-    def sample(self, i: int, t_s):
-        """Distance (mm) and speed (mm/s) of block ``i`` at times ``t_s`` (s) from its start."""
+    def sample(self, i, t_s):
+        """Distance (mm) and speed (mm/s) of block ``i`` at times ``t_s`` (s) from its start.
+
+        ``i`` may be an array of block indices of the same shape as ``t_s``.
+        """
         t = np.clip(np.asarray(t_s, float), 0.0, self.time_s[i])
         ve, vp, vx = self.entry_mm_s[i], self.peak_mm_s[i], self.exit_mm_s[i]
         a, d = self.up[i], self.down[i]

@@ -276,3 +276,14 @@ def test_lookahead_argument_errors():
 def test_sample_argument_error():
     with pytest.raises(MotionError, match="n must be an integer >= 2 samples"):
         plan(zigzag_moves(rows=2)).sample(1)
+
+
+def test_an_empty_program_plans_to_nothing():
+    from labkit.toolpath import Moves
+
+    p = plan(Moves.empty())
+    s = p.summary()
+    assert (s.blocks, s.super_blocks, s.job_time_s) == (0, 0, 0.0)
+    assert len(p.trace()) == 0
+    assert p.sample(5)["speed_mm_s"].tolist() == [0.0] * 5
+    assert len(p.burn_profile()["dose_mj_per_mm"]) == 0
