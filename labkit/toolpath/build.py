@@ -1,0 +1,215 @@
+"""Paths → Moves: the vector job (seed 003's operation settings, seed 001's contour toolpath).
+
+:func:`prepare_paths` runs the geometry pipeline on imported artwork — join
+loose pieces into chains, compensate the kerf, hatch filled shapes, order
+everything for little travel with holes before parts — and
+:func:`build_moves` turns the ordered paths into a machine program: per
+layer its own feed, power and number of passes (seed 003 asks for speed,
+passes and pass depth), an optional Z step down after each pass, the beam
+off on every travel move (rapids; GRBL's laser mode also keeps the beam off
+on G0), arcs as G2/G3.
+
+Fill goes before the contour of the same layer, so the outline is cut last
+and leaves clean edges over the ends of the hatch lines.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from labkit.errors import GeometryError
+from labkit.geometry.chains import join_chains
+from labkit.geometry.hatch import hatch
+from labkit.geometry.offset import offset_paths
+from labkit.geometry.order import order_paths
+from labkit.geometry.path import Path
+from labkit.toolpath.moves import LaserMode, MoveKind, Moves
+
+__all__ = ["LayerSettings", "build_moves", "prepare_paths"]
+
+
+@dataclass(frozen=True)
+class LayerSettings:
+    """How one layer is cut.
+
+    Attributes
+    ----------
+    feed_mm_min : float
+        Cutting feed, mm/min.
+    power_s : float
+        Laser power word S (0…``s_max``).
+    passes : int
+        How many times the layer is cut.
+    z_step_mm : float
+        Z lowered after each pass, mm (seed 003's pass depth; 0 for none).
+    laser : LaserMode
+        M3 (constant) or M4 (dynamic: power follows speed).
+    """
+
+    feed_mm_min: float = 1000.0
+    power_s: float = 1000.0
+    passes: int = 1
+    z_step_mm: float = 0.0
+    laser: LaserMode = LaserMode.CONSTANT
+
+    def __post_init__(self):
+        if not self.feed_mm_min > 0:
+            raise GeometryError(f"feed_mm_min must be > 0 mm/min, got {self.feed_mm_min!r}")
+        if not self.power_s >= 0:
+            raise GeometryError(f"power_s must be >= 0, got {self.power_s!r}")
+        if int(self.passes) != self.passes or self.passes < 1:
+            raise GeometryError(f"passes must be an integer >= 1, got {self.passes!r}")
+        if not math.isfinite(self.z_step_mm) or self.z_step_mm < 0:
+            raise GeometryError(f"z_step_mm must be >= 0 mm, got {self.z_step_mm!r}")
+
+
+def _layer_settings(layer, settings, default) -> LayerSettings:
+    if isinstance(settings, LayerSettings):
+        return settings
+    return settings.get(layer, default)
+
+
+def build_moves(paths: Sequence[Path], settings: LayerSettings | Mapping[str, LayerSettings] = LayerSettings(),
+                *, default: LayerSettings = LayerSettings(), origin=(0.0, 0.0, 0.0), s_max=1000.0,
+                rapid_tol_mm=1e-6) -> Moves:
+    """A machine program cutting ``paths`` in the order given.
+
+    Parameters
+    ----------
+    paths : sequence of Path
+        Already ordered (see :func:`prepare_paths`).
+    settings : LayerSettings or mapping layer → LayerSettings
+        One setting for everything, or per layer (missing layers use ``default``).
+    default : LayerSettings
+        For layers not in ``settings``.
+    origin : (x, y, z)
+        Head position before the first move, mm.
+    s_max : float
+        S of full power.
+    rapid_tol_mm : float
+        A travel move is added only where the next path starts farther away.
+
+    Returns
+    -------
+    Moves
+        Layers in the order their first path appears; each layer's passes one
+        after the other (pass k at Z = origin_z − k·z_step_mm); within a pass
+        the paths in the given order, joined by rapids.
+
+    Examples
+    --------
+    >>> sq = Path.rectangle(0, 0, 10, 10)
+    >>> m = build_moves([sq, Path.circle((30, 5), 5)], LayerSettings(feed_mm_min=600, power_s=800))
+    >>> [MoveKind(k).name for k in m.kind]
+    ['LINE', 'LINE', 'LINE', 'LINE', 'RAPID', 'ARC_CCW', 'ARC_CCW']
+    >>> round(float(m.lengths_mm()[m.laser_on].sum()), 4), bool(m.laser_on[4])
+    (71.4159, False)
+    """
+    layers: dict[str, list[Path]] = {}
+    for p in paths:
+        layers.setdefault(p.layer, []).append(p)
+    pos = np.asarray(origin, dtype=float).copy()
+    if pos.shape != (3,):
+        raise GeometryError(f"origin must be (x, y, z) in mm, got {origin!r}")
+    chunks = []
+    for layer, group in layers.items():
+        ls = _layer_settings(layer, settings, default)
+        for k in range(int(ls.passes)):
+            z = float(origin[2]) - k * ls.z_step_mm
+            for p in group:
+                n = p.n_segments
+                start = np.array([p.start[0], p.start[1], z])
+                if np.linalg.norm(start - pos) > rapid_tol_mm:
+                    chunks.append(dict(kind=np.array([MoveKind.RAPID]), start=pos[None].copy(),
+                                       end=start[None], centre=np.full((1, 3), np.nan),
+                                       feed=np.array([ls.feed_mm_min]), power=np.array([ls.power_s]),
+                                       laser=np.array([int(ls.laser)])))
+                kind = np.where(p.sweeps > 0, MoveKind.ARC_CCW,
+                                np.where(p.sweeps < 0, MoveKind.ARC_CW, MoveKind.LINE))
+                zc = np.full((n, 1), z)
+                centre = np.hstack([p.centres, zc])
+                centre[p.sweeps == 0] = np.nan
+                chunks.append(dict(kind=kind, start=np.hstack([p.vertices[:-1], zc]),
+                                   end=np.hstack([p.vertices[1:], zc]), centre=centre,
+                                   feed=np.full(n, ls.feed_mm_min), power=np.full(n, ls.power_s),
+                                   laser=np.full(n, int(ls.laser))))
+                pos = np.array([p.end[0], p.end[1], z])
+    if not chunks:
+        return Moves.empty(s_max=s_max)
+    cat = {k: np.concatenate([c[k] for c in chunks]) for k in chunks[0]}
+    return Moves(kind=cat["kind"].astype(np.int8), start=cat["start"], end=cat["end"],
+                 centre=cat["centre"], feed_mm_min=cat["feed"], power_s=cat["power"],
+                 laser=cat["laser"].astype(np.int8), s_max=s_max)
+
+
+def prepare_paths(paths: Sequence[Path], *, join_tol_mm=0.01, kerf_mm=0.0, tol_mm=0.01, arcs=True,
+                  fill=False, fill_spacing_mm=0.1, fill_angle_rad=0.0, fill_rule=None,
+                  order=True, improve=True, origin=(0.0, 0.0)) -> list[Path]:
+    """The geometry pipeline of a vector job: chains → kerf → fill → order.
+
+    Parameters
+    ----------
+    paths : sequence of Path
+        Imported artwork (any order).
+    join_tol_mm : float
+        Ends closer than this are joined into chains (seed 001 §6.1.2).
+    kerf_mm : float
+        Beam kerf width; closed shapes of each layer are offset by kerf/2
+        outwards (holes inwards) so parts come out to size. 0: no offset.
+    tol_mm : float
+        Tolerance of the offset geometry, mm.
+    arcs : bool
+        Offsets give arcs back (False: lines only).
+    fill : bool
+        Hatch the closed shapes of each layer before cutting their contours.
+    fill_spacing_mm, fill_angle_rad, fill_rule
+        Hatch line spacing (the beam width), direction and fill rule
+        (default: each shape's own rule from the SVG).
+    order : bool
+        Reorder for short travel (greedy nearest neighbour), holes first.
+    improve : bool
+        2-opt after the greedy ordering.
+    origin : (x, y)
+        Head position before the job, mm.
+
+    Returns
+    -------
+    list of Path
+        Per layer (in first-seen order): fill lines, then contours.
+
+    Examples
+    --------
+    >>> part, hole = Path.rectangle(0, 0, 40, 40), Path.circle((20, 20), 5)
+    >>> out = prepare_paths([part, hole], kerf_mm=0.2)
+    >>> [(p.closed, round(abs(p.signed_area_mm2()), 2)) for p in out]
+    [(True, 75.4), (True, 1616.04)]
+    """
+    if kerf_mm < 0 or not math.isfinite(kerf_mm):
+        raise GeometryError(f"kerf_mm must be >= 0 mm, got {kerf_mm!r}")
+    chains = join_chains(paths, join_tol_mm)
+    layers: dict[str, list[Path]] = {}
+    for p in chains:
+        layers.setdefault(p.layer, []).append(p)
+    out: list[Path] = []
+    pos = tuple(origin)
+    for group in layers.values():
+        closed = [p for p in group if p.closed]
+        opened = [p for p in group if not p.closed]
+        if kerf_mm > 0 and closed:
+            closed = offset_paths(closed, kerf_mm / 2, tol_mm=tol_mm, arcs=arcs)
+        fill_lines = hatch(closed, fill_spacing_mm, angle_rad=fill_angle_rad, fill_rule=fill_rule,
+                           tol_mm=tol_mm) if fill else []
+        contours = closed + opened
+        if order:
+            if fill_lines:
+                fill_lines = order_paths(fill_lines, origin=pos, improve=improve, inner_first=False)
+                pos = tuple(fill_lines[-1].end)
+            contours = order_paths(contours, origin=pos, improve=improve, inner_first=True)
+        out += fill_lines + contours
+        if out:
+            pos = tuple(out[-1].end)
+    return out

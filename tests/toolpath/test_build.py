@@ -1,0 +1,102 @@
+"""Paths → Moves: lengths, passes, Z steps, travel with the beam off, and G-code round trip."""
+
+import math
+
+import numpy as np
+import pytest
+
+from labkit.errors import GeometryError
+from labkit.geometry import Path, hausdorff, total_length
+from labkit.toolpath import LaserMode, MoveKind
+from labkit.toolpath.build import LayerSettings, build_moves, prepare_paths
+
+
+def _cut_paths(moves):
+    """Rebuild the cut geometry from Moves (independent of build_moves' bookkeeping)."""
+    out = []
+    for k in np.flatnonzero(moves.laser_on):
+        s, e, c = moves.start[k, :2], moves.end[k, :2], moves.centre[k, :2]
+        if moves.kind[k] == MoveKind.LINE:
+            out.append(Path([s, e]))
+        else:
+            sweep = float(moves.sweep_rad()[k])
+            out.append(Path([s, e], [c], [sweep]))
+    return out
+
+
+def test_cut_length_equals_path_length_and_geometry_survives():
+    paths = [Path.rectangle(0, 0, 20, 10), Path.circle((40, 5), 4), Path.arc((60, 0), 5, 0, 2.0)]
+    m = build_moves(paths, LayerSettings(feed_mm_min=900, power_s=500))
+    assert m.lengths_mm()[m.laser_on].sum() == pytest.approx(total_length(paths))
+    assert hausdorff(_cut_paths(m), paths) < 1e-9
+    assert not m.laser_on[m.kind == MoveKind.RAPID].any()
+    assert set(m.feed_mm_min[m.laser_on]) == {900}
+
+
+def test_per_layer_settings_and_passes_with_z_steps():
+    red = Path.rectangle(0, 0, 10, 10, layer="red")
+    blue = Path.circle((30, 5), 3, layer="blue")
+    settings = {"red": LayerSettings(feed_mm_min=300, power_s=1000, passes=3, z_step_mm=0.5),
+                "blue": LayerSettings(feed_mm_min=2000, power_s=200, laser=LaserMode.DYNAMIC)}
+    m = build_moves([blue, red], settings)
+    cut = m.laser_on
+    red_rows = cut & (m.feed_mm_min == 300)
+    assert red_rows.sum() == 3 * 4
+    assert sorted(set(m.start[red_rows, 2])) == [-1.0, -0.5, 0.0]
+    assert m.lengths_mm()[red_rows].sum() == pytest.approx(3 * 40)
+    blue_rows = cut & (m.feed_mm_min == 2000)
+    assert set(m.laser[blue_rows]) == {LaserMode.DYNAMIC} and set(m.power_s[blue_rows]) == {200}
+    assert np.flatnonzero(blue_rows).max() < np.flatnonzero(red_rows).min()   # blue came first
+
+
+def test_default_for_unknown_layers():
+    m = build_moves([Path.rectangle(0, 0, 1, 1, layer="x")], {"y": LayerSettings(feed_mm_min=1)},
+                    default=LayerSettings(feed_mm_min=777))
+    assert set(m.feed_mm_min[m.laser_on]) == {777}
+
+
+def test_emitted_gcode_parses_back_to_the_same_cuts():
+    from labkit.gcode import emit, parse
+
+    paths = [Path.rectangle(0, 0, 20, 10), Path.circle((40, 5), 4)]
+    m = build_moves(paths, LayerSettings(feed_mm_min=1200, power_s=700))
+    back = parse(emit(m, tol_mm=1e-4))
+    assert back.lengths_mm()[back.laser_on].sum() == pytest.approx(total_length(paths), abs=1e-3)
+    assert hausdorff(_cut_paths(back), paths) < 1e-3
+
+
+def test_prepare_kerf_fill_and_order():
+    part = Path.rectangle(0, 0, 30, 20)
+    hole = Path.circle((15, 10), 4)
+    out = prepare_paths([hole, part], kerf_mm=0.2, fill=True, fill_spacing_mm=1.0)
+    fill = [p for p in out if not p.closed]
+    contours = [p for p in out if p.closed]
+    assert out.index(contours[0]) > out.index(fill[-1])               # contours after fill
+    areas = [abs(p.signed_area_mm2()) for p in contours]
+    assert areas[0] == pytest.approx(math.pi * 3.9**2, rel=1e-3)      # hole first, shrunk
+    assert areas[1] == pytest.approx(30.2 * 20.2 - (4 - math.pi) * 0.01, rel=1e-4)
+    expected_fill = 30.2 * 20.2 - math.pi * 3.9**2
+    assert sum(p.length_mm for p in fill) == pytest.approx(expected_fill, rel=0.03)
+
+
+def test_prepare_joins_loose_pieces():
+    pieces = [Path([(0, 0), (10, 0)]), Path([(10, 10), (10, 0)]), Path([(0, 10), (10, 10)]),
+              Path([(0, 0), (0, 10)])]
+    out = prepare_paths(pieces)
+    assert len(out) == 1 and out[0].closed
+
+
+def test_errors():
+    with pytest.raises(GeometryError, match="feed_mm_min must be > 0"):
+        LayerSettings(feed_mm_min=0)
+    with pytest.raises(GeometryError, match="passes must be an integer >= 1"):
+        LayerSettings(passes=0)
+    with pytest.raises(GeometryError, match="z_step_mm must be >= 0"):
+        LayerSettings(z_step_mm=-1)
+    with pytest.raises(GeometryError, match="power_s must be >= 0"):
+        LayerSettings(power_s=-5)
+    with pytest.raises(GeometryError, match="origin must be"):
+        build_moves([Path.rectangle(0, 0, 1, 1)], origin=(0, 0))
+    with pytest.raises(GeometryError, match="kerf_mm must be >= 0"):
+        prepare_paths([Path.rectangle(0, 0, 1, 1)], kerf_mm=-0.1)
+    assert len(build_moves([])) == 0
