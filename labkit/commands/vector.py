@@ -1,0 +1,175 @@
+"""``labkit svg2gcode`` and ``labkit dxf2gcode``: vector artwork to laser G-code with a summary."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import re
+import warnings
+from pathlib import Path as FilePath
+
+__all__ = ["add_svg2gcode_arguments", "run_svg2gcode", "add_dxf2gcode_arguments", "run_dxf2gcode",
+           "parse_layer_option", "motion_lines"]
+
+_FIRST_WORD = re.compile(r"^\s*(?:N\d+\s*)?([A-Z])\s*([-+]?\d*\.?\d*)", re.IGNORECASE)
+
+
+def motion_lines(text: str) -> int:
+    """G-code lines that move the head: G0–G3, or modal continuations starting with X/Y/Z/I/J.
+
+    >>> motion_lines("G21\\nG0 X1 Y1\\nG1 X2 F100\\nX3\\nM5\\nG4 P1\\n")
+    3
+    """
+    count = 0
+    for line in text.splitlines():
+        m = _FIRST_WORD.match(line)
+        if not m:
+            continue
+        letter, number = m.group(1).upper(), m.group(2)
+        if letter in "XYZIJ" or (letter == "G" and number and float(number) in (0, 1, 2, 3)):
+            count += 1
+    return count
+
+
+def parse_layer_option(text: str):
+    """``NAME:FEED:POWER[:PASSES[:ZSTEP]]`` → (name, LayerSettings).
+
+    >>> name, s = parse_layer_option("#ff0000:600:900:2")
+    >>> name, s.feed_mm_min, s.power_s, s.passes
+    ('#ff0000', 600.0, 900.0, 2)
+    """
+    from labkit.errors import GeometryError
+    from labkit.toolpath.build import LayerSettings
+
+    fields = text.split(":")             # numbers from the right; the name may hold colons
+    numbers = []
+    while fields and len(numbers) < 4:
+        try:
+            numbers.insert(0, float(fields[-1]))
+            fields.pop()
+        except ValueError:
+            break
+    name = ":".join(fields)
+    if not name or len(numbers) < 2:
+        raise GeometryError(f"--layer {text!r}: expected NAME:FEED:POWER[:PASSES[:ZSTEP]], "
+                            "e.g. '#ff0000:600:1000:2'")
+    feed, power = numbers[0], numbers[1]
+    passes = int(numbers[2]) if len(numbers) > 2 else 1
+    z_step = numbers[3] if len(numbers) > 3 else 0.0
+    return name, LayerSettings(feed_mm_min=feed, power_s=power, passes=passes, z_step_mm=z_step)
+
+
+def _common_arguments(parser: argparse.ArgumentParser, kind: str) -> None:
+    parser.add_argument("input", help=f"{kind} file")
+    parser.add_argument("-o", "--output", required=True, help="G-code file to write")
+    parser.add_argument("--tol", type=float, default=0.01, metavar="MM",
+                        help="largest deviation of the toolpath from the drawing, mm (default 0.01)")
+    parser.add_argument("--feed", type=float, default=1000.0, metavar="MM_MIN",
+                        help="cutting feed, mm/min (default 1000)")
+    parser.add_argument("--power", type=float, default=1000.0, metavar="S", help="laser power S (default 1000)")
+    parser.add_argument("--passes", type=int, default=1, help="passes over every layer (default 1)")
+    parser.add_argument("--z-step", type=float, default=0.0, metavar="MM", help="Z down after each pass, mm")
+    parser.add_argument("--dynamic", action="store_true", help="M4 (power follows speed) instead of M3")
+    parser.add_argument("--layer", action="append", default=[], metavar="NAME:FEED:POWER[:PASSES[:ZSTEP]]",
+                        help="settings for one layer (SVG colour such as #ff0000, or DXF layer); repeatable")
+    parser.add_argument("--arcs", action="store_true", help="keep arcs and fit arcs to curves (G2/G3)")
+    parser.add_argument("--fill", action="store_true", help="hatch closed shapes before their contours")
+    parser.add_argument("--fill-spacing", type=float, default=0.1, metavar="MM",
+                        help="hatch line spacing = beam width, mm (default 0.1)")
+    parser.add_argument("--fill-angle", type=float, default=0.0, metavar="DEG", help="hatch angle, degrees")
+    parser.add_argument("--kerf", type=float, default=0.0, metavar="MM",
+                        help="kerf width: closed shapes are offset by half of it (parts to size)")
+    parser.add_argument("--no-order", action="store_true", help="cut in drawing order")
+    parser.add_argument("--no-improve", action="store_true", help="greedy ordering only (no 2-opt)")
+    parser.add_argument("--rapid", type=float, default=None, metavar="MM_MIN",
+                        help="travel speed for the time estimate (default: the simulator's)")
+    parser.add_argument("--s-max", type=float, default=1000.0, help="S of full power (GRBL $30)")
+    parser.add_argument("--dialect", default="grbl", help="G-code dialect (grbl, labkit-fw, marlin)")
+    parser.add_argument("--preview", default=None, metavar="PNG", help="also draw the job to this PNG")
+
+
+def add_svg2gcode_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``labkit svg2gcode``."""
+    _common_arguments(parser, "SVG")
+    parser.add_argument("--no-flip", action="store_true", help="keep SVG's downward y axis")
+
+
+def add_dxf2gcode_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``labkit dxf2gcode``."""
+    _common_arguments(parser, "DXF")
+
+
+def _run(args, drawing) -> int:
+    from labkit.gcode import emit
+    from labkit.gcode.simulate import summarize
+    from labkit.geometry.path import count_segments, max_deviation
+    from labkit.toolpath.build import LayerSettings, build_moves, prepare_paths
+    from labkit.toolpath.moves import LaserMode
+
+    if not args.tol > 0:
+        from labkit.errors import GeometryError
+
+        raise GeometryError(f"--tol must be > 0 mm, got {args.tol}")
+    laser = LaserMode.DYNAMIC if args.dynamic else LaserMode.CONSTANT
+    default = LayerSettings(feed_mm_min=args.feed, power_s=args.power, passes=args.passes,
+                            z_step_mm=args.z_step, laser=laser)
+    per_layer = {}
+    for text in args.layer:
+        name, s = parse_layer_option(text)
+        per_layer[name] = LayerSettings(s.feed_mm_min, s.power_s, s.passes, s.z_step_mm, laser)
+    source = drawing.paths
+    if not args.arcs:       # DXF arcs (read at tol/2) become chords within the other half
+        source = [p if not p.is_arc.any() else
+                  p.with_geometry(p.sample(args.tol / 2), deviation_mm=p.deviation_mm + args.tol / 2)
+                  for p in source]
+    paths = prepare_paths(source, kerf_mm=args.kerf, tol_mm=args.tol, arcs=args.arcs,
+                          fill=args.fill, fill_spacing_mm=args.fill_spacing,
+                          fill_angle_rad=math.radians(args.fill_angle), order=not args.no_order,
+                          improve=not args.no_improve)
+    moves = build_moves(paths, per_layer, default=default, s_max=args.s_max)
+    text = emit(moves, dialect=args.dialect, tol_mm=min(args.tol / 10, 0.001),
+                comment=f"{FilePath(args.input).name}: tol {args.tol:g} mm, "
+                        f"{'arcs' if args.arcs else 'lines'}")
+    FilePath(args.output).write_text(text, encoding="ascii")
+    opts = {} if args.rapid is None else {"rapid_mm_min": args.rapid}
+    summary = summarize(moves, source_lines=text.count("\n"), **opts)
+    lines, arcs = count_segments(paths)
+    motion = motion_lines(text)
+    print(f"input           {args.input} ({len(drawing.paths)} paths, layers {', '.join(drawing.layers) or '-'})")
+    if drawing.skipped:
+        print(f"skipped         {', '.join(drawing.skipped)}")
+    print(f"segments        {lines + arcs} ({lines} lines, {arcs} arcs) in {len(paths)} paths")
+    print(f"G-code lines    {text.count(chr(10))} ({motion} motion)")
+    print(f"max deviation   {max_deviation(paths):.4f} mm (tolerance {args.tol:g} mm)")
+    print(summary.format())
+    print(f"G-code          {args.output}")
+    if args.preview:
+        from labkit.viz.gcode import save_preview
+
+        save_preview(moves, args.preview)
+        print(f"preview         {args.preview}")
+    return 0
+
+
+def run_svg2gcode(args) -> int:
+    """Read the SVG, build the job, write G-code (and a preview), print the summary."""
+    from labkit.vector.svg import read_svg
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        drawing = read_svg(args.input, tol_mm=args.tol, arcs=args.arcs, flip_y=not args.no_flip)
+    for w in caught:
+        print(f"warning: {w.message}")
+    return _run(args, drawing)
+
+
+def run_dxf2gcode(args) -> int:
+    """Read the DXF, build the job, write G-code (and a preview), print the summary."""
+    from labkit.vector.dxf import read_dxf
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        drawing = read_dxf(args.input, tol_mm=args.tol if args.arcs else args.tol / 2)
+    for w in caught:
+        print(f"warning: {w.message}")
+    return _run(args, drawing)
