@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 from labkit.errors import GeometryError
@@ -135,46 +136,75 @@ def _arc_through(p0, pm, p1):
     return c, np.where(straight, 0.0, ang)
 
 
+@numba.njit(cache=True)
+def _peak1(f):
+    """Maximum of smoothly varying samples, refined by the parabola through the largest
+    sample and its neighbours (the true peak lies between samples)."""
+    k = 0
+    for i in range(f.shape[0]):
+        if f[i] > f[k]:
+            k = i
+    best = f[k]
+    if 0 < k < f.shape[0] - 1:
+        curv = 2.0 * f[k] - f[k - 1] - f[k + 1]
+        if curv > 0.0:
+            best = max(best, f[k] + (f[k + 1] - f[k - 1]) ** 2 / (8.0 * curv))
+    return best
+
+
+@numba.njit(cache=True)
+def _deviations(a, b, u_a, u_b, cx, cy, sweep, samples):
+    """Measured deviation of each arc (or chord, sweep 0) from its piece of the ellipse:
+    ellipse samples → circle (radial distance) and arc samples → ellipse polyline."""
+    n = u_a.shape[0]
+    out = np.empty(n)
+    ex = np.empty(samples)
+    ey = np.empty(samples)
+    f1 = np.empty(samples)
+    f2 = np.empty(samples)
+    for i in range(n):
+        for k in range(samples):
+            u = u_a[i] + (u_b[i] - u_a[i]) * k / (samples - 1)
+            ex[k] = a * math.cos(u)
+            ey[k] = b * math.sin(u)
+        x0, y0, x1, y1 = ex[0], ey[0], ex[samples - 1], ey[samples - 1]
+        if sweep[i] == 0.0:
+            dx, dy = x1 - x0, y1 - y0
+            L = max(math.hypot(dx, dy), 1e-300)
+            for k in range(samples):
+                f1[k] = abs(dx * (ey[k] - y0) - dy * (ex[k] - x0)) / L
+            out[i] = _peak1(f1)
+            continue
+        r = math.hypot(x0 - cx[i], y0 - cy[i])
+        a0 = math.atan2(y0 - cy[i], x0 - cx[i])
+        for k in range(samples):
+            f1[k] = abs(math.hypot(ex[k] - cx[i], ey[k] - cy[i]) - r)
+            ang = a0 + sweep[i] * k / (samples - 1)
+            qx, qy = cx[i] + r * math.cos(ang), cy[i] + r * math.sin(ang)
+            best = np.inf
+            for j in range(samples - 1):
+                vx, vy = ex[j + 1] - ex[j], ey[j + 1] - ey[j]
+                wx, wy = qx - ex[j], qy - ey[j]
+                t = (wx * vx + wy * vy) / max(vx * vx + vy * vy, 1e-300)
+                t = min(1.0, max(0.0, t))
+                best = min(best, math.hypot(wx - t * vx, wy - t * vy))
+            f2[k] = best
+        out[i] = max(_peak1(f1), _peak1(f2))
+    return out
+
+
 def _fit(a, b, u_a, u_b, third_u):
     """Arcs on the canonical ellipse (centre 0, rotation 0) over [u_a, u_b] per row,
     with each arc's measured deviation (both ways: ellipse → arc and arc → ellipse)."""
     pt = lambda u: np.stack([a * np.cos(u), b * np.sin(u)], axis=-1)   # noqa: E731
     p0, p1 = pt(u_a), pt(u_b)
     c, sweep = _arc_through(p0, pt(third_u), p1)
-    straight = sweep == 0
-    cc = np.where(straight[:, None], 0.0, c)
-    s = np.linspace(0.0, 1.0, _SAMPLES_PER_ARC)[None, :]
-    ps = pt(u_a[:, None] + (u_b - u_a)[:, None] * s)                  # ellipse samples
-    r = np.hypot(*(p0 - cc).T)
-    a0 = np.arctan2(p0[:, 1] - cc[:, 1], p0[:, 0] - cc[:, 0])
-    ang = a0[:, None] + sweep[:, None] * s
-    qs = np.where(straight[:, None, None], p0[:, None, :] + (p1 - p0)[:, None, :] * s[..., None],
-                  cc[:, None, :] + r[:, None, None] * np.stack([np.cos(ang), np.sin(ang)], axis=-1))
-    # ellipse → arc: radial distance to the circle (the samples lie in the arc's span)
-    d = p1 - p0
-    L = np.maximum(np.hypot(*d.T), 1e-300)
-    to_line = np.abs(cross2(d[:, None, :], ps - p0[:, None, :])) / L[:, None]
-    to_circle = np.abs(np.hypot(*(ps - cc[:, None, :]).transpose(2, 0, 1)) - r[:, None])
-    dev1 = _peak(np.where(straight[:, None], to_line, to_circle))
-    # arc → ellipse: distance of arc samples to the ellipse polyline of the same interval
-    seg0, seg1 = ps[:, :-1], ps[:, 1:]
-    v = (seg1 - seg0)[:, None]                                          # (n, 1, S-1, 2)
-    w = qs[:, :, None, :] - seg0[:, None]                               # (n, S, S-1, 2)
-    t = np.clip(np.sum(w * v, -1) / np.maximum(np.sum(v * v, -1), 1e-300), 0, 1)
-    dev2 = _peak(np.hypot(*(w - t[..., None] * v).transpose(3, 0, 1, 2)).min(axis=2))
-    return p0, p1, c, sweep, np.maximum(dev1, dev2)
-
-
-def _peak(f: np.ndarray) -> np.ndarray:
-    """Row maxima of smoothly varying samples, refined by the parabola through the
-    largest sample and its neighbours (the true peak lies between samples)."""
-    k = np.clip(np.argmax(f, axis=1), 1, f.shape[1] - 2)
-    rows = np.arange(len(f))
-    fm, f0, fp = f[rows, k - 1], f[rows, k], f[rows, k + 1]
-    curv = 2 * f0 - fm - fp
-    with np.errstate(divide="ignore", invalid="ignore"):
-        bump = np.where(curv > 0, (fp - fm) ** 2 / (8 * curv), 0.0)
-    return np.maximum(f.max(axis=1), f0 + np.clip(np.nan_to_num(bump), 0, None))
+    cc = np.where(np.isnan(c), 0.0, c)
+    dev = _deviations(float(a), float(b), np.ascontiguousarray(u_a, dtype=float),
+                      np.ascontiguousarray(u_b, dtype=float), np.ascontiguousarray(cc[:, 0]),
+                      np.ascontiguousarray(cc[:, 1]), np.ascontiguousarray(sweep, dtype=float),
+                      _SAMPLES_PER_ARC)
+    return p0, p1, c, sweep, dev
 
 
 def _intervals(a, b, u0, du, n):
