@@ -214,7 +214,12 @@ def _shape_paths(el, m, tol_mm, arcs, meta) -> list[Path]:
     b: _Builder | None = None
     start = None
     a2 = m[:2, :2]
-    P = lambda pt: tf.apply(m, [pt.x, pt.y])            # noqa: E731
+    (ma, mc, me), (mb, md, mf) = m[0], m[1]
+
+    def P(pt):                          # the element's matrix on one point (hot path: no numpy calls)
+        x, y = pt.x, pt.y
+        return np.array((ma * x + mc * y + me, mb * x + md * y + mf))
+
     for seg in el.segments(transformed=False):
         if isinstance(seg, se.Move):
             if b is not None:
