@@ -36,9 +36,13 @@ _JOINS = {"round": "round", "miter": "mitre", "mitre": "mitre", "bevel": "bevel"
 def region(paths: Sequence[Path], *, tol_mm=0.001, fill_rule=None):
     """The filled region of closed paths as a shapely geometry.
 
-    ``fill_rule`` "evenodd" takes the symmetric difference of the rings
-    (a ring inside another is a hole), "nonzero" their union; by default the
-    first path's ``fill_rule``.
+    ``evenodd``: the symmetric difference of the rings (a ring inside another
+    is a hole). ``nonzero``: rings are nested by containment and each face
+    gets the winding number of its enclosing rings (+1 for a ring running the
+    same way as the outermost, −1 the other way); faces with a non-zero
+    number are filled — so a hole drawn the opposite way stays a hole, one
+    drawn the same way does not. Rings that cross each other are treated by
+    their nesting only. By default the first path's ``fill_rule``.
     """
     import shapely
 
@@ -48,13 +52,34 @@ def region(paths: Sequence[Path], *, tol_mm=0.001, fill_rule=None):
     rule = fill_rule or closed[0].fill_rule
     if rule not in ("evenodd", "nonzero"):
         raise GeometryError(f"fill_rule must be 'evenodd' or 'nonzero', got {rule!r}")
-    polys = [shapely.make_valid(shapely.Polygon(p.sample(tol_mm))) for p in closed]
-    if rule == "nonzero":
-        return shapely.union_all(polys)
-    out = polys[0]
-    for poly in polys[1:]:
-        out = shapely.symmetric_difference(out, poly)
-    return out
+    rings = [p.sample(tol_mm) for p in closed]
+    polys = [shapely.make_valid(shapely.Polygon(r)) for r in rings]
+    if rule == "evenodd":
+        out = polys[0]
+        for poly in polys[1:]:
+            out = shapely.symmetric_difference(out, poly)
+        return out
+    sign = np.sign([_signed_area(r) for r in rings])
+    areas = np.array([poly.area for poly in polys])
+    order = np.argsort(-areas)                      # containers before what they contain
+    winding = np.zeros(len(rings))
+    parent = np.full(len(rings), -1)
+    for k, i in enumerate(order):
+        probe = shapely.Point(rings[i][0])
+        for j in order[:k][::-1]:                   # smallest container first
+            if areas[j] > areas[i] and polys[j].covers(probe):
+                parent[i] = j
+                break
+        winding[i] = (winding[parent[i]] if parent[i] >= 0 else 0) + sign[i]
+    faces = []
+    for i in range(len(rings)):
+        if winding[i] == 0:
+            continue
+        face = polys[i]
+        for c in np.flatnonzero(parent == i):
+            face = shapely.difference(face, polys[c])
+        faces.append(face)
+    return shapely.union_all(faces) if faces else shapely.Polygon()
 
 
 def offset_paths(paths: Sequence[Path], distance_mm: float, *, join="round", tol_mm=0.01,

@@ -53,3 +53,16 @@ def test_errors():
         offset_paths([Path.circle((0, 0), 1)], 1, tol_mm=0)
     with pytest.raises(GeometryError, match="finite"):
         offset_paths([Path.circle((0, 0), 1)], float("nan"))
+
+
+def test_nonzero_region_respects_ring_direction():
+    from labkit.geometry.offset import region
+
+    outer = Path.circle((0, 0), 10, fill_rule="nonzero")
+    same = Path.circle((0, 0), 5)
+    opposite = Path.circle((0, 0), 5, ccw=False)
+    assert region([outer, same]).area == pytest.approx(math.pi * 100, rel=1e-3)
+    assert region([outer, opposite]).area == pytest.approx(math.pi * 75, rel=1e-3)
+    island = Path.circle((0, 0), 2)                 # back to +1 inside the hole
+    assert region([outer, opposite, island]).area == pytest.approx(math.pi * 79, rel=1e-3)
+    assert region([outer, same], fill_rule="evenodd").area == pytest.approx(math.pi * 75, rel=1e-3)
