@@ -42,6 +42,7 @@ __all__ = [
     "curvature_weighted_points",
     "ellipse_to_arcs",
     "ellipse_arc_to_arcs",
+    "ellipse_arc_arrays",
     "ellipse_point",
 ]
 
@@ -297,6 +298,16 @@ def ellipse_arc_to_arcs(centre, jacobian, t0, dt, *, arcs_per_quadrant=None, tol
     >>> p.start.round(9).tolist(), p.end.round(9).tolist(), p.deviation_mm <= 0.01
     ([20.0, 0.0], [0.0, 10.0], True)
     """
+    verts, c, sweep, dev, full = ellipse_arc_arrays(centre, jacobian, t0, dt, arcs_per_quadrant,
+                                                     tol_mm, method)
+    return Path(verts, c, sweep, closed=full, deviation_mm=dev, **meta)
+
+
+def ellipse_arc_arrays(centre, jacobian, t0, dt, arcs_per_quadrant, tol_mm, method):
+    """:func:`ellipse_arc_to_arcs` as arrays, for importers that append them to a path.
+
+    Returns ``(vertices (k+1, 2), centres (k, 2), sweeps (k,), deviation_mm, full_turn)``.
+    """
     if not abs(dt) > 0:
         raise GeometryError("elliptical arc sweep dt must be non-zero")
     if abs(dt) > 2 * math.pi + 1e-9:
@@ -309,16 +320,7 @@ def ellipse_arc_to_arcs(centre, jacobian, t0, dt, *, arcs_per_quadrant=None, tol
     full = abs(abs(dt) - 2 * math.pi) < 1e-9
     if not b > 1e-12 * max(a, 1.0):
         raise GeometryError(f"ellipse is degenerate (radii {a:.6g} and {b:.6g} mm): it has no area")
-    is_circle = arcs_per_quadrant is None and abs(a - b) <= 1e-9 * a
-    if is_circle:
-        # a circle: exact arcs, cut only so that none sweeps more than a half turn
-        k = max(1, math.ceil(abs(du) / math.pi - 1e-9))
-        ang = u0 + du * np.linspace(0, 1, k + 1)
-        verts = np.stack([a * np.cos(ang), a * np.sin(ang)], axis=1)
-        c = np.zeros((k, 2))
-        sweep = np.full(k, du / k)
-        dev = 0.0
-    elif arcs_per_quadrant is not None:
+    if arcs_per_quadrant is not None:
         if int(arcs_per_quadrant) < 1:
             raise GeometryError(f"arcs_per_quadrant must be >= 1, got {arcs_per_quadrant!r}")
         n = int(arcs_per_quadrant)
@@ -326,8 +328,14 @@ def ellipse_arc_to_arcs(centre, jacobian, t0, dt, *, arcs_per_quadrant=None, tol
         n = default_arcs_per_quadrant(a, b)
     else:
         n = 2
-    if is_circle:
-        pass
+    if arcs_per_quadrant is None and abs(a - b) <= 1e-9 * a:
+        # a circle: exact arcs, cut only so that none sweeps more than a half turn
+        k = max(1, math.ceil(abs(du) / math.pi - 1e-9))
+        ang = u0 + du * np.linspace(0, 1, k + 1)
+        verts = np.stack([a * np.cos(ang), a * np.sin(ang)], axis=1)
+        c = np.zeros((k, 2))
+        sweep = np.full(k, du / k)
+        dev = 0.0
     elif method == "seed" and tol_mm is not None and arcs_per_quadrant is None:
         while True:     # the seed's scheme has no local refinement: raise the count
             verts, c, sweep, dev = _canonical_arcs(a, b, u0, du, n, method)
@@ -345,7 +353,7 @@ def ellipse_arc_to_arcs(centre, jacobian, t0, dt, *, arcs_per_quadrant=None, tol
     c = c @ rmat.T + centre
     if full:
         verts[-1] = verts[0]
-    return Path(verts, c, sweep, closed=full, deviation_mm=dev, **meta)
+    return verts, c, sweep, dev, full
 
 
 def ellipse_to_arcs(centre, rx, ry, rotation=0.0, *, arcs_per_quadrant=None, tol_mm=None,

@@ -35,7 +35,7 @@ from labkit.errors import GeometryError
 from labkit.geometry import transform as tf
 from labkit.geometry.arcfit import cubics_to_arcs
 from labkit.geometry.bezier import flatten_cubics, quad_to_cubic
-from labkit.geometry.ellipse import ellipse_arc_to_arcs
+from labkit.geometry.ellipse import ellipse_arc_arrays
 from labkit.geometry.path import Path
 
 __all__ = ["Drawing", "read_svg", "svg_reference_samples", "PX_PER_INCH", "MM_PER_PX"]
@@ -179,16 +179,17 @@ class _Builder:
         if dt == 0:
             return self.line(end)
         budget = self.tol if self.arcs else 0.5 * self.tol
-        p = ellipse_arc_to_arcs(centre, jac, t0, dt, tol_mm=budget)
-        v = p.vertices.copy()
+        v, c, sweep, dev, _ = ellipse_arc_arrays(centre, jac, t0, dt, None, budget, "midpoint")
         v[0], v[-1] = self.v[-1], end
-        p = p.with_geometry(v, p.centres, p.sweeps)
         if not self.arcs:
-            for q in p.sample(0.5 * self.tol)[1:]:
+            for q in Path(v, c, sweep).sample(0.5 * self.tol)[1:]:
                 self.line(q)
-            self.dev = max(self.dev, p.deviation_mm + 0.5 * self.tol)
+            self.dev = max(self.dev, dev + 0.5 * self.tol)
             return
-        self._append(p)
+        self.v.extend(v[1:])
+        self.c.extend(c)
+        self.s.extend(sweep)
+        self.dev = max(self.dev, dev)
 
     def finish(self, closed) -> Path | None:
         self._flush()
