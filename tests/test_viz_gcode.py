@@ -35,3 +35,25 @@ def test_arc_choice_plot_and_explorer():
     panel = arc_explorer()
     assert len(panel.children) == 3
     plt.close("all")
+
+
+def test_interact_figure_redraws_on_change_and_reports_text():
+    import ipywidgets as w
+
+    from labkit.viz._widgets import interact_figure
+
+    calls = []
+
+    def draw(n, label):
+        calls.append((n, label))
+        fig, ax = plt.subplots()
+        ax.plot(range(n))
+        return fig, f"{label}: {n} points"
+
+    panel = interact_figure(draw, n=w.IntSlider(value=3, min=1, max=9), label=w.Text(value="run"))
+    assert calls == [(3, "run")] and panel.controls["n"].description == "n"
+    panel.controls["n"].value = 5
+    assert calls[-1] == (5, "run")
+    outputs = panel.children[-1].outputs
+    assert outputs[0]["text"] == "run: 5 points\n" and "image/png" in outputs[1]["data"]
+    assert plt.get_fignums() == []          # figures are closed once rendered

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from labkit.viz._widgets import interact_figure
+
 __all__ = [
     "plot_lattice_path",
     "plot_profile",
@@ -266,9 +268,9 @@ def bresenham_explorer():
                                   for k in range(8)},
                           title=f"arc r = {radius}, {sweep_deg}°: {len(arc) - 1} ticks")
         fig.tight_layout()
-        plt.show()
+        return fig
 
-    return w.interactive(show, x_end=w.IntSlider(value=11, min=-15, max=15),
+    return interact_figure(show, x_end=w.IntSlider(value=11, min=-15, max=15),
                          y_end=w.IntSlider(value=4, min=-15, max=15),
                          radius=w.IntSlider(value=8, min=2, max=14),
                          centre_dx=w.FloatSlider(value=0.0, min=-0.5, max=0.5, step=0.05),
@@ -298,11 +300,12 @@ def profile_explorer():
         a2.set_title(f"{p.time_s[0] * 1000:.1f} ms (up {p.accel_mm[0]:.3f} mm, "
                      f"cruise {p.cruise_mm[0]:.3f} mm, down {p.decel_mm[0]:.3f} mm)")
         fig.tight_layout()
-        plt.show()
+        note = None
         if (ve, vx) != (entry_mm_s, exit_mm_s):
-            print(f"entry/exit adjusted to reachable values: {ve:.2f} / {vx:.2f} mm/s")
+            note = f"entry/exit adjusted to reachable values: {ve:.2f} / {vx:.2f} mm/s"
+        return fig, note
 
-    return w.interactive(show,
+    return interact_figure(show,
                          length_mm=w.FloatLogSlider(value=2.0, base=10, min=-2, max=1.5, step=0.05),
                          cap_mm_s=w.FloatSlider(value=25.0, min=1, max=25.7, step=0.5),
                          entry_mm_s=w.FloatSlider(value=0.5, min=0.05, max=25.0, step=0.25),
@@ -326,10 +329,9 @@ def lookahead_explorer(make_moves, machine=None):
             plot_speed_time(p, ax)
         ax.legend(fontsize="small", loc="upper right")
         fig.tight_layout()
-        plt.show()
-        print(table.to_string())
+        return fig, table.to_string()
 
-    return w.interactive(show, rows=w.IntSlider(value=4, min=1, max=12),
+    return interact_figure(show, rows=w.IntSlider(value=4, min=1, max=12),
                          segments=w.IntSlider(value=4, min=1, max=12, description="segments/row"),
                          buffer_blocks=w.IntSlider(value=16, min=1, max=64, description="buffer"),
                          law=w.ToggleButtons(options=["each its own", "linear", "accel"]))
@@ -360,9 +362,9 @@ def laser_explorer(make_moves, machine=None):
         u = dose_uniformity(bp["dose_mj_per_mm"], bp["speed_mm_s"], bp["feed_mm_s"])
         a2.set_title(f"dose along the cut: CV {u['cv']:.3f}, max/mean {u['max_over_mean']:.2f}")
         fig.tight_layout()
-        plt.show()
+        return fig
 
-    return w.interactive(show, power_s=w.IntSlider(value=500, min=50, max=1000, step=50),
+    return interact_figure(show, power_s=w.IntSlider(value=500, min=50, max=1000, step=50),
                          feed_mm_min=w.IntSlider(value=1200, min=120, max=1500, step=60),
                          mode=w.ToggleButtons(options=["M3 constant", "M4 dynamic"]),
                          planner=w.ToggleButtons(options=["junction", "normal", "fast", "hq"]),

@@ -10,6 +10,7 @@ import numpy as np
 
 from labkit.raster import (burn_map, detect_edges, gray_job, mask_job, max_magnitude, prewitt, roberts,
                            sobel)
+from labkit.viz._widgets import interact_figure
 from labkit.viz.gcode import plot_moves
 
 __all__ = ["show_images", "edge_panel", "edge_explorer", "burned_image", "plot_job", "path_explorer",
@@ -70,9 +71,9 @@ def edge_explorer(images: dict):
 
     def show(image, fraction, blur, pseudo):
         edge_panel(images[image], fraction=fraction, blur=blur, pseudo=pseudo)
-        plt.show()
+        return plt.gcf()
 
-    return w.interactive(show, image=w.Dropdown(options=list(images)),
+    return interact_figure(show, image=w.Dropdown(options=list(images)),
                          fraction=w.FloatSlider(value=0.2, min=0.02, max=0.6, step=0.02,
                                                 description="threshold"),
                          blur=w.Checkbox(value=False, description="blur first"),
@@ -107,10 +108,9 @@ def path_explorer(masks: dict, *, pixel_mm: float = 1.0, feed_mm_min: float = 13
                        feed_mm_min=feed_mm_min)
         fig, ax = plt.subplots(figsize=(7, 6))
         plot_job(job, ax)
-        plt.show()
-        print(job.report.format())
+        return fig, job.report.format()
 
-    return w.interactive(show, image=w.Dropdown(options=list(masks)),
+    return interact_figure(show, image=w.Dropdown(options=list(masks)),
                          mode=w.ToggleButtons(options=["zigzag", "spiral"]),
                          order=w.ToggleButtons(options=["indexed", "scan"]),
                          direction=w.ToggleButtons(options=["bidirectional", "unidirectional"]))
@@ -139,9 +139,9 @@ def gray_explorer(gray, *, pixel_mm: float = 0.2, feed_mm_min: float = 3000.0):
         axes[1].set_xlabel("distance (mm)")
         axes[1].set_title(f"estimated time {r.time_s / 60:.1f} min at F{feed_mm_min:g}")
         fig.tight_layout()
-        plt.show()
+        return fig
 
-    return w.interactive(show,
+    return interact_figure(show,
                          min_power=w.FloatSlider(value=0.1, min=0.0, max=1.0, step=0.05, description="min power"),
                          max_power=w.FloatSlider(value=0.8, min=0.05, max=1.0, step=0.05, description="max power"),
                          gamma=w.FloatSlider(value=1.0, min=0.3, max=3.0, step=0.1, description="gamma"),

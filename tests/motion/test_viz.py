@@ -79,5 +79,6 @@ def test_compare_planners_table():
 ])
 def test_widgets_build_with_their_controls(factory, controls):
     widget = factory()
-    names = {c._kwarg for c in widget.kwargs_widgets}
-    assert names == controls
+    assert set(widget.controls) == controls
+    shown = widget.children[-1].outputs
+    assert any("image/png" in o.get("data", {}) for o in shown)      # drawn on creation

@@ -48,3 +48,4 @@ def test_widgets_build():
     g = to_gray(data.camera()[::8, ::8])
     for w in (vr.edge_explorer({"camera": g}), vr.path_explorer({"horse": mask}), vr.gray_explorer(g)):
         assert len(w.children) >= 4   # controls + output
+        assert any("image/png" in o.get("data", {}) for o in w.children[-1].outputs)
