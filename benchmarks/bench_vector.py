@@ -110,6 +110,7 @@ def part1():
         t_both_lab = t_both_peer = 0.0
         t_read_lab = 0.0
         worst_peer_ok = 0.0
+        rows = []
         for f in FILES:
             dt, text = _best_of(lambda: labkit_convert(f, tol))
             t_lab += dt
@@ -132,20 +133,25 @@ def part1():
             perrs = element_errors(ptext, refs[f])
             bad = [e > tol * 1.001 for e in perrs.values()]
             miss_peer += sum(bad)
+            rows.append((os.path.relpath(f, os.path.join(ROOT, "data", "svg")), motion_lines(text),
+                         motion_lines(ptext), pdt / dt, "ok" if not any(bad) else f"{sum(bad)} off"))
             if not any(bad):            # files the peer converts correctly: like for like
                 both_lines_lab += motion_lines(text)
                 both_lines_peer += motion_lines(ptext)
                 t_both_lab += dt
                 t_both_peer += pdt
                 worst_peer_ok = max([worst_peer_ok] + list(perrs.values()))
-        print(f"\ntolerance {tol} mm")
+        print(f"\ntolerance {tol} mm — per file the peer reads: motion lines labkit/peer, time peer/labkit")
+        for name, a, b, speed, state in rows:
+            print(f"  {name:58s} {a:5d} / {b:5d} = {a / max(b, 1):5.2f}   {speed:6.1f}x   peer {state}")
         print(f"  elements                     {n_elem}")
         print(f"  labkit: worst deviation      {worst_lab:.4f} mm; elements off by > tol: {miss_lab}")
         print(f"  svg-to-gcode: files failed   {failed_peer}; elements dropped/misplaced: {miss_peer}")
         print(f"  all files: labkit time       {t_lab:.3f} s, motion lines {lines_lab}")
         print(f"  files the peer reads:        time labkit {t_read_lab:.3f} s, svg-to-gcode {t_peer:.3f} s "
               f"-> {t_peer / t_read_lab:.1f}x (the peer skips rect/circle/ellipse/line elements); "
-              f"peer motion lines {lines_peer}")
+              f"peer motion lines {lines_peer}; motion lines labkit/peer on these files = "
+              f"{sum(r[1] for r in rows)}/{lines_peer} = {sum(r[1] for r in rows) / lines_peer:.2f}")
         if both_lines_peer:
             print(f"  files the peer gets right:   motion lines labkit/peer = "
                   f"{both_lines_lab}/{both_lines_peer} = {both_lines_lab / both_lines_peer:.2f}; "

@@ -2,26 +2,39 @@
 
 Cutting a curve as many short lines makes many G-code blocks and short
 segments, and seed 001 measured that segments shorter than ~0.4 mm keep a
-controller below the programmed feed. Replacing runs of points by arcs
-(G2/G3) that stay within a tolerance gives fewer, longer blocks.
+controller below the programmed feed. Replacing the curve by arcs (G2/G3)
+that stay within a tolerance gives fewer, longer blocks.
 
-Method: greedy longest-run fitting. From the current point, the run of
-following samples is grown (doubling, then bisecting) as long as one
-primitive fits all of them within ``tol_mm``: first a straight line if the
-samples are within 5 % of the tolerance of the chord, else the circle through the run's first,
-middle and last samples (every sample's distance to the circle, and the
-samples must advance monotonically around it, less than a full turn, and the
-arc must not bulge more than the tolerance from the chord between two
-samples, which is what the input polyline draws there), and only when the
-samples are too straight for a circle of radius ≤ 10 m, a line within the full
-tolerance. The
-arcs meet end to end at samples of the curve, so the result is continuous;
-unlike biarcs it is not forced tangent-continuous, but needs no tangents
-and meets the same tolerance with a similar count of blocks.
+Default method, ``"biarc"`` (:mod:`labkit.geometry.biarc`): the curve is cut
+into pieces, each replaced by a biarc — two circular arcs through the piece's
+end points, leaving and arriving along the curve's own tangents and sharing a
+tangent where they meet. Each piece is grown greedily (the whole remaining
+run first, then doubling or halving, then bisection) as long as its biarc
+stays within ``tol_mm`` of the curve, measured both ways on dense samples
+(every sample's distance to the biarc, and points along each arc to the
+sampled curve). Pieces end at the curve's inflections and cusps (roots of
+B′ × B″ for a cubic) and at corners, so every piece turns one way; next
+pieces share the curve's tangent at their common point, which makes the
+output tangent-continuous (G1) wherever the curve is. Straight pieces come
+out as lines (the biarc of aligned tangents is straight), arcs of one circle
+are merged, and a cubic that is a circular arc comes back as that arc.
 
-The input must be dense: samples of the true curve (from
-:func:`labkit.geometry.bezier.flatten_cubics` at a fraction of the
-tolerance, or a polyline from a scanner or a DXF spline).
+* Beziers (:func:`cubics_to_arcs`) are fitted directly: the tangents come from
+  the control polygon of each piece (the first non-vanishing of C1 − S,
+  C2 − S, E − S, which stays right at cusps and coincident control points),
+  and the samples from the cubic itself — no flattening budget is spent.
+* Dense polylines (:func:`fit_arcs`: DXF splines of other degrees, offsets)
+  take tangents from the circle through each vertex and its neighbours,
+  follow a much longer neighbouring segment (a straight edge meeting a curve
+  tangentially) and treat a vertex turning by more than
+  :data:`CORNER_RAD` as a corner.
+
+``method="threepoint"`` keeps the earlier greedy fit: from the current
+sample, the longest run that one line or one arc through the run's first,
+middle and last samples fits within the tolerance. It meets the tolerance
+with a similar count of blocks but its joints are not tangent-continuous;
+it is kept for comparison (notebook 03, tests) and for ``arcs=False``
+(a polyline simplification).
 """
 
 from __future__ import annotations
@@ -32,13 +45,28 @@ import numba
 import numpy as np
 
 from labkit.errors import GeometryError
+from labkit.geometry._biarcfit import fit_cubic_chain, hermite_chain
 from labkit.geometry.bezier import flatten_cubics
 from labkit.geometry.path import Path
 
-__all__ = ["fit_arcs", "cubics_to_arcs", "FLATTEN_SHARE"]
+__all__ = ["fit_arcs", "cubics_to_arcs", "FLATTEN_SHARE", "CORNER_RAD", "KINK_RAD", "METHODS"]
 
-#: Share of the tolerance spent on sampling the curve before fitting (the rest fits).
+#: Share of the tolerance spent on sampling a curve before a polyline fit (the rest fits).
 FLATTEN_SHARE = 0.15
+#: A polyline vertex turning by more than this (rad) is a corner for :func:`fit_arcs`.
+CORNER_RAD = math.radians(50.0)
+#: Joints between cubics whose tangents differ by more than this (rad) are corners;
+#: a biarc piece may run across smoother joints.
+KINK_RAD = math.radians(1.0)
+#: Share of the tolerance the biarc fit may use on its samples (the rest covers the
+#: curve between samples).
+SAMPLE_SHARE = 0.95
+METHODS = ("biarc", "threepoint")
+#: End pieces at inflections (the tangent carries on through them either way).
+SPLIT_INFLECTIONS = False
+#: Largest kink the fit leaves between two of its own segments where the curve is smooth (rad).
+G1_TOL_RAD = math.radians(1.0)
+_NO_BREAKS = np.empty(0)
 _MAX_RADIUS_MM = 1e4
 #: Lines are preferred only when this close (share of tol); otherwise an arc is tried first,
 #: so that lines do not eat into the corner arcs of an offset.
@@ -179,7 +207,13 @@ def _fit_kernel(p, tol, allow_arcs):
     return ends[:k], centres[:k], sweeps[:k], worst_all
 
 
-def fit_arcs(points, tol_mm, *, arcs=True, closed=False, base_deviation_mm=0.0, **meta) -> Path:
+def _check_method(method):
+    if method not in METHODS:
+        raise GeometryError(f"method must be one of {METHODS}, got {method!r}")
+
+
+def fit_arcs(points, tol_mm, *, arcs=True, closed=False, base_deviation_mm=0.0, method="biarc",
+             **meta) -> Path:
     """Replace a dense polyline by fewer lines and circular arcs within ``tol_mm``.
 
     Parameters
@@ -194,14 +228,19 @@ def fit_arcs(points, tol_mm, *, arcs=True, closed=False, base_deviation_mm=0.0, 
         The points form a loop (first = last).
     base_deviation_mm : float
         Deviation already in the samples (added to the reported deviation).
+    method : {"biarc", "threepoint"}
+        Tangent-continuous biarcs (default) or the greedy three-point arcs
+        (see the module docstring). ``arcs=False`` always simplifies greedily.
     **meta
         Layer and colours of the :class:`Path`.
 
     Returns
     -------
     Path
-        Its vertices are a subset of ``points``; ``deviation_mm`` is the largest
-        sample distance measured plus ``base_deviation_mm``.
+        Its piece ends are a subset of ``points`` (a biarc adds its joint);
+        ``deviation_mm`` is the largest distance measured between the
+        polyline (vertices and chord midpoints) and the output, plus
+        ``base_deviation_mm``.
 
     Examples
     --------
@@ -212,7 +251,14 @@ def fit_arcs(points, tol_mm, *, arcs=True, closed=False, base_deviation_mm=0.0, 
     >>> p = fit_arcs(np.c_[10 * np.cos(t), 10 * np.sin(t)], 0.001)
     >>> p.n_segments, round(float(p.radii_mm()[0]), 6), round(float(p.sweeps[0]), 6)
     (1, 10.0, 3.141593)
+
+    A square stays four lines (its corners are corners):
+
+    >>> sq = fit_arcs([[0, 0], [10, 0], [10, 10], [0, 10], [0, 0]], 0.1, closed=True)
+    >>> sq.n_segments, int(sq.is_arc.sum())
+    (4, 0)
     """
+    _check_method(method)
     p = np.ascontiguousarray(points, dtype=float).reshape(-1, 2)
     if len(p) < 2:
         raise GeometryError(f"fit_arcs needs at least 2 points, got {len(p)}")
@@ -222,6 +268,17 @@ def fit_arcs(points, tol_mm, *, arcs=True, closed=False, base_deviation_mm=0.0, 
     p = p[keep]
     if len(p) < 2:
         raise GeometryError("fit_arcs: all points coincide")
+    if arcs and method == "biarc":
+        loop = bool(closed and len(p) >= 4)
+        if closed and np.allclose(p[0], p[-1], rtol=0, atol=1e-9):
+            p[-1] = p[0]
+        elif closed:
+            p = np.vstack([p, p[:1]])
+        seg = np.hypot(*np.diff(p, axis=0).T)
+        ctrl = hermite_chain(p, loop, CORNER_RAD, max(4.0 * float(tol_mm), 2.0 * float(np.median(seg))))
+        half = np.array([float((len(p) - 1) // 2)]) if loop else _NO_BREAKS
+        return _fit(ctrl, tol_mm, loop, half, linear=True, closed=closed,
+                    base_deviation_mm=base_deviation_mm, **meta)
     if closed and len(p) >= 5:
         # fit the two halves of a loop apart, so that a circle becomes two half arcs
         # rather than one arc short of a full turn plus a sliver
@@ -237,11 +294,48 @@ def fit_arcs(points, tol_mm, *, arcs=True, closed=False, base_deviation_mm=0.0, 
                 deviation_mm=float(worst) + base_deviation_mm, **meta)
 
 
-def cubics_to_arcs(ctrls, tol_mm, *, arcs=True, start=None, **meta) -> Path:
+def _fit(ctrl, tol_mm, closed_loop, breaks, *, linear=False, base_deviation_mm=0.0, closed=False,
+         **meta) -> Path:
+    v, cen, sw, worst, _ = fit_cubic_chain(np.ascontiguousarray(ctrl), SAMPLE_SHARE * float(tol_mm), KINK_RAD,
+                                           SPLIT_INFLECTIONS, closed_loop, breaks, 2.0, G1_TOL_RAD, linear)
+    if len(sw) == 0:                                   # the chain is a single point
+        v, cen, sw = np.vstack([ctrl[0, :1], ctrl[-1, 3:]]), None, None
+    return Path(v, cen, sw, closed=closed, deviation_mm=float(worst) + base_deviation_mm, **meta)
+
+
+def cubics_to_arcs(ctrls, tol_mm, *, arcs=True, start=None, method="biarc", **meta) -> Path:
     """A chain of cubic Beziers (m, 4, 2) as lines and arcs within ``tol_mm``.
 
-    The curves are sampled by De Casteljau halving at ``FLATTEN_SHARE·tol_mm``
-    and the samples fitted by :func:`fit_arcs` with the rest of the budget.
+    Parameters
+    ----------
+    ctrls : array_like, shape (m, 4, 2)
+        Control points in mm; each cubic starts where the previous one ends.
+    tol_mm : float
+        Largest distance between the curve and the output, mm.
+    arcs : bool
+        False gives lines only (De Casteljau flattening, then simplification).
+    start : array_like (2,), optional
+        Start point to use instead of the first control point (the exact end
+        of whatever came before).
+    method : {"biarc", "threepoint"}
+        ``"biarc"`` fits the cubics directly (tangent-continuous, see the
+        module docstring); ``"threepoint"`` flattens them at
+        ``FLATTEN_SHARE·tol_mm`` and fits greedy three-point arcs to the
+        samples with the rest of the budget.
+    **meta
+        Layer and colours of the :class:`Path`.
+
+    Returns
+    -------
+    Path
+        ``deviation_mm`` is the largest distance measured on the samples
+        (biarcs: about 40 per cubic and 32 per piece, both ways).
+
+    Notes
+    -----
+    Seed 001 §6.1.4 converts curves to arcs "by matching curve curvature
+    radius values based on the input tolerance"; the biarc is the standard
+    modern form of that idea (ALGORITHMS.md §2).
 
     Examples
     --------
@@ -251,14 +345,27 @@ def cubics_to_arcs(ctrls, tol_mm, *, arcs=True, start=None, **meta) -> Path:
     >>> p = cubics_to_arcs([[[10, 0], [10, 10 * k], [10 * k, 10], [0, 10]]], 0.01)
     >>> p.n_segments, int(p.is_arc.sum()), round(float(p.radii_mm()[0]), 2)
     (1, 1, 10.0)
+
+    An S-curve: arcs turning both ways, every joint within :data:`G1_TOL_RAD`
+    of tangent-continuous:
+
+    >>> from labkit.geometry.biarc import tangent_angles
+    >>> s = cubics_to_arcs([[[0, 0], [10, 10], [20, -10], [30, 0]]], 0.01)
+    >>> s.n_segments, sorted(set(np.sign(s.sweeps).tolist())), bool(tangent_angles(s).max() <= G1_TOL_RAD + 1e-12)
+    (8, [-1.0, 1.0], True)
     """
+    _check_method(method)
     if not tol_mm > 0:
         raise GeometryError(f"tol_mm must be > 0 mm, got {tol_mm!r}")
-    c = np.asarray(ctrls, dtype=float).reshape(-1, 4, 2)
+    c = np.array(ctrls, dtype=float).reshape(-1, 4, 2)
+    if len(c) == 0:
+        raise GeometryError("cubics_to_arcs needs at least one cubic, got none")
+    if start is not None:
+        c[0, 0] = np.asarray(start, dtype=float).reshape(2)
+    if arcs and method == "biarc":
+        return _fit(c, tol_mm, False, _NO_BREAKS, **meta)
     flat_tol = FLATTEN_SHARE * tol_mm
     pts, _ = flatten_cubics(c, flat_tol)
-    first = c[:1, 0] if start is None else np.asarray(start, dtype=float).reshape(1, 2)
-    dense = np.vstack([first, pts])
-    if not arcs:
-        return fit_arcs(dense, tol_mm - flat_tol, arcs=False, base_deviation_mm=flat_tol, **meta)
-    return fit_arcs(dense, tol_mm - flat_tol, base_deviation_mm=flat_tol, **meta)
+    dense = np.vstack([c[:1, 0], pts])
+    return fit_arcs(dense, tol_mm - flat_tol, arcs=arcs, base_deviation_mm=flat_tol,
+                    method="threepoint", **meta)

@@ -7,6 +7,8 @@ import pytest
 
 from labkit.errors import GeometryError
 from labkit.geometry import Path, hausdorff, offset_paths
+from labkit.geometry.arcfit import G1_TOL_RAD
+from labkit.geometry.biarc import tangent_angles
 
 
 @pytest.mark.parametrize("d", [0.1, 1.5, -2.0])
@@ -20,8 +22,18 @@ def test_square_round_join_is_the_exact_rounded_square():
     w, h, d = 20.0, 10.0, 1.5
     [p] = offset_paths([Path.rectangle(0, 0, w, h)], d, tol_mm=0.005)
     assert p.signed_area_mm2() == pytest.approx(w * h + 2 * d * (w + h) + math.pi * d * d, abs=0.05)
-    assert p.n_segments == 8 and int(p.is_arc.sum()) == 4
-    np.testing.assert_allclose(p.radii_mm()[p.is_arc], d, atol=0.005)
+    # four corner arcs of radius d, straight sides, nothing else; tangent-continuous fit
+    r = p.radii_mm()[p.is_arc]
+    assert int(np.sum(np.abs(r - d) <= 0.01)) == 4
+    assert p.n_segments <= 9
+    assert tangent_angles(p).max() <= G1_TOL_RAD + 1e-9
+    # every point of the result lies on a side or on a corner circle of the exact rounded square
+    pts = p.sample(0.001)
+    on_side = np.minimum.reduce([
+        np.where((pts[:, 0] >= 0) & (pts[:, 0] <= w), np.minimum(np.abs(pts[:, 1] + d), np.abs(pts[:, 1] - h - d)), np.inf),
+        np.where((pts[:, 1] >= 0) & (pts[:, 1] <= h), np.minimum(np.abs(pts[:, 0] + d), np.abs(pts[:, 0] - w - d)), np.inf),
+        *[np.abs(np.hypot(pts[:, 0] - cx, pts[:, 1] - cy) - d) for cx, cy in [(0, 0), (w, 0), (w, h), (0, h)]]])
+    assert on_side.max() <= 0.005 + 1e-9
 
 
 def test_square_miter_and_inward():

@@ -1,0 +1,653 @@
+"""Compiled kernels that fit biarcs to chains of cubic Beziers and to dense polylines.
+
+Both grow a piece greedily (try the whole remaining run, then double or halve,
+then bisect) as long as one biarc (:mod:`labkit.geometry.biarc`) through the
+piece's ends, with the curve's tangents there, stays within the tolerance of
+the curve measured both ways. Consecutive pieces share the curve's tangent at
+their common point, so the output is tangent-continuous wherever the input is.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from labkit.geometry.biarc import (_FULL_TURN, _arc_from_tangent, _biarc, _biarc_error, _biarc_joint, _emit, _emit_line,
+                                  _joint_circle, _joint_side, _merge, _unit)
+
+#: Samples of the curve per whole cubic (at least ``_MIN_SAMPLES`` per piece) when measuring.
+_PER_CUBIC = 40
+_MIN_SAMPLES = 32
+#: Bisection steps after the bracket is found (piece end within 1/2**steps of the best).
+_BISECT = 7
+_MIN_STEP = 1e-9
+#: Joint positions (share of the joint circle's arc from p0 to p1) tried when the joint
+#: where the curve crosses that circle does not fit.
+_JOINTS = np.array([0.5, 0.35, 0.65, 0.25, 0.75])
+
+
+@numba.njit(cache=True)
+def _blossom(c, u1, u2, u3):
+    ax0 = c[0, 0] + u1 * (c[1, 0] - c[0, 0])
+    ay0 = c[0, 1] + u1 * (c[1, 1] - c[0, 1])
+    ax1 = c[1, 0] + u1 * (c[2, 0] - c[1, 0])
+    ay1 = c[1, 1] + u1 * (c[2, 1] - c[1, 1])
+    ax2 = c[2, 0] + u1 * (c[3, 0] - c[2, 0])
+    ay2 = c[2, 1] + u1 * (c[3, 1] - c[2, 1])
+    bx0 = ax0 + u2 * (ax1 - ax0)
+    by0 = ay0 + u2 * (ay1 - ay0)
+    bx1 = ax1 + u2 * (ax2 - ax1)
+    by1 = ay1 + u2 * (ay2 - ay1)
+    return bx0 + u3 * (bx1 - bx0), by0 + u3 * (by1 - by0)
+
+
+@numba.njit(cache=True)
+def _point(c, t):
+    u = 1.0 - t
+    b0, b1, b2, b3 = u * u * u, 3.0 * u * u * t, 3.0 * u * t * t, t * t * t
+    return (b0 * c[0, 0] + b1 * c[1, 0] + b2 * c[2, 0] + b3 * c[3, 0],
+            b0 * c[0, 1] + b1 * c[1, 1] + b2 * c[2, 1] + b3 * c[3, 1])
+
+
+@numba.njit(cache=True)
+def _piece_tangent(c, ta, tb, at_end):
+    """Unit tangent at the start (or end) of the part [ta, tb] of cubic c, from the part's own
+    control polygon: the first non-vanishing of c1 − c0, c2 − c0, c3 − c0 (ends: c3 − c2, …),
+    which is the limit direction even where the derivative is zero (cusps, coincident
+    control points)."""
+    px = np.empty(4)
+    py = np.empty(4)
+    px[0], py[0] = _blossom(c, ta, ta, ta)
+    px[1], py[1] = _blossom(c, ta, ta, tb)
+    px[2], py[2] = _blossom(c, ta, tb, tb)
+    px[3], py[3] = _blossom(c, tb, tb, tb)
+    size = 0.0
+    for k in range(1, 4):
+        size = max(size, abs(px[k] - px[0]), abs(py[k] - py[0]))
+    eps = 1e-9 * size
+    for k in range(1, 4):
+        if at_end:
+            dx, dy = px[3] - px[3 - k], py[3] - py[3 - k]
+        else:
+            dx, dy = px[k] - px[0], py[k] - py[0]
+        if abs(dx) > eps or abs(dy) > eps:
+            ux, uy, _ = _unit(dx, dy)
+            return ux, uy
+    return 0.0, 0.0
+
+
+@numba.njit(cache=True)
+def _turnarounds(c, out):
+    """Parameters in (0, 1) where a straight (collinear) cubic stops and runs back: roots of
+    B′(t)·d with d along its line."""
+    dx, dy = 0.0, 0.0
+    for k in range(1, 4):
+        if abs(c[k, 0] - c[0, 0]) + abs(c[k, 1] - c[0, 1]) > abs(dx) + abs(dy):
+            dx, dy = c[k, 0] - c[0, 0], c[k, 1] - c[0, 1]
+    a = (c[1, 0] - c[0, 0]) * dx + (c[1, 1] - c[0, 1]) * dy
+    b = (c[2, 0] - c[1, 0]) * dx + (c[2, 1] - c[1, 1]) * dy
+    e = (c[3, 0] - c[2, 0]) * dx + (c[3, 1] - c[2, 1]) * dy
+    # B'·d / 3 = a(1-t)² + 2b(1-t)t + e t² = (a - 2b + e) t² + 2(b - a) t + a
+    A, B, C = a - 2.0 * b + e, 2.0 * (b - a), a
+    k = 0
+    lo, hi = 1e-7, 1.0 - 1e-7
+    if abs(A) <= 1e-12 * (abs(B) + abs(C)):
+        if B != 0.0 and lo < -C / B < hi:
+            out[0] = -C / B
+            k = 1
+        return k
+    disc = B * B - 4.0 * A * C
+    if disc < 0.0:
+        return 0
+    sq = math.sqrt(disc)
+    r1, r2 = (-B - sq) / (2.0 * A), (-B + sq) / (2.0 * A)
+    if r1 > r2:
+        r1, r2 = r2, r1
+    if lo < r1 < hi:
+        out[k] = r1
+        k += 1
+    if lo < r2 < hi and (k == 0 or r2 - out[k - 1] > 1e-9):
+        out[k] = r2
+        k += 1
+    return k
+
+
+@numba.njit(cache=True)
+def _inflections(c, out):
+    """Parameters in (0, 1) where the curvature changes sign or the speed vanishes (cusp):
+    roots of cross(B', B''), a quadratic in t. Returns how many were written to out."""
+    def f(t):
+        u = 1.0 - t
+        d1x = 3.0 * (u * u * (c[1, 0] - c[0, 0]) + 2.0 * u * t * (c[2, 0] - c[1, 0]) + t * t * (c[3, 0] - c[2, 0]))
+        d1y = 3.0 * (u * u * (c[1, 1] - c[0, 1]) + 2.0 * u * t * (c[2, 1] - c[1, 1]) + t * t * (c[3, 1] - c[2, 1]))
+        d2x = 6.0 * (u * (c[2, 0] - 2.0 * c[1, 0] + c[0, 0]) + t * (c[3, 0] - 2.0 * c[2, 0] + c[1, 0]))
+        d2y = 6.0 * (u * (c[2, 1] - 2.0 * c[1, 1] + c[0, 1]) + t * (c[3, 1] - 2.0 * c[2, 1] + c[1, 1]))
+        return d1x * d2y - d1y * d2x
+    f0, fh, f1 = f(0.0), f(0.5), f(1.0)
+    # f(t) = A t² + B t + C through the three values
+    C = f0
+    A = 2.0 * (f1 + f0) - 4.0 * fh
+    B = f1 - f0 - A
+    scale = abs(A) + abs(B) + abs(C)
+    k = 0
+    if scale == 0.0:
+        return _turnarounds(c, out)            # a straight cubic: only where it turns back
+    lo, hi = 1e-7, 1.0 - 1e-7
+    if abs(A) <= 1e-12 * scale:
+        if abs(B) > 1e-12 * scale:
+            t = -C / B
+            if lo < t < hi:
+                out[0] = t
+                k = 1
+        return k
+    disc = B * B - 4.0 * A * C
+    if disc < 0.0:
+        if disc > -1e-12 * B * B:
+            disc = 0.0                         # a double root (a cusp): keep it
+        else:
+            return 0
+    s = math.sqrt(disc)
+    q = -0.5 * (B + (s if B >= 0.0 else -s))
+    r1 = q / A
+    r2 = C / q if q != 0.0 else r1
+    if r1 > r2:
+        r1, r2 = r2, r1
+    if lo < r1 < hi:
+        out[k] = r1
+        k += 1
+    if lo < r2 < hi and (k == 0 or r2 - out[k - 1] > 1e-9):
+        out[k] = r2
+        k += 1
+    return k
+
+
+@numba.njit(cache=True)
+def _chain_point(ctrl, T, linear):
+    m = ctrl.shape[0]
+    i = min(int(math.floor(T)), m - 1)
+    return _at(ctrl[i], T - i, linear)
+
+
+@numba.njit(cache=True)
+def _at(c, t, linear):
+    """The curve at t: the cubic, or (``linear``) its chord — a polyline whose cubics carry
+    only the tangent estimates."""
+    if linear:
+        return c[0, 0] + t * (c[3, 0] - c[0, 0]), c[0, 1] + t * (c[3, 1] - c[0, 1])
+    return _point(c, t)
+
+
+@numba.njit(cache=True)
+def _sample_chain(ctrl, Ta, Tb, p0x, p0y, buf, tbuf, linear):
+    """Samples of the chain between global parameters Ta < Tb into buf (their parameters in
+    tbuf); returns (count, buf, tbuf).
+
+    Cubic i covers T in [i, i + 1]. The first sample is the given start point
+    (the previous piece's end) so pieces join exactly."""
+    m = ctrl.shape[0]
+    span = Tb - Ta
+    dens = max(float(_PER_CUBIC), _MIN_SAMPLES / span)
+    i0 = min(int(math.floor(Ta)), m - 1)
+    i1 = max(int(math.ceil(Tb)) - 1, i0)
+    need = int(dens * span) + 2 * (i1 - i0 + 1) + 4
+    if buf.shape[0] < need:
+        buf = np.empty((2 * need, 2))
+        tbuf = np.empty(2 * need)
+    buf[0, 0], buf[0, 1] = p0x, p0y
+    tbuf[0] = Ta
+    n = 1
+    for i in range(i0, i1 + 1):
+        lo = max(Ta - i, 0.0)
+        hi = min(Tb - i, 1.0)
+        if hi <= lo:
+            continue
+        k = 2 if linear else max(1, int(math.ceil(dens * (hi - lo))))
+        for j in range(1, k + 1):
+            t = hi if j == k else lo + (hi - lo) * j / k
+            x, y = _at(ctrl[i], t, linear)
+            buf[n, 0], buf[n, 1] = x, y
+            tbuf[n] = i + t
+            n += 1
+    return n, buf, tbuf
+
+
+@numba.njit(cache=True)
+def _curve_joint(ctrl, buf, tbuf, n, p0x, p0y, t0x, t0y, p1x, p1y, t1x, t1y, ba, linear):
+    """The biarc whose joint is where the curve crosses the joint circle (the crossing nearest
+    the middle sample, refined on the cubic); the equal-tangent-length biarc when the
+    curve does not cross it."""
+    cx, cy, r = _joint_circle(p0x, p0y, t0x, t0y, p1x, p1y, t1x, t1y)
+    best = -1
+    mid = 0.5 * (n - 1)
+    prev = _joint_side(buf[1, 0], buf[1, 1], p0x, p0y, p1x, p1y, cx, cy, r)
+    for q in range(2, n - 1):
+        cur = _joint_side(buf[q, 0], buf[q, 1], p0x, p0y, p1x, p1y, cx, cy, r)
+        if (prev < 0.0) != (cur < 0.0):
+            if best < 0 or abs(q - 0.5 - mid) < abs(best - 0.5 - mid):
+                best = q
+        prev = cur
+    if best < 0:
+        return _biarc(p0x, p0y, t0x, t0y, p1x, p1y, t1x, t1y, ba)
+    ta, tb = tbuf[best - 1], tbuf[best]
+    fa = _joint_side(buf[best - 1, 0], buf[best - 1, 1], p0x, p0y, p1x, p1y, cx, cy, r)
+    jx, jy = buf[best, 0], buf[best, 1]
+    for _ in range(40):
+        tm = 0.5 * (ta + tb)
+        jx, jy = _chain_point(ctrl, tm, linear)
+        fm = _joint_side(jx, jy, p0x, p0y, p1x, p1y, cx, cy, r)
+        if (fm < 0.0) == (fa < 0.0):
+            ta, fa = tm, fm
+        else:
+            tb = tm
+        if tb - ta <= 1e-13:
+            break
+    if _biarc_joint(p0x, p0y, t0x, t0y, p1x, p1y, jx, jy, ba):
+        return True
+    return _biarc(p0x, p0y, t0x, t0y, p1x, p1y, t1x, t1y, ba)
+
+
+@numba.njit(cache=True)
+def _chain_fit(ctrl, Ta, Tb, p0x, p0y, t0x, t0y, single, kink, tol, buf, tbuf, ba, linear):
+    """Error over the chain piece [Ta, Tb] of one arc leaving p0 along t0 (``single``), or of
+    the biarc from (p0, t0) to the curve's end point and tangent; inf when none exists.
+    Fills ba; returns (error, end x, end y, buf, tbuf)."""
+    m = ctrl.shape[0]
+    n, buf, tbuf = _sample_chain(ctrl, Ta, Tb, p0x, p0y, buf, tbuf, linear)
+    p1x, p1y = buf[n - 1, 0], buf[n - 1, 1]
+    ba2 = np.empty(8)
+    if single:
+        if kink > 0.0:
+            # turn the start tangent (by at most kink) toward the circle through the piece's
+            # ends and middle sample
+            q = n // 2
+            if linear and q % 2 == 1:
+                q -= 1                            # a vertex, not a chord midpoint
+            ux, uy, _ = _unit(p1x - p0x, p1y - p0y)
+            mx, my = buf[q, 0] - p0x, buf[q, 1] - p0y
+            vx, vy = p1x - p0x, p1y - p0y
+            # tangent at p0 of the circle through p0, m, p1: the chord turned back by the
+            # turn at m (tangent-chord angle = half the arc = the exterior angle at m)
+            cr = mx * (vy - my) - my * (vx - mx)
+            dt = mx * (vx - mx) + my * (vy - my)
+            ang = -math.atan2(cr, dt)
+            cx3 = math.cos(ang) * ux - math.sin(ang) * uy
+            cy3 = math.sin(ang) * ux + math.cos(ang) * uy
+            dlt = math.atan2(t0x * cy3 - t0y * cx3, t0x * cx3 + t0y * cy3)
+            dlt = min(kink, max(-kink, dlt))
+            cd, sd = math.cos(dlt), math.sin(dlt)
+            t0x, t0y = cd * t0x - sd * t0y, sd * t0x + cd * t0y
+        if not _arc_only(p0x, p0y, t0x, t0y, p1x, p1y, ba):
+            return math.inf, p1x, p1y, buf, tbuf
+        return _biarc_error(buf, n, p0x, p0y, p1x, p1y, ba, tol), p1x, p1y, buf, tbuf
+    ia = min(int(math.floor(Ta)), m - 1)
+    ib = max(int(math.ceil(Tb)) - 1, ia)
+    t1x, t1y = _piece_tangent(ctrl[ib], max(Ta - ib, 0.0), Tb - ib, True)
+    if t1x == 0.0 and t1y == 0.0:
+        return math.inf, p1x, p1y, buf, tbuf
+    if not _curve_joint(ctrl, buf, tbuf, n, p0x, p0y, t0x, t0y, p1x, p1y, t1x, t1y, ba, linear):
+        e = math.inf
+    else:
+        e = _biarc_error(buf, n, p0x, p0y, p1x, p1y, ba, tol)
+    if e <= tol or _JOINTS.shape[0] == 0:
+        return e, p1x, p1y, buf, tbuf
+    # other joints along the joint circle: the first that fits
+    cx, cy, r = _joint_circle(p0x, p0y, t0x, t0y, p1x, p1y, t1x, t1y)
+    sw = 0.0
+    if r > 0.0:
+        ux, uy, _ = _unit(p1x - p0x, p1y - p0y)
+        half = 0.5 * math.atan2(t1x * t0y - t1y * t0x, t1x * t0x + t1y * t0y)
+        ch, sh = math.cos(half), math.sin(half)
+        _, _, sw = _arc_from_tangent(p0x, p0y, ch * ux - sh * uy, sh * ux + ch * uy, p1x, p1y)
+    best_e = e
+    for q in range(_JOINTS.shape[0]):
+        lam = _JOINTS[q]
+        if r == 0.0:
+            jx, jy = p0x + lam * (p1x - p0x), p0y + lam * (p1y - p0y)
+        else:
+            ca, sa = math.cos(lam * sw), math.sin(lam * sw)
+            jx = cx + ca * (p0x - cx) - sa * (p0y - cy)
+            jy = cy + sa * (p0x - cx) + ca * (p0y - cy)
+        if not _biarc_joint(p0x, p0y, t0x, t0y, p1x, p1y, jx, jy, ba2):
+            continue
+        e2 = _biarc_error(buf, n, p0x, p0y, p1x, p1y, ba2, tol)
+        if e2 <= tol:
+            ba[:] = ba2
+            return e2, p1x, p1y, buf, tbuf
+    return best_e, p1x, p1y, buf, tbuf
+
+
+@numba.njit(cache=True)
+def _arc_only(p0x, p0y, t0x, t0y, p1x, p1y, out):
+    """One arc from p0 along t0 to p1, stored as a biarc whose joint is p1."""
+    cx, cy, sw = _arc_from_tangent(p0x, p0y, t0x, t0y, p1x, p1y)
+    if abs(sw) >= _FULL_TURN or (p0x == p1x and p0y == p1y):
+        return False
+    out[0], out[1] = p1x, p1y
+    out[2], out[3], out[4] = cx, cy, sw
+    out[5], out[6], out[7] = math.nan, math.nan, 0.0
+    return True
+
+
+@numba.njit(cache=True)
+def _end_tangent(ba, p0x, p0y, p1x, p1y):
+    """Unit tangent at p1 of the piece stored in ba (its last non-empty segment)."""
+    jx, jy = ba[0], ba[1]
+    if jx != p1x or jy != p1y:
+        ax, ay, cx, cy, sw = jx, jy, ba[5], ba[6], ba[7]
+    else:
+        ax, ay, cx, cy, sw = p0x, p0y, ba[2], ba[3], ba[4]
+    if sw == 0.0:
+        ux, uy, _ = _unit(p1x - ax, p1y - ay)
+        return ux, uy
+    rx, ry = p1x - cx, p1y - cy
+    ux, uy, _ = _unit(-ry, rx)
+    if sw < 0.0:
+        return -ux, -uy
+    return ux, uy
+
+
+@numba.njit(cache=True)
+def _search(ctrl, Ta, rem, guess, p0x, p0y, t0x, t0y, single, kink, tol, buf, tbuf, ba, best, linear):
+    """Longest piece from Ta (at most rem) that fits: try guess, double or halve, bisect.
+    Returns (length, bracket end or -1, error, end x, end y, buf, tbuf); best holds the fit."""
+    step = min(guess, rem)
+    lo, hi = 0.0, -1.0
+    best_e, bx, by = math.inf, 0.0, 0.0
+    e, ex, ey, buf, tbuf = _chain_fit(ctrl, Ta, Ta + step, p0x, p0y, t0x, t0y, single, kink, tol, buf,
+                                              tbuf, ba, linear)
+    if e <= tol:
+        lo, best_e, bx, by = step, e, ex, ey
+        best[:] = ba
+        while lo < rem:
+            s2 = min(2.0 * lo, rem)
+            e, ex, ey, buf, tbuf = _chain_fit(ctrl, Ta, Ta + s2, p0x, p0y, t0x, t0y, single, kink, tol, buf,
+                                              tbuf, ba, linear)
+            if e <= tol:
+                lo, best_e, bx, by = s2, e, ex, ey
+                best[:] = ba
+            else:
+                hi = s2
+                break
+    else:
+        hi = step
+        while hi * 0.5 >= _MIN_STEP:
+            s2 = 0.5 * hi
+            e, ex, ey, buf, tbuf = _chain_fit(ctrl, Ta, Ta + s2, p0x, p0y, t0x, t0y, single, kink, tol, buf,
+                                              tbuf, ba, linear)
+            if e <= tol:
+                lo, best_e, bx, by = s2, e, ex, ey
+                best[:] = ba
+                break
+            hi = s2
+    if lo > 0.0 and hi > 0.0:
+        for _ in range(_BISECT):
+            mid = 0.5 * (lo + hi)
+            e, ex, ey, buf, tbuf = _chain_fit(ctrl, Ta, Ta + mid, p0x, p0y, t0x, t0y, single, kink, tol, buf,
+                                              tbuf, ba, linear)
+            if e <= tol:
+                lo, best_e, bx, by = mid, e, ex, ey
+                best[:] = ba
+            else:
+                hi = mid
+    return lo, hi, best_e, bx, by, buf, tbuf
+
+
+@numba.njit(cache=True)
+def _grow(verts, centres, sweeps, k, need):
+    if k + need + 1 < sweeps.shape[0]:
+        return verts, centres, sweeps
+    cap = 2 * (k + need + 1)
+    v2 = np.empty((cap + 1, 2))
+    c2 = np.empty((cap, 2))
+    s2 = np.empty(cap)
+    v2[:k + 1] = verts[:k + 1]
+    c2[:k] = centres[:k]
+    s2[:k] = sweeps[:k]
+    return v2, c2, s2
+
+
+@numba.njit(cache=True)
+def fit_cubic_chain(ctrl, tol, kink_rad, split_inflections, closed, extra_breaks, a_factor, g1_tol, linear):
+    """Tangent-continuous arcs for a chain of cubics (m, 4, 2), each starting where the
+    previous ends.
+
+    The chain is cut into runs at corners — joints between cubics whose
+    tangents differ by more than ``kink_rad`` — and cusps; with
+    ``split_inflections`` pieces also end at inflections, and they end at
+    ``extra_breaks`` (global parameters, cubic i spanning [i, i + 1]). Along a
+    run every piece leaves along the tangent the previous piece arrived with
+    (the curve's own at the run's start), so the run is G1. Each piece is the
+    longer-reaching per block of: one arc from that tangent (1 block), or a
+    biarc to the curve's end point and tangent (2 blocks, and back on the
+    curve's tangent). On a ``closed`` smooth loop the last piece is a biarc so
+    the loop closes on its starting tangent. Returns (vertices, centres,
+    sweeps, worst measured error, pieces)."""
+    m = ctrl.shape[0]
+    # breaks in the global parameter T; hard ones (corners, cusps) reset the tangent
+    brk = np.empty(3 * m + 2 + extra_breaks.shape[0])
+    hard = np.zeros(brk.shape[0], np.bool_)
+    nb = 0
+    brk[nb] = 0.0
+    hard[nb] = True
+    nb += 1
+    roots = np.empty(2)
+    for i in range(m):
+        r = _inflections(ctrl[i], roots)
+        for j in range(r):
+            t = roots[j]
+            ax, ay = _piece_tangent(ctrl[i], 0.0, t, True)
+            bx, by = _piece_tangent(ctrl[i], t, 1.0, False)
+            cusp = ax * bx + ay * by < 0.99
+            if cusp or split_inflections:
+                brk[nb] = i + t
+                hard[nb] = cusp
+                nb += 1
+        for j in range(extra_breaks.shape[0]):
+            if i < extra_breaks[j] < i + 1:
+                brk[nb] = extra_breaks[j]
+                nb += 1
+        if i < m - 1:
+            ax, ay = _piece_tangent(ctrl[i], 0.0, 1.0, True)
+            bx, by = _piece_tangent(ctrl[i + 1], 0.0, 1.0, False)
+            ang = abs(math.atan2(ax * by - ay * bx, ax * bx + ay * by))
+            corner = ang > kink_rad or (ax == 0.0 and ay == 0.0) or (bx == 0.0 and by == 0.0)
+            extra = False
+            for j in range(extra_breaks.shape[0]):
+                extra = extra or extra_breaks[j] == i + 1.0
+            if corner or extra:
+                brk[nb] = i + 1.0
+                hard[nb] = corner
+                nb += 1
+    brk[nb] = float(m)
+    hard[nb] = True
+    nb += 1
+    # sort the breaks (inflections and extra breaks of one cubic may interleave)
+    order = np.argsort(brk[:nb], kind="mergesort")
+    brk, hard = brk[:nb][order], hard[:nb][order]
+    sx, sy = _piece_tangent(ctrl[0], 0.0, 1.0, False)
+    ex_, ey_ = _piece_tangent(ctrl[m - 1], 0.0, 1.0, True)
+    smooth_loop = closed and abs(math.atan2(ex_ * sy - ey_ * sx, ex_ * sx + ey_ * sy)) <= kink_rad
+    cap = 4 * m + 8
+    verts = np.empty((cap + 1, 2))
+    centres = np.empty((cap, 2))
+    sweeps = np.empty(cap)
+    verts[0, 0], verts[0, 1] = ctrl[0, 0, 0], ctrl[0, 0, 1]
+    k = 0
+    worst = 0.0
+    pieces = 0
+    buf = np.empty((256, 2))
+    tbuf = np.empty(256)
+    ba = np.empty(8)
+    best_a = np.empty(8)
+    best_b = np.empty(8)
+    tx, ty = 0.0, 0.0
+    guess_a = guess_b = float(m)
+    for r in range(nb - 1):
+        Ra, Rb = brk[r], brk[r + 1]
+        if Rb - Ra <= _MIN_STEP:
+            continue
+        free = False
+        if hard[r] or (tx == 0.0 and ty == 0.0):
+            i = min(int(math.floor(Ra)), m - 1)
+            tx, ty = _piece_tangent(ctrl[i], Ra - i, min(Rb - i, 1.0), False)
+            free = not (smooth_loop and r == 0)
+        # a piece ending on a closing smooth loop or at a soft break must arrive on the curve's
+        # tangent (a biarc), so the joint there stays G1 with what follows
+        last_closing = (smooth_loop and r == nb - 2) or not hard[r + 1]
+        Ta = Ra
+        while Rb - Ta > _MIN_STEP:
+            p0x, p0y = verts[k, 0], verts[k, 1]
+            rem = Rb - Ta
+            lo_a, hi_a, e_a, ax, ay, buf, tbuf = _search(ctrl, Ta, rem, guess_a, p0x, p0y, tx, ty, True,
+                                                         math.pi if free else g1_tol, tol,
+                                                         buf, tbuf, ba, best_a, linear)
+            if lo_a > 0.0:
+                guess_a = lo_a
+            a_ok = lo_a > 0.0 and not (last_closing and lo_a >= rem)   # a closing piece needs a biarc
+            lo_b = 0.0
+            if not (a_ok and lo_a >= rem):
+                lo_b, hi_b, e_b, bx, by, buf, tbuf = _search(ctrl, Ta, rem, guess_b, p0x, p0y, tx, ty, False,
+                                                             0.0, tol, buf, tbuf, ba, best_b, linear)
+                if lo_b > 0.0:
+                    guess_b = lo_b
+            if lo_b >= rem:
+                use_a = a_ok and lo_a >= rem
+            else:
+                use_a = a_ok and a_factor * lo_a >= lo_b
+            if lo_a == 0.0 and lo_b == 0.0:
+                # nothing fits even the shortest piece (a degenerate spot): a straight chord
+                step = min(rem, 4.0 * _MIN_STEP)
+                n, buf, tbuf = _sample_chain(ctrl, Ta, Ta + step, p0x, p0y, buf, tbuf, linear)
+                ex, ey = buf[n - 1, 0], buf[n - 1, 1]
+                for q in range(n):
+                    d = math.hypot(buf[q, 0] - p0x, buf[q, 1] - p0y)
+                    worst = max(worst, min(d, math.hypot(buf[q, 0] - ex, buf[q, 1] - ey)))
+                if ex != p0x or ey != p0y:
+                    verts, centres, sweeps = _grow(verts, centres, sweeps, k, 2)
+                    k = _emit_line(ex, ey, verts, centres, sweeps, k)
+                    tx, ty, _ = _unit(ex - p0x, ey - p0y)
+                Ta += step
+                pieces += 1
+                continue
+            verts, centres, sweeps = _grow(verts, centres, sweeps, k, 2)
+            if use_a:
+                k = _emit(best_a, p0x, p0y, ax, ay, verts, centres, sweeps, k)
+                tx, ty = _end_tangent(best_a, p0x, p0y, ax, ay)
+                worst = max(worst, e_a)
+                step = lo_a
+            else:
+                k = _emit(best_b, p0x, p0y, bx, by, verts, centres, sweeps, k)
+                tx, ty = _end_tangent(best_b, p0x, p0y, bx, by)
+                worst = max(worst, e_b)
+                step = lo_b
+            pieces += 1
+            free = False
+            Ta = Ta + step if step < rem else Rb
+    # arcs whose centres and radii agree within a thousandth of the tolerance are one arc
+    # (their union moves by at most twice that)
+    eps = 1e-3 * tol
+    k = _merge(verts, centres, sweeps, k, eps)
+    return verts[:k + 1], centres[:k], sweeps[:k], worst + 2.0 * eps, pieces
+
+
+@numba.njit(cache=True)
+def _vertex_tangents(p, closed, corner_rad, reach):
+    """Tangent estimates (into, out of) every vertex of a polyline, and corner flags.
+
+    A vertex turning by more than ``corner_rad`` is a corner. A smooth vertex
+    takes the tangent at it of the circle through it and the nearest vertices
+    at least ``reach`` mm away on either side (not beyond a corner; exact on
+    circle samples, and blind to the tiny joins an offset leaves at each
+    polygon vertex) — or, when one of those chords is four or more times the
+    other, that long chord's direction (a straight edge meeting a tangent
+    curve). At a corner or an open end the one-sided tangent is the
+    smooth neighbour's tangent mirrored in the chord between them (an arc's
+    end tangents mirror in its chord)."""
+    n = p.shape[0]
+    tin = np.zeros((n, 2))
+    tout = np.zeros((n, 2))
+    corner = np.zeros(n, np.bool_)
+    dx = np.empty(n - 1)
+    dy = np.empty(n - 1)
+    for i in range(n - 1):
+        ux, uy, L = _unit(p[i + 1, 0] - p[i, 0], p[i + 1, 1] - p[i, 1])
+        dx[i], dy[i] = ux, uy
+    for i in range(n):
+        if (i == 0 or i == n - 1) and not closed:
+            corner[i] = True
+            continue
+        a = i - 1 if i > 0 else n - 2          # closed: vertex 0 is vertex n - 1
+        b = i if i < n - 1 else 0
+        phi = math.atan2(dx[a] * dy[b] - dy[a] * dx[b], dx[a] * dx[b] + dy[a] * dy[b])
+        corner[i] = abs(phi) > corner_rad
+    if closed:
+        corner[n - 1] = corner[0]
+    for i in range(n):
+        if corner[i]:
+            tin[i, 0], tin[i, 1] = dx[max(i - 1, 0)], dy[max(i - 1, 0)]
+            tout[i, 0], tout[i, 1] = dx[min(i, n - 2)], dy[min(i, n - 2)]
+            continue
+        px, py = p[i, 0], p[i, 1]
+        # walk back and forward to vertices at least `reach` away (wrapping on a loop)
+        j = i
+        for _ in range(n):
+            j = j - 1 if j > 0 else (n - 2 if closed else 0)
+            if corner[j] or math.hypot(p[j, 0] - px, p[j, 1] - py) >= reach or j == 0:
+                break
+        q = i
+        for _ in range(n):
+            q = q + 1 if q < n - 1 else (1 if closed else n - 1)
+            if corner[q] or math.hypot(p[q, 0] - px, p[q, 1] - py) >= reach or q == n - 1:
+                break
+        ux, uy, la = _unit(px - p[j, 0], py - p[j, 1])
+        wx, wy, lb = _unit(p[q, 0] - px, p[q, 1] - py)
+        if la == 0.0 or lb == 0.0:
+            tx, ty = (wx, wy) if la == 0.0 else (ux, uy)
+        elif la >= 4.0 * lb:                   # a straight edge meeting a curve: follow the edge
+            tx, ty = ux, uy
+        elif lb >= 4.0 * la:
+            tx, ty = wx, wy
+        else:
+            phi = math.atan2(ux * wy - uy * wx, ux * wx + uy * wy)
+            # the tangent-chord angle at the middle point of the circle through three points
+            alpha = math.atan2(lb * math.sin(phi), la + lb * math.cos(phi))
+            ca, sa = math.cos(-alpha), math.sin(-alpha)
+            tx, ty = ca * wx - sa * wy, sa * wx + ca * wy
+        tin[i, 0], tin[i, 1] = tx, ty
+        tout[i, 0], tout[i, 1] = tx, ty
+    for i in range(n):
+        if not corner[i]:
+            continue
+        if i < n - 1 and not corner[i + 1]:
+            tx, ty = _mirror(tin[i + 1, 0], tin[i + 1, 1], dx[i], dy[i])
+            tout[i, 0], tout[i, 1] = tx, ty
+        if i > 0 and not corner[i - 1]:
+            tx, ty = _mirror(tout[i - 1, 0], tout[i - 1, 1], dx[i - 1], dy[i - 1])
+            tin[i, 0], tin[i, 1] = tx, ty
+    return tin, tout, corner
+
+
+@numba.njit(cache=True)
+def _mirror(tx, ty, ux, uy):
+    """The unit vector t mirrored in the line along unit u."""
+    d = 2.0 * (tx * ux + ty * uy)
+    return d * ux - tx, d * uy - ty
+
+
+@numba.njit(cache=True)
+def hermite_chain(p, closed, corner_rad, reach):
+    """A tangent-continuous chain of cubics (n − 1, 4, 2) through the polyline's vertices:
+    cubic Hermite pieces with handles of a third of the chord along the estimated tangents
+    (straight where both ends are corners, so polygons stay polygons)."""
+    n = p.shape[0]
+    tin, tout, corner = _vertex_tangents(p, closed, corner_rad, reach)
+    out = np.empty((n - 1, 4, 2))
+    for i in range(n - 1):
+        L = math.hypot(p[i + 1, 0] - p[i, 0], p[i + 1, 1] - p[i, 1]) / 3.0
+        out[i, 0, 0], out[i, 0, 1] = p[i, 0], p[i, 1]
+        out[i, 1, 0], out[i, 1, 1] = p[i, 0] + L * tout[i, 0], p[i, 1] + L * tout[i, 1]
+        out[i, 2, 0], out[i, 2, 1] = p[i + 1, 0] - L * tin[i + 1, 0], p[i + 1, 1] - L * tin[i + 1, 1]
+        out[i, 3, 0], out[i, 3, 1] = p[i + 1, 0], p[i + 1, 1]
+    return out
