@@ -5,7 +5,11 @@ segments, and seed 001 measured that segments shorter than ~0.4 mm keep a
 controller below the programmed feed. Replacing the curve by arcs (G2/G3)
 that stay within a tolerance gives fewer, longer blocks.
 
-Default method, ``"biarc"`` (:mod:`labkit.geometry.biarc`): the curve is cut
+Béziers default to the method ``"biarc"`` (:mod:`labkit.geometry.biarc`); dense
+polylines (:func:`fit_arcs`: offsets, DXF splines) default to ``"threepoint"``,
+which recovers the exact lines and arcs an offset is made of (a rounded square
+comes back as its four sides and four corner arcs), while the biarc fit on
+estimated vertex tangents adds joints there. With ``"biarc"`` the curve is cut
 into pieces, each replaced by a biarc — two circular arcs through the piece's
 end points, leaving and arriving along the curve's own tangents and sharing a
 tangent where they meet. Each piece is grown greedily (the whole remaining
@@ -29,12 +33,16 @@ are merged, and a cubic that is a circular arc comes back as that arc.
   tangentially) and treat a vertex turning by more than
   :data:`CORNER_RAD` as a corner.
 
-``method="threepoint"`` keeps the earlier greedy fit: from the current
-sample, the longest run that one line or one arc through the run's first,
-middle and last samples fits within the tolerance. It meets the tolerance
-with a similar count of blocks but its joints are not tangent-continuous;
-it is kept for comparison (notebook 03, tests) and for ``arcs=False``
-(a polyline simplification).
+``method="threepoint"`` is the greedy fit: from the current sample, the
+longest run that one line or one arc through the run's first, middle and last
+samples fits within the tolerance. It meets the tolerance with a similar
+count of blocks, but on a smooth curve its joints are not tangent-continuous
+(on polylines made of true lines and arcs they are, since it finds those).
+It is also used for ``arcs=False`` (a polyline simplification).
+
+The biarc fit checks its error on samples, so it keeps ``1 - SAMPLE_SHARE``
+of the tolerance for the curve between samples and for the written G-code's
+rounding.
 """
 
 from __future__ import annotations
@@ -60,7 +68,7 @@ CORNER_RAD = math.radians(50.0)
 KINK_RAD = math.radians(1.0)
 #: Share of the tolerance the biarc fit may use on its samples (the rest covers the
 #: curve between samples).
-SAMPLE_SHARE = 0.95
+SAMPLE_SHARE = 0.85
 METHODS = ("biarc", "threepoint")
 #: End pieces at inflections (the tangent carries on through them either way).
 SPLIT_INFLECTIONS = False
@@ -212,7 +220,7 @@ def _check_method(method):
         raise GeometryError(f"method must be one of {METHODS}, got {method!r}")
 
 
-def fit_arcs(points, tol_mm, *, arcs=True, closed=False, base_deviation_mm=0.0, method="biarc",
+def fit_arcs(points, tol_mm, *, arcs=True, closed=False, base_deviation_mm=0.0, method="threepoint",
              **meta) -> Path:
     """Replace a dense polyline by fewer lines and circular arcs within ``tol_mm``.
 

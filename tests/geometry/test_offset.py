@@ -22,10 +22,9 @@ def test_square_round_join_is_the_exact_rounded_square():
     w, h, d = 20.0, 10.0, 1.5
     [p] = offset_paths([Path.rectangle(0, 0, w, h)], d, tol_mm=0.005)
     assert p.signed_area_mm2() == pytest.approx(w * h + 2 * d * (w + h) + math.pi * d * d, abs=0.05)
-    # four corner arcs of radius d, straight sides, nothing else; tangent-continuous fit
-    r = p.radii_mm()[p.is_arc]
-    assert int(np.sum(np.abs(r - d) <= 0.01)) == 4
-    assert p.n_segments <= 9
+    # exactly four sides and four corner arcs of radius d, meeting tangentially
+    assert p.n_segments == 8 and int(p.is_arc.sum()) == 4
+    np.testing.assert_allclose(p.radii_mm()[p.is_arc], d, atol=0.005)
     assert tangent_angles(p).max() <= G1_TOL_RAD + 1e-9
     # every point of the result lies on a side or on a corner circle of the exact rounded square
     pts = p.sample(0.001)
