@@ -5,82 +5,71 @@ vector import produces and toolpath building consumes. Curves become Paths at
 a stated tolerance: Beziers by De Casteljau (:mod:`~labkit.geometry.bezier`),
 ellipses by curvature-weighted arcs (:mod:`~labkit.geometry.ellipse`), any
 dense curve by arc fitting (:mod:`~labkit.geometry.arcfit`).
+
+Submodules load on first use (``labkit.geometry.offset_paths`` imports shapely
+only then), so ``import labkit.gcode`` — which needs only
+:mod:`~labkit.geometry.circle` — stays light.
 """
 
-from labkit.geometry import transform
-from labkit.geometry.arcfit import cubics_to_arcs, fit_arcs
-from labkit.geometry.bezier import (
-    cubic_point,
-    flatness,
-    flatten_adaptive_t,
-    flatten_cubic,
-    flatten_cubics,
-    quad_to_cubic,
-    split_cubic,
-)
-from labkit.geometry.chains import join_chains
-from labkit.geometry.circle import (
-    arc_bounds,
-    arc_length,
-    arc_points,
-    chord_segments,
-    circumcentre,
-    grbl_segments,
-    mid_arc_point,
-    orientation,
-    sweep_angle,
-)
-from labkit.geometry.ellipse import (
-    curvature_weighted_points,
-    default_arcs_per_quadrant,
-    ellipse_arc_to_arcs,
-    ellipse_point,
-    ellipse_to_arcs,
-)
-from labkit.geometry.hatch import hatch, hatch_lines
-from labkit.geometry.measure import hausdorff, path_distance
-from labkit.geometry.offset import offset_paths
-from labkit.geometry.order import Ordering, order_paths, order_segments, travel_length
-from labkit.geometry.path import Path, count_segments, max_deviation, paths_bounds, total_length
+import importlib
 
-__all__ = [
-    "Path",
-    "Ordering",
-    "arc_bounds",
-    "arc_length",
-    "arc_points",
-    "chord_segments",
-    "circumcentre",
-    "count_segments",
-    "cubic_point",
-    "cubics_to_arcs",
-    "curvature_weighted_points",
-    "default_arcs_per_quadrant",
-    "ellipse_arc_to_arcs",
-    "ellipse_point",
-    "ellipse_to_arcs",
-    "fit_arcs",
-    "flatness",
-    "flatten_adaptive_t",
-    "flatten_cubic",
-    "flatten_cubics",
-    "grbl_segments",
-    "hatch",
-    "hatch_lines",
-    "hausdorff",
-    "join_chains",
-    "max_deviation",
-    "mid_arc_point",
-    "offset_paths",
-    "order_paths",
-    "order_segments",
-    "orientation",
-    "path_distance",
-    "paths_bounds",
-    "quad_to_cubic",
-    "split_cubic",
-    "sweep_angle",
-    "total_length",
-    "transform",
-    "travel_length",
-]
+# public name → submodule that defines it (None: the name is the submodule)
+_WHERE = {
+    "arc_bounds": 'circle',
+    "arc_length": 'circle',
+    "arc_points": 'circle',
+    "chord_segments": 'circle',
+    "circumcentre": 'circle',
+    "count_segments": 'path',
+    "cubic_point": 'bezier',
+    "cubics_to_arcs": 'arcfit',
+    "curvature_weighted_points": 'ellipse',
+    "default_arcs_per_quadrant": 'ellipse',
+    "ellipse_arc_to_arcs": 'ellipse',
+    "ellipse_point": 'ellipse',
+    "ellipse_to_arcs": 'ellipse',
+    "fit_arcs": 'arcfit',
+    "flatness": 'bezier',
+    "flatten_adaptive_t": 'bezier',
+    "flatten_cubic": 'bezier',
+    "flatten_cubics": 'bezier',
+    "grbl_segments": 'circle',
+    "hatch": 'hatch',
+    "hatch_lines": 'hatch',
+    "hausdorff": 'measure',
+    "join_chains": 'chains',
+    "max_deviation": 'path',
+    "mid_arc_point": 'circle',
+    "offset_paths": 'offset',
+    "order_paths": 'order',
+    "order_segments": 'order',
+    "Ordering": 'order',
+    "orientation": 'circle',
+    "Path": 'path',
+    "path_distance": 'measure',
+    "paths_bounds": 'path',
+    "quad_to_cubic": 'bezier',
+    "split_cubic": 'bezier',
+    "sweep_angle": 'circle',
+    "total_length": 'path',
+    "transform": None,
+    "travel_length": 'order',
+}
+
+__all__ = sorted(_WHERE, key=str.lower)
+
+
+def __getattr__(name):
+    try:
+        module = _WHERE[name]
+    except KeyError:
+        raise AttributeError(f"module 'labkit.geometry' has no attribute {name!r}") from None
+    value = importlib.import_module(f"labkit.geometry.{module or name}")
+    if module is not None:
+        value = getattr(value, name)
+    globals()[name] = value          # later look-ups skip this function
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))
