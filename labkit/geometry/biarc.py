@@ -42,13 +42,16 @@ import numpy as np
 from labkit.errors import GeometryError
 from labkit.geometry.path import Path
 
-__all__ = ["biarc", "arc_from_tangent", "tangent_angles", "MAX_RADIUS_MM", "LINE_SWEEP_RAD"]
+__all__ = ["biarc", "arc_from_tangent", "tangent_angles", "LINE_SAGITTA_MM", "MAX_JOINT_REACH"]
 
-#: Arcs bigger than this (mm) are written as lines (their chord), as are arcs
-#: sweeping less than :data:`LINE_SWEEP_RAD`: the kink this leaves is half the sweep.
-MAX_RADIUS_MM = 1e4
-#: Arcs sweeping less than this (rad) become lines (kink ≤ half of it).
-LINE_SWEEP_RAD = 2e-6
+#: An arc whose sagitta (its largest distance from its chord) is at most this (mm) is
+#: written as its chord. Far below any written resolution; the kink this leaves is half
+#: the arc's sweep, at most 4·LINE_SAGITTA_MM / chord (rad). A large radius alone is no
+#: reason: a 10 m arc over a 100 mm chord still bows 0.125 mm.
+LINE_SAGITTA_MM = 1e-4
+#: A biarc whose tangent lines reach further than this many chord lengths (nearly equal
+#: tangents pointing away from the chord) is no usable biarc: the fit splits instead.
+MAX_JOINT_REACH = 100.0
 _FULL_TURN = 2.0 * math.pi - 1e-6
 
 
@@ -73,7 +76,8 @@ def _arc_from_tangent(ax, ay, tx, ty, bx, by):
         return math.nan, math.nan, 2.0 * math.pi
     sweep = 2.0 * math.atan2(cr, dt)
     k = 2.0 * cr / L2
-    if abs(sweep) < LINE_SWEEP_RAD or k == 0.0 or abs(1.0 / k) > MAX_RADIUS_MM:
+    # sagitta of the arc over its chord: (L/2)·tan(|sweep|/4)
+    if k == 0.0 or 0.5 * math.sqrt(L2) * math.tan(0.25 * abs(sweep)) <= LINE_SAGITTA_MM:
         return math.nan, math.nan, 0.0
     r = 1.0 / k
     return ax - r * ty, ay + r * tx, sweep
@@ -92,6 +96,8 @@ def _biarc(p0x, p0y, t0x, t0y, p1x, p1y, t1x, t1y, out):
     if den <= 1e-12 * math.sqrt(c):
         return False
     d = c / den
+    if d > MAX_JOINT_REACH * math.sqrt(c):
+        return False
     q0x, q0y = p0x + d * t0x, p0y + d * t0y
     q1x, q1y = p1x - d * t1x, p1y - d * t1y
     jx, jy = 0.5 * (q0x + q1x), 0.5 * (q0y + q1y)
