@@ -90,21 +90,35 @@ def _turnarounds(c, out):
     b = (c[2, 0] - c[1, 0]) * dx + (c[2, 1] - c[1, 1]) * dy
     e = (c[3, 0] - c[2, 0]) * dx + (c[3, 1] - c[2, 1]) * dy
     # B'·d / 3 = a(1-t)² + 2b(1-t)t + e t² = (a - 2b + e) t² + 2(b - a) t + a
-    A, B, C = a - 2.0 * b + e, 2.0 * (b - a), a
-    k = 0
+    return _roots_in_unit(a - 2.0 * b + e, 2.0 * (b - a), a, out)
+
+
+@numba.njit(cache=True)
+def _roots_in_unit(A, B, C, out):
+    """Roots of A t² + B t + C strictly inside (0, 1), ascending, written to out; returns how
+    many. A near-double root (discriminant within rounding of 0) counts once: a cusp."""
+    scale = abs(A) + abs(B) + abs(C)
     lo, hi = 1e-7, 1.0 - 1e-7
-    if abs(A) <= 1e-12 * (abs(B) + abs(C)):
-        if B != 0.0 and lo < -C / B < hi:
+    if scale == 0.0:
+        return 0
+    if abs(A) <= 1e-12 * scale:
+        if abs(B) > 1e-12 * scale and lo < -C / B < hi:
             out[0] = -C / B
-            k = 1
-        return k
+            return 1
+        return 0
     disc = B * B - 4.0 * A * C
     if disc < 0.0:
-        return 0
+        if disc > -1e-12 * B * B:
+            disc = 0.0
+        else:
+            return 0
     sq = math.sqrt(disc)
-    r1, r2 = (-B - sq) / (2.0 * A), (-B + sq) / (2.0 * A)
+    q = -0.5 * (B + (sq if B >= 0.0 else -sq))      # the stable form of the two roots
+    r1 = q / A
+    r2 = C / q if q != 0.0 else r1
     if r1 > r2:
         r1, r2 = r2, r1
+    k = 0
     if lo < r1 < hi:
         out[k] = r1
         k += 1
@@ -127,40 +141,10 @@ def _inflections(c, out):
         return d1x * d2y - d1y * d2x
     f0, fh, f1 = f(0.0), f(0.5), f(1.0)
     # f(t) = A t² + B t + C through the three values
-    C = f0
     A = 2.0 * (f1 + f0) - 4.0 * fh
-    B = f1 - f0 - A
-    scale = abs(A) + abs(B) + abs(C)
-    k = 0
-    if scale == 0.0:
+    if abs(A) + abs(f1 - f0 - A) + abs(f0) == 0.0:
         return _turnarounds(c, out)            # a straight cubic: only where it turns back
-    lo, hi = 1e-7, 1.0 - 1e-7
-    if abs(A) <= 1e-12 * scale:
-        if abs(B) > 1e-12 * scale:
-            t = -C / B
-            if lo < t < hi:
-                out[0] = t
-                k = 1
-        return k
-    disc = B * B - 4.0 * A * C
-    if disc < 0.0:
-        if disc > -1e-12 * B * B:
-            disc = 0.0                         # a double root (a cusp): keep it
-        else:
-            return 0
-    s = math.sqrt(disc)
-    q = -0.5 * (B + (s if B >= 0.0 else -s))
-    r1 = q / A
-    r2 = C / q if q != 0.0 else r1
-    if r1 > r2:
-        r1, r2 = r2, r1
-    if lo < r1 < hi:
-        out[k] = r1
-        k += 1
-    if lo < r2 < hi and (k == 0 or r2 - out[k - 1] > 1e-9):
-        out[k] = r2
-        k += 1
-    return k
+    return _roots_in_unit(A, f1 - f0 - A, f0, out)
 
 
 @numba.njit(cache=True)

@@ -84,6 +84,19 @@ def _arc_from_tangent(ax, ay, tx, ty, bx, by):
 
 
 @numba.njit(cache=True)
+def _two_arcs(p0x, p0y, t0x, t0y, jx, jy, tjx, tjy, p1x, p1y, out):
+    """The arcs p0 (tangent t0) → J and J (tangent tj) → p1 into out; False if either closes."""
+    c1x, c1y, s1 = _arc_from_tangent(p0x, p0y, t0x, t0y, jx, jy)
+    c2x, c2y, s2 = _arc_from_tangent(jx, jy, tjx, tjy, p1x, p1y)
+    if abs(s1) >= _FULL_TURN or abs(s2) >= _FULL_TURN:
+        return False
+    out[0], out[1] = jx, jy
+    out[2], out[3], out[4] = c1x, c1y, s1
+    out[5], out[6], out[7] = c2x, c2y, s2
+    return True
+
+
+@numba.njit(cache=True)
 def _biarc(p0x, p0y, t0x, t0y, p1x, p1y, t1x, t1y, out):
     """Equal-tangent-length biarc; out = (jx, jy, c1x, c1y, s1, c2x, c2y, s2). False if none."""
     vx, vy = p1x - p0x, p1y - p0y
@@ -104,14 +117,7 @@ def _biarc(p0x, p0y, t0x, t0y, p1x, p1y, t1x, t1y, out):
     ux, uy, n = _unit(q1x - q0x, q1y - q0y)
     if n == 0.0:
         return False
-    c1x, c1y, s1 = _arc_from_tangent(p0x, p0y, t0x, t0y, jx, jy)
-    c2x, c2y, s2 = _arc_from_tangent(jx, jy, ux, uy, p1x, p1y)
-    if abs(s1) >= _FULL_TURN or abs(s2) >= _FULL_TURN:
-        return False
-    out[0], out[1] = jx, jy
-    out[2], out[3], out[4] = c1x, c1y, s1
-    out[5], out[6], out[7] = c2x, c2y, s2
-    return True
+    return _two_arcs(p0x, p0y, t0x, t0y, jx, jy, ux, uy, p1x, p1y, out)
 
 
 @numba.njit(cache=True)
@@ -149,14 +155,7 @@ def _biarc_joint(p0x, p0y, t0x, t0y, p1x, p1y, jx, jy, out):
         return False
     d = 2.0 * (t0x * ux + t0y * uy)
     tjx, tjy = d * ux - t0x, d * uy - t0y           # t0 mirrored in the first chord
-    c1x, c1y, s1 = _arc_from_tangent(p0x, p0y, t0x, t0y, jx, jy)
-    c2x, c2y, s2 = _arc_from_tangent(jx, jy, tjx, tjy, p1x, p1y)
-    if abs(s1) >= _FULL_TURN or abs(s2) >= _FULL_TURN:
-        return False
-    out[0], out[1] = jx, jy
-    out[2], out[3], out[4] = c1x, c1y, s1
-    out[5], out[6], out[7] = c2x, c2y, s2
-    return True
+    return _two_arcs(p0x, p0y, t0x, t0y, jx, jy, tjx, tjy, p1x, p1y, out)
 
 
 @numba.njit(cache=True)
