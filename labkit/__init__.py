@@ -13,6 +13,9 @@ viz       matplotlib plots and ipywidgets (imported lazily)
 """
 
 import importlib
+import os
+import sys
+from pathlib import Path
 
 __version__ = "0.1.0"
 
@@ -41,3 +44,44 @@ def __getattr__(name):
 
 def __dir__():
     return sorted(__all__)
+
+
+def _numba_cache_dir(root: Path | None = None, base: Path | None = None) -> Path:
+    """Where compiled kernels are cached: one folder per state of labkit's sources.
+
+    numba's own cache is keyed by the file of each compiled function, so it keeps
+    serving a kernel after a kernel it calls in another module has changed. Keying
+    the whole cache by every source file's size and modification time makes any
+    edit start from a fresh cache. Older folders beyond the last few are removed.
+    """
+    import hashlib
+    import shutil
+
+    root = root or Path(__file__).resolve().parent
+    digest = hashlib.sha1()
+    for path in sorted(root.rglob("*.py")):
+        st = path.stat()
+        digest.update(f"{path.relative_to(root)}:{st.st_size}:{st.st_mtime_ns};".encode())
+    base = base or Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "labkit" / "numba"
+    here = base / digest.hexdigest()[:16]
+    here.mkdir(parents=True, exist_ok=True)
+    others = sorted((p for p in base.iterdir() if p.is_dir() and p != here),
+                    key=lambda p: p.stat().st_mtime)
+    for old in others[:-3]:
+        shutil.rmtree(old, ignore_errors=True)
+    return here
+
+
+def _configure_numba_cache() -> None:
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return                                   # the user chose a cache folder
+    try:
+        folder = str(_numba_cache_dir())
+    except OSError:
+        return                                   # no writable cache folder: numba's default
+    os.environ["NUMBA_CACHE_DIR"] = folder
+    if "numba" in sys.modules:                   # numba read its settings already
+        sys.modules["numba"].config.CACHE_DIR = folder
+
+
+_configure_numba_cache()

@@ -40,3 +40,29 @@ def test_unit_conversions():
         units.s_to_duty(1, s_max=0)
     with pytest.raises(ValueError, match="max_power_mw must be > 0"):
         units.mw_to_s(1, max_power_mw=0)
+
+
+def test_kernel_cache_folder_follows_every_source_edit(tmp_path):
+    import os
+    import time
+
+    import labkit
+
+    src = tmp_path / "pkg"
+    (src / "sub").mkdir(parents=True)
+    (src / "a.py").write_text("x = 1\n")
+    (src / "sub" / "b.py").write_text("y = 2\n")
+    cache = tmp_path / "cache"
+    first = labkit._numba_cache_dir(src, cache)
+    assert first == labkit._numba_cache_dir(src, cache) and first.is_dir()
+    # an edit in any module, even one a kernel only calls into, gives a new folder
+    (src / "sub" / "b.py").write_text("y = 3\n")
+    os.utime(src / "sub" / "b.py", ns=(time.time_ns(), time.time_ns() + 10**9))
+    second = labkit._numba_cache_dir(src, cache)
+    assert second != first
+    for k in range(6):                      # old folders are pruned to the last few
+        (src / "a.py").write_text(f"x = {k + 10}\n")
+        os.utime(src / "a.py", ns=(time.time_ns(), time.time_ns() + (k + 2) * 10**9))
+        labkit._numba_cache_dir(src, cache)
+    assert len(list(cache.iterdir())) <= 4
+    assert os.environ["NUMBA_CACHE_DIR"]    # set when labkit was imported
