@@ -18,7 +18,7 @@ from labkit.geometry.biarc import (_FULL_TURN, _arc_from_tangent, _biarc, _biarc
                                   _joint_circle, _joint_side, _merge, _unit)
 
 #: Samples of the curve per whole cubic (at least ``_MIN_SAMPLES`` per piece) when measuring.
-_PER_CUBIC = 40
+_PER_CUBIC = 80
 _MIN_SAMPLES = 32
 #: Bisection steps after the bracket is found (piece end within 1/2**steps of the best).
 _BISECT = 7
