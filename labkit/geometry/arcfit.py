@@ -310,8 +310,10 @@ def _fit(ctrl, tol_mm, closed_loop, breaks, *, linear=False, base_deviation_mm=0
     ctrl = np.ascontiguousarray(ctrl)
     share = SAMPLE_SHARE
     for _ in range(VERIFY_ROUNDS):
+        # the kernel turns tangents by up to its limit; 2 % headroom keeps the joints that
+        # the written arcs actually make within G1_TOL_RAD
         v, cen, sw, worst, _ = fit_cubic_chain(ctrl, share * float(tol_mm), KINK_RAD, SPLIT_INFLECTIONS,
-                                               closed_loop, breaks, 2.0, G1_TOL_RAD, linear)
+                                               closed_loop, breaks, 2.0, 0.98 * G1_TOL_RAD, linear)
         if len(sw) == 0:                               # the chain is a single point
             v, cen, sw = np.vstack([ctrl[0, :1], ctrl[-1, 3:]]), None, None
         coarse = None if linear else _samples_may_hide(ctrl, float(tol_mm))
