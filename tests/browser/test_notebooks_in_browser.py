@@ -35,7 +35,7 @@ CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run
                   "--disable-dev-shm-usage", "--window-size=1400,1000"]
 # chapter → the least number of sliders its widget must show
 CHAPTERS = {"00-index.ipynb": 0, "02-arcs-ijk-vs-r.ipynb": 3}
-RUN_TIMEOUT_S = 240
+RUN_TIMEOUT_S = 480            # generous: CI machines may be busy compiling kernels
 PANEL = ".jp-NotebookPanel:not(.lm-mod-hidden)"     # the notebook on show
 
 
@@ -73,6 +73,8 @@ def lab(tmp_path_factory):
     (news / "notification.jupyterlab-settings").write_text('{"fetchNews": "false"}')
     port = _free_port()
     token = secrets.token_hex(16)
+    import labkit  # noqa: F401  (sets NUMBA_CACHE_DIR: the kernels then reuse compiled code)
+
     env = dict(os.environ, HOME=str(home), JUPYTER_CONFIG_DIR=str(home / "config"),
                JUPYTER_RUNTIME_DIR=str(home / "runtime"), JUPYTERLAB_SETTINGS_DIR=str(home / "settings"),
                JUPYTERLAB_WORKSPACES_DIR=str(home / "workspaces"), MPLBACKEND="module://matplotlib_inline.backend_inline")
@@ -134,6 +136,7 @@ def _click_menu(driver, menu: str, item: str):
 
 
 def _run_all_and_wait(driver, name):
+    from selenium.common.exceptions import TimeoutException
     from selenium.webdriver.common.by import By
     from selenium.webdriver.support.ui import WebDriverWait
 
@@ -143,7 +146,19 @@ def _run_all_and_wait(driver, name):
         d.find_elements(By.CSS_SELECTOR, ".jp-Notebook-ExecutionIndicator[data-status='idle']"),
         message=f"{name}: the notebook did not open with an idle kernel")
     n_code = len(driver.find_elements(By.CSS_SELECTOR, f"{PANEL} .jp-CodeCell"))
-    _click_menu(driver, "Run", "Run All Cells")
+
+    def started(d):
+        prompts = [p.text.strip() for p in d.find_elements(By.CSS_SELECTOR, f"{PANEL} .jp-CodeCell .jp-InputPrompt")]
+        return any(re.fullmatch(r"\[(\d+|\*)\]:?", p) for p in prompts)
+
+    for attempt in range(3):     # a click on a busy page can be lost: try again if nothing ran
+        _click_menu(driver, "Run", "Run All Cells")
+        try:
+            WebDriverWait(driver, 30, poll_frequency=0.5).until(started)
+            break
+        except TimeoutException:
+            if attempt == 2:
+                raise
 
     def done(d):
         # A finished cell's prompt reads "[7]:", a running or queued one "[*]:".
