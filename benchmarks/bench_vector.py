@@ -3,7 +3,8 @@
 Run: ``.venv/bin/python benchmarks/bench_vector.py`` (peers from the ``bench`` extra).
 
 Part 1 — every SVG of ``data/svg`` at tolerances 0.1 and 0.01 mm, converted by
-labkit (import, Paths → Moves, G-code text; arcs on) and by svg-to-gcode
+labkit as ``labkit svg2gcode --arcs`` does (import with the greedy arc fit,
+chains, ordering, Paths → Moves, G-code text) and by svg-to-gcode
 (``parse_file`` + ``Compiler``, its ``TOLERANCES['approximation']`` set to the
 tolerance). Both programs are parsed back by ``labkit.gcode.parse`` and their
 cut moves measured against the same dense truth: svgelements samples of every
@@ -31,7 +32,7 @@ from labkit.commands.vector import motion_lines
 from labkit.gcode import emit, parse
 from labkit.geometry import Path, order_segments
 from labkit.geometry.measure import path_distance
-from labkit.toolpath.build import LayerSettings, build_moves
+from labkit.toolpath.build import LayerSettings, build_moves, prepare_paths
 from labkit.vector import read_svg, svg_reference_samples
 
 ROOT = os.path.join(os.path.dirname(__file__), "..")
@@ -50,8 +51,10 @@ def _best_of(fn, repeat=3):
 
 
 def labkit_convert(path, tol):
+    """What ``labkit svg2gcode --arcs`` does: import, chains and ordering, Moves, G-code."""
     d = read_svg(path, tol_mm=tol, arcs=True, warn=False)
-    return emit(build_moves(d.paths, SETTINGS), tol_mm=min(tol / 10, 0.001))
+    paths = prepare_paths(d.paths, tol_mm=tol)
+    return emit(build_moves(paths, SETTINGS), tol_mm=min(tol / 10, 0.001))
 
 
 def peer_convert(path, tol):

@@ -91,6 +91,9 @@ def _common_arguments(parser: argparse.ArgumentParser, kind: str) -> None:
 def add_svg2gcode_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``labkit svg2gcode``."""
     _common_arguments(parser, "SVG")
+    parser.add_argument("--fit", choices=("greedy", "biarc"), default="greedy",
+                        help="with --arcs, how curves become arcs: fewest blocks (greedy, default) "
+                             "or tangent-continuous biarcs")
     parser.add_argument("--no-flip", action="store_true", help="keep SVG's downward y axis")
 
 
@@ -157,7 +160,7 @@ def run_svg2gcode(args) -> int:
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        drawing = read_svg(args.input, tol_mm=args.tol, arcs=args.arcs, flip_y=not args.no_flip)
+        drawing = read_svg(args.input, tol_mm=args.tol, arcs=args.arcs, fit=args.fit, flip_y=not args.no_flip)
     for w in caught:
         print(f"warning: {w.message}")
     return _run(args, drawing)

@@ -94,7 +94,7 @@ class Path:
         s[line] = 0.0
         if np.any(np.abs(s) >= 2 * math.pi - 1e-12):
             raise GeometryError("an arc segment must sweep less than a full turn; split circles in two")
-        if closed and not np.allclose(v[0], v[-1], rtol=0, atol=1e-9):
+        if closed and not (abs(v[0, 0] - v[-1, 0]) <= 1e-9 and abs(v[0, 1] - v[-1, 1]) <= 1e-9):
             v = np.vstack([v, v[:1]])
             c = np.vstack([c, [[np.nan, np.nan]]])
             s = np.append(s, 0.0)
@@ -212,20 +212,28 @@ class Path:
         """A polyline (k, 2) through the path whose chords stay within ``tol_mm`` of the arcs."""
         if not tol_mm > 0:
             raise GeometryError(f"tol_mm must be > 0 mm, got {tol_mm!r}")
-        out = [self.vertices[:1]]
-        for i in range(self.n_segments):
-            if self.sweeps[i] == 0:
-                out.append(self.vertices[i + 1:i + 2])
-                continue
+        v, sw = self.vertices, self.sweeps
+        arc = sw != 0
+        if not arc.any():
+            return v.copy()
+        # chords per segment (1 for a line), then every sample in one vectorised pass
+        counts = np.ones(len(sw), np.int64)
+        r = np.hypot(*(v[:-1][arc] - self.centres[arc]).T)
+        counts[arc] = chord_segments(r, sw[arc], tol_mm)
+        seg = np.repeat(np.arange(len(sw)), counts)
+        first = np.cumsum(counts) - counts
+        k = np.arange(len(seg)) - first[seg] + 1            # 1 … n within each segment
+        frac = k / counts[seg]
+        out = v[seg + 1].copy()                               # segment ends (lines: exact)
+        inner = arc[seg] & (k < counts[seg])
+        if inner.any():
+            i = seg[inner]
             c = self.centres[i]
-            p0 = self.vertices[i] - c
-            r = math.hypot(*p0)
-            n = int(chord_segments(r, self.sweeps[i], tol_mm))
-            a = math.atan2(p0[1], p0[0]) + self.sweeps[i] * np.arange(1, n + 1) / n
-            pts = c + r * np.stack([np.cos(a), np.sin(a)], axis=1)
-            pts[-1] = self.vertices[i + 1]
-            out.append(pts)
-        return np.vstack(out)
+            p0 = v[i] - c
+            rad = np.hypot(*p0.T)
+            a = np.arctan2(p0[:, 1], p0[:, 0]) + sw[i] * frac[inner]
+            out[inner] = c + rad[:, None] * np.stack([np.cos(a), np.sin(a)], axis=1)
+        return np.vstack([v[:1], out])
 
     # -- operations -------------------------------------------------------------------
 

@@ -73,6 +73,37 @@ def _layer_settings(layer, settings, default) -> LayerSettings:
     return settings.get(layer, default)
 
 
+#: Arcs whose centres and radii agree this closely (mm) are one circle.
+SAME_CIRCLE_MM = 1e-6
+
+
+def _merged_circles(p: Path):
+    """The path's segments with neighbouring arcs of one circle (same centre, radius and
+    direction) merged into one move, and a closed path that is a single circle into one
+    full-circle move (G2/G3 back to its start: one block instead of two to four).
+
+    Returns (vertices (k+1, 2), centres (k, 2), sweeps (k,))."""
+    v, c, s = p.vertices, p.centres, p.sweeps
+    if len(s) < 2:
+        return v, c, s
+    r = np.hypot(*(v[:-1] - c).T)
+    same = ((s[1:] * s[:-1] > 0) & (np.hypot(*(c[1:] - c[:-1]).T) <= SAME_CIRCLE_MM)
+            & (np.abs(r[1:] - r[:-1]) <= SAME_CIRCLE_MM))
+    if not same.any():
+        return v, c, s
+    if same.all() and p.closed and abs(abs(s.sum()) - 2 * math.pi) < 1e-9:
+        return v[[0, -1]], c[:1], np.array([s.sum()])
+    keep = [0]
+    sweeps = [s[0]]
+    for i in range(1, len(s)):
+        if same[i - 1] and abs(sweeps[-1] + s[i]) < 2 * math.pi - 1e-9:
+            sweeps[-1] += s[i]
+        else:
+            keep.append(i)
+            sweeps.append(s[i])
+    return np.vstack([v[keep], v[-1:]]), c[keep], np.array(sweeps)
+
+
 def build_moves(paths: Sequence[Path], settings: LayerSettings | Mapping[str, LayerSettings] = LayerSettings(),
                 *, default: LayerSettings = LayerSettings(), origin=(0.0, 0.0, 0.0), s_max=1000.0,
                 rapid_tol_mm=1e-6) -> Moves:
@@ -98,14 +129,15 @@ def build_moves(paths: Sequence[Path], settings: LayerSettings | Mapping[str, La
     Moves
         Layers in the order their first path appears; each layer's passes one
         after the other (pass k at Z = origin_z − k·z_step_mm); within a pass
-        the paths in the given order, joined by rapids.
+        the paths in the given order, joined by rapids. Neighbouring arcs of
+        one circle become one move, and a closed circle one full-turn arc.
 
     Examples
     --------
     >>> sq = Path.rectangle(0, 0, 10, 10)
     >>> m = build_moves([sq, Path.circle((30, 5), 5)], LayerSettings(feed_mm_min=600, power_s=800))
-    >>> [MoveKind(k).name for k in m.kind]
-    ['LINE', 'LINE', 'LINE', 'LINE', 'RAPID', 'ARC_CCW', 'ARC_CCW']
+    >>> [MoveKind(k).name for k in m.kind]            # the circle: one full-turn G3
+    ['LINE', 'LINE', 'LINE', 'LINE', 'RAPID', 'ARC_CCW']
     >>> round(float(m.lengths_mm()[m.laser_on].sum()), 4), bool(m.laser_on[4])
     (71.4159, False)
     """
@@ -121,20 +153,21 @@ def build_moves(paths: Sequence[Path], settings: LayerSettings | Mapping[str, La
         for k in range(int(ls.passes)):
             z = float(origin[2]) - k * ls.z_step_mm
             for p in group:
-                n = p.n_segments
                 start = np.array([p.start[0], p.start[1], z])
                 if np.linalg.norm(start - pos) > rapid_tol_mm:
                     chunks.append(dict(kind=np.array([MoveKind.RAPID]), start=pos[None].copy(),
                                        end=start[None], centre=np.full((1, 3), np.nan),
                                        feed=np.array([ls.feed_mm_min]), power=np.array([ls.power_s]),
                                        laser=np.array([int(ls.laser)])))
-                kind = np.where(p.sweeps > 0, MoveKind.ARC_CCW,
-                                np.where(p.sweeps < 0, MoveKind.ARC_CW, MoveKind.LINE))
+                verts, centres, sweeps = _merged_circles(p)
+                n = len(sweeps)
+                kind = np.where(sweeps > 0, MoveKind.ARC_CCW,
+                                np.where(sweeps < 0, MoveKind.ARC_CW, MoveKind.LINE))
                 zc = np.full((n, 1), z)
-                centre = np.hstack([p.centres, zc])
-                centre[p.sweeps == 0] = np.nan
-                chunks.append(dict(kind=kind, start=np.hstack([p.vertices[:-1], zc]),
-                                   end=np.hstack([p.vertices[1:], zc]), centre=centre,
+                centre = np.hstack([centres, zc])
+                centre[sweeps == 0] = np.nan
+                chunks.append(dict(kind=kind, start=np.hstack([verts[:-1], zc]),
+                                   end=np.hstack([verts[1:], zc]), centre=centre,
                                    feed=np.full(n, ls.feed_mm_min), power=np.full(n, ls.power_s),
                                    laser=np.full(n, int(ls.laser))))
                 pos = np.array([p.end[0], p.end[1], z])

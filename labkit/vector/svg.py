@@ -33,7 +33,7 @@ import numpy as np
 
 from labkit.errors import GeometryError
 from labkit.geometry import transform as tf
-from labkit.geometry.arcfit import cubics_to_arcs
+from labkit.geometry.arcfit import FLATTEN_SHARE, cubics_to_arcs
 from labkit.geometry.bezier import flatten_cubics, quad_to_cubic
 from labkit.geometry.ellipse import ellipse_arc_arrays
 from labkit.geometry.path import Path
@@ -123,26 +123,29 @@ def _name(el, index):
 class _Builder:
     """Accumulates one subpath's segments as lines and arcs."""
 
-    def __init__(self, start, tol_mm, arcs, meta):
+    def __init__(self, start, tol_mm, arcs, fit, meta):
         self.v = [np.asarray(start, float)]
         self.c: list = []
         self.s: list = []
         self.cubics: list = []
-        self.tol, self.arcs, self.meta = tol_mm, arcs, meta
+        self.tol, self.arcs, self.fit, self.meta = tol_mm, arcs, fit, meta
+        # the greedy fit takes straight lines and ellipse samples into the curve chain, so
+        # collinear runs merge and gentle polylines become arcs
+        self.chain_all = arcs and fit == "greedy"
         self.dev = 0.0
 
     @property
     def here(self):
-        return self.cubics[-1][3] if self.cubics else self.v[-1]
+        return self.cubics[-1][-1, 3] if self.cubics else self.v[-1]
 
     def _flush(self):
         if not self.cubics:
             return
-        ctrl = np.array(self.cubics)
+        ctrl = np.concatenate(self.cubics)
         self.cubics = []
         start = self.v[-1]
         if self.arcs:
-            p = cubics_to_arcs(ctrl, self.tol, start=start)
+            p = cubics_to_arcs(ctrl, self.tol, start=start, method=self.fit)
             self._append(p)
         else:
             pts, _ = flatten_cubics(ctrl, self.tol)
@@ -157,9 +160,21 @@ class _Builder:
         self.s.extend(p.sweeps)
         self.dev = max(self.dev, p.deviation_mm)
 
+    def _chords(self, points):
+        """Straight chords from here through points (k, 2), as cubics of the chain."""
+        pts = np.vstack([self.here[None], points])
+        d = np.diff(pts, axis=0)
+        keep = np.any(d != 0, axis=1)
+        if keep.any():
+            a, d = pts[:-1][keep], d[keep]
+            self.cubics.append(np.stack([a, a + d / 3.0, a + 2.0 * d / 3.0, a + d], axis=1))
+
     def line(self, end):
-        self._flush()
         end = np.asarray(end, float)
+        if self.chain_all:
+            self._chords(end[None])
+            return
+        self._flush()
         if np.array_equal(end, self.v[-1]):
             return
         self.v.append(end)
@@ -172,12 +187,33 @@ class _Builder:
             return
         if not self.cubics:
             ctrl[0] = self.v[-1]
-        self.cubics.append(ctrl)
+        self.cubics.append(ctrl[None])
 
     def ellipse_arc(self, centre, jac, t0, dt, end):
-        self._flush()
         if dt == 0:
             return self.line(end)
+        sv = np.linalg.svd(jac, compute_uv=False)
+        if self.chain_all and sv[1] < (1.0 - 1e-9) * sv[0]:
+            # a true ellipse joins the chain as samples whose chords stay within the
+            # flattening share (a chord of the unit circle over dt/n misses it by
+            # 1 − cos(dt/2n); the map stretches that by at most its largest singular value)
+            flat = FLATTEN_SHARE * self.tol
+            step = 2.0 * math.acos(max(1.0 - flat / sv[0], -1.0))
+            n = max(2, math.ceil(abs(dt) / step))
+            t = t0 + dt * np.arange(1, n) / n
+            self._chords(np.vstack([centre + np.c_[np.cos(t), np.sin(t)] @ jac.T, np.asarray(end, float)[None]]))
+            return
+        self._flush()
+        if self.arcs and sv[1] >= (1.0 - 1e-9) * sv[0]:
+            # a circle's image is a circle: exact arcs of at most a half turn each
+            k = max(1, math.ceil(abs(dt) / math.pi - 1e-9))
+            t = t0 + dt * np.arange(1, k) / k
+            turn = 1.0 if jac[0, 0] * jac[1, 1] - jac[0, 1] * jac[1, 0] > 0 else -1.0
+            self.v.extend(centre + np.c_[np.cos(t), np.sin(t)] @ jac.T)
+            self.v.append(np.asarray(end, float))
+            self.c.extend([centre] * k)
+            self.s.extend([turn * dt / k] * k)
+            return
         budget = self.tol if self.arcs else 0.5 * self.tol
         v, c, sweep, dev, _ = ellipse_arc_arrays(centre, jac, t0, dt, None, budget, "midpoint")
         v[0], v[-1] = self.v[-1], end
@@ -192,11 +228,13 @@ class _Builder:
         self.dev = max(self.dev, dev)
 
     def finish(self, closed) -> Path | None:
+        if closed and self.chain_all and self.cubics:
+            self.line(self.v[0])                   # the closing side joins the chain too
         self._flush()
         if len(self.v) < 2:
             return None
         v = np.array(self.v)
-        if closed and not np.allclose(v[0], v[-1], rtol=0, atol=1e-9):
+        if closed and not (abs(v[0, 0] - v[-1, 0]) <= 1e-9 and abs(v[0, 1] - v[-1, 1]) <= 1e-9):
             v = np.vstack([v, v[:1]])
             self.c.append((np.nan, np.nan))
             self.s.append(0.0)
@@ -208,7 +246,7 @@ class _Builder:
                     closed=closed, deviation_mm=self.dev, **self.meta)
 
 
-def _shape_paths(el, m, tol_mm, arcs, meta) -> list[Path]:
+def _shape_paths(el, m, tol_mm, arcs, fit, meta) -> list[Path]:
     import svgelements as se
 
     out: list[Path] = []
@@ -228,16 +266,16 @@ def _shape_paths(el, m, tol_mm, arcs, meta) -> list[Path]:
                 if p is not None:
                     out.append(p)
             start = P(seg.end)
-            b = _Builder(start, tol_mm, arcs, meta)
+            b = _Builder(start, tol_mm, arcs, fit, meta)
             continue
         if b is None:             # a path that does not start with M (svgelements allows it)
             start = P(seg.start)
-            b = _Builder(start, tol_mm, arcs, meta)
+            b = _Builder(start, tol_mm, arcs, fit, meta)
         if isinstance(seg, se.Close):
             p = b.finish(True)
             if p is not None:
                 out.append(p)
-            b = _Builder(start, tol_mm, arcs, meta)
+            b = _Builder(start, tol_mm, arcs, fit, meta)
         elif isinstance(seg, se.Line):
             b.line(P(seg.end))
         elif isinstance(seg, se.CubicBezier):
@@ -276,7 +314,7 @@ def _iter_shapes(doc):
             yield index, el, "shape"
 
 
-def read_svg(source, *, tol_mm=0.01, arcs=True, flip_y=True, warn=True) -> Drawing:
+def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=True) -> Drawing:
     """Read an SVG file (or SVG text) into Paths in mm.
 
     Parameters
@@ -288,6 +326,11 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, flip_y=True, warn=True) -> Drawi
     arcs : bool
         Keep circular arcs (G2/G3) and fit arcs to Beziers; False gives
         straight segments only (for controllers without arcs).
+    fit : {"greedy", "biarc"}
+        How curves become arcs (:mod:`labkit.geometry.arcfit`): ``"greedy"``
+        (fewest blocks; straight runs and true ellipses join the curve so
+        collinear lines merge) or ``"biarc"`` (tangent-continuous). Circles
+        and circular arcs stay exact either way.
     flip_y : bool
         Mirror y so the drawing's top is at +y (SVG's y points down).
     warn : bool
@@ -328,7 +371,7 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, flip_y=True, warn=True) -> Drawi
                     fill_rule="evenodd" if rule == "evenodd" else "nonzero", source=label)
         m = _element_matrix(el, page)
         try:
-            paths += _shape_paths(el, m, tol_mm, arcs, meta)
+            paths += _shape_paths(el, m, tol_mm, arcs, fit, meta)
         except GeometryError:
             raise
         except ValueError as exc:                  # svgelements resolves some units lazily

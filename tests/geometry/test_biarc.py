@@ -182,18 +182,19 @@ def test_circle_cubics_come_back_as_arcs_of_that_circle():
 
 
 def test_blocks_against_lines_and_the_greedy_fit():
-    """Far fewer blocks than lines; at fine tolerances fewer than the greedy three-point fit
-    (which is not tangent-continuous). Counts on 20 seeded random cubics, measured."""
+    """Both fits use far fewer blocks than lines; tangent continuity costs the biarc fit
+    blocks against the greedy fit (whose joints may kink within the tolerance), but not
+    more than half as many again. Counts on 20 seeded random cubics, measured."""
     rng = np.random.default_rng(7)
     ctrls = [rng.uniform(0, 50, (1, 4, 2)) for _ in range(20)]
     lines = sum(len(flatten_cubic(c[0], tol_mm=0.01)) - 1 for c in ctrls)
     counts = {}
     for tol in (0.01, 0.001):
         bi = sum(cubics_to_arcs(c, tol, method="biarc").n_segments for c in ctrls)
-        greedy = sum(cubics_to_arcs(c, tol, method="threepoint").n_segments for c in ctrls)
+        greedy = sum(cubics_to_arcs(c, tol, method="greedy").n_segments for c in ctrls)
         counts[tol] = (bi, greedy)
-        assert bi <= greedy
-    assert counts[0.01][0] < 0.3 * lines
+        assert greedy <= bi <= 1.5 * greedy
+    assert counts[0.01][0] < 0.3 * lines and counts[0.01][1] < 0.3 * lines
 
 
 def test_polyline_circle_and_polygon():

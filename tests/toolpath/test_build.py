@@ -19,8 +19,8 @@ def _cut_paths(moves):
         if moves.kind[k] == MoveKind.LINE:
             out.append(Path([s, e]))
         else:
-            sweep = float(moves.sweep_rad()[k])
-            out.append(Path([s, e], [c], [sweep]))
+            sweep = float(moves.sweep_rad()[k])      # ±2π: a full circle in one move
+            out.append(Path.arc(c, math.hypot(*(s - c)), math.atan2(*(s - c)[::-1]), sweep))
     return out
 
 
@@ -100,3 +100,19 @@ def test_errors():
     with pytest.raises(GeometryError, match="kerf_mm must be >= 0"):
         prepare_paths([Path.rectangle(0, 0, 1, 1)], kerf_mm=-0.1)
     assert len(build_moves([])) == 0
+
+
+def test_a_circle_is_one_full_circle_move_and_co_circular_arcs_merge():
+    """A closed circle (two half arcs, or the four quarter arcs an SVG path draws) is cut
+    as one G2/G3 back to its start; co-circular neighbours short of a turn merge."""
+    quarters = Path([[5, 0], [0, 5], [-5, 0], [0, -5], [5, 0]], [[0, 0]] * 4, [math.pi / 2] * 4, closed=True)
+    three = Path([[5, 0], [0, 5], [-5, 0], [0, -5]], [[0, 0]] * 3, [math.pi / 2] * 3)
+    for p, sweeps in ((Path.circle((0, 0), 5), [2 * math.pi]), (quarters, [2 * math.pi]),
+                      (three, [1.5 * math.pi])):
+        m = build_moves([p], LayerSettings(), origin=(5, 0, 0))
+        assert m.sweep_rad().tolist() == pytest.approx(sweeps)
+        assert m.lengths_mm().sum() == pytest.approx(p.length_mm)
+        assert hausdorff(_cut_paths(m), [p]) < 1e-9
+    # arcs of different circles stay apart
+    two = Path([[5, 0], [0, 5], [-5, 0]], [[0, 0], [0, 0.5]], [math.pi / 2, math.pi / 2])
+    assert len(build_moves([two], LayerSettings(), origin=(5, 0, 0))) == 2
