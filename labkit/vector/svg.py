@@ -127,7 +127,8 @@ class _Builder:
         self.v = [np.asarray(start, float)]
         self.c: list = []
         self.s: list = []
-        self.cubics: list = []
+        self.cubics: list = []          # the pending curve chain: arrays (k, 4, 2)
+        self.rows: list = []            # and its newest cubics as 8-float tuples (no numpy per segment)
         self.tol, self.arcs, self.fit, self.meta = tol_mm, arcs, fit, meta
         # the greedy fit takes straight lines and ellipse samples into the curve chain, so
         # collinear runs merge and gentle polylines become arcs
@@ -136,9 +137,17 @@ class _Builder:
 
     @property
     def here(self):
+        if self.rows:
+            return self.rows[-1][6:]
         return self.cubics[-1][-1, 3] if self.cubics else self.v[-1]
 
+    def _commit(self):
+        if self.rows:
+            self.cubics.append(np.array(self.rows).reshape(-1, 4, 2))
+            self.rows = []
+
     def _flush(self):
+        self._commit()
         if not self.cubics:
             return
         ctrl = np.concatenate(self.cubics)
@@ -162,7 +171,8 @@ class _Builder:
 
     def _chords(self, points):
         """Straight chords from here through points (k, 2), as cubics of the chain."""
-        pts = np.vstack([self.here[None], points])
+        pts = np.vstack([np.asarray(self.here, float)[None], points])
+        self._commit()
         d = np.diff(pts, axis=0)
         keep = np.any(d != 0, axis=1)
         if keep.any():
@@ -170,10 +180,15 @@ class _Builder:
             self.cubics.append(np.stack([a, a + d / 3.0, a + 2.0 * d / 3.0, a + d], axis=1))
 
     def line(self, end):
-        end = np.asarray(end, float)
         if self.chain_all:
-            self._chords(end[None])
+            hx, hy = self.here
+            ex, ey = float(end[0]), float(end[1])
+            if ex != hx or ey != hy:
+                dx, dy = ex - hx, ey - hy
+                self.rows.append((hx, hy, hx + dx / 3.0, hy + dy / 3.0, hx + 2.0 * dx / 3.0,
+                                  hy + 2.0 * dy / 3.0, ex, ey))
             return
+        end = np.asarray(end, float)
         self._flush()
         if np.array_equal(end, self.v[-1]):
             return
@@ -182,12 +197,13 @@ class _Builder:
         self.s.append(0.0)
 
     def cubic(self, ctrl):
-        ctrl = np.asarray(ctrl, float)
-        if np.ptp(ctrl, axis=0).max() == 0:
+        (x0, y0), (x1, y1), (x2, y2), (x3, y3) = ctrl
+        if x0 == x1 == x2 == x3 and y0 == y1 == y2 == y3:
             return
-        if not self.cubics:
-            ctrl[0] = self.v[-1]
-        self.cubics.append(ctrl[None])
+        if not self.rows and not self.cubics:
+            x0, y0 = self.v[-1]
+        self.rows.append((float(x0), float(y0), float(x1), float(y1), float(x2), float(y2),
+                          float(x3), float(y3)))
 
     def ellipse_arc(self, centre, jac, t0, dt, end):
         if dt == 0:
@@ -253,11 +269,11 @@ def _shape_paths(el, m, tol_mm, arcs, fit, meta) -> list[Path]:
     b: _Builder | None = None
     start = None
     a2 = m[:2, :2]
-    (ma, mc, me), (mb, md, mf) = m[0], m[1]
+    (ma, mc, me), (mb, md, mf) = (float(q) for q in m[0]), (float(q) for q in m[1])
 
     def P(pt):                          # the element's matrix on one point (hot path: no numpy calls)
         x, y = pt.x, pt.y
-        return np.array((ma * x + mc * y + me, mb * x + md * y + mf))
+        return (ma * x + mc * y + me, mb * x + md * y + mf)
 
     for seg in el.segments(transformed=False):
         if isinstance(seg, se.Move):
@@ -279,7 +295,7 @@ def _shape_paths(el, m, tol_mm, arcs, fit, meta) -> list[Path]:
         elif isinstance(seg, se.Line):
             b.line(P(seg.end))
         elif isinstance(seg, se.CubicBezier):
-            b.cubic(np.array([P(seg.start), P(seg.control1), P(seg.control2), P(seg.end)]))
+            b.cubic((P(seg.start), P(seg.control1), P(seg.control2), P(seg.end)))
         elif isinstance(seg, se.QuadraticBezier):
             b.cubic(quad_to_cubic(P(seg.start), P(seg.control), P(seg.end)))
         elif isinstance(seg, se.Arc):
@@ -290,7 +306,7 @@ def _shape_paths(el, m, tol_mm, arcs, fit, meta) -> list[Path]:
             rot = float(rot.as_radians) if hasattr(rot, "as_radians") else float(rot)
             cr, sr = math.cos(rot), math.sin(rot)
             jac = a2 @ np.array([[cr, -sr], [sr, cr]]) @ np.diag([seg.rx, seg.ry])
-            b.ellipse_arc(P(seg.center), jac, float(seg.get_start_t()), float(seg.sweep), P(seg.end))
+            b.ellipse_arc(np.array(P(seg.center)), jac, float(seg.get_start_t()), float(seg.sweep), P(seg.end))
         else:  # pragma: no cover - svgelements has no other segment kinds
             raise GeometryError(f"unknown SVG segment {type(seg).__name__} in {meta['source']}")
     if b is not None:
