@@ -385,7 +385,7 @@ def fit_arcs(points, tol_mm, *, arcs=True, closed=False, base_deviation_mm=0.0, 
         raise GeometryError(f"fit_arcs needs at least 2 points, got {len(p)}")
     if not tol_mm > 0:
         raise GeometryError(f"tol_mm must be > 0 mm, got {tol_mm!r}")
-    keep = np.r_[True, np.any(np.diff(p, axis=0) != 0, axis=1)]
+    keep = np.concatenate(([True], np.any(np.diff(p, axis=0) != 0, axis=1)))
     p = p[keep]
     if len(p) < 2:
         raise GeometryError("fit_arcs: all points coincide")

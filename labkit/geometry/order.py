@@ -346,7 +346,7 @@ def order_segments(starts, ends, *, closed_points=None, origin=(0.0, 0.0), impro
         p_in[:n_open, 0], p_out[:n_open, 0] = s, e
         p_in[:n_open, 1], p_out[:n_open, 1] = e, s
         ci = picked[order >= n_open]
-        p_cl = np.c_[cx[ci], cy[ci]]
+        p_cl = np.stack([cx[ci], cy[ci]], axis=1)
         cl_items = order[order >= n_open]
         p_in[cl_items, 0] = p_in[cl_items, 1] = p_cl
         p_out[cl_items, 0] = p_out[cl_items, 1] = p_cl

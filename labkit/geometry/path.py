@@ -249,7 +249,7 @@ class Path:
         index %= n
         if index == 0:
             return self
-        seg = np.r_[index:n, 0:index]
+        seg = np.concatenate((np.arange(index, n), np.arange(index)))
         v = np.vstack([self.vertices[seg], self.vertices[index:index + 1]])
         return self.with_geometry(v, self.centres[seg], self.sweeps[seg])
 

@@ -217,7 +217,7 @@ class _Builder:
             step = 2.0 * math.acos(max(1.0 - flat / sv[0], -1.0))
             n = max(2, math.ceil(abs(dt) / step))
             t = t0 + dt * np.arange(1, n) / n
-            self._chords(np.vstack([centre + np.c_[np.cos(t), np.sin(t)] @ jac.T, np.asarray(end, float)[None]]))
+            self._chords(np.vstack([centre + np.stack([np.cos(t), np.sin(t)], axis=1) @ jac.T, np.asarray(end, float)[None]]))
             return
         self._flush()
         if self.arcs and sv[1] >= (1.0 - 1e-9) * sv[0]:
@@ -225,7 +225,7 @@ class _Builder:
             k = max(1, math.ceil(abs(dt) / math.pi - 1e-9))
             t = t0 + dt * np.arange(1, k) / k
             turn = 1.0 if jac[0, 0] * jac[1, 1] - jac[0, 1] * jac[1, 0] > 0 else -1.0
-            self.v.extend(centre + np.c_[np.cos(t), np.sin(t)] @ jac.T)
+            self.v.extend(centre + np.stack([np.cos(t), np.sin(t)], axis=1) @ jac.T)
             self.v.append(np.asarray(end, float))
             self.c.extend([centre] * k)
             self.s.extend([turn * dt / k] * k)
