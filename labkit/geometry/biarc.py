@@ -26,8 +26,10 @@ signed curvature ``κ = 2·(t × (B − A))/|B − A|²`` (κ > 0 turns left) an
 sweep ``2·atan2(t × u, t·u)`` with ``u`` the unit chord; its end tangent is
 ``t`` mirrored in the chord. κ ≈ 0 is a straight line.
 
-The fitting kernels (:func:`labkit.geometry.arcfit.cubics_to_arcs` and
-:func:`labkit.geometry.arcfit.fit_arcs`) grow each piece as far as one biarc
+With ``method="biarc"`` the fitting kernels
+(:func:`labkit.geometry.arcfit.cubics_to_arcs` and
+:func:`labkit.geometry.arcfit.fit_arcs`; their default is the greedy fit,
+which uses fewer blocks but may kink within the tolerance) grow each piece as far as one biarc
 stays within the tolerance of the curve, measured both ways (curve samples to
 the biarc, and biarc samples to the curve's dense polyline).
 """
