@@ -143,8 +143,6 @@ def _arc_check(p, i, j, tol, cx, cy, out):
     qx, qy = p[mid, 0] - cx, p[mid, 1] - cy
     turn = (sx * qy - sy * qx) if mid != i else (sx * ey - sy * ex)
     sign = 1.0 if turn > 0 else -1.0
-    if abs(math.hypot(ex, ey) - r) > tol:
-        return -1.0
     sweep = 0.0
     worst = 0.0
     px, py = sx, sy
@@ -172,8 +170,6 @@ def _arc_check(p, i, j, tol, cx, cy, out):
         return -1.0
     out[0], out[1], out[2] = cx, cy, sweep
     return worst
-
-
 
 
 @numba.njit(cache=True)

@@ -314,10 +314,22 @@ def ellipse_arc_arrays(centre, jacobian, t0, dt, arcs_per_quadrant, tol_mm, meth
         raise GeometryError(f"elliptical arc sweep must be within ±2π rad, got {dt!r}")
     if tol_mm is not None and not tol_mm > 0:
         raise GeometryError(f"tol_mm must be > 0 mm, got {tol_mm!r}")
-    a, b, rot, sgn, shift = ellipse_image(jacobian)
     centre = np.asarray(centre, dtype=float)
-    u0, du = sgn * t0 + shift, sgn * dt
     full = abs(abs(dt) - 2 * math.pi) < 1e-9
+    j = np.asarray(jacobian, dtype=float)
+    s0, s1 = np.linalg.svd(j, compute_uv=False)
+    if arcs_per_quadrant is None and s1 > 1e-12 * max(s0, 1.0) and s0 - s1 <= 1e-9 * s0:
+        # a circle's image is a circle: exact arcs, cut only so that none sweeps more than
+        # a half turn, straight from the parametrisation (no standard form needed)
+        k = max(1, math.ceil(abs(dt) / math.pi - 1e-9))
+        t = t0 + dt * np.arange(k + 1) / k
+        verts = centre + np.stack([np.cos(t), np.sin(t)], axis=1) @ j.T
+        if full:
+            verts[-1] = verts[0]
+        turn = 1.0 if j[0, 0] * j[1, 1] - j[0, 1] * j[1, 0] > 0 else -1.0
+        return verts, np.tile(centre, (k, 1)), np.full(k, turn * dt / k), 0.0, full
+    a, b, rot, sgn, shift = ellipse_image(j)
+    u0, du = sgn * t0 + shift, sgn * dt
     if not b > 1e-12 * max(a, 1.0):
         raise GeometryError(f"ellipse is degenerate (radii {a:.6g} and {b:.6g} mm): it has no area")
     if arcs_per_quadrant is not None:
@@ -328,15 +340,7 @@ def ellipse_arc_arrays(centre, jacobian, t0, dt, arcs_per_quadrant, tol_mm, meth
         n = default_arcs_per_quadrant(a, b)
     else:
         n = 2
-    if arcs_per_quadrant is None and abs(a - b) <= 1e-9 * a:
-        # a circle: exact arcs, cut only so that none sweeps more than a half turn
-        k = max(1, math.ceil(abs(du) / math.pi - 1e-9))
-        ang = u0 + du * np.linspace(0, 1, k + 1)
-        verts = np.stack([a * np.cos(ang), a * np.sin(ang)], axis=1)
-        c = np.zeros((k, 2))
-        sweep = np.full(k, du / k)
-        dev = 0.0
-    elif method == "seed" and tol_mm is not None and arcs_per_quadrant is None:
+    if method == "seed" and tol_mm is not None and arcs_per_quadrant is None:
         while True:     # the seed's scheme has no local refinement: raise the count
             verts, c, sweep, dev = _canonical_arcs(a, b, u0, du, n, method)
             if dev <= tol_mm or n >= _MAX_PER_QUADRANT:

@@ -220,16 +220,6 @@ class _Builder:
             self._chords(np.vstack([centre + np.stack([np.cos(t), np.sin(t)], axis=1) @ jac.T, np.asarray(end, float)[None]]))
             return
         self._flush()
-        if self.arcs and sv[1] >= (1.0 - 1e-9) * sv[0]:
-            # a circle's image is a circle: exact arcs of at most a half turn each
-            k = max(1, math.ceil(abs(dt) / math.pi - 1e-9))
-            t = t0 + dt * np.arange(1, k) / k
-            turn = 1.0 if jac[0, 0] * jac[1, 1] - jac[0, 1] * jac[1, 0] > 0 else -1.0
-            self.v.extend(centre + np.stack([np.cos(t), np.sin(t)], axis=1) @ jac.T)
-            self.v.append(np.asarray(end, float))
-            self.c.extend([centre] * k)
-            self.s.extend([turn * dt / k] * k)
-            return
         budget = self.tol if self.arcs else 0.5 * self.tol
         v, c, sweep, dev, _ = ellipse_arc_arrays(centre, jac, t0, dt, None, budget, "midpoint")
         v[0], v[-1] = self.v[-1], end
