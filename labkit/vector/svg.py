@@ -234,7 +234,7 @@ class _Builder:
         self.dev = max(self.dev, dev)
 
     def finish(self, closed) -> Path | None:
-        if closed and self.chain_all and self.cubics:
+        if closed and self.chain_all and (self.cubics or self.rows):
             self.line(self.v[0])                   # the closing side joins the chain too
         self._flush()
         if len(self.v) < 2:

@@ -142,3 +142,15 @@ def test_errors():
         read_svg("no/such/file.svg")
     with pytest.raises(GeometryError, match=r"em-values.svg: cannot read this SVG \(em units.*rect#rect1"):
         read_svg(os.path.join(DATA, "resvg", "shapes_rect_em-values.svg"))
+
+
+def test_greedy_fit_merges_collinear_sides_including_the_closing_one():
+    """A rectangle drawn with split sides (the last one by Z) comes back as its four sides;
+    with the biarc fit the drawn lines are kept as they are."""
+    svg = ('<svg xmlns="http://www.w3.org/2000/svg" width="20mm" height="20mm" viewBox="0 0 20 20">'
+           '<path d="M0 0 L5 0 L10 0 L10 10 L0 10 L0 5 Z" stroke="#000" fill="none"/></svg>')
+    p = read_svg(svg, tol_mm=0.01).paths[0]
+    assert p.closed and p.n_segments == 4 and not p.is_arc.any()
+    corners = {tuple(np.round(q, 3)) for q in p.vertices}      # svgelements: 1 mm = 3.7795296 px
+    assert corners == {(0.0, 20.0), (10.0, 20.0), (10.0, 10.0), (0.0, 10.0)}
+    assert read_svg(svg, tol_mm=0.01, fit="biarc").paths[0].n_segments == 6
