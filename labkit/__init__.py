@@ -62,7 +62,11 @@ def _numba_cache_dir(root: Path | None = None, base: Path | None = None) -> Path
     for path in sorted(root.rglob("*.py")):
         st = path.stat()
         digest.update(f"{path.relative_to(root)}:{st.st_size}:{st.st_mtime_ns};".encode())
-    base = base or Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "labkit" / "numba"
+    if base is None:
+        # One folder per checkout, so that two checkouts (a clone and a worktree) do
+        # not prune each other's kernels.
+        base = (Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "labkit"
+                / "numba" / hashlib.sha1(str(root).encode()).hexdigest()[:8])
     here = base / digest.hexdigest()[:16]
     here.mkdir(parents=True, exist_ok=True)
     others = sorted((p for p in base.iterdir() if p.is_dir() and p != here),
