@@ -20,6 +20,8 @@ __all__ = [
     "RasterError",
     "MotionError",
     "MachineError",
+    "InputError",
+    "BudgetError",
     "StatusCode",
     "STATUS_CODES",
     "status_code",
@@ -148,3 +150,12 @@ class MotionError(LabkitError, ValueError):
 
 class MachineError(LabkitError, RuntimeError):
     """A machine or link fault: alarms, timeouts, disconnects, rejected lines."""
+
+
+class InputError(LabkitError, ValueError):
+    """A file or option the user gave that cannot be used (not a regular file, input
+    named as output, an option out of its range)."""
+
+
+class BudgetError(LabkitError, ValueError):
+    """A job whose estimated work exceeds a documented budget (:mod:`labkit.budget`)."""

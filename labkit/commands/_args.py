@@ -1,0 +1,80 @@
+"""Validated option types for the command line: finite numbers within a stated range.
+
+argparse reports a type error as ``labkit CMD: error: argument --tol: …`` with exit
+status 2, so an option's name always appears with the range it must lie in. Every
+numeric option of every command uses :func:`number` (or :func:`integer`), never a
+bare ``type=float``, which would accept ``inf``, ``nan`` and ``-1``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+__all__ = ["number", "integer"]
+
+
+def _range_text(lo, hi, lo_open, hi_open) -> str:
+    parts = []
+    if lo is not None:
+        parts.append(f"{'>' if lo_open else '>='} {lo:g}")
+    if hi is not None:
+        parts.append(f"{'<' if hi_open else '<='} {hi:g}")
+    return "a finite number" + (" " + " and ".join(parts) if parts else "")
+
+
+def number(lo: float | None = None, hi: float | None = None, *,
+           lo_open: bool = False, hi_open: bool = False):
+    """An argparse ``type=`` accepting finite floats in ``[lo, hi]`` (open ends optional).
+
+    >>> tol = number(0, 10, lo_open=True)
+    >>> tol("0.1")
+    0.1
+    >>> tol("inf")
+    Traceback (most recent call last):
+    ...
+    argparse.ArgumentTypeError: 'inf' is not a finite number > 0 and <= 10
+    """
+    expected = _range_text(lo, hi, lo_open, hi_open)
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not {expected}") from None
+        ok = math.isfinite(value)
+        if ok and lo is not None:
+            ok = value > lo if lo_open else value >= lo
+        if ok and hi is not None:
+            ok = value < hi if hi_open else value <= hi
+        if not ok:
+            raise argparse.ArgumentTypeError(f"{text!r} is not {expected}")
+        return value
+
+    parse.__name__ = "number"          # argparse names the type in some messages
+    return parse
+
+
+def integer(lo: int | None = None, hi: int | None = None):
+    """An argparse ``type=`` accepting whole numbers in ``[lo, hi]`` (``2.5`` is refused).
+
+    >>> integer(1, 100)("3")
+    3
+    >>> integer(1, 100)("2.5")
+    Traceback (most recent call last):
+    ...
+    argparse.ArgumentTypeError: '2.5' is not a whole number >= 1 and <= 100
+    """
+    expected = _range_text(lo, hi, False, False).replace("a finite number", "a whole number")
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text.strip())
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not {expected}") from None
+        if (lo is not None and value < lo) or (hi is not None and value > hi):
+            raise argparse.ArgumentTypeError(f"{text!r} is not {expected}")
+        return value
+
+    parse.__name__ = "integer"
+    return parse
