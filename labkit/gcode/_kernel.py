@@ -32,32 +32,45 @@ import math
 import numba as nb
 import numpy as np
 
-# Move kinds (labkit.toolpath.MoveKind).
-RAPID, LINE, ARC_CW, ARC_CCW, DWELL = 0, 1, 2, 3, 4
+from labkit.errors import status_code
+from labkit.toolpath.moves import MoveKind
+
+
+def _code(name: str) -> int:
+    return status_code(name).code
+
+
+# Move kinds (labkit.toolpath.MoveKind), as plain ints for the compiled code.
+RAPID, LINE, ARC_CW, ARC_CCW, DWELL = (int(MoveKind.RAPID), int(MoveKind.LINE), int(MoveKind.ARC_CW),
+                                       int(MoveKind.ARC_CCW), int(MoveKind.DWELL))
 
 # Record kinds.
-REC_SYSTEM, REC_PAUSE, REC_OPTIONAL_PAUSE, REC_END, REC_LOOKAHEAD, REC_COOLANT = 1, 2, 3, 4, 5, 6
+REC_SYSTEM, REC_PAUSE, REC_OPTIONAL_PAUSE, REC_END, REC_LOOKAHEAD, REC_COOLANT, REC_JOG = \
+    1, 2, 3, 4, 5, 6, 7
 RECORD_NAMES = {REC_SYSTEM: "system", REC_PAUSE: "pause", REC_OPTIONAL_PAUSE: "optional_pause",
-                REC_END: "end", REC_LOOKAHEAD: "lookahead", REC_COOLANT: "coolant"}
+                REC_END: "end", REC_LOOKAHEAD: "lookahead", REC_COOLANT: "coolant", REC_JOG: "jog"}
 
-# Status codes (labkit/status_codes.csv).
-E_EXPECTED_LETTER = 1
-E_BAD_NUMBER = 2
-E_NEGATIVE = 4
-E_UNSUPPORTED = 20
-E_MODAL_GROUP = 21
-E_UNDEFINED_FEED = 22
-E_NON_INTEGER = 23
-E_REPEATED = 25
-E_NO_AXIS_WORDS = 26
-E_LINE_NUMBER = 27
-E_MISSING_VALUE = 28
-E_NO_PLANE_AXIS = 32
-E_INVALID_ARC = 33
-E_NO_OFFSET = 35
-E_UNUSED = 36
-E_CHECKSUM = 100
-E_DELIMITER = 101
+# Status codes: numbers from the one table, labkit/status_codes.csv (names are its rows).
+E_EXPECTED_LETTER = _code("expected_letter")
+E_BAD_NUMBER = _code("bad_number")
+E_NEGATIVE = _code("negative_value")
+E_OVERFLOW = _code("line_overflow")
+E_INVALID_JOG = _code("invalid_jog")
+E_UNSUPPORTED = _code("unsupported_command")
+E_MODAL_GROUP = _code("modal_group_violation")
+E_UNDEFINED_FEED = _code("undefined_feed")
+E_NON_INTEGER = _code("non_integer_command")
+E_REPEATED = _code("repeated_word")
+E_NO_AXIS_WORDS = _code("missing_axis_words")
+E_LINE_NUMBER = _code("bad_line_number")
+E_MISSING_VALUE = _code("missing_value_word")
+E_NO_PLANE_AXIS = _code("missing_plane_axis")
+E_INVALID_ARC = _code("invalid_arc")
+E_NO_OFFSET = _code("missing_offset_words")
+E_UNUSED = _code("unused_words")
+E_CHECKSUM = _code("bad_checksum")
+E_DELIMITER = _code("bad_delimiter")
+E_OUT_OF_RANGE = _code("value_out_of_range")
 
 # Details that select the message for a status code (see parse._MESSAGES).
 D_NONE = 0
@@ -77,6 +90,10 @@ D_CHECKSUM_DIGITS = 13
 D_NUMBER_NO_DIGITS = 14
 D_NUMBER_TRAILING = 15
 D_ABS_CENTRE = 16
+D_NUMBER_TOO_LARGE = 17
+D_PERCENT = 18
+D_JOG_COMMAND = 19
+D_JOG_WORD = 20
 
 # Letters (index = letter − 'A').
 L_F, L_G, L_I, L_J, L_K, L_M, L_N, L_P, L_R, L_S, L_T, L_X, L_Y, L_Z = (
@@ -88,6 +105,9 @@ G_MOTION, G_NONMODAL, G_PLANE, G_UNITS, G_DISTANCE, G_ARCDIST, G_FEEDMODE, G_CUT
 
 MAX_COMMANDS = 16   # G or M words per line; more cannot be valid (fewer groups exist)
 MAX_LINE_NUMBER = 9_999_999  # GRBL's limit for N
+#: Largest magnitude of a number or coordinate, mm (2**53: above it a float64 no longer
+#: holds every integer, so neither the position nor the digits written back are exact).
+MAX_ABS_VALUE = 9007199254740992.0
 
 # Exact powers of ten up to 1e22; beyond that the division is done in two steps.
 _POW10 = np.array([10.0 ** k for k in range(23)])
@@ -120,7 +140,8 @@ def _read_number(buf, i, end):
     """Read ``[+-]digits[.digits]`` at ``buf[i]``.
 
     Returns (value, next index, status) with status 0 ok, 1 no digits,
-    2 followed by something that cannot end a number (``1.2.3``, ``5x``…).
+    2 followed by something that cannot end a number (``1.2.3``, ``5x``…),
+    3 magnitude at or above :data:`MAX_ABS_VALUE` (``X`` followed by 400 digits).
     """
     neg = False
     if i < end and (buf[i] == 45 or buf[i] == 43):   # '-' '+'
@@ -159,14 +180,16 @@ def _read_number(buf, i, end):
                   or (65 <= c <= 90) or (97 <= c <= 122))
         if not ok_end:
             return 0.0, i, 2
-    value = float(mant)
     if extra_exp > 0:
-        value = value * 10.0 ** extra_exp
+        return 0.0, i, 3           # 19 or more integer digits: beyond MAX_ABS_VALUE
+    value = float(mant)
     while frac > 22:
         value = value / 1e22
         frac -= 22
     if frac > 0:
         value = value / _POW10[frac]
+    if value >= MAX_ABS_VALUE:
+        return 0.0, i, 3
     return (-value if neg else value), i, 0
 
 
@@ -179,16 +202,35 @@ def _contains(arr, v):
 
 
 @nb.njit(cache=True)
+def _in_range(v):
+    return abs(v) < MAX_ABS_VALUE      # False for inf and NaN too
+
+
+#: The outputs of :func:`interpret`, in order (parse.py reads them by these names).
+OUTPUTS = ("kind", "start", "end", "centre", "plane", "feed_mm_min", "power_s", "laser",
+           "dwell_s", "line",
+           "e_line", "e_pos", "e_end", "e_code", "e_detail", "e_aux", "e_total",
+           "r_line", "r_kind", "r_span", "r_value", "r_index",
+           "t_state", "t_pos")
+
+
+@nb.njit(cache=True)
 def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwell_scale,
               lookahead_g5, arc_r_tol, arc_tol_abs, arc_tol_rel, full_circle_ok,
-              require_axis_words, lenient, trace):
-    """Interpret G-code bytes. See the module docstring; outputs are documented in parse.py."""
+              require_axis_words, line_limit, lenient, max_errors, trace):
+    """Interpret G-code bytes (parameters: :class:`labkit.gcode.parse.ParseOptions`, then
+    ``lenient``, ``max_errors``, ``trace``); returns the arrays named in :data:`OUTPUTS`.
+
+    ``line_limit`` > 0 rejects a line with more significant characters (not spaces,
+    comments or ``/``) than a controller's line buffer holds (GRBL error 11).
+    At most ``max_errors`` diagnostics are kept; ``e_total`` counts them all.
+    """
     n = buf.shape[0]
     nlines_est = 1
     for k in range(n):
         if buf[k] == 10:
             nlines_est += 1
-    cap = nlines_est + 8
+    cap = min(nlines_est + 8, 4096)      # grows by doubling: no big reservation up front
 
     # Output rows.
     kind = np.empty(cap, np.int8)
@@ -212,6 +254,7 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
     e_detail = np.empty(ecap, np.int64)
     e_aux = np.empty((ecap, 2), np.float64)
     nerr = 0
+    nerr_total = 0
 
     # Records: line, kind, text span, value, row index.
     rcap = 16
@@ -226,8 +269,6 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
     tcap = nlines_est if trace else 0
     t_state = np.zeros((tcap, 8), np.float64)   # motion, plane, units, distance, arc dist, feed, S, laser
     t_pos = np.zeros((tcap, 3), np.float64)
-
-    line_starts = np.empty(nlines_est + 1, np.int64)
 
     # Modal state (GRBL's power-on defaults).
     pos = np.zeros(3)
@@ -262,7 +303,6 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
         while le < n and buf[le] != 10:
             le += 1
         lineno += 1
-        line_starts[lineno - 1] = ls
 
         err = 0
         detail = D_NONE
@@ -271,6 +311,28 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
         aux0 = 0.0
         aux1 = 0.0
         is_system = False
+        is_jog = False
+
+        # ---- phase 0: the controller's line buffer (GRBL drops spaces and comments first)
+        if line_limit > 0:
+            count = 0
+            in_paren = False
+            k = ls
+            while k < le:
+                c = buf[k]
+                if in_paren:
+                    if c == 41:
+                        in_paren = False
+                elif c == 40:
+                    in_paren = True
+                elif c == 59:
+                    break
+                elif c > 32 and c != 47:
+                    if count >= line_limit - 1:
+                        err, epos, eend, aux0 = E_OVERFLOW, k, k + 1, float(line_limit - 1)
+                        break
+                    count += 1
+                k += 1
 
         # ---- phase 1: scan ----------------------------------------------------------
         for k in range(26):
@@ -316,10 +378,21 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
                 checksum_seen = True
                 i = j
                 continue
-            if first and c == 36:   # '$' system line, kept whole
+            if first and c == 36:   # '$' system line, kept whole; '$J=' a jog (GRBL 1.1)
+                if i + 2 < le and (buf[i + 1] == 74 or buf[i + 1] == 106) and buf[i + 2] == 61:
+                    is_jog = True
+                    first = False
+                    i += 3
+                    continue
                 is_system = True
                 break
-            if first and c == 37:   # '%' program delimiter: nothing else on the line counts
+            if first and c == 37:   # '%' alone on its line: the program delimiter
+                j = i + 1
+                while j < le and _is_space(buf[j]):
+                    j += 1
+                if j < le:          # GRBL reads any other '%' as a non-letter: error 1
+                    err, detail, epos, eend = E_EXPECTED_LETTER, D_PERCENT, i, i + 1
+                    break
                 i = le
                 break
             first = False
@@ -342,7 +415,8 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
                     while j < le and not (_is_space(buf[j]) or buf[j] == 40 or buf[j] == 59):
                         j += 1
                 err, epos, eend = E_BAD_NUMBER, wp, j
-                detail = D_NUMBER_NO_DIGITS if st == 1 else D_NUMBER_TRAILING
+                detail = D_NUMBER_NO_DIGITS if st == 1 else (
+                    D_NUMBER_TRAILING if st == 2 else D_NUMBER_TOO_LARGE)
                 break
             i = i2
             if letter == L_G:
@@ -387,11 +461,16 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
         coolant = -1
         gcol_motion = ls
         gcol_nonmodal = ls
+        machine_coords = False
         if err == 0 and not is_system:
             for k in range(ng):
                 v = g_val[k]
                 t10 = int(round(v * 10.0))
                 grp = -1
+                if is_jog and not (t10 == 200 or t10 == 210 or t10 == 900 or t10 == 910
+                                   or t10 == 530):
+                    err, detail, epos, eend = E_INVALID_JOG, D_JOG_COMMAND, g_pos[k], g_end[k]
+                    break
                 if v < 0 or abs(v * 10.0 - t10) > 1e-6:
                     err, detail, epos, eend = E_UNSUPPORTED, D_UNKNOWN_G, g_pos[k], g_end[k]
                     break
@@ -438,6 +517,9 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
                         grp = G_COORD
                     elif code == 61:
                         grp = G_PATH
+                    elif code == 53 and is_jog:
+                        grp = G_NONMODAL
+                        machine_coords = True
                     else:
                         err, detail, epos, eend = E_UNSUPPORTED, D_UNKNOWN_G, g_pos[k], g_end[k]
                         break
@@ -445,6 +527,8 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
                     err, epos, eend = E_MODAL_GROUP, g_pos[k], g_end[k]
                     break
                 groups |= 1 << grp
+        if err == 0 and is_jog and nm > 0:
+            err, detail, epos, eend = E_INVALID_JOG, D_JOG_COMMAND, m_pos[0], m_end[0]
         if err == 0 and not is_system:
             for k in range(nm):
                 v = m_val[k]
@@ -482,7 +566,37 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
         motion_mode = motion_new if motion_new >= 0 else motion
         moving = False
         move_kind = RAPID
-        if err == 0 and not is_system:
+        jog_feed = 0.0
+        if err == 0 and is_jog:
+            # GRBL's jog: F and X Y Z only (N allowed); G20/G21, G90/G91 and G53 for this
+            # line only; the parser's modal state is left as it was, but for the position.
+            for letter in (L_I, L_J, L_K, L_P, L_R, L_S, L_T):
+                if present[letter] and (err == 0 or wpos[letter] < epos):
+                    err, detail, epos, eend = E_UNUSED, D_JOG_WORD, wpos[letter], wend[letter]
+            if err == 0 and present[L_N]:
+                nv = val[L_N]
+                if nv < 0 or nv > MAX_LINE_NUMBER or nv != math.floor(nv):
+                    err, epos, eend = E_LINE_NUMBER, wpos[L_N], wend[L_N]
+            if err == 0:
+                if not present[L_F]:
+                    err, epos, eend = E_UNDEFINED_FEED, ls, le
+                elif val[L_F] < 0:
+                    err, epos, eend = E_NEGATIVE, wpos[L_F], wend[L_F]
+                else:
+                    jog_feed = val[L_F] * scale * feed_scale
+                    for a in range(3):
+                        if present[L_X + a]:
+                            v = val[L_X + a] * scale
+                            target[a] = v if absolute_new or machine_coords else pos[a] + v
+                        else:
+                            target[a] = pos[a]
+                    if axis_words:
+                        moving = True
+                        move_kind = LINE
+                        for a in range(3):
+                            if err == 0 and not _in_range(target[a]):
+                                err, epos, eend = E_OUT_OF_RANGE, wpos[L_X + a], wend[L_X + a]
+        if err == 0 and not is_system and not is_jog:
             if present[L_N]:
                 nv = val[L_N]
                 if nv < 0 or nv > MAX_LINE_NUMBER or nv != math.floor(nv):
@@ -587,6 +701,14 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
                                 moving = True
                     if moving:
                         move_kind = ARC_CW if motion_mode == 2 else ARC_CCW
+            # Positions beyond MAX_ABS_VALUE (e.g. accumulated by G91) or not finite.
+            if err == 0 and moving:
+                for a in range(3):
+                    if err == 0 and not (_in_range(target[a])
+                                         and (move_kind < ARC_CW or _in_range(ctr[a]))):
+                        err, epos, eend = E_OUT_OF_RANGE, gcol_motion, gcol_motion + 2
+                        if present[L_X + a]:
+                            epos, eend = wpos[L_X + a], wend[L_X + a]
             # Value words no command used.
             if err == 0:
                 arc_r = moving and move_kind >= ARC_CW and present[L_R]
@@ -605,6 +727,8 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
                         err, epos, eend = E_UNUSED, wpos[letter], wend[letter]
 
         if err != 0:
+            nerr_total += 1
+        if err != 0 and nerr < max_errors:
             if nerr == ecap:
                 ecap *= 2
                 e_line = _grow(e_line, ecap)
@@ -621,6 +745,7 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
             e_aux[nerr, 0] = aux0
             e_aux[nerr, 1] = aux1
             nerr += 1
+        if err != 0:
             if not lenient:
                 break
         else:
@@ -638,7 +763,7 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
                 laser_col = _grow(laser_col, cap)
                 dwell_col = _grow(dwell_col, cap)
                 line_col = _grow(line_col, cap)
-            nrec_new = (1 if is_system else 0) + (1 if lookahead else 0) + (1 if coolant >= 0 else 0) \
+            nrec_new = (1 if is_system else 0) + (1 if is_jog else 0) + (1 if lookahead else 0) + (1 if coolant >= 0 else 0) \
                 + (1 if stop >= 0 else 0)
             if nrec + nrec_new > rcap:
                 rcap = 2 * rcap + nrec_new
@@ -661,6 +786,29 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
                 r_value[nrec] = np.nan
                 r_index[nrec] = nrows
                 nrec += 1
+            elif is_jog:
+                r_line[nrec] = lineno
+                r_kind[nrec] = REC_JOG
+                r_span[nrec, 0] = ls
+                r_span[nrec, 1] = le
+                r_value[nrec] = jog_feed
+                r_index[nrec] = nrows
+                nrec += 1
+                if moving:
+                    # A jog runs as a G1 with the spindle/laser state in effect (GRBL's jog).
+                    kind[nrows] = LINE
+                    for a in range(3):
+                        start[nrows, a] = pos[a]
+                        endp[nrows, a] = target[a]
+                        centre[nrows, a] = np.nan
+                        pos[a] = target[a]
+                    plane_col[nrows] = 17 + plane
+                    feed_col[nrows] = jog_feed if jog_feed > 0 else np.nan
+                    power_col[nrows] = power
+                    laser_col[nrows] = laser
+                    dwell_col[nrows] = 0.0
+                    line_col[nrows] = lineno
+                    nrows += 1
             else:
                 feed = feed_new
                 power = power_new
@@ -745,5 +893,6 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
             feed_col[:nrows], power_col[:nrows], laser_col[:nrows], dwell_col[:nrows],
             line_col[:nrows],
             e_line[:nerr], e_pos[:nerr], e_end[:nerr], e_code[:nerr], e_detail[:nerr], e_aux[:nerr],
+            nerr_total,
             r_line[:nrec], r_kind[:nrec], r_span[:nrec], r_value[:nrec], r_index[:nrec],
-            line_starts[:lineno], t_state[:lineno], t_pos[:lineno])
+            t_state[:lineno], t_pos[:lineno])

@@ -80,6 +80,11 @@ class Dialect:
         An explicit G0/G1 without X Y Z is an error (GRBL ignores it).
     extra_letters : str
         Word letters this dialect accepts beyond the common set.
+    line_buffer_chars : int
+        Size of the controller's line buffer in bytes, 0 when unknown (GRBL 1.1:
+        ``LINE_BUFFER_SIZE`` 80, holding 79 characters after spaces and comments
+        are dropped; a longer streamed line is error 11). Checked by
+        :func:`labkit.gcode.check`.
     """
 
     name: str
@@ -99,6 +104,7 @@ class Dialect:
     rapids_beam_off: bool = True
     full_circle_without_axes: bool = True
     require_axis_words: bool = False
+    line_buffer_chars: int = 0
     description: str = field(default="", compare=False)
 
     def feed_to_mm_min(self, f: float) -> float:
@@ -123,6 +129,7 @@ DIALECTS: dict[str, Dialect] = {
         name="grbl",
         extra_letters="T",
         full_circle_without_axes=False,
+        line_buffer_chars=80,
         description="GRBL 1.1 laser mode: F mm/min, G4 P s, S 0-1000, M3/M4/M5",
     ),
     "labkit-fw": Dialect(

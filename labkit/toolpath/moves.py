@@ -118,6 +118,8 @@ class Moves:
         Non-motion lines kept from the source.
     diagnostics : sequence of GcodeError
         Problems found in lenient parsing (empty when strict).
+    dropped_diagnostics : int
+        Further problems counted but not kept (beyond the ``diagnostics`` budget).
 
     Examples
     --------
@@ -128,10 +130,12 @@ class Moves:
     (2, [10.0, 5.0], [False, True])
     """
 
-    __slots__ = tuple(_COLUMNS) + ("source", "s_max", "records", "diagnostics")
+    __slots__ = tuple(_COLUMNS) + ("source", "s_max", "records", "diagnostics",
+                                   "dropped_diagnostics")
 
     def __init__(self, *, source: str | None = None, s_max: float = 1000.0,
-                 records: Sequence[Record] = (), diagnostics: Sequence[Any] = (), **columns):
+                 records: Sequence[Record] = (), diagnostics: Sequence[Any] = (),
+                 dropped_diagnostics: int = 0, **columns):
         unknown = set(columns) - set(_COLUMNS)
         if unknown:
             raise TypeError(f"unknown Moves column(s) {sorted(unknown)}; columns are {list(_COLUMNS)}")
@@ -152,6 +156,12 @@ class Moves:
         self.s_max = float(s_max)
         self.records = tuple(records)
         self.diagnostics = tuple(diagnostics)
+        self.dropped_diagnostics = int(dropped_diagnostics)
+
+    @staticmethod
+    def column_names() -> tuple[str, ...]:
+        """The column names, in the one order of the table above."""
+        return tuple(_COLUMNS)
 
     # -- construction -----------------------------------------------------------------
 

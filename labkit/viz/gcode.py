@@ -57,6 +57,22 @@ def moves_to_segments(moves: Moves, *, tol_mm: float, view: str = "xy"):
     return np.concatenate(segs), np.concatenate(rows)
 
 
+def _refuse_non_finite(moves: Moves) -> None:
+    """A position that is not finite cannot be drawn (nor cut): say which move."""
+    from labkit.errors import InputError
+
+    pts = np.concatenate([moves.start, moves.end], axis=1)
+    pts = np.where(moves.is_arc[:, None], np.concatenate([pts, moves.centre], axis=1),
+                   np.concatenate([pts, pts[:, :3]], axis=1))
+    bad = moves.is_motion & ~np.isfinite(pts).all(axis=1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        line = int(moves.line[i])
+        raise InputError(f"{moves.source or '<moves>'}: move {i}"
+                         f"{f' (line {line})' if line else ''} has a position that is not finite; "
+                         "expected finite coordinates in mm")
+
+
 def plot_moves(moves: Moves, ax=None, *, view: str = "xy", show_travel: bool = True,
                cmap: str = "plasma", linewidth: float = 1.2, colorbar: bool = True,
                title: str | None = None):
@@ -90,6 +106,7 @@ def plot_moves(moves: Moves, ax=None, *, view: str = "xy", show_travel: bool = T
     if len(moves) == 0 or not moves.is_motion.any():
         ax.set_title(title or "empty program")
         return ax
+    _refuse_non_finite(moves)
     ax0, ax1 = _PLANE_VIEW[view]
     box = moves.bounds()
     extent = float(np.nanmax(box[1, [ax0, ax1]] - box[0, [ax0, ax1]])) or 1.0

@@ -44,10 +44,14 @@ def test_line_numbers_and_valid_checksum():
 
 def test_percent_and_blank_lines_and_system_lines_are_kept_apart():
     m = parse("%\n$H\n$J=G91 X10 F100\nG0 X1\n%")
-    assert [r.kind for r in m.records] == ["system", "system"]
+    assert [r.kind for r in m.records] == ["system", "jog"]
     assert [r.text for r in m.records] == ["$H", "$J=G91 X10 F100"]
     assert [r.line for r in m.records] == [2, 3]
-    assert len(m) == 1
+    # The jog is a move (GRBL 1.1 jogging.md): G91 holds for the jog line only, so the
+    # following G0 X1 is absolute again.
+    assert kinds(m) == ["LINE", "RAPID"]
+    assert m.end[:, 0].tolist() == [10.0, 1.0]
+    assert m.feed_mm_min[0] == 100.0
 
 
 # ---- modal state -------------------------------------------------------------------------
