@@ -19,10 +19,26 @@ What is read
   positions that would get there, are rejected (bad number, error 2;
   out of range, error 103): no infinite or NaN position reaches the Moves.
 - Motion G0 G1 G2 G3, dwell G4 P, planes G17 G18 G19, units G20 G21,
-  distance G90 G91, arc centres G90.1 G91.1, feed F, laser M3 M4 M5 with S
-  (M106/M107 in the marlin dialect), stops M0 M1 M2 M30, coolant/air assist
-  M7 M8 M9 (recorded), look-ahead G5 P (labkit-fw dialect, recorded). G94,
-  G40, G49, G54 and G61 are accepted as the only modes labkit has.
+  distance G90 G91, arc centres G91.1 (and G90.1 outside grbl), feed F,
+  laser M3 M4 M5 with S (M106/M107 in the marlin dialect), stops M0 M1 M2
+  M30, coolant/air assist (recorded; grbl: M8 M9 as GRBL's default build),
+  look-ahead G5 P (labkit-fw dialect, recorded). Which G words a dialect
+  runs is its ``g_codes`` list; the grbl dialect runs GRBL 1.1's:
+- Offsets as GRBL runs them: G54-G59 (origins set by G10 L2/L20, all 0 at
+  the start: GRBL keeps them in EEPROM, a file cannot rely on them), G92 /
+  G92.1, G43.1 Z / G49, G53 (machine coordinates for one block), G28 / G30
+  (rapid through the named intermediate point to the position stored by
+  G28.1 / G30.1). Moves hold machine coordinates; ``work_offset`` holds the
+  work origin of each move (``moves.work_end`` = what the words said).
+- G80 cancels motion; G93 inverse time (F = 1/min per move, each move's
+  feed in mm/min is F × its length); G38.2-G38.5 probes are LINE moves with
+  the beam off and a ``"probe"`` record; the position after a probe is taken
+  as its target (as if no contact): a program that relies on the probed
+  position cannot be predicted from its text. T is accepted (up to the
+  dialect's maximum, GRBL 255), M6 and M7 are error 20 in grbl as in GRBL's
+  default build. The marlin dialect homes with G28 (to machine 0), reads E
+  (extrusion: accepted, never motion, not kept), and keeps M82 M83 M84 M104
+  M109 M140 M190 as ``"printer"`` records (their S is not laser power).
 - Inch input is converted to mm; feeds become mm/min; dwells seconds.
 
 Errors
@@ -59,16 +75,20 @@ class ParseOptions:
     """Settings of the interpreter derived from a dialect (see :class:`~labkit.gcode.dialects.Dialect`)."""
 
     letters_ok: np.ndarray
+    g_codes_ok: np.ndarray
     laser_on_codes: np.ndarray
     laser_off_codes: np.ndarray
+    coolant_codes: np.ndarray
+    record_m_codes: np.ndarray
     feed_scale: float
     dwell_scale: float
-    lookahead_g5: bool
     arc_r_tol: float
     arc_tol_abs: float
     arc_tol_rel: float
     full_circle_ok: bool
     require_axis_words: bool
+    home_is_origin: bool
+    max_tool: int
     line_limit: int = 0
 
     def kernel_args(self) -> tuple:
@@ -83,16 +103,20 @@ class ParseOptions:
         ok[ord("G") - 65] = ok[ord("M") - 65] = False   # commands are handled apart
         return cls(
             letters_ok=ok,
+            g_codes_ok=np.array(sorted(round(10 * g) for g in dialect.g_codes), np.int64),
             laser_on_codes=np.array(dialect.laser_on_codes, np.int64),
             laser_off_codes=np.array(dialect.laser_off_codes, np.int64),
+            coolant_codes=np.array(dialect.coolant_codes, np.int64),
+            record_m_codes=np.array(dialect.record_m_codes, np.int64),
             feed_scale=60.0 if dialect.feed_per_second else 1.0,
             dwell_scale=0.001 if dialect.dwell_in_ms else 1.0,
-            lookahead_g5=dialect.lookahead_g5,
             arc_r_tol=dialect.arc_r_tol_mm,
             arc_tol_abs=dialect.arc_radius_tol_mm,
             arc_tol_rel=dialect.arc_radius_tol_rel,
             full_circle_ok=dialect.full_circle_without_axes,
             require_axis_words=dialect.require_axis_words,
+            home_is_origin=dialect.home_is_origin,
+            max_tool=int(dialect.max_tool),
             line_limit=dialect.line_buffer_chars if streaming else 0,
         )
 
@@ -287,10 +311,33 @@ _MESSAGES = {
     (K.E_UNSUPPORTED, K.D_UNKNOWN_LETTER): ("unsupported_command", "unknown word for this dialect",
                                             "one of the letters F G I J K M N P R S X Y Z (and the dialect's extras)"),
     (K.E_UNSUPPORTED, K.D_UNKNOWN_G): ("unsupported_command", "unsupported G command",
-                                       "G0 G1 G2 G3 G4 G17 G18 G19 G20 G21 G90 G91 G90.1 G91.1 G94 "
-                                       "(G5 in labkit-fw)"),
+                                       "a G command of the dialect (Dialect.g_codes; GRBL 1.1's "
+                                       "list for grbl)"),
+    (K.E_UNSUPPORTED, K.D_G10_L): ("unsupported_command", "G10 with an L other than 2 or 20",
+                                   "G10 L2 (set a system's origin) or G10 L20 (make the current "
+                                   "position the given work coordinates)"),
+    (K.E_UNSUPPORTED, K.D_G10_R): ("unsupported_command", "G10 L2 with R (rotation)",
+                                   "G10 L2 P… with axis words only"),
+    (K.E_MISSING_VALUE, K.D_G10_LP): ("missing_value_word", "G10 without its L and P words",
+                                      "G10 L2 P<0-6> or G10 L20 P<0-6> with axis words"),
+    (K.E_AXIS_CONFLICT, 0): ("axis_command_conflict",
+                             "two commands in one line both use the axis words",
+                             "G10, G28, G30, G92 or G43.1 on a line without G0-G3 or G38"),
+    (K.E_COORD_SYS, 0): ("unsupported_coord_sys", "coordinate system number out of range",
+                         "P0 (the active system) or P1-P6 (G54-G59)"),
+    (K.E_G53_MOTION, 0): ("g53_invalid_motion_mode", "G53 needs G0 or G1",
+                          "G53 with G0 or G1 in effect"),
+    (K.E_AXIS_EXIST, 0): ("axis_words_exist", "axis words with motion cancelled (G80)",
+                          "a motion command (G0-G3, G38) before axis words"),
+    (K.E_G43_AXIS, 0): ("g43_dynamic_axis_error", "G43.1 takes a Z word only",
+                        "G43.1 Z<offset>"),
+    (K.E_MAX_VALUE, 0): ("max_value_exceeded", "value above its maximum",
+                         "a tool number T up to the dialect's maximum (GRBL: 255)"),
+    (K.E_INVALID_ARC, K.D_PROBE_TARGET): ("invalid_arc", "probe target is the current position",
+                                          "a G38 target away from the current position"),
     (K.E_UNSUPPORTED, K.D_UNKNOWN_M): ("unsupported_command", "unsupported M command",
-                                       "M0 M1 M2 M30, the laser words (M3 M4 M5) or M7 M8 M9"),
+                                       "M0 M1 M2 M30, the dialect's laser words (M3 M4 M5) or coolant words "
+                                       "(grbl: M8 M9; M7 and M6 are not in GRBL 1.1's default build)"),
     (K.E_MODAL_GROUP, 0): ("modal_group_violation", "two commands of one modal group in one line",
                            "at most one command per group (e.g. one of G0/G1/G2/G3)"),
     (K.E_MODAL_GROUP, K.D_TOO_MANY): ("modal_group_violation", "too many commands in one line",
@@ -326,7 +373,7 @@ _MESSAGES = {
                                       "absolute arc centre (G90.1) needs both in-plane words",
                                       "both in-plane centre words (I and J for G17)"),
     (K.E_UNUSED, 0): ("unused_words", "value word that no command in the line uses",
-                      "I J K or R only with G2/G3, P only with G4 (or G5)"),
+                      "I J K or R only with G2/G3, P only with G4 (G5) or G10, L only with G10"),
     (K.E_CHECKSUM, 0): ("bad_checksum", "checksum does not match the line",
                         "'*' followed by the XOR of every byte before it"),
     (K.E_DELIMITER, K.D_UNCLOSED_COMMENT): ("bad_delimiter", "comment is not closed",

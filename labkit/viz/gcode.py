@@ -78,6 +78,9 @@ def plot_moves(moves: Moves, ax=None, *, view: str = "xy", show_travel: bool = T
                title: str | None = None):
     """Draw a program: cuts coloured by laser power, travel dashed, start marked.
 
+    Positions are drawn in work coordinates (``moves.work_end``…), as the program's
+    X Y Z words state them, whatever G54-G59 / G92 offsets put them in machine space.
+
     Parameters
     ----------
     moves : Moves
@@ -107,6 +110,7 @@ def plot_moves(moves: Moves, ax=None, *, view: str = "xy", show_travel: bool = T
         ax.set_title(title or "empty program")
         return ax
     _refuse_non_finite(moves)
+    moves = moves.in_work_coordinates()     # what the program's words say (G54-G59, G92)
     ax0, ax1 = _PLANE_VIEW[view]
     box = moves.bounds()
     extent = float(np.nanmax(box[1, [ax0, ax1]] - box[0, [ax0, ax1]])) or 1.0
