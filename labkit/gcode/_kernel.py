@@ -21,7 +21,7 @@ program stop/end. Numbers are read exactly: the digits form an integer
 mantissa that is divided once by a power of ten, so any number with at most
 15 significant digits equals Python's ``float()`` of the same text.
 
-This module is the only compiled part of the parser; :mod:`labkit.gcode.parse`
+This module is the only compiled part of the parser; :mod:`labkit.gcode.reader`
 wraps it. Run with ``NUMBA_DISABLE_JIT=1`` to step through it as Python.
 """
 
@@ -82,7 +82,7 @@ E_AXIS_EXIST = _code("axis_words_exist")
 E_G43_AXIS = _code("g43_dynamic_axis_error")
 E_MAX_VALUE = _code("max_value_exceeded")
 
-# Details that select the message for a status code (see parse._MESSAGES).
+# Details that select the message for a status code (see reader._MESSAGES).
 D_NONE = 0
 D_UNCLOSED_COMMENT = 1
 D_AFTER_CHECKSUM = 2
@@ -251,7 +251,7 @@ def _put_record(r_line, r_kind, r_span, r_value, r_index, j, line, k, s0, s1, va
     return j + 1
 
 
-#: The outputs of :func:`interpret`, in order (parse.py reads them by these names).
+#: The outputs of :func:`interpret`, in order (reader.py reads them by these names).
 OUTPUTS = MOVES_COLUMNS + (
            "e_line", "e_pos", "e_end", "e_code", "e_detail", "e_aux", "e_total",
            "r_line", "r_kind", "r_span", "r_value", "r_index",
@@ -263,7 +263,7 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
               record_m_codes, feed_scale, dwell_scale, arc_r_tol, arc_tol_abs, arc_tol_rel,
               full_circle_ok, require_axis_words, home_is_origin, max_tool, line_limit,
               lenient, max_errors, trace):
-    """Interpret G-code bytes (parameters: :class:`labkit.gcode.parse.ParseOptions`, then
+    """Interpret G-code bytes (parameters: :class:`labkit.gcode.reader.ParseOptions`, then
     ``lenient``, ``max_errors``, ``trace``); returns the arrays named in :data:`OUTPUTS`.
 
     ``line_limit`` > 0 rejects a line with more significant characters (not spaces,

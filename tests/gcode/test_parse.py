@@ -331,7 +331,7 @@ def test_kernel_parameters_are_the_parse_options_and_outputs_start_with_the_move
     from dataclasses import fields
 
     from labkit.gcode import _kernel as K
-    from labkit.gcode.parse import ParseOptions
+    from labkit.gcode.reader import ParseOptions
     from labkit.toolpath import Moves
 
     params = list(inspect.signature(K.interpret.py_func).parameters)
@@ -340,3 +340,16 @@ def test_kernel_parameters_are_the_parse_options_and_outputs_start_with_the_move
     assert K.OUTPUTS[:len(Moves.column_names())] == Moves.column_names()
     m = parse("G1 X1 F100")
     assert set(m.columns()) == set(Moves.column_names())
+
+
+def test_module_names_do_not_shadow_the_functions():
+    import importlib
+
+    import labkit.gcode as g
+
+    assert callable(g.parse) and callable(g.emit)
+    assert importlib.import_module("labkit.gcode.reader").parse is g.parse
+    assert importlib.import_module("labkit.gcode.writer").emit is g.emit
+    for old in ("labkit.gcode.parse", "labkit.gcode.emit"):
+        with pytest.raises(ModuleNotFoundError):
+            importlib.import_module(old)
