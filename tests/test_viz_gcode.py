@@ -107,3 +107,15 @@ def test_preview_draws_work_coordinates():
         # The cut ends at work X10 (machine 110); the head starts at machine 0 = work -100.
         assert -104 < lo < -100 and 10 < hi < 14
     plt.close("all")
+
+
+def test_an_overdrawn_job_is_drawn_on_a_coarser_grid(monkeypatch):
+    import labkit.viz.gcode as vg
+
+    m = parse("M3 S500\n" + "G1 X10 Y1 F100\nG1 X0 Y0\n" * 50)
+    full, _, _ = vg.rasterize_moves(m, pixels=1001)
+    assert full.shape == (101, 1001)
+    monkeypatch.setattr(vg, "IMAGE_MAX_STEPS", 10_000)    # 100 pieces x 1000 steps > 10,000
+    coarse, _, extent = vg.rasterize_moves(m, pixels=1001)
+    assert coarse.shape[1] == 100 and extent[0] < 0 < 10 < extent[1]
+    assert np.isfinite(coarse).any(axis=0).all()          # still every column of the line

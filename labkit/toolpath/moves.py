@@ -318,7 +318,9 @@ class Moves:
 
     def in_work_coordinates(self) -> "Moves":
         """The same program with positions in work coordinates (offset column 0): for
-        drawing what the user wrote."""
+        drawing what the user wrote. Without offsets, the program itself (no copy)."""
+        if not self.work_offset.any():
+            return self
         out = self.copy()
         out.start[:] = self.work_start
         out.end[:] = self.work_end

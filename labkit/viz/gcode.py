@@ -26,6 +26,9 @@ _PLANE_VIEW = {"xy": (0, 1), "xz": (0, 2), "yz": (1, 2)}
 #: collection of 200,000 moves takes seconds to draw, an image a fraction of one.
 IMAGE_ABOVE_MOVES = 20_000
 IMAGE_PIXELS = 1600
+#: Pixel steps one image may take (~0.3 s): a job that retraces the drawing millions of
+#: times is drawn on a coarser grid instead of taking minutes.
+IMAGE_MAX_STEPS = 50_000_000
 
 
 def moves_to_segments(moves: Moves, *, tol_mm: float, view: str = "xy"):
@@ -101,7 +104,8 @@ def rasterize_moves(moves: Moves, *, view: str = "xy", pixels: int = IMAGE_PIXEL
         Drawn as given (pass ``moves.in_work_coordinates()`` for work coordinates).
     view : {"xy", "xz", "yz"}
     pixels : int
-        Pixels on the long side of the drawing.
+        Pixels on the long side of the drawing (fewer when the job's drawn length
+        would exceed :data:`IMAGE_MAX_STEPS` pixel steps, so the time stays bounded).
 
     Returns
     -------
@@ -130,6 +134,15 @@ def rasterize_moves(moves: Moves, *, view: str = "xy", pixels: int = IMAGE_PIXEL
     from labkit.viz._gcode_draw import draw
 
     pix = (segs - lo) / cell                          # pixel units, pixel centres on integers
+    steps = float(np.abs(pix[:, 1] - pix[:, 0]).max(axis=1).sum()) if len(pix) else 0.0
+    if steps > IMAGE_MAX_STEPS and pixels > 64:
+        # Overdrawn job: the same picture on a coarser grid (work ∝ pixels per piece).
+        coarse = max(64, int(pixels * IMAGE_MAX_STEPS / steps))
+        scale = (pixels - 1) / (coarse - 1)
+        cell *= scale
+        cols = int(round((box[1, ax0] - lo[0]) / cell)) + 1
+        rows = int(round((box[1, ax1] - lo[1]) / cell)) + 1
+        pix = (segs - lo) / cell
     burning = moves.laser_on[row_of]
     value = 100.0 * moves.power_fraction()[row_of]
     power, travel = draw(pix, value, burning, (rows, cols))
