@@ -22,6 +22,7 @@ __all__ = [
     "MachineError",
     "InputError",
     "BudgetError",
+    "EmitError",
     "StatusCode",
     "STATUS_CODES",
     "status_code",
@@ -159,3 +160,8 @@ class InputError(LabkitError, ValueError):
 
 class BudgetError(LabkitError, ValueError):
     """A job whose estimated work exceeds a documented budget (:mod:`labkit.budget`)."""
+
+
+class EmitError(LabkitError, ValueError):
+    """Moves that cannot be written as G-code: a coordinate, feed, power or dwell that is not
+    finite, out of range, or too large to write exactly at the requested resolution."""

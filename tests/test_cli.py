@@ -58,7 +58,7 @@ def test_info_fails_cleanly_on_bad_file(capsys):
     assert err.startswith("labkit info: ") and ":624:6: error 33" in err
     assert "Traceback" not in err
     assert main(["info", "/no/such/file.gcode"]) == 1
-    assert "No such file" in capsys.readouterr().err
+    assert "no such file; expected an existing G-code file" in capsys.readouterr().err
 
 
 def test_preview_writes_a_png(tmp_path, capsys):

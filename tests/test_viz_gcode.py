@@ -57,3 +57,65 @@ def test_interact_figure_redraws_on_change_and_reports_text():
     outputs = panel.children[-1].outputs
     assert outputs[0]["text"] == "run: 5 points\n" and "image/png" in outputs[1]["data"]
     assert plt.get_fignums() == []          # figures are closed once rendered
+
+
+# ---- big jobs are drawn as an image; the preview shows work coordinates ------------------
+
+def test_rasterized_line_and_circle_land_on_their_pixels():
+    from labkit.viz.gcode import rasterize_moves
+
+    power, travel, extent = rasterize_moves(parse("M3 S250\nG1 X10 Y10 F100"), pixels=11)
+    assert extent == (-0.5, 10.5, -0.5, 10.5)
+    np.testing.assert_array_equal(np.isfinite(power), np.eye(11, dtype=bool))
+    assert np.nanmax(power) == 25.0 and not travel.any()
+    # A full circle of radius 50: every burned pixel centre within one pixel of the circle,
+    # and every pixel column it spans is burned (no gaps).
+    m = parse("G0 X50\nM3 S1000\nG2 X50 Y0 I-50 J0 F100")
+    power, travel, (x0, x1, y0, y1) = rasterize_moves(m, pixels=201)
+    cell = (x1 - x0) / power.shape[1]
+    iy, ix = np.nonzero(np.isfinite(power))
+    r = np.hypot(x0 + (ix + 0.5) * cell, y0 + (iy + 0.5) * cell)
+    assert np.abs(r - 50).max() <= cell
+    assert set(ix.tolist()) == set(range(power.shape[1]))
+    assert travel[np.isnan(power)].sum() >= 1            # the rapid from the origin
+
+
+def test_big_jobs_are_drawn_as_an_image_small_ones_as_lines():
+    from labkit.toolpath import Moves
+    from labkit.viz.gcode import IMAGE_ABOVE_MOVES
+
+    n = IMAGE_ABOVE_MOVES // 2 + 1
+    y = np.arange(n) * 0.1
+    m = Moves.from_cuts(np.stack([np.zeros(n), y], 1), np.stack([np.full(n, 20.0), y], 1),
+                        feed_mm_min=3000, power_s=500)
+    assert len(m) > IMAGE_ABOVE_MOVES
+    ax = plot_moves(m, colorbar=False)
+    assert len(ax.images) == 2 and not ax.collections
+    burned = np.isfinite(ax.images[1].get_array().filled(np.nan))
+    assert burned.mean() > 0.9                              # the hatch covers its box
+    ax = plot_moves(m[:100], colorbar=False)
+    assert not ax.images and ax.collections
+    plt.close("all")
+
+
+def test_preview_draws_work_coordinates():
+    m = parse("G10 L2 P1 X100 Y100\nG0 X0 Y0\nM3 S500\nG1 X10 F100\nG1 Y10")
+    assert m.end[:, 0].max() == 110.0
+    for as_image in (False, True):
+        ax = plot_moves(m, colorbar=False, as_image=as_image)
+        lo, hi = ax.get_xlim()
+        # The cut ends at work X10 (machine 110); the head starts at machine 0 = work -100.
+        assert -104 < lo < -100 and 10 < hi < 14
+    plt.close("all")
+
+
+def test_an_overdrawn_job_is_drawn_on_a_coarser_grid(monkeypatch):
+    import labkit.viz.gcode as vg
+
+    m = parse("M3 S500\n" + "G1 X10 Y1 F100\nG1 X0 Y0\n" * 50)
+    full, _, _ = vg.rasterize_moves(m, pixels=1001)
+    assert full.shape == (101, 1001)
+    monkeypatch.setattr(vg, "IMAGE_MAX_STEPS", 10_000)    # 100 pieces x 1000 steps > 10,000
+    coarse, _, extent = vg.rasterize_moves(m, pixels=1001)
+    assert coarse.shape[1] == 100 and extent[0] < 0 < 10 < extent[1]
+    assert np.isfinite(coarse).any(axis=0).all()          # still every column of the line

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import sys
 
+from labkit.commands._args import integer, number
 from labkit.gcode.dialects import DIALECTS
 
 
@@ -14,20 +15,30 @@ def _add_common(parser):
 
 
 def _read(path):
-    with open(path, "rb") as fh:
+    from labkit._files import check_input_file
+
+    with open(check_input_file(path, what="G-code file"), "rb") as fh:
         return fh.read()
 
 
 def _envelope(text):
+    """``WIDTHxDEPTH[xHEIGHT]`` in mm, each finite and > 0."""
+    from labkit.errors import InputError
     from labkit.gcode.simulate import Envelope
 
-    try:
-        parts = [float(v) for v in text.lower().split("x")]
-    except ValueError:
-        parts = []
+    size = number(0, 1e6, lo_open=True)
+    parts = text.lower().split("x")
     if len(parts) not in (2, 3):
-        raise SystemExit(f"labkit: --envelope wants WIDTHxDEPTH[xHEIGHT] in mm, got {text!r}")
-    return Envelope.from_size(*parts)
+        raise InputError(f"--envelope: expected WIDTHxDEPTH[xHEIGHT] in mm, got {text!r}")
+    try:
+        values = [size(v) for v in parts]
+    except Exception as exc:   # argparse's ArgumentTypeError: say which option
+        raise InputError(f"--envelope {text!r}: {exc}") from None
+    return Envelope.from_size(*values)
+
+
+def _line_count(data: bytes) -> int:
+    return data.count(b"\n") + (0 if data.endswith(b"\n") or not data else 1)
 
 
 # -- check ---------------------------------------------------------------------------------
@@ -43,19 +54,24 @@ def run_check(args) -> int:
     from labkit.gcode import parse
     from labkit.gcode.simulate import check_bounds
 
+    envelope = _envelope(args.envelope) if args.envelope else None
     data = _read(args.file)
-    moves = parse(data, dialect=args.dialect, filename=args.file, lenient=True)
+    # As it would be streamed: the controller's line buffer counts too (GRBL error 11).
+    moves = parse(data, dialect=args.dialect, filename=args.file, lenient=True, streaming=True)
     problems = list(moves.diagnostics)
-    if args.envelope:
+    if envelope is not None:
         try:
-            check_bounds(moves, _envelope(args.envelope))
+            check_bounds(moves, envelope)
         except BoundsError as exc:
             problems.append(exc)
     for err in problems:
         print(err.format())
-    lines = data.count(b"\n") + (0 if data.endswith(b"\n") or not data else 1)
-    if problems:
-        print(f"{args.file}: {len(problems)} error(s) in {lines} lines", file=sys.stderr)
+    lines = _line_count(data)
+    total = len(problems) + moves.dropped_diagnostics
+    if total:
+        more = (f" ({moves.dropped_diagnostics} more not shown: the diagnostics budget keeps "
+                f"{len(moves.diagnostics)})" if moves.dropped_diagnostics else "")
+        print(f"{args.file}: {total} error(s) in {lines} lines{more}", file=sys.stderr)
         return 1
     print(f"{args.file}: ok, {lines} lines, {len(moves)} moves", file=sys.stderr)
     return 0
@@ -66,7 +82,8 @@ def run_check(args) -> int:
 def add_info_arguments(parser):
     _add_common(parser)
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
-    parser.add_argument("--rapid", type=float, default=None, metavar="MM_MIN",
+    parser.add_argument("--rapid", type=number(0, 1e7, lo_open=True), default=None,
+                        metavar="MM_MIN",
                         help="rapid rate for the time estimate, mm/min (default 6000)")
     parser.add_argument("--lenient", action="store_true",
                         help="skip rejected lines (as a controller would) instead of failing")
@@ -78,7 +95,7 @@ def run_info(args) -> int:
 
     data = _read(args.file)
     moves = parse(data, dialect=args.dialect, filename=args.file, lenient=args.lenient)
-    lines = data.count(b"\n") + (0 if data.endswith(b"\n") or not data else 1)
+    lines = _line_count(data)
     summary = summarize(moves, rapid_mm_min=args.rapid or DEFAULT_RAPID_MM_MIN, source_lines=lines)
     if args.json:
         print(summary.to_json())
@@ -97,7 +114,7 @@ def add_preview_arguments(parser):
     parser.add_argument("-o", "--output", required=True, help="PNG file to write")
     parser.add_argument("--view", choices=["xy", "xz", "yz"], default="xy", help="projection")
     parser.add_argument("--no-travel", action="store_true", help="hide moves with the laser off")
-    parser.add_argument("--dpi", type=int, default=120, help="resolution of the PNG")
+    parser.add_argument("--dpi", type=integer(10, 1200), default=120, help="resolution of the PNG")
     parser.add_argument("--lenient", action="store_true",
                         help="skip rejected lines instead of failing")
 
@@ -106,6 +123,9 @@ def run_preview(args) -> int:
     from labkit.gcode import parse
     from labkit.viz.gcode import save_preview
 
+    from labkit._files import check_output_file
+
+    check_output_file(args.output, args.file)
     moves = parse(_read(args.file), dialect=args.dialect, filename=args.file, lenient=args.lenient)
     save_preview(moves, args.output, dpi=args.dpi, view=args.view, show_travel=not args.no_travel)
     print(f"wrote {args.output}", file=sys.stderr)

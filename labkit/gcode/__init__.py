@@ -1,9 +1,16 @@
-"""G-code: text → Moves (:func:`parse`), arcs, Moves → text (:func:`emit`), simulation."""
+"""G-code: text → Moves (:func:`parse`), arcs, Moves → text (:func:`emit`), simulation.
+
+Modules: :mod:`~labkit.gcode.reader` (text → Moves: :func:`parse`, :func:`parse_file`,
+:func:`check`, :func:`modal_trace`), :mod:`~labkit.gcode.writer` (Moves → text: :func:`emit`,
+:func:`write_gcode`), :mod:`~labkit.gcode.dialects`, :mod:`~labkit.gcode.arcs`,
+:mod:`~labkit.gcode.simulate`; the compiled kernels ``_kernel`` (reader) and ``_emit_kernel``
+(writer). ``labkit.gcode.parse`` and ``labkit.gcode.emit`` are the functions.
+"""
 
 from labkit.gcode import arcs
 from labkit.gcode.dialects import DIALECTS, Dialect, get_dialect
-from labkit.gcode.emit import decimals_for, emit, format_number, write_gcode
-from labkit.gcode.parse import check, modal_trace, parse, parse_file
+from labkit.gcode.writer import decimals_for, emit, format_number, write_gcode
+from labkit.gcode.reader import check, modal_trace, parse, parse_file
 
 __all__ = [
     "parse",

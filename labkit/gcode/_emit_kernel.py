@@ -12,7 +12,10 @@ import math
 import numba as nb
 import numpy as np
 
-RAPID, LINE, ARC_CW, ARC_CCW, DWELL = 0, 1, 2, 3, 4
+from labkit.toolpath.moves import MoveKind
+
+RAPID, LINE, ARC_CW, ARC_CCW, DWELL = (int(MoveKind.RAPID), int(MoveKind.LINE), int(MoveKind.ARC_CW),
+                                       int(MoveKind.ARC_CCW), int(MoveKind.DWELL))
 _PLANE_AXES = np.array([[0, 1, 2], [2, 0, 1], [1, 2, 0]], dtype=np.int64)
 _AXIS_LETTER = np.array([88, 89, 90], dtype=np.uint8)      # X Y Z
 _OFFSET_LETTER = np.array([73, 74, 75], dtype=np.uint8)    # I J K

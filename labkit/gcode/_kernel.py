@@ -21,7 +21,7 @@ program stop/end. Numbers are read exactly: the digits form an integer
 mantissa that is divided once by a power of ten, so any number with at most
 15 significant digits equals Python's ``float()`` of the same text.
 
-This module is the only compiled part of the parser; :mod:`labkit.gcode.parse`
+This module is the only compiled part of the parser; :mod:`labkit.gcode.reader`
 wraps it. Run with ``NUMBA_DISABLE_JIT=1`` to step through it as Python.
 """
 
@@ -32,34 +32,57 @@ import math
 import numba as nb
 import numpy as np
 
-# Move kinds (labkit.toolpath.MoveKind).
-RAPID, LINE, ARC_CW, ARC_CCW, DWELL = 0, 1, 2, 3, 4
+from labkit.errors import status_code
+from labkit.toolpath.moves import MoveKind, Moves
+
+
+def _code(name: str) -> int:
+    return status_code(name).code
+
+
+# Move kinds (labkit.toolpath.MoveKind), as plain ints for the compiled code.
+RAPID, LINE, ARC_CW, ARC_CCW, DWELL = (int(MoveKind.RAPID), int(MoveKind.LINE), int(MoveKind.ARC_CW),
+                                       int(MoveKind.ARC_CCW), int(MoveKind.DWELL))
+
+#: The Moves columns, in the one order of :mod:`labkit.toolpath.moves`; :func:`interpret`
+#: returns them first, in this order (a test checks the two agree).
+MOVES_COLUMNS = Moves.column_names()
 
 # Record kinds.
-REC_SYSTEM, REC_PAUSE, REC_OPTIONAL_PAUSE, REC_END, REC_LOOKAHEAD, REC_COOLANT = 1, 2, 3, 4, 5, 6
-RECORD_NAMES = {REC_SYSTEM: "system", REC_PAUSE: "pause", REC_OPTIONAL_PAUSE: "optional_pause",
-                REC_END: "end", REC_LOOKAHEAD: "lookahead", REC_COOLANT: "coolant"}
+RECORD_NAMES = ("", "system", "pause", "optional_pause", "end", "lookahead", "coolant", "jog",
+                "probe", "printer")
+REC_SYSTEM, REC_PAUSE, REC_OPTIONAL_PAUSE, REC_END, REC_LOOKAHEAD, REC_COOLANT, REC_JOG, \
+    REC_PROBE, REC_PRINTER = range(1, len(RECORD_NAMES))
 
-# Status codes (labkit/status_codes.csv).
-E_EXPECTED_LETTER = 1
-E_BAD_NUMBER = 2
-E_NEGATIVE = 4
-E_UNSUPPORTED = 20
-E_MODAL_GROUP = 21
-E_UNDEFINED_FEED = 22
-E_NON_INTEGER = 23
-E_REPEATED = 25
-E_NO_AXIS_WORDS = 26
-E_LINE_NUMBER = 27
-E_MISSING_VALUE = 28
-E_NO_PLANE_AXIS = 32
-E_INVALID_ARC = 33
-E_NO_OFFSET = 35
-E_UNUSED = 36
-E_CHECKSUM = 100
-E_DELIMITER = 101
+# Status codes: numbers from the one table, labkit/status_codes.csv (names are its rows).
+E_EXPECTED_LETTER = _code("expected_letter")
+E_BAD_NUMBER = _code("bad_number")
+E_NEGATIVE = _code("negative_value")
+E_OVERFLOW = _code("line_overflow")
+E_INVALID_JOG = _code("invalid_jog")
+E_UNSUPPORTED = _code("unsupported_command")
+E_MODAL_GROUP = _code("modal_group_violation")
+E_UNDEFINED_FEED = _code("undefined_feed")
+E_NON_INTEGER = _code("non_integer_command")
+E_REPEATED = _code("repeated_word")
+E_NO_AXIS_WORDS = _code("missing_axis_words")
+E_LINE_NUMBER = _code("bad_line_number")
+E_MISSING_VALUE = _code("missing_value_word")
+E_NO_PLANE_AXIS = _code("missing_plane_axis")
+E_INVALID_ARC = _code("invalid_arc")
+E_NO_OFFSET = _code("missing_offset_words")
+E_UNUSED = _code("unused_words")
+E_CHECKSUM = _code("bad_checksum")
+E_DELIMITER = _code("bad_delimiter")
+E_OUT_OF_RANGE = _code("value_out_of_range")
+E_AXIS_CONFLICT = _code("axis_command_conflict")
+E_COORD_SYS = _code("unsupported_coord_sys")
+E_G53_MOTION = _code("g53_invalid_motion_mode")
+E_AXIS_EXIST = _code("axis_words_exist")
+E_G43_AXIS = _code("g43_dynamic_axis_error")
+E_MAX_VALUE = _code("max_value_exceeded")
 
-# Details that select the message for a status code (see parse._MESSAGES).
+# Details that select the message for a status code (see reader._MESSAGES).
 D_NONE = 0
 D_UNCLOSED_COMMENT = 1
 D_AFTER_CHECKSUM = 2
@@ -77,17 +100,28 @@ D_CHECKSUM_DIGITS = 13
 D_NUMBER_NO_DIGITS = 14
 D_NUMBER_TRAILING = 15
 D_ABS_CENTRE = 16
+D_NUMBER_TOO_LARGE = 17
+D_PERCENT = 18
+D_JOG_COMMAND = 19
+D_JOG_WORD = 20
+D_G10_LP = 21
+D_G10_L = 22
+D_G10_R = 23
+D_PROBE_TARGET = 24
 
 # Letters (index = letter − 'A').
-L_F, L_G, L_I, L_J, L_K, L_M, L_N, L_P, L_R, L_S, L_T, L_X, L_Y, L_Z = (
-    5, 6, 8, 9, 10, 12, 13, 15, 17, 18, 19, 23, 24, 25)
+L_E, L_F, L_G, L_I, L_J, L_K, L_L, L_M, L_N, L_P, L_R, L_S, L_T, L_X, L_Y, L_Z = (
+    4, 5, 6, 8, 9, 10, 11, 12, 13, 15, 17, 18, 19, 23, 24, 25)
 
 # Modal groups (bit numbers).
 G_MOTION, G_NONMODAL, G_PLANE, G_UNITS, G_DISTANCE, G_ARCDIST, G_FEEDMODE, G_CUTTER, \
-    G_TOOLLEN, G_COORD, G_PATH, M_STOP, M_LASER, M_COOLANT = range(14)
+    G_TOOLLEN, G_COORD, G_PATH, M_STOP, M_LASER, M_COOLANT, M_RECORD = range(15)
 
 MAX_COMMANDS = 16   # G or M words per line; more cannot be valid (fewer groups exist)
 MAX_LINE_NUMBER = 9_999_999  # GRBL's limit for N
+#: Largest magnitude of a number or coordinate, mm (2**53: above it a float64 no longer
+#: holds every integer, so neither the position nor the digits written back are exact).
+MAX_ABS_VALUE = 9007199254740992.0
 
 # Exact powers of ten up to 1e22; beyond that the division is done in two steps.
 _POW10 = np.array([10.0 ** k for k in range(23)])
@@ -120,7 +154,8 @@ def _read_number(buf, i, end):
     """Read ``[+-]digits[.digits]`` at ``buf[i]``.
 
     Returns (value, next index, status) with status 0 ok, 1 no digits,
-    2 followed by something that cannot end a number (``1.2.3``, ``5x``…).
+    2 followed by something that cannot end a number (``1.2.3``, ``5x``…),
+    3 magnitude at or above :data:`MAX_ABS_VALUE` (``X`` followed by 400 digits).
     """
     neg = False
     if i < end and (buf[i] == 45 or buf[i] == 43):   # '-' '+'
@@ -159,14 +194,16 @@ def _read_number(buf, i, end):
                   or (65 <= c <= 90) or (97 <= c <= 122))
         if not ok_end:
             return 0.0, i, 2
-    value = float(mant)
     if extra_exp > 0:
-        value = value * 10.0 ** extra_exp
+        return 0.0, i, 3           # 19 or more integer digits: beyond MAX_ABS_VALUE
+    value = float(mant)
     while frac > 22:
         value = value / 1e22
         frac -= 22
     if frac > 0:
         value = value / _POW10[frac]
+    if value >= MAX_ABS_VALUE:
+        return 0.0, i, 3
     return (-value if neg else value), i, 0
 
 
@@ -179,16 +216,66 @@ def _contains(arr, v):
 
 
 @nb.njit(cache=True)
-def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwell_scale,
-              lookahead_g5, arc_r_tol, arc_tol_abs, arc_tol_rel, full_circle_ok,
-              require_axis_words, lenient, trace):
-    """Interpret G-code bytes. See the module docstring; outputs are documented in parse.py."""
+def _in_range(v):
+    return abs(v) < MAX_ABS_VALUE      # False for inf and NaN too
+
+
+@nb.njit(cache=True)
+def _put_row(kind, start, endp, centre, plane_col, feed_col, power_col, laser_col, dwell_col,
+             line_col, offset_col, i, k, p0, p1, c, plane, feed, power, laser, dwell, line, offs):
+    """Write move row ``i``; returns ``i + 1``."""
+    kind[i] = k
+    for a in range(3):
+        start[i, a] = p0[a]
+        endp[i, a] = p1[a]
+        centre[i, a] = c[a]
+        offset_col[i, a] = offs[a]
+    plane_col[i] = plane
+    feed_col[i] = feed if feed > 0 else np.nan
+    power_col[i] = power
+    laser_col[i] = laser
+    dwell_col[i] = dwell
+    line_col[i] = line
+    return i + 1
+
+
+@nb.njit(cache=True)
+def _put_record(r_line, r_kind, r_span, r_value, r_index, j, line, k, s0, s1, value, row):
+    """Write record ``j``; returns ``j + 1``."""
+    r_line[j] = line
+    r_kind[j] = k
+    r_span[j, 0] = s0
+    r_span[j, 1] = s1
+    r_value[j] = value
+    r_index[j] = row
+    return j + 1
+
+
+#: The outputs of :func:`interpret`, in order (reader.py reads them by these names).
+OUTPUTS = MOVES_COLUMNS + (
+           "e_line", "e_pos", "e_end", "e_code", "e_detail", "e_aux", "e_total",
+           "r_line", "r_kind", "r_span", "r_value", "r_index",
+           "t_state", "t_pos")
+
+
+@nb.njit(cache=True)
+def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, coolant_codes,
+              record_m_codes, feed_scale, dwell_scale, arc_r_tol, arc_tol_abs, arc_tol_rel,
+              full_circle_ok, require_axis_words, home_is_origin, max_tool, line_limit,
+              lenient, max_errors, trace):
+    """Interpret G-code bytes (parameters: :class:`labkit.gcode.reader.ParseOptions`, then
+    ``lenient``, ``max_errors``, ``trace``); returns the arrays named in :data:`OUTPUTS`.
+
+    ``line_limit`` > 0 rejects a line with more significant characters (not spaces,
+    comments or ``/``) than a controller's line buffer holds (GRBL error 11).
+    At most ``max_errors`` diagnostics are kept; ``e_total`` counts them all.
+    """
     n = buf.shape[0]
     nlines_est = 1
     for k in range(n):
         if buf[k] == 10:
             nlines_est += 1
-    cap = nlines_est + 8
+    cap = min(nlines_est + 8, 4096)      # grows by doubling: no big reservation up front
 
     # Output rows.
     kind = np.empty(cap, np.int8)
@@ -201,6 +288,7 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
     laser_col = np.empty(cap, np.int8)
     dwell_col = np.empty(cap, np.float64)
     line_col = np.empty(cap, np.int32)
+    offset_col = np.empty((cap, 3), np.float64)
     nrows = 0
 
     # Diagnostics: line, byte offset of the culprit, its end, code, detail, two numbers.
@@ -212,6 +300,7 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
     e_detail = np.empty(ecap, np.int64)
     e_aux = np.empty((ecap, 2), np.float64)
     nerr = 0
+    nerr_total = 0
 
     # Records: line, kind, text span, value, row index.
     rcap = 16
@@ -227,8 +316,6 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
     t_state = np.zeros((tcap, 8), np.float64)   # motion, plane, units, distance, arc dist, feed, S, laser
     t_pos = np.zeros((tcap, 3), np.float64)
 
-    line_starts = np.empty(nlines_est + 1, np.int64)
-
     # Modal state (GRBL's power-on defaults).
     pos = np.zeros(3)
     motion = 0            # G0
@@ -239,6 +326,13 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
     feed = 0.0            # mm/min; 0 = undefined
     power = 0.0
     laser = 0
+    inverse = False       # G94 (G93 inverse time when True)
+    coord = 0             # G54
+    wcs = np.zeros((6, 3))    # G54…G59 origins, machine mm (GRBL keeps them in EEPROM; here 0)
+    g92 = np.zeros(3)     # G92 offset, mm
+    tlo = 0.0             # G43.1 dynamic tool length offset (Z), mm
+    home28 = np.zeros(3)  # G28.1 / G30.1 stored machine positions
+    home30 = np.zeros(3)
 
     # Per-line word storage.
     present = np.zeros(26, np.bool_)
@@ -253,6 +347,12 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
     m_end = np.zeros(MAX_COMMANDS, np.int64)
     target = np.zeros(3)
     ctr = np.zeros(3)
+    offs = np.zeros(3)
+    g92_new = np.zeros(3)
+    new_sys = np.zeros(3)
+    inter = np.zeros(3)
+    final = np.zeros(3)
+    nan3 = np.full(3, np.nan)
 
     ls = 0
     lineno = 0
@@ -262,7 +362,6 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
         while le < n and buf[le] != 10:
             le += 1
         lineno += 1
-        line_starts[lineno - 1] = ls
 
         err = 0
         detail = D_NONE
@@ -271,6 +370,28 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
         aux0 = 0.0
         aux1 = 0.0
         is_system = False
+        is_jog = False
+
+        # ---- phase 0: the controller's line buffer (GRBL drops spaces and comments first)
+        if line_limit > 0:
+            count = 0
+            in_paren = False
+            k = ls
+            while k < le:
+                c = buf[k]
+                if in_paren:
+                    if c == 41:
+                        in_paren = False
+                elif c == 40:
+                    in_paren = True
+                elif c == 59:
+                    break
+                elif c > 32 and c != 47:
+                    if count >= line_limit - 1:
+                        err, epos, eend, aux0 = E_OVERFLOW, k, k + 1, float(line_limit - 1)
+                        break
+                    count += 1
+                k += 1
 
         # ---- phase 1: scan ----------------------------------------------------------
         for k in range(26):
@@ -316,10 +437,21 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
                 checksum_seen = True
                 i = j
                 continue
-            if first and c == 36:   # '$' system line, kept whole
+            if first and c == 36:   # '$' system line, kept whole; '$J=' a jog (GRBL 1.1)
+                if i + 2 < le and (buf[i + 1] == 74 or buf[i + 1] == 106) and buf[i + 2] == 61:
+                    is_jog = True
+                    first = False
+                    i += 3
+                    continue
                 is_system = True
                 break
-            if first and c == 37:   # '%' program delimiter: nothing else on the line counts
+            if first and c == 37:   # '%' alone on its line: the program delimiter
+                j = i + 1
+                while j < le and _is_space(buf[j]):
+                    j += 1
+                if j < le:          # GRBL reads any other '%' as a non-letter: error 1
+                    err, detail, epos, eend = E_EXPECTED_LETTER, D_PERCENT, i, i + 1
+                    break
                 i = le
                 break
             first = False
@@ -342,7 +474,8 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
                     while j < le and not (_is_space(buf[j]) or buf[j] == 40 or buf[j] == 59):
                         j += 1
                 err, epos, eend = E_BAD_NUMBER, wp, j
-                detail = D_NUMBER_NO_DIGITS if st == 1 else D_NUMBER_TRAILING
+                detail = D_NUMBER_NO_DIGITS if st == 1 else (
+                    D_NUMBER_TRAILING if st == 2 else D_NUMBER_TOO_LARGE)
                 break
             i = i2
             if letter == L_G:
@@ -385,66 +518,97 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
         stop = -1
         laser_new = laser
         coolant = -1
+        m_record = -1
         gcol_motion = ls
         gcol_nonmodal = ls
+        gcol_tlo = ls
+        gend_motion = le          # the command word as written ('G02', not 'G0')
+        gend_nonmodal = le
+        gend_tlo = le
+        machine_coords = False
+        nonmodal = 0          # 10·G of G10 G28 G28.1 G30 G30.1 G53 G92 G92.1 in the line
+        tlo_cmd = 0           # 431 (G43.1) or 490 (G49)
+        coord_new = coord
+        inverse_new = inverse
         if err == 0 and not is_system:
             for k in range(ng):
                 v = g_val[k]
                 t10 = int(round(v * 10.0))
                 grp = -1
+                if is_jog and not (t10 == 200 or t10 == 210 or t10 == 900 or t10 == 910
+                                   or t10 == 530):
+                    err, detail, epos, eend = E_INVALID_JOG, D_JOG_COMMAND, g_pos[k], g_end[k]
+                    break
                 if v < 0 or abs(v * 10.0 - t10) > 1e-6:
                     err, detail, epos, eend = E_UNSUPPORTED, D_UNKNOWN_G, g_pos[k], g_end[k]
                     break
-                if t10 % 10 != 0:
-                    if t10 == 901 or t10 == 911:
-                        grp = G_ARCDIST
-                        arc_absolute_new = t10 == 901
-                    elif t10 // 10 in (0, 1, 2, 3, 4, 17, 18, 19, 20, 21, 90, 91, 94):
+                if not (is_jog or _contains(g_codes_ok, t10)):
+                    base = t10 - t10 % 10
+                    if t10 % 10 != 0 and _contains(g_codes_ok, base) and not (
+                            base == 900 or base == 910 or base == 280 or base == 300
+                            or base == 920 or base == 610):
                         err, epos, eend = E_NON_INTEGER, g_pos[k], g_end[k]
-                        break
                     else:
                         err, detail, epos, eend = E_UNSUPPORTED, D_UNKNOWN_G, g_pos[k], g_end[k]
-                        break
+                    break
+                code = t10 // 10
+                if code <= 3 or code == 80 or code == 38:
+                    grp = G_MOTION
+                    motion_new = t10 // 10 if code != 38 else t10
+                    gcol_motion = g_pos[k]
+                    gend_motion = g_end[k]
+                elif code == 4:
+                    grp = G_NONMODAL
+                    dwell = True
+                    gcol_nonmodal = g_pos[k]
+                    gend_nonmodal = g_end[k]
+                elif code == 5:
+                    grp = G_NONMODAL
+                    lookahead = True
+                    gcol_nonmodal = g_pos[k]
+                    gend_nonmodal = g_end[k]
+                elif code == 10 or code == 28 or code == 30 or code == 92 or code == 53:
+                    grp = G_NONMODAL
+                    nonmodal = t10
+                    gcol_nonmodal = g_pos[k]
+                    gend_nonmodal = g_end[k]
+                    machine_coords = code == 53
+                elif code == 17 or code == 18 or code == 19:
+                    grp = G_PLANE
+                    plane_new = code - 17
+                elif code == 20 or code == 21:
+                    grp = G_UNITS
+                    inches_new = code == 20
+                elif t10 == 900 or t10 == 910:
+                    grp = G_DISTANCE
+                    absolute_new = code == 90
+                elif t10 == 901 or t10 == 911:
+                    grp = G_ARCDIST
+                    arc_absolute_new = t10 == 901
+                elif code == 93 or code == 94:
+                    grp = G_FEEDMODE
+                    inverse_new = code == 93
+                elif code == 40:
+                    grp = G_CUTTER
+                elif t10 == 431 or t10 == 490:
+                    grp = G_TOOLLEN
+                    tlo_cmd = t10
+                    gcol_tlo = g_pos[k]
+                    gend_tlo = g_end[k]
+                elif 54 <= code <= 59:
+                    grp = G_COORD
+                    coord_new = code - 54
+                elif code == 61:
+                    grp = G_PATH
                 else:
-                    code = t10 // 10
-                    if code <= 3:
-                        grp = G_MOTION
-                        motion_new = code
-                        gcol_motion = g_pos[k]
-                    elif code == 4:
-                        grp = G_NONMODAL
-                        dwell = True
-                        gcol_nonmodal = g_pos[k]
-                    elif code == 5 and lookahead_g5:
-                        grp = G_NONMODAL
-                        lookahead = True
-                        gcol_nonmodal = g_pos[k]
-                    elif code == 17 or code == 18 or code == 19:
-                        grp = G_PLANE
-                        plane_new = code - 17
-                    elif code == 20 or code == 21:
-                        grp = G_UNITS
-                        inches_new = code == 20
-                    elif code == 90 or code == 91:
-                        grp = G_DISTANCE
-                        absolute_new = code == 90
-                    elif code == 94:
-                        grp = G_FEEDMODE
-                    elif code == 40:
-                        grp = G_CUTTER
-                    elif code == 49:
-                        grp = G_TOOLLEN
-                    elif code == 54:
-                        grp = G_COORD
-                    elif code == 61:
-                        grp = G_PATH
-                    else:
-                        err, detail, epos, eend = E_UNSUPPORTED, D_UNKNOWN_G, g_pos[k], g_end[k]
-                        break
+                    err, detail, epos, eend = E_UNSUPPORTED, D_UNKNOWN_G, g_pos[k], g_end[k]
+                    break
                 if groups & (1 << grp):
                     err, epos, eend = E_MODAL_GROUP, g_pos[k], g_end[k]
                     break
                 groups |= 1 << grp
+        if err == 0 and is_jog and nm > 0:
+            err, detail, epos, eend = E_INVALID_JOG, D_JOG_COMMAND, m_pos[0], m_end[0]
         if err == 0 and not is_system:
             for k in range(nm):
                 v = m_val[k]
@@ -462,9 +626,12 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
                 elif _contains(laser_off_codes, code):
                     grp = M_LASER
                     laser_new = 0
-                elif code == 7 or code == 8 or code == 9:
+                elif _contains(coolant_codes, code):
                     grp = M_COOLANT
                     coolant = code
+                elif _contains(record_m_codes, code):
+                    grp = M_RECORD
+                    m_record = code
                 else:
                     err, detail, epos, eend = E_UNSUPPORTED, D_UNKNOWN_M, m_pos[k], m_end[k]
                     break
@@ -481,8 +648,42 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
         axis_words = present[L_X] or present[L_Y] or present[L_Z]
         motion_mode = motion_new if motion_new >= 0 else motion
         moving = False
+        probing = False
+        nhome = 0
         move_kind = RAPID
-        if err == 0 and not is_system:
+        jog_feed = 0.0
+        move_feed = feed
+        feed_ok = feed > 0
+        if err == 0 and is_jog:
+            # GRBL's jog: F and X Y Z only (N allowed); G20/G21, G90/G91 and G53 for this
+            # line only; the parser's modal state is left as it was, but for the position.
+            for letter in (L_I, L_J, L_K, L_P, L_R, L_S, L_T):
+                if present[letter] and (err == 0 or wpos[letter] < epos):
+                    err, detail, epos, eend = E_UNUSED, D_JOG_WORD, wpos[letter], wend[letter]
+            if err == 0 and present[L_N]:
+                nv = val[L_N]
+                if nv < 0 or nv > MAX_LINE_NUMBER or nv != math.floor(nv):
+                    err, epos, eend = E_LINE_NUMBER, wpos[L_N], wend[L_N]
+            if err == 0:
+                if not present[L_F]:
+                    err, epos, eend = E_UNDEFINED_FEED, ls, le
+                elif val[L_F] < 0:
+                    err, epos, eend = E_NEGATIVE, wpos[L_F], wend[L_F]
+                else:
+                    jog_feed = val[L_F] * scale * feed_scale
+                    for a in range(3):
+                        if present[L_X + a]:
+                            v = val[L_X + a] * scale
+                            target[a] = v if absolute_new or machine_coords else pos[a] + v
+                        else:
+                            target[a] = pos[a]
+                    if axis_words:
+                        moving = True
+                        move_kind = LINE
+                        for a in range(3):
+                            if err == 0 and not _in_range(target[a]):
+                                err, epos, eend = E_OUT_OF_RANGE, wpos[L_X + a], wend[L_X + a]
+        if err == 0 and not is_system and not is_jog:
             if present[L_N]:
                 nv = val[L_N]
                 if nv < 0 or nv > MAX_LINE_NUMBER or nv != math.floor(nv):
@@ -492,14 +693,24 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
                     err, epos, eend = E_NEGATIVE, wpos[L_F], wend[L_F]
                 else:
                     feed_new = val[L_F] * scale * feed_scale
+            if inverse_new or (inverse and not present[L_F]):
+                # G93: F is 1/min of each feed move, not modal; back in G94 the feed is
+                # undefined until an F word (GRBL).
+                feed_new = 0.0
+            feed_ok = (present[L_F] and val[L_F] > 0) if inverse_new else feed_new > 0
+            if err == 0 and present[L_T]:
+                if val[L_T] < 0:
+                    err, epos, eend = E_NEGATIVE, wpos[L_T], wend[L_T]
+                elif val[L_T] > max_tool:
+                    err, epos, eend = E_MAX_VALUE, wpos[L_T], wend[L_T]
             if err == 0 and present[L_S]:
                 if val[L_S] < 0:
                     err, epos, eend = E_NEGATIVE, wpos[L_S], wend[L_S]
-                else:
+                elif m_record < 0:        # S of M104/M140/… is a temperature, not power
                     power_new = val[L_S]
             if err == 0 and (dwell or lookahead):
                 if not present[L_P]:
-                    err, epos, eend = E_MISSING_VALUE, gcol_nonmodal, gcol_nonmodal + 2
+                    err, epos, eend = E_MISSING_VALUE, gcol_nonmodal, gend_nonmodal
                     detail = D_DWELL_P if dwell else D_LOOKAHEAD_P
                 elif val[L_P] < 0:
                     err, epos, eend = E_NEGATIVE, wpos[L_P], wend[L_P]
@@ -507,19 +718,122 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
                     dwell_s = val[L_P] * dwell_scale
                 else:
                     lookahead_p = val[L_P]
-            if err == 0 and (motion_new >= 0 or axis_words):
+            # ---- offsets: G10, G92, G43.1 take the axis words as values, not a target
+            for a in range(3):
+                g92_new[a] = g92[a]
+                new_sys[a] = 0.0
+            tlo_new = tlo
+            set_sys = -1
+            homing = nonmodal == 280 or nonmodal == 300
+            axis_taken = nonmodal == 100 or nonmodal == 920 or tlo_cmd == 431
+            if err == 0 and (axis_taken or homing or tlo_cmd != 0) and motion_new >= 0 \
+                    and motion_new != 80:
+                err, epos, eend = E_AXIS_CONFLICT, gcol_motion, gend_motion
+            if err == 0 and nonmodal == 100:                         # G10 L2 / L20
+                if not axis_words:
+                    err, epos, eend = E_NO_AXIS_WORDS, gcol_nonmodal, gend_nonmodal
+                elif not (present[L_L] and present[L_P]):
+                    err, detail, epos, eend = E_MISSING_VALUE, D_G10_LP, gcol_nonmodal, gend_nonmodal
+                elif val[L_P] != math.floor(val[L_P]) or val[L_P] > 6:
+                    err, epos, eend = E_COORD_SYS, wpos[L_P], wend[L_P]
+                elif val[L_L] != 2 and val[L_L] != 20:
+                    err, detail, epos, eend = E_UNSUPPORTED, D_G10_L, wpos[L_L], wend[L_L]
+                elif val[L_L] == 2 and present[L_R]:
+                    err, detail, epos, eend = E_UNSUPPORTED, D_G10_R, wpos[L_R], wend[L_R]
+                else:
+                    set_sys = coord_new if val[L_P] == 0 else int(val[L_P]) - 1
+                    for a in range(3):
+                        new_sys[a] = wcs[set_sys, a]
+                        if present[L_X + a]:
+                            v = val[L_X + a] * scale
+                            if val[L_L] == 20:     # the current position becomes v
+                                new_sys[a] = pos[a] - g92[a] - v - (tlo if a == 2 else 0.0)
+                            else:
+                                new_sys[a] = v
+                        if not _in_range(new_sys[a]):
+                            err, epos, eend = E_OUT_OF_RANGE, gcol_nonmodal, gend_nonmodal
+            elif err == 0 and nonmodal == 920:                       # G92
+                if not axis_words and not present[L_E]:
+                    err, epos, eend = E_NO_AXIS_WORDS, gcol_nonmodal, gend_nonmodal
                 for a in range(3):
                     if present[L_X + a]:
                         v = val[L_X + a] * scale
-                        target[a] = v if absolute_new else pos[a] + v
+                        g92_new[a] = pos[a] - wcs[coord_new, a] - v - (tlo if a == 2 else 0.0)
+                        if err == 0 and not _in_range(g92_new[a]):
+                            err, epos, eend = E_OUT_OF_RANGE, wpos[L_X + a], wend[L_X + a]
+            elif err == 0 and nonmodal == 921:                       # G92.1
+                for a in range(3):
+                    g92_new[a] = 0.0
+            if err == 0 and tlo_cmd == 431:                          # G43.1 Z: dynamic TLO
+                if not present[L_Z] or present[L_X] or present[L_Y]:
+                    err, epos, eend = E_G43_AXIS, gcol_tlo, gend_tlo
+                else:
+                    tlo_new = val[L_Z] * scale
+            elif err == 0 and tlo_cmd == 490:                        # G49
+                tlo_new = 0.0
+            for a in range(3):
+                offs[a] = wcs[coord_new, a] + g92_new[a]
+            offs[2] += tlo_new
+            if err == 0 and machine_coords and not (motion_mode == 0 or motion_mode == 1):
+                err, epos, eend = E_G53_MOTION, gcol_nonmodal, gend_nonmodal
+            if err == 0 and not axis_taken and (motion_new >= 0 or axis_words or homing):
+                for a in range(3):
+                    if present[L_X + a]:
+                        v = val[L_X + a] * scale
+                        if machine_coords:
+                            target[a] = v
+                        elif absolute_new:
+                            target[a] = v + offs[a]
+                        else:
+                            target[a] = pos[a] + v
                     else:
                         target[a] = pos[a]
-                if motion_mode == 0 or motion_mode == 1:
+                if homing:
+                    # G28/G30: rapid to the target (if any axis word), then to the stored
+                    # position on the named axes (all axes when none is named). Marlin's G28
+                    # homes: the named axes (or all) end at machine 0.
+                    nhome = 0
+                    if axis_words and not home_is_origin:
+                        for a in range(3):
+                            inter[a] = target[a]
+                        nhome = 1
+                    for a in range(3):
+                        named = present[L_X + a] or not axis_words
+                        if home_is_origin:
+                            final[a] = 0.0 if named else pos[a]
+                        elif not named:
+                            final[a] = pos[a]
+                        else:
+                            final[a] = home28[a] if nonmodal == 280 else home30[a]
+                    nhome += 1
+                    for a in range(3):
+                        if err == 0 and not (_in_range(inter[a]) and _in_range(final[a])):
+                            err, epos, eend = E_OUT_OF_RANGE, gcol_nonmodal, gend_nonmodal
+                    if err != 0:
+                        nhome = 0
+                elif motion_mode == 80:
+                    if axis_words:
+                        err, epos, eend = E_AXIS_EXIST, gcol_motion, gend_motion
+                elif motion_mode >= 382:                                  # G38.2 … G38.5
+                    same = True
+                    for a in range(3):
+                        same = same and target[a] == pos[a]
+                    if not axis_words:
+                        err, epos, eend = E_NO_AXIS_WORDS, gcol_motion, gend_motion
+                    elif not feed_ok:
+                        err, epos, eend = E_UNDEFINED_FEED, gcol_motion, gend_motion
+                    elif same:
+                        err, detail, epos, eend = E_INVALID_ARC, D_PROBE_TARGET, gcol_motion, gend_motion
+                    else:
+                        moving = True
+                        probing = True
+                        move_kind = LINE
+                elif motion_mode == 0 or motion_mode == 1:
                     if not axis_words:
                         if require_axis_words and motion_new >= 0:
-                            err, epos, eend = E_NO_AXIS_WORDS, gcol_motion, gcol_motion + 2
-                    elif motion_mode == 1 and feed_new <= 0:
-                        err, epos, eend = E_UNDEFINED_FEED, gcol_motion, gcol_motion + 2
+                            err, epos, eend = E_NO_AXIS_WORDS, gcol_motion, gend_motion
+                    elif motion_mode == 1 and not feed_ok:
+                        err, epos, eend = E_UNDEFINED_FEED, gcol_motion, gend_motion
                     else:
                         moving = True
                         move_kind = RAPID if motion_mode == 0 else LINE
@@ -528,15 +842,15 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
                     a1 = _PLANE_AXES[plane_new, 1]
                     lin = _PLANE_AXES[plane_new, 2]
                     in_plane = present[L_X + a0] or present[L_X + a1]
-                    if feed_new <= 0:
-                        err, epos, eend = E_UNDEFINED_FEED, gcol_motion, gcol_motion + 2
+                    if not feed_ok:
+                        err, epos, eend = E_UNDEFINED_FEED, gcol_motion, gend_motion
                     elif present[L_R]:
                         r = val[L_R] * scale
                         dx = target[a0] - pos[a0]
                         dy = target[a1] - pos[a1]
                         q = math.sqrt(dx * dx + dy * dy)
                         if not in_plane:
-                            err, epos, eend = E_NO_PLANE_AXIS, gcol_motion, gcol_motion + 2
+                            err, epos, eend = E_NO_PLANE_AXIS, gcol_motion, gend_motion
                         elif q <= 1e-9:
                             err, detail, epos, eend = E_INVALID_ARC, D_R_FULL_CIRCLE, wpos[L_R], wend[L_R]
                         else:
@@ -560,11 +874,11 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
                         io0 = L_I + a0
                         io1 = L_I + a1
                         if not (present[io0] or present[io1]):
-                            err, epos, eend = E_NO_OFFSET, gcol_motion, gcol_motion + 2
+                            err, epos, eend = E_NO_OFFSET, gcol_motion, gend_motion
                         elif arc_absolute_new and not (present[io0] and present[io1]):
-                            err, detail, epos, eend = E_NO_OFFSET, D_ABS_CENTRE, gcol_motion, gcol_motion + 2
+                            err, detail, epos, eend = E_NO_OFFSET, D_ABS_CENTRE, gcol_motion, gend_motion
                         elif not in_plane and not full_circle_ok:
-                            err, epos, eend = E_NO_PLANE_AXIS, gcol_motion, gcol_motion + 2
+                            err, epos, eend = E_NO_PLANE_AXIS, gcol_motion, gend_motion
                         else:
                             o0 = val[io0] * scale if present[io0] else 0.0
                             o1 = val[io1] * scale if present[io1] else 0.0
@@ -579,32 +893,64 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
                             r1 = math.hypot(target[a0] - ctr[a0], target[a1] - ctr[a1])
                             dr = abs(r1 - r0)
                             if r0 <= 1e-9:
-                                err, detail, epos, eend = E_INVALID_ARC, D_ZERO_RADIUS, gcol_motion, gcol_motion + 2
+                                err, detail, epos, eend = E_INVALID_ARC, D_ZERO_RADIUS, gcol_motion, gend_motion
                             elif dr > arc_tol_abs and dr > arc_tol_rel * r0:
-                                err, detail, epos, eend = E_INVALID_ARC, D_RADIUS_MISMATCH, gcol_motion, gcol_motion + 2
+                                err, detail, epos, eend = E_INVALID_ARC, D_RADIUS_MISMATCH, gcol_motion, gend_motion
                                 aux0, aux1 = r0, r1
                             else:
                                 moving = True
                     if moving:
                         move_kind = ARC_CW if motion_mode == 2 else ARC_CCW
+            # The feed of this move: modal, or (G93) the move's length × F.
+            move_feed = feed_new
+            if err == 0 and moving and inverse_new and move_kind != RAPID:
+                length = 0.0
+                if move_kind >= ARC_CW:
+                    a0 = _PLANE_AXES[plane_new, 0]
+                    a1 = _PLANE_AXES[plane_new, 1]
+                    lin = _PLANE_AXES[plane_new, 2]
+                    r0 = math.hypot(pos[a0] - ctr[a0], pos[a1] - ctr[a1])
+                    t0 = math.atan2(pos[a1] - ctr[a1], pos[a0] - ctr[a0])
+                    t1 = math.atan2(target[a1] - ctr[a1], target[a0] - ctr[a0])
+                    sweep = (t0 - t1) if move_kind == ARC_CW else (t1 - t0)
+                    while sweep <= 1e-12:
+                        sweep += 2.0 * math.pi
+                    length = math.hypot(r0 * sweep, target[lin] - pos[lin])
+                else:
+                    for a in range(3):
+                        length += (target[a] - pos[a]) ** 2
+                    length = math.sqrt(length)
+                move_feed = val[L_F] * length
+            # Positions beyond MAX_ABS_VALUE (e.g. accumulated by G91) or not finite.
+            if err == 0 and moving:
+                for a in range(3):
+                    if err == 0 and not (_in_range(target[a])
+                                         and (move_kind < ARC_CW or _in_range(ctr[a]))):
+                        err, epos, eend = E_OUT_OF_RANGE, gcol_motion, gend_motion
+                        if present[L_X + a]:
+                            epos, eend = wpos[L_X + a], wend[L_X + a]
             # Value words no command used.
             if err == 0:
                 arc_r = moving and move_kind >= ARC_CW and present[L_R]
                 arc_ijk = moving and move_kind >= ARC_CW and not present[L_R]
-                for letter in (L_I, L_J, L_K, L_R, L_P):
+                for letter in (L_I, L_J, L_K, L_R, L_P, L_L):
                     if not present[letter]:
                         continue
                     used = False
                     if letter == L_R:
                         used = arc_r
                     elif letter == L_P:
-                        used = dwell or lookahead
+                        used = dwell or lookahead or nonmodal == 100
+                    elif letter == L_L:
+                        used = nonmodal == 100
                     else:
                         used = arc_ijk
                     if not used and (err == 0 or wpos[letter] < epos):
                         err, epos, eend = E_UNUSED, wpos[letter], wend[letter]
 
         if err != 0:
+            nerr_total += 1
+        if err != 0 and nerr < max_errors:
             if nerr == ecap:
                 ecap *= 2
                 e_line = _grow(e_line, ecap)
@@ -621,11 +967,12 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
             e_aux[nerr, 0] = aux0
             e_aux[nerr, 1] = aux1
             nerr += 1
+        if err != 0:
             if not lenient:
                 break
         else:
             # ---- phase 3: commit ---------------------------------------------------
-            nnew = (1 if dwell else 0) + (1 if moving else 0)
+            nnew = (1 if dwell else 0) + (1 if moving else 0) + nhome
             if nrows + nnew > cap:
                 cap = 2 * cap + nnew
                 kind = _grow(kind, cap)
@@ -638,8 +985,10 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
                 laser_col = _grow(laser_col, cap)
                 dwell_col = _grow(dwell_col, cap)
                 line_col = _grow(line_col, cap)
-            nrec_new = (1 if is_system else 0) + (1 if lookahead else 0) + (1 if coolant >= 0 else 0) \
-                + (1 if stop >= 0 else 0)
+                offset_col = _grow_f2(offset_col, cap)
+            nrec_new = (1 if is_system else 0) + (1 if is_jog else 0) + (1 if lookahead else 0) \
+                + (1 if coolant >= 0 else 0) + (1 if stop >= 0 else 0) + (1 if probing else 0) \
+                + (1 if m_record >= 0 else 0)
             if nrec + nrec_new > rcap:
                 rcap = 2 * rcap + nrec_new
                 r_line = _grow(r_line, rcap)
@@ -654,80 +1003,94 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
                 s1 = le
                 while s1 > s0 and _is_space(buf[s1 - 1]):
                     s1 -= 1
-                r_line[nrec] = lineno
-                r_kind[nrec] = REC_SYSTEM
-                r_span[nrec, 0] = s0
-                r_span[nrec, 1] = s1
-                r_value[nrec] = np.nan
-                r_index[nrec] = nrows
-                nrec += 1
+                nrec = _put_record(r_line, r_kind, r_span, r_value, r_index, nrec, lineno,
+                                   REC_SYSTEM, s0, s1, np.nan, nrows)
+            elif is_jog:
+                nrec = _put_record(r_line, r_kind, r_span, r_value, r_index, nrec, lineno,
+                                   REC_JOG, ls, le, jog_feed, nrows)
+                if moving:
+                    # A jog runs as a G1 with the spindle/laser state in effect (GRBL's jog).
+                    nrows = _put_row(kind, start, endp, centre, plane_col, feed_col, power_col,
+                                     laser_col, dwell_col, line_col, offset_col, nrows, LINE, pos,
+                                     target, nan3, 17 + plane, jog_feed, power, laser, 0.0,
+                                     lineno, offs)
+                    for a in range(3):
+                        pos[a] = target[a]
             else:
                 feed = feed_new
                 power = power_new
                 laser = laser_new
+                inverse = inverse_new
+                coord = coord_new
+                tlo = tlo_new
+                for a in range(3):
+                    g92[a] = g92_new[a]
+                    if set_sys >= 0:
+                        wcs[set_sys, a] = new_sys[a]
+                    if nonmodal == 281:
+                        home28[a] = pos[a]
+                    elif nonmodal == 301:
+                        home30[a] = pos[a]
                 if coolant >= 0:
-                    r_line[nrec] = lineno
-                    r_kind[nrec] = REC_COOLANT
-                    r_span[nrec, 0] = ls
-                    r_span[nrec, 1] = le
-                    r_value[nrec] = coolant
-                    r_index[nrec] = nrows
-                    nrec += 1
+                    nrec = _put_record(r_line, r_kind, r_span, r_value, r_index, nrec, lineno,
+                                       REC_COOLANT, ls, le, float(coolant), nrows)
+                if m_record >= 0:
+                    nrec = _put_record(r_line, r_kind, r_span, r_value, r_index, nrec, lineno,
+                                       REC_PRINTER, ls, le,
+                                       val[L_S] if present[L_S] else np.nan, nrows)
                 if dwell:
-                    kind[nrows] = DWELL
-                    for a in range(3):
-                        start[nrows, a] = pos[a]
-                        endp[nrows, a] = pos[a]
-                        centre[nrows, a] = np.nan
-                    plane_col[nrows] = 17 + plane
-                    feed_col[nrows] = feed if feed > 0 else np.nan
-                    power_col[nrows] = power
-                    laser_col[nrows] = laser
-                    dwell_col[nrows] = dwell_s
-                    line_col[nrows] = lineno
-                    nrows += 1
+                    nrows = _put_row(kind, start, endp, centre, plane_col, feed_col, power_col,
+                                     laser_col, dwell_col, line_col, offset_col, nrows, DWELL, pos,
+                                     pos, nan3, 17 + plane, feed, power, laser, dwell_s, lineno,
+                                     offs)
                 if lookahead:
-                    r_line[nrec] = lineno
-                    r_kind[nrec] = REC_LOOKAHEAD
-                    r_span[nrec, 0] = ls
-                    r_span[nrec, 1] = le
-                    r_value[nrec] = lookahead_p
-                    r_index[nrec] = nrows
-                    nrec += 1
+                    nrec = _put_record(r_line, r_kind, r_span, r_value, r_index, nrec, lineno,
+                                       REC_LOOKAHEAD, ls, le, lookahead_p, nrows)
                 plane = plane_new
                 inches = inches_new
                 absolute = absolute_new
                 arc_absolute = arc_absolute_new
                 if motion_new >= 0:
                     motion = motion_new
-                if moving:
-                    kind[nrows] = move_kind
+                if nhome == 2:
+                    nrows = _put_row(kind, start, endp, centre, plane_col, feed_col, power_col,
+                                     laser_col, dwell_col, line_col, offset_col, nrows, RAPID, pos,
+                                     inter, nan3, 17 + plane, feed, power, laser, 0.0, lineno,
+                                     offs)
                     for a in range(3):
-                        start[nrows, a] = pos[a]
-                        endp[nrows, a] = target[a]
-                        centre[nrows, a] = ctr[a] if move_kind >= ARC_CW else np.nan
+                        pos[a] = inter[a]
+                if nhome >= 1:
+                    nrows = _put_row(kind, start, endp, centre, plane_col, feed_col, power_col,
+                                     laser_col, dwell_col, line_col, offset_col, nrows, RAPID, pos,
+                                     final, nan3, 17 + plane, feed, power, laser, 0.0, lineno,
+                                     offs)
+                    for a in range(3):
+                        pos[a] = final[a]
+                if moving:
+                    if probing:
+                        nrec = _put_record(r_line, r_kind, r_span, r_value, r_index, nrec,
+                                           lineno, REC_PROBE, ls, le, motion_mode / 10.0, nrows)
+                    nrows = _put_row(kind, start, endp, centre, plane_col, feed_col, power_col,
+                                     laser_col, dwell_col, line_col, offset_col, nrows, move_kind,
+                                     pos, target, ctr if move_kind >= ARC_CW else nan3,
+                                     17 + plane, move_feed, power,
+                                     0 if probing else laser,   # GRBL: beam off unless G1/G2/G3
+                                     0.0, lineno, offs)
+                    for a in range(3):
                         pos[a] = target[a]
-                    plane_col[nrows] = 17 + plane
-                    feed_col[nrows] = feed if feed > 0 else np.nan
-                    power_col[nrows] = power
-                    laser_col[nrows] = laser
-                    dwell_col[nrows] = 0.0
-                    line_col[nrows] = lineno
-                    nrows += 1
                 if stop >= 0:
-                    r_line[nrec] = lineno
-                    r_kind[nrec] = REC_PAUSE if stop == 0 else (REC_OPTIONAL_PAUSE if stop == 1 else REC_END)
-                    r_span[nrec, 0] = ls
-                    r_span[nrec, 1] = le
-                    r_value[nrec] = stop
-                    r_index[nrec] = nrows
-                    nrec += 1
+                    nrec = _put_record(r_line, r_kind, r_span, r_value, r_index, nrec, lineno,
+                                       REC_PAUSE if stop == 0 else (
+                                           REC_OPTIONAL_PAUSE if stop == 1 else REC_END),
+                                       ls, le, float(stop), nrows)
                     if stop == 2 or stop == 30:
-                        # GRBL's program-end reset: G1 G17 G90 G94 G54 M5 M9.
+                        # GRBL's program-end reset: G1 G17 G90 G94 G54 M5 M9 (G92 stays).
                         motion = 1
                         plane = 0
                         absolute = True
                         laser = 0
+                        inverse = False
+                        coord = 0
         if trace:
             t_state[lineno - 1, 0] = motion
             t_state[lineno - 1, 1] = 17 + plane
@@ -743,7 +1106,8 @@ def interpret(buf, letters_ok, laser_on_codes, laser_off_codes, feed_scale, dwel
 
     return (kind[:nrows], start[:nrows], endp[:nrows], centre[:nrows], plane_col[:nrows],
             feed_col[:nrows], power_col[:nrows], laser_col[:nrows], dwell_col[:nrows],
-            line_col[:nrows],
+            line_col[:nrows], offset_col[:nrows],
             e_line[:nerr], e_pos[:nerr], e_end[:nerr], e_code[:nerr], e_detail[:nerr], e_aux[:nerr],
+            nerr_total,
             r_line[:nrec], r_kind[:nrec], r_span[:nrec], r_value[:nrec], r_index[:nrec],
-            line_starts[:lineno], t_state[:lineno], t_pos[:lineno])
+            t_state[:lineno], t_pos[:lineno])

@@ -80,6 +80,25 @@ class Dialect:
         An explicit G0/G1 without X Y Z is an error (GRBL ignores it).
     extra_letters : str
         Word letters this dialect accepts beyond the common set.
+    g_codes : tuple of float
+        G commands the dialect runs (anything else is error 20; ``G1.5`` style
+        numbers of a known command are error 23).
+    coolant_codes : tuple of int
+        M numbers read as coolant/air assist (GRBL's default build: M8 M9; M7
+        only when compiled with ``ENABLE_M7``).
+    record_m_codes : tuple of int
+        M numbers kept as ``"printer"`` records (heaters, fans, extruder modes
+        of a printer's file); their S is a temperature, not laser power.
+    home_is_origin : bool
+        ``G28`` homes (the named axes, or all, end at machine 0: Marlin) instead
+        of going to the position stored by ``G28.1`` (GRBL).
+    max_tool : int
+        Largest T number (GRBL: 255, error 38 above).
+    line_buffer_chars : int
+        Size of the controller's line buffer in bytes, 0 when unknown (GRBL 1.1:
+        ``LINE_BUFFER_SIZE`` 80, holding 79 characters after spaces and comments
+        are dropped; a longer streamed line is error 11). Checked by
+        :func:`labkit.gcode.check`.
     """
 
     name: str
@@ -99,6 +118,13 @@ class Dialect:
     rapids_beam_off: bool = True
     full_circle_without_axes: bool = True
     require_axis_words: bool = False
+    g_codes: tuple[float, ...] = (0, 1, 2, 3, 4, 17, 18, 19, 20, 21, 40, 49, 54, 61, 90, 91, 90.1,
+                                  91.1, 94)
+    coolant_codes: tuple[int, ...] = (7, 8, 9)
+    record_m_codes: tuple[int, ...] = ()
+    home_is_origin: bool = False
+    max_tool: int = 2**31 - 1
+    line_buffer_chars: int = 0
     description: str = field(default="", compare=False)
 
     def feed_to_mm_min(self, f: float) -> float:
@@ -118,11 +144,21 @@ class Dialect:
         return seconds * 1000.0 if self.dwell_in_ms else seconds
 
 
+#: What GRBL 1.1's gcode.c runs (its own list: doc/markdown/commands.md): G90.1 is not among
+#: them (error 20), G91.1 is accepted as a no-op.
+GRBL_G_CODES = (0, 1, 2, 3, 4, 10, 17, 18, 19, 20, 21, 28, 28.1, 30, 30.1, 38.2, 38.3, 38.4,
+                38.5, 40, 43.1, 49, 53, 54, 55, 56, 57, 58, 59, 61, 80, 90, 91, 91.1, 92, 92.1,
+                93, 94)
+
 DIALECTS: dict[str, Dialect] = {
     "grbl": Dialect(
         name="grbl",
-        extra_letters="T",
         full_circle_without_axes=False,
+        extra_letters="LT",
+        g_codes=GRBL_G_CODES,
+        coolant_codes=(8, 9),
+        max_tool=255,
+        line_buffer_chars=80,
         description="GRBL 1.1 laser mode: F mm/min, G4 P s, S 0-1000, M3/M4/M5",
     ),
     "labkit-fw": Dialect(
@@ -131,6 +167,7 @@ DIALECTS: dict[str, Dialect] = {
         dwell_in_ms=True,
         s_max=255.0,
         lookahead_g5=True,
+        g_codes=Dialect.g_codes + (5,),
         arc_r_tol_mm=0.0005,
         require_axis_words=True,
         description="labkit firmware (seeds 000/004): F mm/s, G4 P ms, S 0-255, G5 P look-ahead",
@@ -143,7 +180,10 @@ DIALECTS: dict[str, Dialect] = {
         laser_off_codes=(5, 107),
         line_numbers=True,
         checksums=True,
-        extra_letters="T",
+        extra_letters="ET",
+        g_codes=Dialect.g_codes + (28, 92),
+        record_m_codes=(82, 83, 84, 104, 109, 140, 190),
+        home_is_origin=True,
         inline_power=False,
         rapids_beam_off=False,
         description="Marlin 2 laser: F mm/min, G4 P ms, S 0-255, M3/M4/M5 and M106/M107, N + checksum",

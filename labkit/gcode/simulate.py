@@ -150,14 +150,17 @@ class JobSummary:
     extra: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
-        """Plain types only (NaN bounds become None), ready for ``json.dumps``."""
-        d = asdict(self)
-        for key in ("bounds", "cut_bounds"):
-            d[key] = [[None if not math.isfinite(v) else v for v in row] for row in d[key]]
-        return d
+        """Plain types only, every non-finite number (NaN bounds of an empty program, an
+        unknown time) as None, ready for strict ``json.dumps``."""
+        return _finite_or_none(asdict(self))
 
     def to_json(self) -> str:
-        return json.dumps(self.to_dict(), indent=2)
+        """Strict JSON (RFC 8259: no ``NaN`` or ``Infinity``; unknown numbers are ``null``).
+
+        >>> import json; json.loads(summarize(Moves.empty()).to_json())["bounds"]
+        [[None, None, None], [None, None, None]]
+        """
+        return json.dumps(self.to_dict(), indent=2, allow_nan=False)
 
     def format(self) -> str:
         """A short human-readable report."""
@@ -187,6 +190,18 @@ class JobSummary:
             lines.append(f"diagnostics     {self.diagnostics}")
         lines += [f"{k:<15} {v}" for k, v in self.extra.items()]
         return "\n".join(lines)
+
+
+def _finite_or_none(value):
+    if isinstance(value, dict):
+        return {k: _finite_or_none(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite_or_none(v) for v in value]
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(value) else None
+    if isinstance(value, np.integer):
+        return int(value)
+    return value
 
 
 def _hms(seconds: float) -> str:
@@ -243,5 +258,5 @@ def summarize(moves: Moves, *, rapid_mm_min: float = DEFAULT_RAPID_MM_MIN,
         rapid_mm_min=float(rapid_mm_min),
         source_lines=source_lines,
         records=len(moves.records),
-        diagnostics=len(moves.diagnostics),
+        diagnostics=len(moves.diagnostics) + moves.dropped_diagnostics,
     )

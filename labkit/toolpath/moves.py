@@ -17,7 +17,12 @@ power_s         float32      laser power word S in effect (0…``s_max``)
 laser           int8         :class:`LaserMode` in effect: 0 off, 3 M3, 4 M4
 dwell_s         float64      dwell time in s (DWELL rows only, else 0)
 line            int32        1-based source line (0 for generated moves)
+work_offset     float64 n×3  work origin in machine mm for this move (G54-G59 + G92
+                             + G43.1): work coordinates = machine − work_offset
 ==============  ===========  =====================================================
+
+This table is the one list of the columns (``_COLUMNS`` below holds the same); the
+parser's compiled kernel returns them in this order and the builders derive from it.
 
 The beam burns only on feed moves (lines and arcs) with the laser mode on
 and S > 0 — GRBL's laser mode keeps it off on rapids; see :attr:`Moves.laser_on`.
@@ -99,6 +104,7 @@ _COLUMNS = {
     "laser": (np.int8, (), 0),
     "dwell_s": (np.float64, (), 0.0),
     "line": (np.int32, (), 0),
+    "work_offset": (np.float64, (3,), 0.0),
 }
 
 
@@ -107,7 +113,7 @@ class Moves:
 
     Parameters
     ----------
-    kind, start, end, centre, plane, feed_mm_min, power_s, laser, dwell_s, line
+    kind, start, end, centre, plane, feed_mm_min, power_s, laser, dwell_s, line, work_offset
         Column arrays of equal length; missing columns take their defaults
         (``centre`` NaN, ``plane`` 17, ``feed_mm_min`` NaN, others 0).
     source : str, optional
@@ -118,6 +124,8 @@ class Moves:
         Non-motion lines kept from the source.
     diagnostics : sequence of GcodeError
         Problems found in lenient parsing (empty when strict).
+    dropped_diagnostics : int
+        Further problems counted but not kept (beyond the ``diagnostics`` budget).
 
     Examples
     --------
@@ -128,10 +136,12 @@ class Moves:
     (2, [10.0, 5.0], [False, True])
     """
 
-    __slots__ = tuple(_COLUMNS) + ("source", "s_max", "records", "diagnostics")
+    __slots__ = tuple(_COLUMNS) + ("source", "s_max", "records", "diagnostics",
+                                   "dropped_diagnostics")
 
     def __init__(self, *, source: str | None = None, s_max: float = 1000.0,
-                 records: Sequence[Record] = (), diagnostics: Sequence[Any] = (), **columns):
+                 records: Sequence[Record] = (), diagnostics: Sequence[Any] = (),
+                 dropped_diagnostics: int = 0, **columns):
         unknown = set(columns) - set(_COLUMNS)
         if unknown:
             raise TypeError(f"unknown Moves column(s) {sorted(unknown)}; columns are {list(_COLUMNS)}")
@@ -152,6 +162,12 @@ class Moves:
         self.s_max = float(s_max)
         self.records = tuple(records)
         self.diagnostics = tuple(diagnostics)
+        self.dropped_diagnostics = int(dropped_diagnostics)
+
+    @staticmethod
+    def column_names() -> tuple[str, ...]:
+        """The column names, in the one order of the table above."""
+        return tuple(_COLUMNS)
 
     # -- construction -----------------------------------------------------------------
 
@@ -278,6 +294,39 @@ class Moves:
         return sum(getattr(self, n).nbytes for n in _COLUMNS)
 
     # -- derived quantities -----------------------------------------------------------
+
+    @property
+    def work_start(self) -> np.ndarray:
+        """Start points in work coordinates (what the program's X Y Z words mean), mm."""
+        return self.start - self.work_offset
+
+    @property
+    def work_end(self) -> np.ndarray:
+        """End points in work coordinates, mm.
+
+        >>> from labkit.gcode import parse
+        >>> m = parse("G0 X10\\nG92 X0\\nG0 X5")
+        >>> m.end[:, 0].tolist(), m.work_end[:, 0].tolist()
+        ([10.0, 15.0], [10.0, 5.0])
+        """
+        return self.end - self.work_offset
+
+    @property
+    def work_centre(self) -> np.ndarray:
+        """Arc centres in work coordinates, mm (NaN for non-arcs)."""
+        return self.centre - self.work_offset
+
+    def in_work_coordinates(self) -> "Moves":
+        """The same program with positions in work coordinates (offset column 0): for
+        drawing what the user wrote. Without offsets, the program itself (no copy)."""
+        if not self.work_offset.any():
+            return self
+        out = self.copy()
+        out.start[:] = self.work_start
+        out.end[:] = self.work_end
+        out.centre[:] = self.work_centre
+        out.work_offset[:] = 0.0
+        return out
 
     @property
     def is_arc(self) -> np.ndarray:
@@ -415,6 +464,8 @@ class Moves:
         for name in ("start", "end", "centre"):
             for i, ax in enumerate("xyz"):
                 data[f"{name}_{ax}"] = getattr(self, name)[:, i]
+        for i, ax in enumerate("xyz"):
+            data[f"work_offset_{ax}"] = self.work_offset[:, i]
         for name in ("plane", "feed_mm_min", "power_s", "laser", "dwell_s"):
             data[name] = getattr(self, name)
         data["laser_on"] = self.laser_on
@@ -468,9 +519,11 @@ class MovesBuilder:
         return t
 
     def _add(self, kind, end, centre=(math.nan,) * 3, dwell_s=0.0, line=0):
-        self._rows.append((int(kind), self.position.copy(), np.asarray(end, float),
-                           np.asarray(centre, float), self.plane, self.feed_mm_min,
-                           self.power_s, int(self.laser), dwell_s, line))
+        self._rows.append({"kind": int(kind), "start": self.position.copy(),
+                           "end": np.asarray(end, float), "centre": np.asarray(centre, float),
+                           "plane": self.plane, "feed_mm_min": self.feed_mm_min,
+                           "power_s": self.power_s, "laser": int(self.laser),
+                           "dwell_s": dwell_s, "line": line})
         self.position = np.asarray(end, float).copy()
 
     def set(self, *, feed_mm_min=None, power_s=None, laser=None, plane=None):
@@ -525,8 +578,7 @@ class MovesBuilder:
         """The moves so far as a :class:`Moves`."""
         if not self._rows:
             return Moves.empty(s_max=self.s_max, source=self.source, records=self.records)
-        cols = list(zip(*self._rows))
-        names = ("kind", "start", "end", "centre", "plane", "feed_mm_min", "power_s",
-                 "laser", "dwell_s", "line")
-        data = {n: np.array(c) for n, c in zip(names, cols)}
+        # Columns the builder does not set (e.g. work_offset) take their defaults.
+        data = {n: np.array([row[n] for row in self._rows]) for n in _COLUMNS
+                if n in self._rows[0]}
         return Moves(source=self.source, s_max=self.s_max, records=self.records, **data)

@@ -16,10 +16,19 @@ from labkit.geometry.circle import chord_segments
 from labkit.toolpath.moves import PLANE_AXES, MoveKind, Moves
 from labkit.viz._widgets import show
 
-__all__ = ["plot_moves", "moves_to_segments", "plot_arc_choice", "arc_explorer", "gcode_playground",
+__all__ = ["plot_moves", "moves_to_segments", "rasterize_moves", "plot_arc_choice", "arc_explorer", "gcode_playground",
            "save_preview"]
 
 _PLANE_VIEW = {"xy": (0, 1), "xz": (0, 2), "yz": (1, 2)}
+
+#: Above this many moves :func:`plot_moves` draws the job as an image (one pixel grid,
+#: ``IMAGE_PIXELS`` on its long side) instead of one vector line per move: a line
+#: collection of 200,000 moves takes seconds to draw, an image a fraction of one.
+IMAGE_ABOVE_MOVES = 20_000
+IMAGE_PIXELS = 1600
+#: Pixel steps one image may take (~0.3 s): a job that retraces the drawing millions of
+#: times is drawn on a coarser grid instead of taking minutes.
+IMAGE_MAX_STEPS = 50_000_000
 
 
 def moves_to_segments(moves: Moves, *, tol_mm: float, view: str = "xy"):
@@ -41,26 +50,114 @@ def moves_to_segments(moves: Moves, *, tol_mm: float, view: str = "xy"):
         sub = moves[arcs]
         radius = sub.radius_mm()
         sweep = sub.sweep_rad()
-        counts = np.atleast_1d(chord_segments(radius, sweep, tol_mm))
-        for k, i in enumerate(arcs):
-            a0, a1, lin = PLANE_AXES[int(moves.plane[i])]
-            c = moves.centre[i]
-            ang0 = math.atan2(moves.start[i, a1] - c[a1], moves.start[i, a0] - c[a0])
-            t = np.linspace(0.0, 1.0, int(counts[k]) + 1)
-            pts = np.empty((len(t), 3))
-            pts[:, a0] = c[a0] + radius[k] * np.cos(ang0 + sweep[k] * t)
-            pts[:, a1] = c[a1] + radius[k] * np.sin(ang0 + sweep[k] * t)
-            pts[:, lin] = moves.start[i, lin] + (moves.end[i, lin] - moves.start[i, lin]) * t
-            p2 = pts[:, [ax0, ax1]]
-            segs.append(np.stack([p2[:-1], p2[1:]], axis=1))
-            rows.append(np.full(len(t) - 1, i))
+        counts = np.atleast_1d(chord_segments(radius, sweep, tol_mm)).astype(np.int64)
+        axes = np.array([PLANE_AXES[17], PLANE_AXES[18], PLANE_AXES[19]])[sub.plane.astype(int) - 17]
+        k = np.arange(len(arcs))
+        c0, c1 = sub.centre[k, axes[:, 0]], sub.centre[k, axes[:, 1]]
+        ang0 = np.arctan2(sub.start[k, axes[:, 1]] - c1, sub.start[k, axes[:, 0]] - c0)
+        npts = counts + 1
+        arc = np.repeat(k, npts)
+        t = (np.arange(int(npts.sum())) - np.repeat(np.cumsum(npts) - npts, npts)) / counts[arc]
+        ang = ang0[arc] + sweep[arc] * t
+        pts = np.empty((len(arc), 3))
+        j = np.arange(len(arc))
+        pts[j, axes[arc, 0]] = c0[arc] + radius[arc] * np.cos(ang)
+        pts[j, axes[arc, 1]] = c1[arc] + radius[arc] * np.sin(ang)
+        z0 = sub.start[k, axes[:, 2]]
+        pts[j, axes[arc, 2]] = z0[arc] + (sub.end[k, axes[:, 2]] - z0)[arc] * t
+        p2 = pts[:, [ax0, ax1]]
+        last = np.cumsum(npts) - 1                   # no segment from an arc's end to the next
+        keep = np.ones(len(arc) - 1, bool)
+        keep[last[:-1]] = False
+        segs.append(np.stack([p2[:-1], p2[1:]], axis=1)[keep])
+        rows.append(arcs[arc[:-1][keep]])
     return np.concatenate(segs), np.concatenate(rows)
+
+
+def _refuse_non_finite(moves: Moves) -> None:
+    """A position that is not finite cannot be drawn (nor cut): say which move."""
+    from labkit.errors import InputError
+
+    pts = np.concatenate([moves.start, moves.end], axis=1)
+    pts = np.where(moves.is_arc[:, None], np.concatenate([pts, moves.centre], axis=1),
+                   np.concatenate([pts, pts[:, :3]], axis=1))
+    bad = moves.is_motion & ~np.isfinite(pts).all(axis=1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        line = int(moves.line[i])
+        raise InputError(f"{moves.source or '<moves>'}: move {i}"
+                         f"{f' (line {line})' if line else ''} has a position that is not finite; "
+                         "expected finite coordinates in mm")
+
+
+def rasterize_moves(moves: Moves, *, view: str = "xy", pixels: int = IMAGE_PIXELS):
+    """Draw every move into a pixel grid: the greatest laser power and the travel per pixel.
+
+    Each move (arcs flattened to well below a pixel) is walked pixel by pixel along
+    its longer axis (a compiled digital differential analyser), so no pixel column
+    or row it crosses is missed; the work is the drawn length in pixels and the
+    memory the grid plus the flattened pieces.
+
+    Parameters
+    ----------
+    moves : Moves
+        Drawn as given (pass ``moves.in_work_coordinates()`` for work coordinates).
+    view : {"xy", "xz", "yz"}
+    pixels : int
+        Pixels on the long side of the drawing (fewer when the job's drawn length
+        would exceed :data:`IMAGE_MAX_STEPS` pixel steps, so the time stays bounded).
+
+    Returns
+    -------
+    power : ndarray of float, shape (rows, cols)
+        Greatest power in % of full along burning moves; NaN where nothing burns.
+    travel : ndarray of bool, shape (rows, cols)
+        Pixels crossed by moves with the beam off.
+    extent : (xmin, xmax, ymin, ymax)
+        The grid's extent in mm (row 0 at ``ymin``), for ``imshow(origin="lower")``.
+
+    Examples
+    --------
+    >>> from labkit.gcode import parse
+    >>> power, travel, extent = rasterize_moves(parse("M3 S500\\nG1 X10 Y10 F100"), pixels=11)
+    >>> power.shape, float(np.nanmax(power)), int(np.isfinite(power).sum()), extent
+    ((11, 11), 50.0, 11, (-0.5, 10.5, -0.5, 10.5))
+    """
+    ax0, ax1 = _PLANE_VIEW[view]
+    box = moves.bounds()
+    lo = box[0, [ax0, ax1]]
+    size = float(np.nanmax(box[1, [ax0, ax1]] - lo)) or 1.0
+    cell = size / (pixels - 1)
+    cols = int(round((box[1, ax0] - lo[0]) / cell)) + 1
+    rows = int(round((box[1, ax1] - lo[1]) / cell)) + 1
+    segs, row_of = moves_to_segments(moves, tol_mm=cell / 4, view=view)
+    from labkit.viz._gcode_draw import draw
+
+    pix = (segs - lo) / cell                          # pixel units, pixel centres on integers
+    steps = float(np.abs(pix[:, 1] - pix[:, 0]).max(axis=1).sum()) if len(pix) else 0.0
+    if steps > IMAGE_MAX_STEPS and pixels > 64:
+        # Overdrawn job: the same picture on a coarser grid (work ∝ pixels per piece).
+        coarse = max(64, int(pixels * IMAGE_MAX_STEPS / steps))
+        scale = (pixels - 1) / (coarse - 1)
+        cell *= scale
+        cols = int(round((box[1, ax0] - lo[0]) / cell)) + 1
+        rows = int(round((box[1, ax1] - lo[1]) / cell)) + 1
+        pix = (segs - lo) / cell
+    burning = moves.laser_on[row_of]
+    value = 100.0 * moves.power_fraction()[row_of]
+    power, travel = draw(pix, value, burning, (rows, cols))
+    extent = (lo[0] - cell / 2, lo[0] + (cols - 0.5) * cell,
+              lo[1] - cell / 2, lo[1] + (rows - 0.5) * cell)
+    return power, travel, tuple(float(v) for v in extent)
 
 
 def plot_moves(moves: Moves, ax=None, *, view: str = "xy", show_travel: bool = True,
                cmap: str = "plasma", linewidth: float = 1.2, colorbar: bool = True,
-               title: str | None = None):
+               title: str | None = None, as_image: bool | None = None):
     """Draw a program: cuts coloured by laser power, travel dashed, start marked.
+
+    Positions are drawn in work coordinates (``moves.work_end``…), as the program's
+    X Y Z words state them, whatever G54-G59 / G92 offsets put them in machine space.
 
     Parameters
     ----------
@@ -75,6 +172,9 @@ def plot_moves(moves: Moves, ax=None, *, view: str = "xy", show_travel: bool = T
         Colour map of the power (0…100 % of ``moves.s_max``).
     colorbar : bool
         Add a power colour bar.
+    as_image : bool, optional
+        Draw through :func:`rasterize_moves` (an image) instead of vector lines.
+        Default: above :data:`IMAGE_ABOVE_MOVES` moves.
 
     Returns
     -------
@@ -90,9 +190,17 @@ def plot_moves(moves: Moves, ax=None, *, view: str = "xy", show_travel: bool = T
     if len(moves) == 0 or not moves.is_motion.any():
         ax.set_title(title or "empty program")
         return ax
+    _refuse_non_finite(moves)
+    moves = moves.in_work_coordinates()     # what the program's words say (G54-G59, G92)
     ax0, ax1 = _PLANE_VIEW[view]
     box = moves.bounds()
     extent = float(np.nanmax(box[1, [ax0, ax1]] - box[0, [ax0, ax1]])) or 1.0
+    if as_image is None:
+        as_image = len(moves) > IMAGE_ABOVE_MOVES
+    if as_image:
+        handles = _draw_image(ax, moves, view, show_travel, cmap, colorbar)
+        _finish(ax, moves, box, extent, ax0, ax1, title, handles)
+        return ax
     segs, rows = moves_to_segments(moves, tol_mm=extent * 2e-4, view=view)
     burning = moves.laser_on[rows]
     rapid = moves.kind[rows] == MoveKind.RAPID
@@ -111,19 +219,45 @@ def plot_moves(moves: Moves, ax=None, *, view: str = "xy", show_travel: bool = T
         ax.add_collection(lc)
         if colorbar:
             ax.figure.colorbar(lc, ax=ax, label="laser power (% of full)", shrink=0.6, pad=0.02)
+    _finish(ax, moves, box, extent, ax0, ax1, title)
+    return ax
+
+
+def _draw_image(ax, moves, view, show_travel, cmap, colorbar):
+    from matplotlib.colors import ListedColormap
+    from matplotlib.patches import Patch
+
+    power, travel, extent = rasterize_moves(moves, view=view)
+    if show_travel and travel.any():
+        ax.imshow(np.where(travel & np.isnan(power), 1.0, np.nan), origin="lower", extent=extent,
+                  cmap=ListedColormap(["0.7"]), vmin=0, vmax=1, interpolation="nearest")
+    im = ax.imshow(power, origin="lower", extent=extent, cmap=cmap, vmin=0.0, vmax=100.0,
+                   interpolation="nearest")
+    if colorbar:
+        ax.figure.colorbar(im, ax=ax, label="laser power (% of full)", shrink=0.6, pad=0.02)
+    handles = [Patch(color=im.cmap(0.8), label="cut")]
+    if show_travel and travel.any():
+        handles.append(Patch(color="0.7", label="travel, laser off"))
+    return handles
+
+
+def _finish(ax, moves, box, extent, ax0, ax1, title, handles=None):
     first = int(np.flatnonzero(moves.is_motion)[0])
-    ax.plot(*moves.start[first, [ax0, ax1]], "o", color="tab:green", ms=7, label="start", zorder=5)
+    start = ax.plot(*moves.start[first, [ax0, ax1]], "o", color="tab:green", ms=7, label="start",
+                    zorder=5)[0]
     ax.set_xlim(box[0, ax0] - 0.03 * extent, box[1, ax0] + 0.03 * extent)
     ax.set_ylim(box[0, ax1] - 0.03 * extent, box[1, ax1] + 0.03 * extent)
     ax.set_aspect("equal")
     ax.set_xlabel(f"{'XYZ'[ax0]} (mm)")
     ax.set_ylabel(f"{'XYZ'[ax1]} (mm)")
-    ax.legend(loc="upper right", fontsize="small")
+    if handles is None:
+        ax.legend(loc="upper right", fontsize="small")
+    else:
+        ax.legend(handles=handles + [start], loc="upper right", fontsize="small")
     if title is None and moves.source:
         title = str(moves.source).rsplit("/", 1)[-1]
     if title:
         ax.set_title(title)
-    return ax
 
 
 def save_preview(moves: Moves, path, *, dpi: int = 120, **options) -> None:

@@ -44,10 +44,14 @@ def test_line_numbers_and_valid_checksum():
 
 def test_percent_and_blank_lines_and_system_lines_are_kept_apart():
     m = parse("%\n$H\n$J=G91 X10 F100\nG0 X1\n%")
-    assert [r.kind for r in m.records] == ["system", "system"]
+    assert [r.kind for r in m.records] == ["system", "jog"]
     assert [r.text for r in m.records] == ["$H", "$J=G91 X10 F100"]
     assert [r.line for r in m.records] == [2, 3]
-    assert len(m) == 1
+    # The jog is a move (GRBL 1.1 jogging.md): G91 holds for the jog line only, so the
+    # following G0 X1 is absolute again.
+    assert kinds(m) == ["LINE", "RAPID"]
+    assert m.end[:, 0].tolist() == [10.0, 1.0]
+    assert m.feed_mm_min[0] == 100.0
 
 
 # ---- modal state -------------------------------------------------------------------------
@@ -71,7 +75,9 @@ def test_units_word_applies_to_its_own_line():
 
 
 def test_absolute_arc_centres_g90_1():
-    m = parse("G0 X10\nG90.1 G3 X-10 Y0 I0 J0 F100")
+    m = parse("G0 X10\nG90.1 G3 X-10 Y0 I0 J0 F100", dialect="labkit-fw")   # not in GRBL 1.1
+    with pytest.raises(GcodeError, match="needs both in-plane words"):
+        parse("G90.1 G2 X1 Y1 I1 F10", dialect="labkit-fw")
     assert np.allclose(m.centre[1, :2], [0, 0])
     assert m.sweep_rad()[1] == pytest.approx(math.pi)
 
@@ -207,8 +213,26 @@ ERROR_CASES = [
     ("G1 X1 F-10", 4, "value must not be negative", 7, "F-10"),
     ("M3 S-1", 4, "value must not be negative", 4, "S-1"),
     ("G1 X1 Q5 F10", 20, "unknown word for this dialect", 7, "Q5"),
-    ("G38.2 X1", 20, "unsupported G command", 1, "G38.2"),
-    ("G28", 20, "unsupported G command", 1, "G28"),
+    ("G38.2 X1", 22, "feed motion without a feed rate", 1, "G38.2"),
+    ("G38.1 X1 F10", 20, "unsupported G command", 1, "G38.1"),
+    ("G28.2", 20, "unsupported G command", 1, "G28.2"),
+    ("G90.1", 20, "unsupported G command", 1, "G90.1"),        # GRBL: G90.1 not supported
+    ("G61.1", 20, "unsupported G command", 1, "G61.1"),
+    ("G43 Z1", 20, "unsupported G command", 1, "G43"),
+    ("M7", 20, "unsupported M command", 1, "M7"),               # GRBL's default build
+    ("G02 X1 Y1 I1", 22, "feed motion without a feed rate", 1, "G02"),
+    ("G92 G1 X1 F10", 24, "both use the axis words", 5, "G1"),
+    ("G10 L2 X1", 28, "G10 without its L and P words", 1, "G10"),
+    ("G10 L2 P7 X1", 29, "coordinate system number out of range", 8, "P7"),
+    ("G10 L1 P1 X1", 20, "G10 with an L other than 2 or 20", 5, "L1"),
+    ("G10 L2 P1 R5 X1", 20, r"G10 L2 with R \(rotation\)", 11, "R5"),
+    ("G10 L2 P1", 26, "motion command without axis words", 1, "G10"),
+    ("G53 G2 X1 I1 F10", 30, "G53 needs G0 or G1", 1, "G53"),
+    ("G80 X1", 31, r"axis words with motion cancelled \(G80\)", 1, "G80"),
+    ("G43.1 X1", 37, "G43.1 takes a Z word only", 1, "G43.1"),
+    ("T256", 38, "value above its maximum", 1, "T256"),
+    ("G38.2 X0 F10", 33, "probe target is the current position", 1, "G38.2"),
+    ("G1 X1 L2 F10", 36, "value word that no command in the line uses", 7, "L2"),
     ("G5 P3", 20, "unsupported G command", 1, "G5"),
     ("M6", 20, "unsupported M command", 1, "M6"),
     ("G0 G1 X1 F10", 21, "two commands of one modal group", 4, "G1"),
@@ -227,7 +251,6 @@ ERROR_CASES = [
     ("G2 X10 Y5 I5 J0 F10", 33, r"arc radius at start 5 mm and at end 7.07107 mm differ", 1, "G2"),
     ("G2 X0 Y0 I0 J0 F10", 33, "arc centre is the start point", 1, "G2"),
     ("G2 X1 Y1 F10", 35, "arc without a centre offset in its plane", 1, "G2"),
-    ("G90.1 G2 X1 Y1 I1 F10", 35, "needs both in-plane words", 7, "G2"),
     ("G1 X1 I5 F10", 36, "value word that no command in the line uses", 7, "I5"),
     ("G0 X1 P5", 36, "value word that no command in the line uses", 7, "P5"),
     ("G2 X2 Y0 R1 I1 F10", 36, "value word that no command in the line uses", 13, "I1"),
@@ -299,3 +322,34 @@ def test_bad_arguments():
 def test_bytes_input_bom_and_classic_mac_line_ends():
     m = parse(b"\xef\xbb\xbfG0 X1\rG0 X2\r")
     assert m.end[:, 0].tolist() == [1.0, 2.0]
+
+
+# ---- the kernel's interface is derived, not restated ------------------------------------
+
+def test_kernel_parameters_are_the_parse_options_and_outputs_start_with_the_moves_columns():
+    import inspect
+    from dataclasses import fields
+
+    from labkit.gcode import _kernel as K
+    from labkit.gcode.reader import ParseOptions
+    from labkit.toolpath import Moves
+
+    params = list(inspect.signature(K.interpret.py_func).parameters)
+    assert params == ["buf"] + [f.name for f in fields(ParseOptions)] + ["lenient", "max_errors",
+                                                                          "trace"]
+    assert K.OUTPUTS[:len(Moves.column_names())] == Moves.column_names()
+    m = parse("G1 X1 F100")
+    assert set(m.columns()) == set(Moves.column_names())
+
+
+def test_module_names_do_not_shadow_the_functions():
+    import importlib
+
+    import labkit.gcode as g
+
+    assert callable(g.parse) and callable(g.emit)
+    assert importlib.import_module("labkit.gcode.reader").parse is g.parse
+    assert importlib.import_module("labkit.gcode.writer").emit is g.emit
+    for old in ("labkit.gcode.parse", "labkit.gcode.emit"):
+        with pytest.raises(ModuleNotFoundError):
+            importlib.import_module(old)

@@ -6,14 +6,39 @@ What is read
   (letters in either case, numbers signed and fractional, spaces allowed
   between letter and number), comments ``( … )`` and ``; …``, an optional
   ``*checksum`` last (the RepRap rule: XOR of every byte before ``*``).
-- ``%`` lines (program delimiters) and blank lines are skipped; GRBL ``$``
-  system lines are kept as :class:`~labkit.toolpath.Record` of kind
-  ``"system"``.
+- Lines end at LF, CRLF or a lone CR (GRBL ends a line at either byte, so a
+  CR inside an LF file separates two blocks, as on the controller).
+- A ``%`` alone on its line (program delimiter) and blank lines are skipped;
+  a ``%`` with anything else on its line is error 1, as GRBL reads it. GRBL
+  ``$`` system lines are kept as :class:`~labkit.toolpath.Record` of kind
+  ``"system"``; ``$J=`` jog lines are the jogs they are (GRBL 1.1): a LINE
+  move at the jog's F, with the laser state in effect, recorded as ``"jog"``;
+  only X Y Z F N, G20/G21, G90/G91 (for that line) and G53 are allowed, and
+  the modal state is left as it was.
+- Numbers at or above 2**53 in magnitude (``X`` followed by 400 digits), and
+  positions that would get there, are rejected (bad number, error 2;
+  out of range, error 103): no infinite or NaN position reaches the Moves.
 - Motion G0 G1 G2 G3, dwell G4 P, planes G17 G18 G19, units G20 G21,
-  distance G90 G91, arc centres G90.1 G91.1, feed F, laser M3 M4 M5 with S
-  (M106/M107 in the marlin dialect), stops M0 M1 M2 M30, coolant/air assist
-  M7 M8 M9 (recorded), look-ahead G5 P (labkit-fw dialect, recorded). G94,
-  G40, G49, G54 and G61 are accepted as the only modes labkit has.
+  distance G90 G91, arc centres G91.1 (and G90.1 outside grbl), feed F,
+  laser M3 M4 M5 with S (M106/M107 in the marlin dialect), stops M0 M1 M2
+  M30, coolant/air assist (recorded; grbl: M8 M9 as GRBL's default build),
+  look-ahead G5 P (labkit-fw dialect, recorded). Which G words a dialect
+  runs is its ``g_codes`` list; the grbl dialect runs GRBL 1.1's:
+- Offsets as GRBL runs them: G54-G59 (origins set by G10 L2/L20, all 0 at
+  the start: GRBL keeps them in EEPROM, a file cannot rely on them), G92 /
+  G92.1, G43.1 Z / G49, G53 (machine coordinates for one block), G28 / G30
+  (rapid through the named intermediate point to the position stored by
+  G28.1 / G30.1). Moves hold machine coordinates; ``work_offset`` holds the
+  work origin of each move (``moves.work_end`` = what the words said).
+- G80 cancels motion; G93 inverse time (F = 1/min per move, each move's
+  feed in mm/min is F × its length); G38.2-G38.5 probes are LINE moves with
+  the beam off and a ``"probe"`` record; the position after a probe is taken
+  as its target (as if no contact): a program that relies on the probed
+  position cannot be predicted from its text. T is accepted (up to the
+  dialect's maximum, GRBL 255), M6 and M7 are error 20 in grbl as in GRBL's
+  default build. The marlin dialect homes with G28 (to machine 0), reads E
+  (extrusion: accepted, never motion, not kept), and keeps M82 M83 M84 M104
+  M109 M140 M190 as ``"printer"`` records (their S is not laser power).
 - Inch input is converted to mm; feeds become mm/min; dwells seconds.
 
 Errors
@@ -30,7 +55,8 @@ The work happens in the compiled interpreter :mod:`labkit.gcode._kernel`.
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+import re
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -49,35 +75,49 @@ class ParseOptions:
     """Settings of the interpreter derived from a dialect (see :class:`~labkit.gcode.dialects.Dialect`)."""
 
     letters_ok: np.ndarray
+    g_codes_ok: np.ndarray
     laser_on_codes: np.ndarray
     laser_off_codes: np.ndarray
+    coolant_codes: np.ndarray
+    record_m_codes: np.ndarray
     feed_scale: float
     dwell_scale: float
-    lookahead_g5: bool
     arc_r_tol: float
     arc_tol_abs: float
     arc_tol_rel: float
     full_circle_ok: bool
     require_axis_words: bool
+    home_is_origin: bool
+    max_tool: int
+    line_limit: int = 0
+
+    def kernel_args(self) -> tuple:
+        """The settings in the order :func:`labkit.gcode._kernel.interpret` takes them."""
+        return tuple(getattr(self, f.name) for f in fields(self))
 
     @classmethod
-    def from_dialect(cls, dialect: Dialect) -> "ParseOptions":
+    def from_dialect(cls, dialect: Dialect, *, streaming: bool = False) -> "ParseOptions":
         ok = np.zeros(26, np.bool_)
         for ch in _COMMON_LETTERS + dialect.extra_letters:
             ok[ord(ch) - 65] = True
         ok[ord("G") - 65] = ok[ord("M") - 65] = False   # commands are handled apart
         return cls(
             letters_ok=ok,
+            g_codes_ok=np.array(sorted(round(10 * g) for g in dialect.g_codes), np.int64),
             laser_on_codes=np.array(dialect.laser_on_codes, np.int64),
             laser_off_codes=np.array(dialect.laser_off_codes, np.int64),
+            coolant_codes=np.array(dialect.coolant_codes, np.int64),
+            record_m_codes=np.array(dialect.record_m_codes, np.int64),
             feed_scale=60.0 if dialect.feed_per_second else 1.0,
             dwell_scale=0.001 if dialect.dwell_in_ms else 1.0,
-            lookahead_g5=dialect.lookahead_g5,
             arc_r_tol=dialect.arc_r_tol_mm,
             arc_tol_abs=dialect.arc_radius_tol_mm,
             arc_tol_rel=dialect.arc_radius_tol_rel,
             full_circle_ok=dialect.full_circle_without_axes,
             require_axis_words=dialect.require_axis_words,
+            home_is_origin=dialect.home_is_origin,
+            max_tool=int(dialect.max_tool),
+            line_limit=dialect.line_buffer_chars if streaming else 0,
         )
 
 
@@ -90,21 +130,27 @@ def _as_bytes(text) -> bytes:
         raise TypeError(f"G-code must be str or bytes, got {type(text).__name__}")
     if data.startswith(b"\xef\xbb\xbf"):
         data = b"   " + data[3:]           # a UTF-8 BOM: blank it, keep the columns
-    if b"\n" not in data and b"\r" in data:
-        data = data.replace(b"\r", b"\n")  # classic Mac line ends
+    if b"\r" in data:
+        data = _LONE_CR.sub(b"\n", data)  # a lone CR ends a line (GRBL); same length, same columns
     return data
 
 
-def _run(data: bytes, dialect: Dialect, lenient: bool, trace: bool):
-    o = ParseOptions.from_dialect(dialect)
+_LONE_CR = re.compile(rb"\r(?!\n)")
+
+
+def _run(data: bytes, dialect: Dialect, lenient: bool, trace: bool, streaming: bool = False):
+    """The kernel's outputs by name (:data:`labkit.gcode._kernel.OUTPUTS`)."""
+    from labkit.budget import budget
+
+    o = ParseOptions.from_dialect(dialect, streaming=streaming)
     buf = np.frombuffer(data, dtype=np.uint8)
-    return K.interpret(buf, o.letters_ok, o.laser_on_codes, o.laser_off_codes, o.feed_scale,
-                       o.dwell_scale, o.lookahead_g5, o.arc_r_tol, o.arc_tol_abs, o.arc_tol_rel,
-                       o.full_circle_ok, o.require_axis_words, lenient, trace)
+    max_errors = int(budget("diagnostics")) if lenient else 1
+    out = K.interpret(buf, *o.kernel_args(), lenient, max_errors, trace)
+    return dict(zip(K.OUTPUTS, out))
 
 
 def parse(text, *, dialect: str | Dialect = "grbl", filename: str | None = None,
-          lenient: bool = False) -> Moves:
+          lenient: bool = False, streaming: bool = False) -> Moves:
     """Interpret G-code text as a machine program.
 
     Parameters
@@ -119,7 +165,12 @@ def parse(text, *, dialect: str | Dialect = "grbl", filename: str | None = None,
     lenient : bool
         False (default): raise at the first rejected line. True: skip
         rejected lines, as a controller would, and return their errors in
-        ``moves.diagnostics``.
+        ``moves.diagnostics`` (at most the ``diagnostics`` budget of
+        :mod:`labkit.budget`; ``moves.dropped_diagnostics`` counts the rest).
+    streaming : bool
+        Also reject what the controller rejects when the text is streamed to
+        it line by line: a line with more significant characters than its
+        line buffer holds (GRBL: 79, error 11; comments and spaces do not count).
 
     Returns
     -------
@@ -147,37 +198,48 @@ def parse(text, *, dialect: str | Dialect = "grbl", filename: str | None = None,
     """
     d = get_dialect(dialect)
     data = _as_bytes(text)
-    out = _run(data, d, lenient, trace=False)
-    (kind, start, end, centre, plane, feed, power, laser, dwell, line,
-     e_line, e_pos, e_end, e_code, e_detail, e_aux,
-     r_line, r_kind, r_span, r_value, r_index, line_starts, _, _) = out
-    errors = [_make_error(data, line_starts, filename, *row)
-              for row in zip(e_line, e_pos, e_end, e_code, e_detail, e_aux)]
+    out = _run(data, d, lenient, trace=False, streaming=streaming)
+    errors = [_make_error(data, filename, *row)
+              for row in zip(out["e_line"], out["e_pos"], out["e_end"], out["e_code"],
+                             out["e_detail"], out["e_aux"])]
     if errors and not lenient:
         raise errors[0]
     records = [Record(int(ln), int(ix), K.RECORD_NAMES[int(kd)],
-                      data[s0:s1].decode("utf-8", "replace").strip(), float(v))
-               for ln, kd, (s0, s1), v, ix in zip(r_line, r_kind, r_span, r_value, r_index)]
-    return Moves(kind=kind, start=start, end=end, centre=centre, plane=plane, feed_mm_min=feed,
-                 power_s=power, laser=laser, dwell_s=dwell, line=line, source=filename,
-                 s_max=d.s_max, records=records, diagnostics=errors)
+                      _clip(data[s0:s1].decode("utf-8", "replace").strip()), float(v))
+               for ln, kd, (s0, s1), v, ix in zip(out["r_line"], out["r_kind"], out["r_span"],
+                                                   out["r_value"], out["r_index"])]
+    columns = {name: out[name] for name in Moves.column_names()}
+    return Moves(source=filename, s_max=d.s_max, records=records, diagnostics=errors,
+                 dropped_diagnostics=int(out["e_total"]) - len(errors), **columns)
 
 
 def parse_file(path, *, dialect: str | Dialect = "grbl", lenient: bool = False) -> Moves:
     """Read and :func:`parse` a G-code file (``moves.source`` is its path, used in messages)."""
     path = os.fspath(path)
+    from labkit._files import check_input_file
+
+    check_input_file(path, what="G-code file")
     with open(path, "rb") as fh:
         data = fh.read()
     return parse(data, dialect=dialect, filename=path, lenient=lenient)
 
 
 def check(text, *, dialect: str | Dialect = "grbl", filename: str | None = None) -> list[GcodeError]:
-    """Every diagnostic of a program (empty list when it is valid).
+    """Every diagnostic of a program as it would be streamed (empty list when it is valid).
+
+    Includes the line-buffer limit of the dialect's controller (GRBL error 11,
+    see ``parse(..., streaming=True)``); at most the ``diagnostics`` budget is
+    returned.
 
     >>> [e.code for e in check("G1 X1 F100\\nG5 P3\\nG1 Y2 Y3")]
     [20, 25]
+    >>> [e.code for e in check("G1 F100 X1." + "0" * 80 + " ; comments may be long" * 9)]
+    [11]
+    >>> check("G1 F100 X1 ; comments may be long" * 9)
+    []
     """
-    return list(parse(text, dialect=dialect, filename=filename, lenient=True).diagnostics)
+    return list(parse(text, dialect=dialect, filename=filename, lenient=True,
+                      streaming=True).diagnostics)
 
 
 def modal_trace(text, *, dialect: str | Dialect = "grbl", filename: str | None = None):
@@ -193,8 +255,8 @@ def modal_trace(text, *, dialect: str | Dialect = "grbl", filename: str | None =
     d = get_dialect(dialect)
     data = _as_bytes(text)
     out = _run(data, d, lenient=True, trace=True)
-    e_line, e_code = out[10], out[13]
-    line_starts, state, pos = out[21], out[22], out[23]
+    e_line, e_code = out["e_line"], out["e_code"]
+    state, pos = out["t_state"], out["t_pos"]
     lines = data.decode("utf-8", "replace").split("\n")
     if lines and lines[-1] == "" and len(lines) > 1:
         lines = lines[:-1]
@@ -227,16 +289,55 @@ _MESSAGES = {
                                              "a number like 12, -0.5 or +3.25 after the letter"),
     (K.E_BAD_NUMBER, K.D_NUMBER_TRAILING): ("bad_number", "malformed number",
                                             "a number like 12, -0.5 or +3.25 (one sign, one point, no exponent)"),
+    (K.E_BAD_NUMBER, K.D_NUMBER_TOO_LARGE): ("bad_number", "number too large",
+                                             f"a magnitude below {K.MAX_ABS_VALUE:.0f} "
+                                             "(2**53; a machine coordinate in mm)"),
+    (K.E_EXPECTED_LETTER, K.D_PERCENT): ("expected_letter", "'%' inside a line",
+                                         "'%' alone on its line (the program delimiter) or a "
+                                         "word letter A-Z"),
+    (K.E_OVERFLOW, 0): ("line_overflow", "line too long for the controller's line buffer",
+                        "at most the buffer's characters, not counting spaces and comments "
+                        "(GRBL 1.1: 79 of its 80-byte buffer); split the block"),
+    (K.E_INVALID_JOG, K.D_JOG_COMMAND): ("invalid_jog", "a jog cannot take this command",
+                                         "only G20/G21, G90/G91 and G53 on a $J= line"),
+    (K.E_UNUSED, K.D_JOG_WORD): ("unused_words", "a jog cannot take this word",
+                                 "only X Y Z F (and N) on a $J= line"),
+    (K.E_OUT_OF_RANGE, 0): ("value_out_of_range", "position out of range",
+                            f"positions and arc centres below {K.MAX_ABS_VALUE:.0f} mm in "
+                            "magnitude (finite)"),
     (K.E_BAD_NUMBER, K.D_CHECKSUM_DIGITS): ("bad_number", "malformed checksum",
                                             "'*' followed by 1 to 3 digits (0-255)"),
     (K.E_NEGATIVE, 0): ("negative_value", "value must not be negative", "a value >= 0"),
     (K.E_UNSUPPORTED, K.D_UNKNOWN_LETTER): ("unsupported_command", "unknown word for this dialect",
                                             "one of the letters F G I J K M N P R S X Y Z (and the dialect's extras)"),
     (K.E_UNSUPPORTED, K.D_UNKNOWN_G): ("unsupported_command", "unsupported G command",
-                                       "G0 G1 G2 G3 G4 G17 G18 G19 G20 G21 G90 G91 G90.1 G91.1 G94 "
-                                       "(G5 in labkit-fw)"),
+                                       "a G command of the dialect (Dialect.g_codes; GRBL 1.1's "
+                                       "list for grbl)"),
+    (K.E_UNSUPPORTED, K.D_G10_L): ("unsupported_command", "G10 with an L other than 2 or 20",
+                                   "G10 L2 (set a system's origin) or G10 L20 (make the current "
+                                   "position the given work coordinates)"),
+    (K.E_UNSUPPORTED, K.D_G10_R): ("unsupported_command", "G10 L2 with R (rotation)",
+                                   "G10 L2 P… with axis words only"),
+    (K.E_MISSING_VALUE, K.D_G10_LP): ("missing_value_word", "G10 without its L and P words",
+                                      "G10 L2 P<0-6> or G10 L20 P<0-6> with axis words"),
+    (K.E_AXIS_CONFLICT, 0): ("axis_command_conflict",
+                             "two commands in one line both use the axis words",
+                             "G10, G28, G30, G92 or G43.1 on a line without G0-G3 or G38"),
+    (K.E_COORD_SYS, 0): ("unsupported_coord_sys", "coordinate system number out of range",
+                         "P0 (the active system) or P1-P6 (G54-G59)"),
+    (K.E_G53_MOTION, 0): ("g53_invalid_motion_mode", "G53 needs G0 or G1",
+                          "G53 with G0 or G1 in effect"),
+    (K.E_AXIS_EXIST, 0): ("axis_words_exist", "axis words with motion cancelled (G80)",
+                          "a motion command (G0-G3, G38) before axis words"),
+    (K.E_G43_AXIS, 0): ("g43_dynamic_axis_error", "G43.1 takes a Z word only",
+                        "G43.1 Z<offset>"),
+    (K.E_MAX_VALUE, 0): ("max_value_exceeded", "value above its maximum",
+                         "a tool number T up to the dialect's maximum (GRBL: 255)"),
+    (K.E_INVALID_ARC, K.D_PROBE_TARGET): ("invalid_arc", "probe target is the current position",
+                                          "a G38 target away from the current position"),
     (K.E_UNSUPPORTED, K.D_UNKNOWN_M): ("unsupported_command", "unsupported M command",
-                                       "M0 M1 M2 M30, the laser words (M3 M4 M5) or M7 M8 M9"),
+                                       "M0 M1 M2 M30, the dialect's laser words (M3 M4 M5) or coolant words "
+                                       "(grbl: M8 M9; M7 and M6 are not in GRBL 1.1's default build)"),
     (K.E_MODAL_GROUP, 0): ("modal_group_violation", "two commands of one modal group in one line",
                            "at most one command per group (e.g. one of G0/G1/G2/G3)"),
     (K.E_MODAL_GROUP, K.D_TOO_MANY): ("modal_group_violation", "too many commands in one line",
@@ -272,7 +373,7 @@ _MESSAGES = {
                                       "absolute arc centre (G90.1) needs both in-plane words",
                                       "both in-plane centre words (I and J for G17)"),
     (K.E_UNUSED, 0): ("unused_words", "value word that no command in the line uses",
-                      "I J K or R only with G2/G3, P only with G4 (or G5)"),
+                      "I J K or R only with G2/G3, P only with G4 (G5) or G10, L only with G10"),
     (K.E_CHECKSUM, 0): ("bad_checksum", "checksum does not match the line",
                         "'*' followed by the XOR of every byte before it"),
     (K.E_DELIMITER, K.D_UNCLOSED_COMMENT): ("bad_delimiter", "comment is not closed",
@@ -282,14 +383,23 @@ _MESSAGES = {
 }
 
 
-def _make_error(data: bytes, line_starts, filename, line, pos, end, code, detail, aux) -> GcodeError:
+#: Longest text quoted in a message (a multi-megabyte line is quoted by its start).
+_QUOTE_CHARS = 120
+
+
+def _clip(text: str) -> str:
+    return text if len(text) <= _QUOTE_CHARS else text[:_QUOTE_CHARS] + "…"
+
+
+def _make_error(data: bytes, filename, line, pos, end, code, detail, aux) -> GcodeError:
     line = int(line)
-    ls = int(line_starts[line - 1])
-    le = data.find(b"\n", ls)
+    pos = int(pos)
+    ls = data.rfind(b"\n", 0, pos) + 1
+    le = data.find(b"\n", pos)
     le = len(data) if le < 0 else le
-    source_line = data[ls:le].decode("utf-8", "replace").rstrip("\r")
-    text = data[int(pos):int(end)].decode("utf-8", "replace").strip()
-    column = len(data[ls:int(pos)].decode("utf-8", "replace")) + 1
+    source_line = _clip(data[ls:le].decode("utf-8", "replace").rstrip("\r"))
+    text = _clip(data[pos:int(end)].decode("utf-8", "replace").strip())
+    column = len(data[ls:pos].decode("utf-8", "replace")) + 1
     name, message, expected = _MESSAGES.get((int(code), int(detail))) or _MESSAGES[(int(code), 0)]
     a0, a1 = float(aux[0]), float(aux[1])
     if code == K.E_CHECKSUM:

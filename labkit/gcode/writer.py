@@ -33,6 +33,7 @@ import os
 import numpy as np
 
 from labkit import __version__
+from labkit.errors import EmitError
 from labkit.gcode import _emit_kernel as EK
 from labkit.gcode.dialects import Dialect, get_dialect
 from labkit.toolpath.moves import MoveKind, Moves
@@ -41,6 +42,16 @@ __all__ = ["emit", "write_gcode", "decimals_for", "format_number", "VALUE_DECIMA
 
 #: Decimals written for F, S and P values.
 VALUE_DECIMALS = 4
+
+#: A number is written from an integer count of its last decimal; above 2**53 counts a
+#: float64 no longer holds every integer, so the digits written would not be the value.
+_EXACT_LIMIT = 2.0 ** 53
+
+#: The header's warning for GRBL when travel is written with the beam mode still on.
+GRBL_TRAVEL_WARNING = (
+    "G0 travel runs with M3/M4 and S in effect: GRBL keeps the beam off on G0 only in "
+    "laser mode ($32=1); with $32=0 (GRBL's default) every rapid burns. Set $32=1, "
+    "or write the program with travel_beam_off=True (M5 before each rapid).")
 
 # Records that are written back as they were read, and what a program end resets.
 _RECORD_WORD = {"pause": "M0", "optional_pause": "M1", "end": "M2"}
@@ -94,7 +105,7 @@ def _record_line(rec, dialect: Dialect) -> str | None:
 
 def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001,
          arcs: str = "ijk", header: bool = True, footer: bool = True,
-         comment: str | None = None) -> str:
+         comment: str | None = None, travel_beam_off: bool | None = None) -> str:
     """Write a program as G-code text.
 
     Parameters
@@ -118,6 +129,12 @@ def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001
         (laser off, program end).
     comment : str, optional
         A comment line for the header (e.g. what made the file).
+    travel_beam_off : bool, optional
+        True: write ``M5`` before every rapid made with the beam mode on, and
+        ``M3``/``M4 S…`` again before the next feed move, so travel never burns
+        whatever the controller's settings. False: rely on the controller
+        (GRBL's laser mode, ``$32=1``, keeps the beam off on G0; the header
+        says so). Default: the dialect's choice (False for grbl, True for marlin).
 
     Returns
     -------
@@ -126,23 +143,41 @@ def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001
 
     Raises
     ------
+    EmitError
+        For a feed move without a positive feed rate, a position, arc centre,
+        power or dwell that is not finite, a power outside 0…``s_max``, or a
+        coordinate too large to write exactly with the decimals in use.
     ValueError
-        For a feed move without a feed rate, or an unknown option.
+        For an unknown option.
+
+    Examples
+    --------
+    >>> from labkit.toolpath import MovesBuilder, LaserMode
+    >>> b = MovesBuilder(feed_mm_min=600, power_s=500, laser=LaserMode.CONSTANT)
+    >>> b.line(x=10); b.rapid(x=20); b.line(x=30)
+    >>> print(emit(b.build(), header=False, footer=False, travel_beam_off=True))
+    M3 S500
+    G1 X10 F600
+    M5
+    G0 X20
+    M3 S500
+    G1 X30
+    >>> b = MovesBuilder(feed_mm_min=600); b.rapid(x=1e17)
+    >>> emit(b.build())
+    Traceback (most recent call last):
+    ...
+    labkit.errors.EmitError: move 0 (generated): X 1e+17 mm cannot be written exactly with 3 decimals (largest 9.007e+12 mm); expected coordinates of a real machine
     """
     d = get_dialect(dialect)
     if arcs not in ("ijk", "r"):
         raise ValueError(f"arcs must be 'ijk' or 'r', got {arcs!r}")
     n = len(moves)
-    feed_rows = moves.is_feed
-    bad = feed_rows & ~np.isfinite(moves.feed_mm_min)
-    if bad.any():
-        i = int(np.flatnonzero(bad)[0])
-        raise ValueError(f"move {i} (source line {int(moves.line[i])}) is a feed move without "
-                         f"a feed rate; set feed_mm_min")
     is_arc = moves.is_arc
     decimals = decimals_for(tol_mm)
     if is_arc.any():
         decimals = max(decimals, 3)
+    _refuse_unwritable(moves, d, decimals)
+    beam_off_by_controller = d.rapids_beam_off if travel_beam_off is None else not travel_beam_off
 
     end_i = _scaled(moves.end, decimals)
     start_i = _scaled(moves.start[0] if n else np.zeros(3), decimals)
@@ -169,21 +204,69 @@ def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001
     rec_span = np.stack([bounds[:-1], bounds[1:]], axis=1).astype(np.int64) if rec_lines \
         else np.zeros((0, 2), np.int64)
 
-    pre, number = _header_lines(d, comment) if header else ([], 1)
+    pre, number = _header_lines(d, comment, beam_off_by_controller) if header else ([], 1)
     body, number = EK.write_moves(
         moves.kind.astype(np.int64), end_i, np.nan_to_num(moves.centre), moves.plane.astype(np.int64),
         feed_i, power_i, moves.laser.astype(np.int64), dwell_i, r_mode, start_i, decimals,
-        VALUE_DECIMALS, int(d.inline_power), int(d.rapids_beam_off), int(d.line_numbers),
+        VALUE_DECIMALS, int(d.inline_power), int(beam_off_by_controller), int(d.line_numbers),
         int(d.checksums), number, np.asarray(rec_rows, np.int64), rec_text, rec_span,
         np.asarray(rec_reset, np.bool_))
     post = ["M5", "M2"] if footer else []
     return _number_lines(pre, d, 1) + body.tobytes().decode("ascii") + _number_lines(post, d, number)
 
 
-def _header_lines(d: Dialect, comment):
+def _where(moves: Moves, i: int) -> str:
+    line = int(moves.line[i])
+    return f"move {i} ({f'source line {line}' if line else 'generated'})"
+
+
+def _refuse_unwritable(moves: Moves, d: Dialect, decimals: int) -> None:
+    """Raise :class:`EmitError` for the first number that cannot be written truthfully."""
+    limit_mm = _EXACT_LIMIT / 10.0 ** decimals
+    checks = [("", moves.end, moves.is_motion | (moves.kind == MoveKind.DWELL))]
+    if len(moves):
+        checks.append(("start ", moves.start[:1], np.ones(1, bool)))
+    checks.append(("arc centre ", np.where(moves.is_arc[:, None], moves.centre, 0.0), moves.is_arc))
+    for what, xyz, rows in checks:
+        bad = rows[:, None] & ~(np.abs(xyz) < limit_mm)        # catches NaN and inf too
+        if bad.any():
+            i, a = map(int, np.argwhere(bad)[0])
+            v = float(xyz[i, a])
+            why = (f"is not finite ({v})" if not math.isfinite(v) else
+                   f"{v:.6g} mm cannot be written exactly with {decimals} decimals "
+                   f"(largest {limit_mm:.4g} mm)")
+            raise EmitError(f"{_where(moves, i)}: {what}{'XYZ'[a]} {why}; "
+                            "expected coordinates of a real machine")
+    feed = moves.feed_mm_min
+    bad = moves.is_feed & ~((feed > 0) & (feed < _EXACT_LIMIT / 10.0 ** VALUE_DECIMALS))
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise EmitError(f"{_where(moves, i)} is a feed move without a feed rate > 0 "
+                        f"(got {float(feed[i])!r} mm/min); set feed_mm_min")
+    if not (moves.s_max > 0 and math.isfinite(moves.s_max)):
+        raise EmitError(f"s_max must be a finite number > 0, got {moves.s_max!r}")
+    power = moves.power_s.astype(np.float64)
+    bad = moves.is_motion & ~((power >= 0) & (power <= moves.s_max * (1 + 1e-6)))
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise EmitError(f"{_where(moves, i)}: power S {float(power[i])!r} is outside "
+                        f"0…{moves.s_max:g} (s_max); expected a finite S within the laser's range")
+    dwell = moves.dwell_s
+    bad = ~((dwell >= 0) & (dwell < 1e9))
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise EmitError(f"{_where(moves, i)}: dwell {float(dwell[i])!r} s; expected 0 <= dwell "
+                        "< 1e9 s")
+
+
+def _header_lines(d: Dialect, comment, beam_off_by_controller: bool):
     lines = [f"; labkit {__version__}, dialect {d.name}"]
     if comment:
         lines += [f"; {c}" for c in comment.splitlines()]
+    if d.name == "grbl" and beam_off_by_controller:
+        lines.append(f"; {GRBL_TRAVEL_WARNING}")
+    elif not beam_off_by_controller:
+        lines.append("; travel: M5 before every rapid, M3/M4 again before the next cut")
     lines += ["G21 G90", "M5"]
     numbered = sum(1 for line in lines if not line.startswith(";"))
     return lines, 1 + numbered
