@@ -1,0 +1,168 @@
+"""Test doubles: a GRBL link that drops, garbles or delays bytes, goes silent, resets or vanishes.
+
+:class:`FaultyPort` wraps a :class:`labkit.machine.virtual.VirtualMachine` (a
+real GRBL behaviour model) and injects one fault at a chosen point of the
+host → machine byte stream or the machine → host line stream.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from labkit.machine.virtual import VirtualMachine
+
+
+class FaultyPort:
+    """A pyserial-like port between the host and a virtual machine, with one injected fault.
+
+    Parameters
+    ----------
+    vm : VirtualMachine
+    garble_line : int, optional
+        The k-th G-code line the host sends (1-based, ``$`` and real-time
+        bytes not counted) arrives as ``G999`` (the machine answers error:20).
+    drop_newline_of : int, optional
+        The k-th line's ``\\n`` is lost on the wire (two lines merge).
+    drop_byte_at : int, optional
+        The k-th byte written (0-based, over the whole session) is lost.
+    disconnect_after_lines : int, optional
+        After k lines every read and write fails (cable pulled).
+    silent_after_lines : int, optional
+        After k lines the machine stops answering anything (a stalled device).
+    reset_after_lines : int, optional
+        After k lines the machine resets by itself (power glitch): it flushes
+        everything and prints its banner.
+    delay_s : float
+        Delay added to every read that returns data.
+    """
+
+    def __init__(self, vm: VirtualMachine, *, garble_line=None, drop_newline_of=None,
+                 drop_byte_at=None, disconnect_after_lines=None, silent_after_lines=None,
+                 reset_after_lines=None, delay_s=0.0):
+        self.vm = vm
+        self.garble_line = garble_line
+        self.drop_newline_of = drop_newline_of
+        self.drop_byte_at = drop_byte_at
+        self.disconnect_after_lines = disconnect_after_lines
+        self.silent_after_lines = silent_after_lines
+        self.reset_after_lines = reset_after_lines
+        self.delay_s = delay_s
+        self.lines = 0
+        self.bytes = 0
+        self._line = bytearray()
+        self.dead = False
+        self.silent = False
+
+    @property
+    def timeout(self):
+        return self.vm.timeout
+
+    @timeout.setter
+    def timeout(self, value):
+        self.vm.timeout = value
+
+    @property
+    def in_waiting(self):
+        if self.dead:
+            raise OSError("device disconnected")
+        if self.silent:
+            self.vm.reset_input_buffer()
+            return 0
+        return self.vm.in_waiting
+
+    def write(self, data: bytes) -> int:
+        if self.dead:
+            raise OSError("device disconnected")
+        out = bytearray()
+        for b in bytes(data):
+            self.bytes += 1
+            if self.drop_byte_at is not None and self.bytes - 1 == self.drop_byte_at:
+                continue
+            if b in (0x3F, 0x21, 0x7E, 0x18, 0x85) or b >= 0x80:
+                out.append(b)
+                continue
+            self._line.append(b)
+            if b != 0x0A:
+                continue
+            line = bytes(self._line)
+            self._line.clear()
+            if not line.startswith(b"$"):
+                self.lines += 1
+                if self.lines == self.garble_line:
+                    line = b"G999\n"
+                if self.lines == self.drop_newline_of:
+                    line = line[:-1]
+            out += line
+            if self.lines == self.reset_after_lines and not line.startswith(b"$"):
+                self.vm.write(bytes(out))
+                out.clear()
+                self.vm._realtime("reset")     # the machine resets by itself
+                self.reset_after_lines = None
+            if self.lines == self.disconnect_after_lines:
+                self.dead = True
+            if self.lines == self.silent_after_lines:
+                self.silent = True
+        if out:
+            self.vm.write(bytes(out))
+        return len(data)
+
+    def read(self, size=1):
+        if self.dead:
+            raise OSError("device disconnected")
+        data = self.vm.read(size)
+        if self.silent:
+            return b""
+        if data and self.delay_s:
+            time.sleep(self.delay_s)
+        return data
+
+    def flush(self):
+        pass
+
+    def close(self):
+        self.vm.close()
+
+
+def burned_pieces(vm: VirtualMachine) -> list:
+    """(start xy, end xy) of every piece of motion during which the beam was on."""
+    return [(np.array(p.start[:2]), np.array(p.end[:2])) for p in vm.executed
+            if p.power > 0 and not p.rapid and p.start != p.end]
+
+
+def coverage(job_segments, pieces, tol=1e-6):
+    """For each job segment: the burned length lying on it and the overlap burned twice.
+
+    Returns (covered, doubled) arrays in mm, and the length of pieces on no segment.
+    """
+    covered = np.zeros(len(job_segments))
+    doubled = np.zeros(len(job_segments))
+    stray = 0.0
+    on_any = np.zeros(len(pieces), bool)
+    for k, (a, b) in enumerate(job_segments):
+        a = np.asarray(a, float)
+        b = np.asarray(b, float)
+        L = float(np.linalg.norm(b - a))
+        u = (b - a) / L
+        n = np.array([-u[1], u[0]])
+        spans = []
+        for j, (p, q) in enumerate(pieces):
+            if abs(np.dot(p - a, n)) > tol or abs(np.dot(q - a, n)) > tol:
+                continue
+            s0, s1 = sorted((float(np.dot(p - a, u)), float(np.dot(q - a, u))))
+            s0, s1 = max(s0, 0.0), min(s1, L)
+            if s1 - s0 > tol:
+                spans.append((s0, s1))
+                on_any[j] = True
+        spans.sort()
+        reach = 0.0
+        for s0, s1 in spans:
+            if s0 < reach - tol:
+                doubled[k] += min(reach, s1) - s0
+            covered[k] += max(0.0, s1 - max(s0, reach))
+            reach = max(reach, s1)
+    for j, (p, q) in enumerate(pieces):
+        if not on_any[j]:
+            stray += float(np.linalg.norm(q - p))
+    return covered, doubled, stray
