@@ -20,6 +20,7 @@ character counting on top of :meth:`Grbl.send_line` and :meth:`Grbl.next_event`.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import math
 import queue
 import re
@@ -126,6 +127,7 @@ class Status:
     pins: str = ""
     raw: str = ""
     received_s: float = 0.0
+    answers_before: int = 0    #: ok/error answers received before this report (wire order)
 
     @property
     def moving(self) -> bool:
@@ -226,6 +228,7 @@ class Event:
     code: int = 0
     text: str = ""
     t: float = 0.0
+    seq: int = 0        #: for ok/error: how many answers came before this one
 
 
 _ERROR = re.compile(r"^(?:error|er):?(\d*)$", re.IGNORECASE)
@@ -285,6 +288,7 @@ class Grbl:
         self.settings: dict[int, str] = {}
         self.status: Status | None = None
         self.status_count = 0
+        self.answer_count = 0
         self.info = MachineInfo()
         self.alarm: int | None = None
         self.disconnected: str | None = None
@@ -348,6 +352,7 @@ class Grbl:
                 self._log("<", text + "   [garbled status ignored]")
                 return
             self._wco = st.wco
+            st = dataclasses.replace(st, answers_before=self.answer_count)
             with self._status_cond:
                 self.status = st
                 self.status_count += 1
@@ -357,11 +362,13 @@ class Grbl:
             return
         self._log("<", text)
         if text == "ok":
-            self.events.put(Event("ok", 0, text, now))
+            self.events.put(Event("ok", 0, text, now, self.answer_count))
+            self.answer_count += 1
             return
         m = _ERROR.match(text)
         if m:
-            self.events.put(Event("error", int(m.group(1) or 0), text, now))
+            self.events.put(Event("error", int(m.group(1) or 0), text, now, self.answer_count))
+            self.answer_count += 1
             return
         m = _ALARM.match(text)
         if m:
@@ -600,6 +607,7 @@ class Grbl:
         self.realtime("soft_reset")
         if not self._banner.wait(timeout_s):
             raise MachineError(f"no start-up banner after a soft reset of {self.link.name}")
+        time.sleep(0.05)                     # let the lines after the banner arrive
 
     def laser_mode(self) -> bool:
         """True when ``$32=1`` (laser mode: beam off on rapids and when stopped)."""

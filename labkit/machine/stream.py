@@ -355,7 +355,7 @@ def run_job(grbl: Grbl, job: Job, *, mode: str = "counting", on_error: str = "st
                 used -= abs(n)
                 report.lines_acknowledged += 1
                 report.last_acknowledged_line = ln
-                if ln in job.blocks_per_line:
+                if ev.kind == "ok" and ln in job.blocks_per_line:   # a rejected line plans nothing
                     acked.append((ln, job.blocks_per_line[ln]))
                 if ev.kind == "error":
                     report.errors.append((ln, ev.code, error_message(ev.code)))
@@ -406,10 +406,11 @@ def run_job(grbl: Grbl, job: Job, *, mode: str = "counting", on_error: str = "st
                      len(job.source_lines), 0.0)
     except _Fault as fault:
         report.fault = str(fault)
-        _make_safe(grbl, fault, report, acked)
-    except MachineError as exc:
-        report.fault = str(exc)
-        _make_safe(grbl, _Fault(str(exc)), report, acked)
+        _make_safe(grbl, fault, report, acked, inflight, job)
+    except MachineError as exc:             # a write failed: the link is gone
+        grbl.disconnected = grbl.disconnected or str(exc)
+        report.fault = f"link lost: {exc}"
+        _make_safe(grbl, _Fault(str(exc), reset=False, hold=False), report, acked, inflight, job)
     report.elapsed_s = time.monotonic() - t0
     return report
 
@@ -440,9 +441,14 @@ def _first_unfinished(acked: list, in_planner: int) -> int | None:
     return acked[0][0] if acked else None
 
 
-def _make_safe(grbl: Grbl, fault: _Fault, report: JobReport, acked: list) -> None:
-    """Feed hold, find where motion stopped, soft reset (beam off, buffers flushed), M5 S0."""
-    in_planner = None
+def _make_safe(grbl: Grbl, fault: _Fault, report: JobReport, acked: list, inflight: deque,
+               job: Job) -> None:
+    """Feed hold, note where motion stopped, soft reset (beam off, buffers flushed), M5 S0.
+
+    Which lines ran is worked out in wire order: the status report taken in
+    hold counts the blocks still in the planner, and only the answers that
+    arrived before that report are matched to the lines in flight.
+    """
     st = None
     if grbl.disconnected:
         report.safe_actions.append("link lost: the controller's own buffer-empty laser-off is "
@@ -456,43 +462,65 @@ def _make_safe(grbl: Grbl, fault: _Fault, report: JobReport, acked: list) -> Non
                                       and (s.state != "Hold" or s.substate in (0, None)), 3.0)
             else:
                 st = grbl.get_status(1.0)
-            if st.planner_free is not None and st.state != "Alarm":
-                in_planner = max(0, grbl.info.planner_blocks - st.planner_free)
-            elif st.state == "Alarm" and grbl.alarm == 2:
-                in_planner = 0              # soft limit: GRBL flushed before the offending line
             report.stop_position = st.mpos
         except MachineError as exc:
-            report.safe_actions.append(f"no status after hold ({exc})")
+            report.safe_actions.append(f"no status after the hold ({exc})")
+            st = None
         if fault.reset:
             try:
                 grbl.soft_reset()
                 report.safe_actions.append("soft reset (buffers flushed, laser off)")
             except MachineError as exc:
                 report.safe_actions.append(f"soft reset unanswered ({exc})")
+    # answers that arrived before the hold's status report retire lines in flight
+    limit = st.answers_before if st is not None else grbl.answer_count
+    for ev in grbl.drain_events():
+        if ev.kind in ("ok", "error") and ev.seq < limit and inflight:
+            ln, n = inflight.popleft()
+            report.lines_acknowledged += 1
+            report.last_acknowledged_line = ln
+            if ev.kind == "ok" and ln in job.blocks_per_line:
+                acked.append((ln, job.blocks_per_line[ln]))
+            if ev.kind == "error":
+                report.errors.append((ln, ev.code, error_message(ev.code)))
+    if not grbl.disconnected:
         try:
             st2 = grbl.get_status(1.0)
-            if st2.state not in ("Alarm",):
+            if st2.state != "Alarm":
                 grbl.command("M5 S0", 2.0)
                 report.safe_actions.append("M5 S0")
             if report.stop_position is None:
                 report.stop_position = st2.mpos
         except MachineError:
             pass
-    if in_planner is None:
-        report.last_executed_line = 0
-        report.resume_line = None
+    if st is None or st.planner_free is None:
+        report.resume_line = None          # unknown: the position must be checked by hand
         return
+    if st.state == "Alarm":
+        in_planner = 0 if grbl.alarm == 2 else None    # soft limit: flushed before the move
+        if in_planner is None:
+            return
+    else:
+        in_planner = max(0, grbl.info.planner_blocks - st.planner_free)
     first = _first_unfinished(acked, in_planner)
     if first is None:
         report.last_executed_line = report.last_acknowledged_line
-        report.resume_line = _next_line_after(report.last_acknowledged_line, report)
+        nxt = [ln for ln, _ in job.send if ln > report.last_acknowledged_line]
+        report.resume_line = nxt[0] if nxt else None
     else:
         report.last_executed_line = max((ln for ln, _ in acked if ln < first), default=0)
         report.resume_line = first
-
-
-def _next_line_after(line: int, report: JobReport) -> int | None:
-    return line + 1 if line < report.lines_total else None
+    # a rejected line never ran: resume from it when no motion line ran after it
+    for ln, code, _ in report.errors:
+        if report.resume_line is None or ln < report.resume_line:
+            ran_after = [a for a, _ in acked if a > ln and (report.resume_line is None
+                                                            or a < report.resume_line)]
+            if not ran_after:
+                report.resume_line = ln
+            else:
+                report.warnings.append(f"line {ln} was rejected but lines after it already ran "
+                                       f"(up to line {max(ran_after)}): run line {ln} on its own")
+            break
 
 
 def check_job(grbl: Grbl, job: Job) -> list:

@@ -393,6 +393,7 @@ class VirtualMachine:
                 self._emit("error:8")
                 return
             self.check_mode = not self.check_mode
+            self._check_pos = self.pos.copy()
             self._emit(f"[MSG:{'Enabled' if self.check_mode else 'Disabled'}]")
             if not self.check_mode:                 # GRBL resets when check mode ends
                 self._emit("ok")
@@ -435,7 +436,11 @@ class VirtualMachine:
 
         Returns None (accepted), an error code, or ``_ALARMED``.
         """
-        x, y, z = (float(v) for v in self.pos)
+        # the parser works at the end of what is queued, not where the machine is now
+        base = self._blocks[-1].end if self._blocks else self.pos
+        if self.check_mode:
+            base = self._check_pos
+        x, y, z = (float(v) for v in base)
         arc = " G90.1" if self.arc_mode == 90.1 else ""
         feed = ""
         if not math.isnan(self.feed_mm_min):
@@ -473,7 +478,7 @@ class VirtualMachine:
                                                float(state[row, 6]), int(state[row, 7]))
         self.lines_accepted += 1
         if self.check_mode:
-            self.pos = np.array(new_pos, float)
+            self._check_pos = np.array(new_pos, float)
             return None
         mine = np.flatnonzero(line == 4)
         n_word = -1
@@ -481,7 +486,7 @@ class VirtualMachine:
         if head.startswith("N"):
             digits = "".join(c for c in head[1:].split(" ")[0] if c.isdigit())
             n_word = int(digits) if digits else -1
-        cursor = self.pos.copy()
+        cursor = np.array(pos[row - 1], float)
         for i in mine:
             k = int(kind[i])
             if k == 4:                                   # dwell: a block standing still
