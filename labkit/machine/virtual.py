@@ -12,10 +12,13 @@ resume and soft reset (a reset while moving raises ALARM:3, as GRBL does).
 
 Lines are interpreted by :mod:`labkit.gcode`'s parser (the one home of the
 modal state); arcs are cut into GRBL's ``$12`` chord segments
-(:func:`labkit.geometry.circle.grbl_segments`). Each block takes the time a
-trapezoidal speed profile with the machine description's acceleration and
-maximum rates needs; the speed carried through a junction is reduced by the
-turn angle (collinear blocks keep full speed, a reversal stops). The job ETA
+(:func:`labkit.geometry.circle.grbl_segments`). When a block starts it is timed
+by a trapezoidal profile with the machine description's acceleration and
+maximum rates: from the current speed, to the speed the next queued block
+allows through the junction (the cosine of the turn: collinear blocks keep
+full speed, 90° or more stops), never faster than the machine can still stop
+within the blocks queued behind it — so a starved planner (send-response over
+a slow link) slows the machine down as it does a real GRBL. The job ETA
 of the runner comes from :func:`labkit.motion.plan`, not from here.
 
 Time is simulated: ``time_scale`` simulated seconds pass per wall-clock
@@ -86,6 +89,10 @@ class _Block:
     duration_s: float
     power: float           # beam fraction while moving
     rapid: bool
+    accel_mm_s2: float = math.inf
+    is_dwell: bool = False
+    started: bool = False
+    exit_mm_s: float = 0.0
     done_s: float = 0.0    # time already spent on it
 
 
@@ -153,6 +160,7 @@ class VirtualMachine:
         self.overflows = 0
         self.rx_fill: list[tuple[float, int]] = []
         self._status_count = 0
+        self._speed = 0.0           # mm/s at the end of the last block executed
         self._reset_parser()
         if banner:
             self._emit("\r\nGrbl 1.1h ['$' for help]")
@@ -248,6 +256,7 @@ class VirtualMachine:
         elif kind == "hold":
             if self.state in ("Run",):
                 self.state, self.substate = "Hold", 0     # stops at once (deceleration ignored)
+                self._speed = 0.0
                 self._note_stop("feed hold")
             elif self.state == "Jog":
                 self._blocks.clear()
@@ -263,6 +272,7 @@ class VirtualMachine:
             moving = self.state in ("Run", "Jog", "Home") and bool(self._blocks)
             self._rx.clear()
             self._blocks.clear()
+            self._speed = 0.0
             self._reset_parser()
             self.check_mode = False
             if moving:
@@ -313,6 +323,8 @@ class VirtualMachine:
                     self.state = "Idle"
                 return
             b = self._blocks[0]
+            if not b.started:
+                self._start_block(b)
             left = b.duration_s - b.done_s
             step = min(dt, left)
             start = self.pos.copy()
@@ -325,6 +337,7 @@ class VirtualMachine:
                                        b.power, b.rapid, self._sim_t))
             if b.done_s >= b.duration_s - 1e-12:
                 self.pos = b.end.copy()
+                self._speed = b.exit_mm_s
                 self._blocks.popleft()
                 if not self._blocks:
                     self.state = "Idle"
@@ -527,20 +540,42 @@ class VirtualMachine:
                 vmax = float(np.min(np.where(unit > 0, rates / np.maximum(unit, 1e-12), np.inf)))
                 amax = float(np.min(np.where(unit > 0, accels / np.maximum(unit, 1e-12), np.inf)))
             v = vmax if rapid or not math.isfinite(feed_mm_min) else min(vmax, feed_mm_min / 60.0)
-            # junction: speed carried in from the previous block falls with the turn angle
-            prev = self._blocks[-1] if self._blocks else None
-            carry = 0.0
-            if prev is not None and not prev.rapid and not rapid:
-                d0 = prev.end - prev.start
-                n0 = float(np.linalg.norm(d0))
-                if n0 > 0:
-                    cos_t = float(np.dot(d0, b - a) / (n0 * length))
-                    carry = max(0.0, cos_t)
-            ramp = (1.0 - carry) * v / amax              # time lost accelerating from the junction
-            if length < v * v / amax:                    # triangle: never reaches v
-                duration = 2.0 * math.sqrt(length / amax) * (1.0 - 0.5 * carry)
-            else:
-                duration = length / v + ramp
         else:
-            v, duration = 0.0, dwell_s
-        self._blocks.append(_Block(self.lines_accepted, n_word, text, a, b, v, duration, beam, rapid))
+            v, amax = 0.0, math.inf
+        self._blocks.append(_Block(self.lines_accepted, n_word, text, a, b, v, dwell_s, beam, rapid,
+                                   accel_mm_s2=amax, is_dwell=length <= 0))
+
+    @staticmethod
+    def _carry(first: "_Block", second: "_Block") -> float:
+        """Fraction of speed kept through a junction: cos of the turn (0 for 90° or more)."""
+        if first.is_dwell or second.is_dwell or first.rapid != second.rapid:
+            return 0.0
+        d0, d1 = first.end - first.start, second.end - second.start
+        n0, n1 = float(np.linalg.norm(d0)), float(np.linalg.norm(d1))
+        return max(0.0, float(np.dot(d0, d1) / (n0 * n1))) if n0 > 0 and n1 > 0 else 0.0
+
+    def _start_block(self, b: "_Block") -> None:
+        """Time the head block when it starts: from the current speed, to the speed the
+        next block allows, never faster than it can still stop within the queued blocks."""
+        b.started = True
+        if b.is_dwell:
+            self._speed = 0.0
+            return
+        length = float(np.linalg.norm(b.end - b.start))
+        acc = b.accel_mm_s2
+        ahead = sum(float(np.linalg.norm(q.end - q.start)) for q in list(self._blocks)[1:])
+        if len(self._blocks) > 1:
+            nxt = self._blocks[1]
+            cap = nxt.speed_mm_s * self._carry(b, nxt)
+        else:
+            cap = 0.0
+        cap = min(cap, math.sqrt(2.0 * acc * ahead), b.speed_mm_s)
+        v_in = min(self._speed, b.speed_mm_s)
+        v_out = min(cap, math.sqrt(v_in * v_in + 2.0 * acc * length))
+        peak = min(b.speed_mm_s, math.sqrt((2.0 * acc * length + v_in ** 2 + v_out ** 2) / 2.0))
+        d_up = (peak ** 2 - v_in ** 2) / (2.0 * acc)
+        d_down = (peak ** 2 - v_out ** 2) / (2.0 * acc)
+        cruise = max(0.0, length - d_up - d_down)
+        b.duration_s = (peak - v_in) / acc + (peak - v_out) / acc + (cruise / peak if peak > 0 else 0)
+        b.exit_mm_s = v_out
+

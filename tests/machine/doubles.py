@@ -152,7 +152,7 @@ def coverage(job_segments, pieces, tol=1e-6):
                 continue
             s0, s1 = sorted((float(np.dot(p - a, u)), float(np.dot(q - a, u))))
             s0, s1 = max(s0, 0.0), min(s1, L)
-            if s1 - s0 > tol:
+            if s1 - s0 > 1e-12:
                 spans.append((s0, s1))
                 on_any[j] = True
         spans.sort()
