@@ -497,9 +497,10 @@ def _make_safe(grbl: Grbl, fault: _Fault, report: JobReport, acked: list, inflig
         report.resume_line = None          # unknown: the position must be checked by hand
         return
     if st.state == "Alarm":
-        in_planner = 0 if grbl.alarm == 2 else None    # soft limit: flushed before the move
-        if in_planner is None:
-            return
+        # the alarm flushed the planner before this report: how far it got is not known
+        report.warnings.append("the alarm flushed the machine's buffers: check the position "
+                               "and choose the resume line by hand (--resume-from)")
+        return
     else:
         in_planner = max(0, grbl.info.planner_blocks - st.planner_free)
     first = _first_unfinished(acked, in_planner)

@@ -50,7 +50,7 @@ from labkit.geometry.circle import arc_points, grbl_segments, sweep_angle
 # The one place labkit.machine imports the motion machine description (a rename is a one-line fix).
 from labkit.motion import load_machine
 
-__all__ = ["VirtualMachine", "Piece"]
+__all__ = ["VirtualMachine", "Piece", "burn_coverage"]
 
 _ALARMED = -1      # _gcode's answer when the line raised an alarm instead of ok/error
 
@@ -579,3 +579,52 @@ class VirtualMachine:
         b.duration_s = (peak - v_in) / acc + (peak - v_out) / acc + (cruise / peak if peak > 0 else 0)
         b.exit_mm_s = v_out
 
+
+
+def burn_coverage(moves, vm: VirtualMachine, *, tol_mm: float = 1e-3):
+    """How often each burning move of a job was burned by the virtual machine.
+
+    Every piece of motion the machine executed with the beam on is laid onto
+    the job's burning straight moves (within ``tol_mm`` of the line).
+
+    Returns
+    -------
+    covered : ndarray
+        Burned length on each burning move, mm (equal to its length when burned fully).
+    doubled : ndarray
+        Length burned more than once on each burning move, mm.
+    stray_mm : float
+        Burned length on none of the job's moves.
+    lengths : ndarray
+        Length of each burning move, mm.
+    """
+    on = np.flatnonzero(moves.laser_on & ~moves.is_arc)
+    segments = [(moves.start[i, :2], moves.end[i, :2]) for i in on]
+    pieces = [(np.array(p.start[:2]), np.array(p.end[:2])) for p in vm.executed
+              if p.power > 0 and not p.rapid and p.start != p.end]
+    covered = np.zeros(len(segments))
+    doubled = np.zeros(len(segments))
+    lengths = np.array([float(np.linalg.norm(b - a)) for a, b in segments])
+    used = np.zeros(len(pieces), bool)
+    for k, (a, b) in enumerate(segments):
+        if lengths[k] == 0:
+            continue
+        u = (b - a) / lengths[k]
+        n = np.array([-u[1], u[0]])
+        spans = []
+        for j, (p, q) in enumerate(pieces):
+            if abs(np.dot(p - a, n)) > tol_mm or abs(np.dot(q - a, n)) > tol_mm:
+                continue
+            s0, s1 = sorted((float(np.dot(p - a, u)), float(np.dot(q - a, u))))
+            s0, s1 = max(s0, 0.0), min(s1, lengths[k])
+            if s1 - s0 > 1e-12:
+                spans.append((s0, s1))
+                used[j] = True
+        reach = 0.0
+        for s0, s1 in sorted(spans):
+            if s0 < reach - tol_mm:
+                doubled[k] += min(reach, s1) - s0
+            covered[k] += max(0.0, s1 - max(s0, reach))
+            reach = max(reach, s1)
+    stray = float(sum(np.linalg.norm(q - p) for (p, q), u_ in zip(pieces, used) if not u_))
+    return covered, doubled, stray, lengths

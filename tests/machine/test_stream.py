@@ -18,7 +18,8 @@ from labkit.machine.link import Link
 from labkit.machine.stream import Controls, frame_text, resume_text
 from labkit.machine.virtual import VirtualMachine
 
-from .doubles import FaultyPort, burned_pieces, coverage
+from labkit.machine.faults import FaultyPort
+from labkit.machine.virtual import burn_coverage
 
 MACHINE = "grbl-diode"
 
@@ -59,9 +60,8 @@ POSITION_TOL_MM = 1e-3
 
 
 def assert_exactly_once(job, vm):
-    segs = job_segments(job)
-    lengths = np.array([np.linalg.norm(b - a) for a, b in segs])
-    covered, doubled, stray = coverage(segs, burned_pieces(vm), tol=POSITION_TOL_MM)
+    covered, doubled, stray, lengths = burn_coverage(job.moves, vm, tol_mm=POSITION_TOL_MM)
+    assert len(lengths) == len(job_segments(job)) > 0
     np.testing.assert_allclose(covered, lengths, atol=POSITION_TOL_MM)
     assert doubled.max() < POSITION_TOL_MM, "a stretch was burned twice"
     assert stray < POSITION_TOL_MM, "the beam was on off the job's paths"
@@ -280,7 +280,7 @@ def test_resume_from_line_runs_the_rest_once():
     rep = run_job(g, job, resume_from=row_start)
     assert rep.ok
     segs = job_segments(job)
-    covered, doubled, stray = coverage(segs, burned_pieces(vm))
+    covered, doubled, stray, _ = burn_coverage(job.moves, vm)
     later = [i for i, r in enumerate(np.flatnonzero(job.moves.laser_on))
              if job.moves.line[r] >= row_start]
     earlier = sorted(set(range(len(segs))) - set(later))

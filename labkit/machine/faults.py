@@ -1,17 +1,19 @@
-"""Test doubles: a GRBL link that drops, garbles or delays bytes, goes silent, resets or vanishes.
+"""Fault injection: a GRBL link that drops, garbles or delays bytes, goes silent, resets or vanishes.
 
 :class:`FaultyPort` wraps a :class:`labkit.machine.virtual.VirtualMachine` (a
-real GRBL behaviour model) and injects one fault at a chosen point of the
-host → machine byte stream or the machine → host line stream.
+GRBL behaviour model) and injects one fault at a chosen point of the host →
+machine byte stream or the machine → host line stream. The tests of the job
+runner and chapter 14 use it to show that every fault ends safely and that a
+resume runs every line exactly once.
 """
 
 from __future__ import annotations
 
 import time
 
-import numpy as np
-
 from labkit.machine.virtual import VirtualMachine
+
+__all__ = ["FaultyPort"]
 
 
 class FaultyPort:
@@ -123,46 +125,3 @@ class FaultyPort:
 
     def close(self):
         self.vm.close()
-
-
-def burned_pieces(vm: VirtualMachine) -> list:
-    """(start xy, end xy) of every piece of motion during which the beam was on."""
-    return [(np.array(p.start[:2]), np.array(p.end[:2])) for p in vm.executed
-            if p.power > 0 and not p.rapid and p.start != p.end]
-
-
-def coverage(job_segments, pieces, tol=1e-6):
-    """For each job segment: the burned length lying on it and the overlap burned twice.
-
-    Returns (covered, doubled) arrays in mm, and the length of pieces on no segment.
-    """
-    covered = np.zeros(len(job_segments))
-    doubled = np.zeros(len(job_segments))
-    stray = 0.0
-    on_any = np.zeros(len(pieces), bool)
-    for k, (a, b) in enumerate(job_segments):
-        a = np.asarray(a, float)
-        b = np.asarray(b, float)
-        L = float(np.linalg.norm(b - a))
-        u = (b - a) / L
-        n = np.array([-u[1], u[0]])
-        spans = []
-        for j, (p, q) in enumerate(pieces):
-            if abs(np.dot(p - a, n)) > tol or abs(np.dot(q - a, n)) > tol:
-                continue
-            s0, s1 = sorted((float(np.dot(p - a, u)), float(np.dot(q - a, u))))
-            s0, s1 = max(s0, 0.0), min(s1, L)
-            if s1 - s0 > 1e-12:
-                spans.append((s0, s1))
-                on_any[j] = True
-        spans.sort()
-        reach = 0.0
-        for s0, s1 in spans:
-            if s0 < reach - tol:
-                doubled[k] += min(reach, s1) - s0
-            covered[k] += max(0.0, s1 - max(s0, reach))
-            reach = max(reach, s1)
-    for j, (p, q) in enumerate(pieces):
-        if not on_any[j]:
-            stray += float(np.linalg.norm(q - p))
-    return covered, doubled, stray
