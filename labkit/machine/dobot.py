@@ -21,7 +21,6 @@ every point the arm would pass is checked against the reachable annulus of
 
 from __future__ import annotations
 
-import math
 import struct
 import time
 from dataclasses import dataclass

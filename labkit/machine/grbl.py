@@ -26,7 +26,7 @@ import queue
 import re
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from importlib import resources
 
 from labkit.errors import MachineError, status_code

@@ -43,7 +43,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from labkit.errors import GcodeError
 from labkit.gcode.dialects import get_dialect
 from labkit.gcode.parse import _run as _parse_run
 from labkit.geometry.circle import arc_points, grbl_segments, sweep_angle
