@@ -36,13 +36,16 @@ class FaultyPort:
     reset_after_lines : int, optional
         After k lines the machine resets by itself (power glitch): it flushes
         everything and prints its banner.
+    drop_ok : int, optional
+        The k-th ``ok`` the machine sends is lost on the way back (a
+        character-counting sender would wait for it forever).
     delay_s : float
         Delay added to every read that returns data.
     """
 
     def __init__(self, vm: VirtualMachine, *, garble_line=None, drop_newline_of=None,
                  drop_byte_at=None, disconnect_after_lines=None, silent_after_lines=None,
-                 reset_after_lines=None, delay_s=0.0):
+                 reset_after_lines=None, drop_ok=None, delay_s=0.0):
         self.vm = vm
         self.garble_line = garble_line
         self.drop_newline_of = drop_newline_of
@@ -50,6 +53,9 @@ class FaultyPort:
         self.disconnect_after_lines = disconnect_after_lines
         self.silent_after_lines = silent_after_lines
         self.reset_after_lines = reset_after_lines
+        self.drop_ok = drop_ok
+        self.oks = 0
+        self._reply = bytearray()
         self.delay_s = delay_s
         self.lines = 0
         self.bytes = 0
@@ -116,6 +122,18 @@ class FaultyPort:
         data = self.vm.read(size)
         if self.silent:
             return b""
+        if self.drop_ok is not None and data:
+            self._reply += data
+            out = bytearray()
+            while b"\n" in self._reply:
+                cut = self._reply.index(b"\n") + 1
+                line, self._reply = bytes(self._reply[:cut]), self._reply[cut:]
+                if line.strip() == b"ok":
+                    self.oks += 1
+                    if self.oks == self.drop_ok:
+                        continue
+                out += line
+            data = bytes(out)
         if data and self.delay_s:
             time.sleep(self.delay_s)
         return data

@@ -215,6 +215,17 @@ def test_reset_mid_job_stops_and_leaves_the_resume_line_to_the_user():
     g.close()
 
 
+def test_lost_ok_is_detected_instead_of_waiting_forever():
+    job = Job.from_text(raster_text(), machine=MACHINE)
+    vm, g = machine(lambda v: FaultyPort(v, drop_ok=30))
+    t = time.monotonic()
+    rep = run_job(g, job, stall_s=0.5)
+    assert rep.fault.startswith("no answer for line") and "a byte was lost" in rep.fault
+    assert time.monotonic() - t < 10
+    assert vm.unsafe_stops == [] and vm.laser_output() == 0
+    g.close()
+
+
 def test_stalled_device_trips_the_watchdog():
     job = Job.from_text(raster_text(), machine=MACHINE)
     vm, g = machine(lambda v: FaultyPort(v, silent_after_lines=12))
