@@ -68,7 +68,11 @@ def error_message(code: int) -> str:
     'G-code is locked out during an alarm or jog; unlock with $X or home with $H'
     >>> error_message(99)
     'unknown error 99'
+    >>> error_message(0)              # seed 004's bare 'er'
+    'line rejected (the controller gave no code)'
     """
+    if int(code) == 0:
+        return "line rejected (the controller gave no code)"
     try:
         return status_code(int(code)).message
     except KeyError:

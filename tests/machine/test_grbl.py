@@ -1,6 +1,7 @@
 """GRBL protocol, link and virtual machine: status parsing, codes, discovery, $-commands."""
 
 import errno
+import re
 
 import pytest
 from hypothesis import given, settings
@@ -216,3 +217,49 @@ def test_realtime_hold_resume_and_reset_while_moving_alarms():
     g.soft_reset()                                        # reset while moving: ALARM:3
     assert g.alarm == 3 and "position is likely lost" in alarm_message(3)
     g.close()
+
+
+class _ScriptedPort:
+    """Answers every line with the next scripted reply (a labkit-firmware stand-in)."""
+
+    def __init__(self, replies):
+        self.replies = list(replies)
+        self.out = bytearray(b"labkit-fw 0.1 ['$' for help]\r\n")
+        self.timeout = 0.05
+
+    @property
+    def in_waiting(self):
+        return len(self.out)
+
+    def write(self, data):
+        for _ in range(data.count(b"\n")):
+            self.out += (self.replies.pop(0) if self.replies else "ok").encode() + b"\r\n"
+        return len(data)
+
+    def read(self, n=1):
+        import time
+
+        if not self.out:
+            time.sleep(self.timeout)
+            return b""
+        data = bytes(self.out[:n])
+        del self.out[:n]
+        return data
+
+    def close(self):
+        pass
+
+
+def test_labkit_firmware_er_codes_use_the_shared_table():
+    from labkit.errors import status_code
+    from labkit.machine.labkitfw import LabkitFirmware
+
+    fw = LabkitFirmware(Link(_ScriptedPort(["er:22", "er", "ok"]), "fw"))
+    assert fw._banner.wait(1.0) and fw.dialect == "labkit-fw"
+    assert [e.kind for e in fw.drain_events()] == ["reset"]      # the banner
+    with pytest.raises(MachineError, match=re.escape(f"error:22: {status_code(22).message}")):
+        fw.command("G1 X10")
+    with pytest.raises(MachineError, match="no code"):
+        fw.command("G1 X10 F10")
+    assert fw.command("G1 X10 F10") == []
+    fw.close()
