@@ -9,6 +9,7 @@ vector    SVG and DXF import into Paths
 raster    images → engraving Moves
 toolpath  the Moves model and the generators that build it
 motion    Bresenham, speed profiles, look-ahead, laser power, step timing
+machine   driving GRBL, the labkit firmware and the Dobot over pyserial; the virtual machine
 viz       matplotlib plots and ipywidgets (imported lazily)
 """
 
@@ -27,6 +28,7 @@ __all__ = [
     "raster",
     "toolpath",
     "motion",
+    "machine",
     "viz",
     "errors",
     "units",

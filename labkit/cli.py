@@ -35,6 +35,9 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "img2gcode": ("raster", "engrave a raster image: zig-zag, spiral, edges, gray, dither"),
     "plan": ("motion", "plan a G-code job: blocks, speed profiles, look-ahead, job time"),
     "steps": ("motion", "write the Bresenham step sequence of a G-code job"),
+    "ports": ("machine", "list serial ports and what each looks like (CH340, FTDI, CP210x, …)"),
+    "stream": ("machine", "send a G-code job to a machine (the virtual one by default), safely"),
+    "console": ("machine", "talk to a machine line by line"),
 }
 
 

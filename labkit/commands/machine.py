@@ -1,0 +1,213 @@
+"""``labkit ports``, ``labkit stream`` and ``labkit console``: machines from the shell.
+
+``labkit ports`` lists serial ports with what each looks like (CH340, FTDI,
+CP210x, STM32 VCP, Arduino). ``labkit stream FILE`` sends a job — to the
+virtual machine when no ``--port`` is given — with a progress bar and a
+summary, and exits non-zero on any fault. ``labkit console`` sends lines one
+by one and prints every reply (``?`` ``!`` ``~`` and ``ctrl-x`` are sent as
+real-time bytes).
+"""
+
+from __future__ import annotations
+
+import sys
+
+from labkit.commands._args import integer, number
+
+
+def _add_connection(parser):
+    parser.add_argument("--port", default=None, metavar="PORT_OR_URL",
+                        help="serial device (/dev/ttyUSB0, COM3), pyserial URL (socket://host:port, "
+                             "rfc2217://…), 'virtual://', or 'last' for the port used last time "
+                             "(default: the virtual machine)")
+    parser.add_argument("--baud", type=integer(300, 4_000_000), default=None,
+                        help="baud rate (default 115200)")
+    parser.add_argument("--protocol", choices=("grbl", "labkit-fw", "dobot"), default=None,
+                        help="what the machine speaks (default grbl)")
+    parser.add_argument("--virtual-speed", type=number(0, 1e6), default=0.0, metavar="X",
+                        help="virtual machine only: simulated seconds per real second "
+                             "(0, the default: as fast as possible)")
+    parser.add_argument("--machine", default=None, metavar="NAME",
+                        help="machine description for the virtual machine and the ETA "
+                             "(default grbl-diode)")
+
+
+def _settings(args):
+    from labkit.machine.link import DEFAULT_BAUD, load_config
+
+    cfg = load_config()
+    port = args.port
+    if port == "last":
+        port = cfg.port
+    protocol = args.protocol or (cfg.protocol if args.port == "last" else "grbl")
+    baud = args.baud or (cfg.baud if args.port == "last" else DEFAULT_BAUD)
+    return port, baud, protocol, cfg
+
+
+def _connect(args):
+    from labkit.machine.link import open_link, save_config
+
+    port, baud, protocol, cfg = _settings(args)
+    opts = {"time_scale": args.virtual_speed, "tick_s": 0.05}
+    if args.machine:
+        opts["machine"] = args.machine
+    link = open_link(port, baud, virtual_options=opts)
+    if protocol == "labkit-fw":
+        from labkit.machine.labkitfw import LabkitFirmware as cls
+    else:
+        from labkit.machine.grbl import Grbl as cls
+    machine = cls(link)
+    try:
+        machine.connect()
+    except BaseException:
+        machine.close()
+        raise
+    if port and not port.startswith(("virtual://", "loop://")):
+        cfg.port, cfg.baud, cfg.protocol = port, baud, protocol
+        if args.machine:
+            cfg.machine = args.machine
+        save_config(cfg)
+    return machine
+
+
+# -- ports ------------------------------------------------------------------------------------
+
+def add_ports_arguments(parser):
+    parser.add_argument("--all", action="store_true", help="also ports without USB ids")
+
+
+def run_ports(args) -> int:
+    from labkit.machine.link import list_ports
+
+    ports = [p for p in list_ports() if args.all or p.vid_pid]
+    if not ports:
+        print("no USB serial ports found (plug the board in; 'labkit ports --all' lists every "
+              "serial port; 'labkit stream FILE' without --port uses the virtual machine)")
+        return 0
+    for p in ports:
+        print(p.label())
+    return 0
+
+
+# -- stream -----------------------------------------------------------------------------------
+
+def add_stream_arguments(parser):
+    parser.add_argument("file", help="G-code job")
+    _add_connection(parser)
+    parser.add_argument("--mode", choices=("counting", "send-response"), default="counting",
+                        help="character counting (fills GRBL's RX buffer; default) or one line "
+                             "at a time")
+    parser.add_argument("--check-first", action="store_true",
+                        help="run the whole job in GRBL's check mode ($C) first")
+    parser.add_argument("--resume-from", type=integer(1, None), default=None, metavar="LINE",
+                        help="start at this source line, with its modal state rebuilt and the "
+                             "laser off on the way there")
+    parser.add_argument("--on-error", choices=("stop", "skip"), default="stop",
+                        help="error:N stops the job safely (default) or is reported and skipped")
+    parser.add_argument("--log", default=None, metavar="TRANSCRIPT",
+                        help="write every line sent and reply received, with times")
+    parser.add_argument("--dialect", choices=("grbl", "labkit-fw"), default=None,
+                        help="how the file is read (default: the protocol's)")
+    parser.add_argument("--allow-spindle-mode", action="store_true",
+                        help="stream a burning job even when the machine's $32 is 0 (a warning)")
+
+
+class _Progress:
+    """tqdm in a terminal when installed, otherwise a line every few seconds on stderr."""
+
+    def __init__(self, total: int):
+        self.total = total
+        self.bar = None
+        self.last = 0.0
+        try:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, unit="line", file=sys.stderr, disable=None)
+        except ImportError:
+            pass
+
+    def __call__(self, executed, acked, total, eta_s):
+        if self.bar is not None:
+            self.bar.n = acked
+            self.bar.set_postfix_str(f"executed {executed}, ETA {eta_s:.0f} s", refresh=True)
+            return
+        import time
+
+        now = time.monotonic()
+        if sys.stderr.isatty() and now - self.last > 2:
+            self.last = now
+            print(f"\rline {acked}/{total} sent, {executed} done, ETA {eta_s:.0f} s",
+                  end="", file=sys.stderr)
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+
+
+def run_stream(args) -> int:
+    from labkit._files import check_input_file, check_output_file
+
+    check_input_file(args.file, what="G-code job")
+    if args.log:
+        check_output_file(args.log, args.file)
+    port, baud, protocol, cfg = _settings(args)
+    if protocol == "dobot":
+        from labkit.machine.dobot import stream_file
+
+        return stream_file(args, port, baud)
+    from labkit.machine.stream import Job, run_job
+
+    dialect = args.dialect or ("labkit-fw" if protocol == "labkit-fw" else "grbl")
+    job = Job.from_file(args.file, dialect=dialect, machine=args.machine or "grbl-diode")
+    machine = _connect(args)
+    progress = _Progress(len(job.source_lines))
+    try:
+        report = run_job(machine, job, mode=args.mode, on_error=args.on_error,
+                         check_first=args.check_first, resume_from=args.resume_from,
+                         progress=progress, allow_spindle_mode=args.allow_spindle_mode)
+    finally:
+        progress.close()
+        if args.log:
+            with open(args.log, "w", encoding="utf-8") as fh:
+                for t, direction, text in machine.transcript:
+                    fh.write(f"{t:10.4f} {direction} {text}\n")
+        machine.close()
+    print(report.summary())
+    return 0 if report.ok else 1
+
+
+# -- console ------------------------------------------------------------------------------------
+
+def add_console_arguments(parser):
+    _add_connection(parser)
+
+
+_REALTIME_WORDS = {"?": "status", "!": "feed_hold", "~": "cycle_start", "ctrl-x": "soft_reset",
+                   "reset": "soft_reset", "jog-cancel": "jog_cancel"}
+
+
+def run_console(args) -> int:
+    import time
+
+    machine = _connect(args)
+    machine.log_status = True
+    print(f"connected: {machine.info.banner} (RX {machine.info.rx_bytes} bytes, planner "
+          f"{machine.info.planner_blocks} blocks). '?' status, '!' hold, '~' resume, 'ctrl-x' "
+          f"reset, 'quit' to leave.")
+    machine.add_listener(lambda text: print(f"< {text}"))
+    try:
+        for raw in sys.stdin:
+            line = raw.strip()
+            if line in ("quit", "exit"):
+                break
+            if not line:
+                continue
+            if line in _REALTIME_WORDS:
+                machine.realtime(_REALTIME_WORDS[line])
+            else:
+                machine.send_line(line)
+            time.sleep(0.15)
+            machine.drain_events()
+    finally:
+        machine.close()
+    return 0

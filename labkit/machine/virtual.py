@@ -1,0 +1,629 @@
+"""A simulated GRBL 1.1 laser machine: the default when no port is given.
+
+:class:`VirtualMachine` behaves like a pyserial port (``write``, ``read``,
+``in_waiting``, ``timeout``, ``close``) with GRBL behind it: a 128-byte RX
+buffer (bytes that do not fit are lost, as on the real controller), a
+16-block planner buffer (a line is read from the RX buffer only when the
+planner has room, so ``ok`` comes late when it is full), ``ok`` /
+``error:N`` for every line, real-time bytes, status reports with ``MPos``,
+``FS``, ``Bf`` and ``WCO``, soft-limit alarms for moves outside the machine's
+travel, ``$`` commands (``$$ $I $G $# $X $H $J= $C $N=V``), feed hold,
+resume and soft reset (a reset while moving raises ALARM:3, as GRBL does).
+
+Lines are interpreted by :mod:`labkit.gcode`'s parser (the one home of the
+modal state); arcs are cut into GRBL's ``$12`` chord segments
+(:func:`labkit.geometry.circle.grbl_segments`). When a block starts it is timed
+by a trapezoidal profile with the machine description's acceleration and
+maximum rates: from the current speed, to the speed the next queued block
+allows through the junction (the cosine of the turn: collinear blocks keep
+full speed, 90° or more stops), never faster than the machine can still stop
+within the blocks queued behind it — so a starved planner (send-response over
+a slow link) slows the machine down as it does a real GRBL. The job ETA
+of the runner comes from :func:`labkit.motion.plan`, not from here.
+
+Time is simulated: ``time_scale`` simulated seconds pass per wall-clock
+second (1 = real time, 10 = ten times faster), or with ``time_scale=0`` each
+poll of the port advances ``tick_s`` of machine time (deterministic, as fast
+as the host polls: for tests).
+
+What the machine did is recorded for tests and notebooks: :attr:`executed`
+(every piece of motion, with its line, laser power and whether it burned),
+:attr:`unsafe_stops` (times the machine stood still with the beam on),
+:attr:`overflows` (bytes lost to a full RX buffer) and :attr:`rx_fill`
+(RX-buffer use over time).
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from labkit.gcode.dialects import get_dialect
+from labkit.gcode.parse import _run as _parse_run
+from labkit.geometry.circle import arc_points, grbl_segments, sweep_angle
+# The one place labkit.machine imports the motion machine description (a rename is a one-line fix).
+from labkit.motion import load_machine
+
+__all__ = ["VirtualMachine", "Piece", "burn_coverage"]
+
+_ALARMED = -1      # _gcode's answer when the line raised an alarm instead of ok/error
+
+_REALTIME = {0x3F: "status", 0x21: "hold", 0x7E: "start", 0x18: "reset", 0x85: "jog_cancel"}
+
+#: GRBL 1.1 settings the virtual machine reports and obeys (number → default text).
+_DEFAULT_SETTINGS = {
+    0: "10", 1: "25", 2: "0", 3: "0", 4: "0", 5: "0", 6: "0", 10: "1", 11: "0.010", 12: "0.002",
+    13: "0", 20: "1", 21: "0", 22: "1", 23: "0", 24: "25.000", 25: "500.000", 26: "250",
+    27: "1.000", 30: "1000", 31: "0", 32: "1",
+}
+
+
+@dataclass(frozen=True)
+class Piece:
+    """A stretch of motion the virtual machine executed."""
+
+    line: int              #: 1-based count of G-code lines the machine accepted since power-up
+    n_word: int            #: the line's N number (-1 when none)
+    text: str              #: the line as received
+    start: tuple
+    end: tuple
+    power: float           #: beam power as a fraction of full (0 when off)
+    rapid: bool
+    t_end: float           #: simulated time it finished (s)
+
+
+@dataclass
+class _Block:
+    line: int
+    n_word: int
+    text: str
+    start: np.ndarray
+    end: np.ndarray
+    speed_mm_s: float
+    duration_s: float
+    power: float           # beam fraction while moving
+    rapid: bool
+    accel_mm_s2: float = math.inf
+    is_dwell: bool = False
+    started: bool = False
+    exit_mm_s: float = 0.0
+    done_s: float = 0.0    # time already spent on it
+
+
+class VirtualMachine:
+    """A simulated GRBL laser machine that looks like a pyserial port.
+
+    Parameters
+    ----------
+    machine : str, Machine or None
+        Machine description (:func:`labkit.motion.load_machine`; default
+        ``grbl-diode``): travel, maximum rates, acceleration, planner depth.
+    time_scale : float
+        Simulated seconds per wall-clock second; 0 = advance ``tick_s`` per poll.
+    tick_s : float
+        Machine time per poll when ``time_scale`` is 0.
+    rx_bytes : int
+        Serial RX buffer size (GRBL 128; grblHAL 1024).
+    planner_blocks : int, optional
+        Planner depth (default the machine's ``buffer_blocks``).
+    banner : bool
+        Print the start-up banner when opened, as a board does after its USB reset.
+
+    Examples
+    --------
+    >>> vm = VirtualMachine(time_scale=0)
+    >>> _ = vm.write(b"G1 X10 F600\\n")
+    >>> _ = vm.write(b"?")
+    >>> reply = b""
+    >>> for _ in range(5):
+    ...     reply += vm.read(vm.in_waiting)
+    >>> b"ok" in reply, b"<Run|MPos:" in reply
+    (True, True)
+    """
+
+    def __init__(self, machine=None, *, time_scale: float = 1.0, tick_s: float = 0.02,
+                 rx_bytes: int = 128, planner_blocks: int | None = None, banner: bool = True):
+        self.machine = load_machine(machine or "grbl-diode")
+        self.time_scale = float(time_scale)
+        self.tick_s = float(tick_s)
+        self.rx_bytes = int(rx_bytes)
+        self.planner_blocks = int(planner_blocks or self.machine.buffer_blocks)
+        self.timeout = 0.05
+        self.is_open = True
+        self.settings = dict(_DEFAULT_SETTINGS)
+        self.settings[11] = f"{self.machine.junction_deviation_mm:.3f}"
+        self.settings[12] = f"{self.machine.arc_tolerance_mm:.3f}"
+        for axis in range(3):
+            self.settings[110 + axis] = f"{self.machine.max_rate_mm_min[axis]:.3f}"
+            self.settings[120 + axis] = f"{self.machine.accel_mm_s2[axis]:.3f}"
+            self.settings[130 + axis] = f"{self.machine.travel_mm[axis]:.3f}"
+        self._lock = threading.RLock()
+        self._out = bytearray()
+        self._rx = bytearray()
+        self._blocks: deque[_Block] = deque()
+        self._sim_t = 0.0
+        self._wall = time.monotonic()
+        self.pos = np.zeros(3)
+        self.state = "Idle"
+        self.substate = 0
+        self.alarm_code = 0
+        self.check_mode = False
+        self.lines_accepted = 0
+        self.executed: list[Piece] = []
+        self.unsafe_stops: list[tuple[float, str, float]] = []
+        self.overflows = 0
+        self.rx_fill: list[tuple[float, int]] = []
+        self._status_count = 0
+        self._speed = 0.0           # mm/s at the end of the last block executed
+        self._reset_parser()
+        if banner:
+            self._emit("\r\nGrbl 1.1h ['$' for help]")
+
+    # -- pyserial-like surface ----------------------------------------------------------------
+
+    @property
+    def in_waiting(self) -> int:
+        with self._lock:
+            self._advance()
+            return len(self._out)
+
+    def write(self, data: bytes) -> int:
+        if not self.is_open:
+            raise OSError("virtual machine is closed")
+        with self._lock:
+            self._advance()
+            for byte in bytes(data):
+                kind = _REALTIME.get(byte) or ("override" if 0x90 <= byte <= 0x9D else None)
+                if kind:
+                    self._realtime(kind)
+                elif len(self._rx) < self.rx_bytes - 1:    # GRBL keeps one byte free
+                    self._rx.append(byte)
+                else:
+                    self.overflows += 1
+            self._take_lines()
+        return len(data)
+
+    def read(self, size: int = 1) -> bytes:
+        if not self.is_open:
+            raise OSError("virtual machine is closed")
+        deadline = time.monotonic() + (self.timeout or 0.0)
+        while True:
+            with self._lock:
+                self._advance()
+                if self._out:
+                    data = bytes(self._out[:size])
+                    del self._out[:size]
+                    return data
+            if time.monotonic() >= deadline:
+                return b""
+            time.sleep(min(0.002, max(0.0, deadline - time.monotonic())))
+
+    def flush(self) -> None:
+        pass
+
+    def close(self) -> None:
+        self.is_open = False
+
+    def reset_input_buffer(self) -> None:
+        with self._lock:
+            self._out.clear()
+
+    # -- inspection ---------------------------------------------------------------------------
+
+    @property
+    def sim_time_s(self) -> float:
+        return self._sim_t
+
+    @property
+    def rx_used(self) -> int:
+        return len(self._rx)
+
+    def laser_output(self) -> float:
+        """Beam power now, as a fraction of full."""
+        moving = self.state in ("Run", "Jog") and self._blocks
+        if self.settings[32] != "0":                    # laser mode: beam only while cutting
+            return self._blocks[0].power if moving else 0.0
+        # spindle mode ($32=0): the beam follows M3/M4 S whatever the motion
+        return self._beam_fraction(self.laser_mode_word, self.s_word) if self.laser_mode_word else 0.0
+
+    # -- internals --------------------------------------------------------------------------------
+
+    def _emit(self, text: str) -> None:
+        self._out += text.encode("ascii") + b"\r\n"
+
+    def _reset_parser(self) -> None:
+        self.units, self.distance, self.arc_mode, self.plane, self.motion = 21, 90, 91.1, 17, 0
+        self.feed_mm_min, self.s_word, self.laser_mode_word = math.nan, 0.0, 0
+
+    def _beam_fraction(self, laser: int, s: float) -> float:
+        s_max = float(self.settings[30]) or 1000.0
+        return max(0.0, min(1.0, s / s_max)) if laser in (3, 4) else 0.0
+
+    def _note_stop(self, why: str) -> None:
+        power = self.laser_output()
+        if power > 0:
+            self.unsafe_stops.append((self._sim_t, why, power))
+
+    def _realtime(self, kind: str) -> None:
+        if kind == "status":
+            self._emit(self._status_report())
+        elif kind == "hold":
+            if self.state in ("Run",):
+                self.state, self.substate = "Hold", 0     # stops at once (deceleration ignored)
+                self._speed = 0.0
+                self._note_stop("feed hold")
+            elif self.state == "Jog":
+                self._blocks.clear()
+                self.state = "Idle"
+        elif kind == "start":
+            if self.state == "Hold":
+                self.state = "Run" if self._blocks else "Idle"
+        elif kind == "jog_cancel":
+            if self.state == "Jog":
+                self._blocks.clear()
+                self.state = "Idle"
+        elif kind == "reset":
+            moving = self.state in ("Run", "Jog", "Home") and bool(self._blocks)
+            self._rx.clear()
+            self._blocks.clear()
+            self._speed = 0.0
+            self._reset_parser()
+            self.check_mode = False
+            if moving:
+                self.state, self.alarm_code = "Alarm", 3
+                self._emit("ALARM:3")
+            elif self.state != "Alarm":
+                self.state = "Idle"
+            self._emit("\r\nGrbl 1.1h ['$' for help]")
+            if self.state == "Alarm":
+                self._emit("[MSG:'$H'|'$X' to unlock]")
+        # feed/rapid/power overrides are accepted and ignored by the simulation
+
+    def _status_report(self) -> str:
+        x, y, z = (float(v) for v in self.pos)
+        st = self.state + (f":{self.substate}" if self.state in ("Hold", "Door") else "")
+        if self.check_mode and self.state == "Idle":
+            st = "Check"
+        feed = self._blocks[0].speed_mm_s * 60 if self._blocks and self.state == "Run" else 0.0
+        s = self.s_word if self.laser_output() > 0 else 0.0
+        free_blocks = self.planner_blocks - len(self._blocks)
+        free_rx = self.rx_bytes - 1 - len(self._rx)
+        text = f"<{st}|MPos:{x:.3f},{y:.3f},{z:.3f}|Bf:{free_blocks},{free_rx}|FS:{feed:.0f},{s:.0f}"
+        if self._status_count % 10 == 0:
+            text += "|WCO:0.000,0.000,0.000"
+        self._status_count += 1
+        if self._blocks and self._blocks[0].n_word >= 0:
+            text += f"|Ln:{self._blocks[0].n_word}"
+        return text + ">"
+
+    def _advance(self) -> None:
+        now = time.monotonic()
+        if self.time_scale > 0:
+            dt = (now - self._wall) * self.time_scale
+        else:
+            dt = self.tick_s
+        self._wall = now
+        self._run_for(dt)
+        self._take_lines()
+        self.rx_fill.append((self._sim_t, len(self._rx)))
+        if len(self.rx_fill) > 200_000:
+            del self.rx_fill[:100_000]
+
+    def _run_for(self, dt: float) -> None:
+        while dt > 0:
+            if self.state not in ("Run", "Jog") or not self._blocks:
+                self._sim_t += dt
+                if self.state in ("Run", "Jog") and not self._blocks:
+                    self.state = "Idle"
+                return
+            b = self._blocks[0]
+            if not b.started:
+                self._start_block(b)
+            left = b.duration_s - b.done_s
+            step = min(dt, left)
+            start = self.pos.copy()
+            b.done_s += step
+            frac = 1.0 if b.duration_s <= 0 else min(1.0, b.done_s / b.duration_s)
+            self.pos = b.start + (b.end - b.start) * frac
+            self._sim_t += step
+            dt -= step
+            self.executed.append(Piece(b.line, b.n_word, b.text, tuple(start), tuple(self.pos),
+                                       b.power, b.rapid, self._sim_t))
+            if b.done_s >= b.duration_s - 1e-12:
+                self.pos = b.end.copy()
+                self._speed = b.exit_mm_s
+                self._blocks.popleft()
+                if not self._blocks:
+                    self.state = "Idle"
+                    self._note_stop("buffer empty")
+
+    def _take_lines(self) -> None:
+        while True:
+            cut = self._rx.find(b"\n")
+            if cut < 0:
+                return
+            if len(self._blocks) >= self.planner_blocks:   # planner full: the line waits
+                return
+            raw = bytes(self._rx[:cut])
+            del self._rx[:cut + 1]
+            text = raw.decode("ascii", "replace").strip()
+            if not text:
+                continue
+            self._line(text)
+
+    def _line(self, text: str) -> None:
+        if text.startswith("$"):
+            self._system(text)
+            return
+        if self.state == "Alarm":
+            self._emit("error:9")
+            return
+        if len(text) > 80:
+            self._emit("error:11")
+            return
+        err = self._gcode(text, jog=False)
+        if err != _ALARMED:                       # an alarm replaces the line's answer
+            self._emit("ok" if err is None else f"error:{err}")
+
+    def _system(self, text: str) -> None:
+        cmd = text[1:].upper()
+        if cmd == "":
+            self._emit("[HLP:$$ $# $G $I $N $x=val $Nx=line $J=line $SLP $C $X $H ~ ! ? ctrl-x]")
+        elif cmd == "$":
+            for k in sorted(self.settings):
+                self._emit(f"${k}={self.settings[k]}")
+        elif cmd == "I":
+            self._emit("[VER:1.1h.20190825:labkit-virtual]")
+            self._emit(f"[OPT:VL,{self.planner_blocks},{self.rx_bytes}]")
+        elif cmd == "G":
+            laser = {0: "M5", 3: "M3", 4: "M4"}[self.laser_mode_word]
+            feed = 0 if math.isnan(self.feed_mm_min) else self.feed_mm_min
+            self._emit(f"[GC:G{self.motion} G54 G{self.plane} G{self.units} G{self.distance} G94 "
+                       f"{laser} M9 T0 F{feed:g} S{self.s_word:g}]")
+        elif cmd == "#":
+            for name in ("G54", "G55", "G56", "G57", "G58", "G59", "G28", "G30", "G92"):
+                self._emit(f"[{name}:0.000,0.000,0.000]")
+            self._emit("[TLO:0.000]")
+            self._emit("[PRB:0.000,0.000,0.000:0]")
+        elif cmd == "X":
+            if self.state == "Alarm":
+                self.state, self.alarm_code = "Idle", 0
+                self._emit("[MSG:Caution: Unlocked]")
+        elif cmd == "H":
+            if self._blocks:
+                self._emit("error:8")
+                return
+            self.pos = np.zeros(3)
+            self.state, self.alarm_code = "Idle", 0
+        elif cmd == "C":
+            if self._blocks:
+                self._emit("error:8")
+                return
+            self.check_mode = not self.check_mode
+            self._check_pos = self.pos.copy()
+            self._emit(f"[MSG:{'Enabled' if self.check_mode else 'Disabled'}]")
+            if not self.check_mode:                 # GRBL resets when check mode ends
+                self._emit("ok")
+                self._reset_parser()
+                self._emit("\r\nGrbl 1.1h ['$' for help]")
+                return
+        elif cmd.startswith("J="):
+            if self.state not in ("Idle", "Jog"):
+                self._emit("error:8" if self.state != "Alarm" else "error:9")
+                return
+            saved = (self.units, self.distance, self.arc_mode, self.plane, self.motion,
+                     self.feed_mm_min, self.s_word, self.laser_mode_word)
+            err = self._gcode("G1 " + text[3:], jog=True)
+            (self.units, self.distance, self.arc_mode, self.plane, self.motion,
+             self.feed_mm_min, self.s_word, self.laser_mode_word) = saved
+            if err is not None:
+                self._emit(f"error:{err}")
+                return
+        elif "=" in cmd and cmd.split("=")[0].isdigit():
+            key, _, value = cmd.partition("=")
+            try:
+                float(value)
+            except ValueError:
+                self._emit("error:2")
+                return
+            if int(key) not in self.settings:
+                self._emit("error:3")
+                return
+            if self._blocks:
+                self._emit("error:8")
+                return
+            self.settings[int(key)] = value
+        else:
+            self._emit("error:3")
+            return
+        self._emit("ok")
+
+    def _gcode(self, text: str, *, jog: bool) -> int | None:
+        """Interpret one line after the modal state and queue its blocks.
+
+        Returns None (accepted), an error code, or ``_ALARMED``.
+        """
+        # the parser works at the end of what is queued, not where the machine is now
+        base = self._blocks[-1].end if self._blocks else self.pos
+        if self.check_mode:
+            base = self._check_pos
+        x, y, z = (float(v) for v in base)
+        arc = " G90.1" if self.arc_mode == 90.1 else ""
+        feed = ""
+        if not math.isnan(self.feed_mm_min):
+            feed = f" F{float(self.feed_mm_min) / (25.4 if self.units == 20 else 1.0)!r}"
+        motion = f"G{self.motion}" if self.motion in (0, 1) else ""
+        prefix = (f"G21 G90 G0 X{x!r} Y{y!r} Z{z!r}\n"
+                  f"G{self.units} G{self.distance}{arc} G{self.plane}{feed} S{float(self.s_word)!r} "
+                  f"M{self.laser_mode_word or 5}\n{motion}\n")
+        data = (prefix + text + "\n").encode("ascii", "replace")
+        out = _parse_run(data, get_dialect("grbl"), True, True)
+        kind, start, end, centre, plane, feed_col, power, laser, dwell, line = out[:10]
+        e_code = out[13]
+        if len(e_code):
+            return int(e_code[0])
+        state, pos = out[22], out[23]
+        row = 3
+        new_pos = pos[row]
+        lo = np.zeros(3)
+        hi = np.asarray(self.machine.travel_mm, float)
+        target_ok = bool(np.all(new_pos >= lo - 1e-6) and np.all(new_pos <= hi + 1e-6))
+        if not target_ok:
+            if jog:
+                return 15
+            # soft limit: GRBL holds, resets and raises ALARM:2; the line is not executed
+            self._blocks.clear()
+            self._rx.clear()
+            self.state, self.alarm_code = "Alarm", 2
+            self._emit("ALARM:2")
+            self._emit("[MSG:Reset to continue]")
+            return _ALARMED
+        (self.motion, self.plane, self.units, self.distance, self.arc_mode, self.feed_mm_min,
+         self.s_word, self.laser_mode_word) = (int(state[row, 0]), int(state[row, 1]),
+                                               int(state[row, 2]), int(state[row, 3]),
+                                               float(state[row, 4]), float(state[row, 5]),
+                                               float(state[row, 6]), int(state[row, 7]))
+        self.lines_accepted += 1
+        if self.check_mode:
+            self._check_pos = np.array(new_pos, float)
+            return None
+        mine = np.flatnonzero(line == 4)
+        n_word = -1
+        head = text.lstrip().upper()
+        if head.startswith("N"):
+            digits = "".join(c for c in head[1:].split(" ")[0] if c.isdigit())
+            n_word = int(digits) if digits else -1
+        cursor = np.array(pos[row - 1], float)
+        for i in mine:
+            k = int(kind[i])
+            if k == 4:                                   # dwell: a block standing still
+                self._queue(cursor, cursor, 0.0, float(dwell[i]), 0.0, False, text, n_word)
+                continue
+            rapid = k == 0
+            beam = 0.0 if rapid else self._beam_fraction(int(laser[i]), float(power[i]))
+            f = float(feed_col[i])
+            if k in (2, 3) and int(plane[i]) == 17:
+                s2, e2, c2 = start[i, :2], end[i, :2], centre[i, :2]
+                cw = k == 2
+                r = float(np.hypot(*(s2 - c2)))
+                sweep = sweep_angle(s2, e2, c2, cw)
+                nseg = int(grbl_segments(r, sweep, float(self.settings[12])))
+                pts2 = arc_points(s2, e2, c2, cw, n=nseg)
+                zs = np.linspace(start[i, 2], end[i, 2], len(pts2))
+                pts = np.column_stack([pts2, zs])
+            else:
+                pts = np.array([start[i], end[i]])
+            for a, b in zip(pts[:-1], pts[1:]):
+                self._queue(a, b, f, 0.0, beam, rapid, text, n_word, jog=jog)
+            cursor = end[i].copy()
+        if self._blocks and self.state == "Idle":
+            self.state = "Jog" if jog else "Run"
+        return None
+
+    def _queue(self, a, b, feed_mm_min, dwell_s, beam, rapid, text, n_word, *, jog=False):
+        a = np.asarray(a, float)
+        b = np.asarray(b, float)
+        length = float(np.linalg.norm(b - a))
+        if length < 1e-9 and dwell_s <= 0:
+            return                                     # GRBL plans no block for a null move
+        if length > 0:
+            unit = np.abs(b - a) / length
+            rates = np.asarray(self.machine.max_rate_mm_min, float) / 60.0
+            accels = np.asarray(self.machine.accel_mm_s2, float)
+            with np.errstate(divide="ignore"):
+                vmax = float(np.min(np.where(unit > 0, rates / np.maximum(unit, 1e-12), np.inf)))
+                amax = float(np.min(np.where(unit > 0, accels / np.maximum(unit, 1e-12), np.inf)))
+            v = vmax if rapid or not math.isfinite(feed_mm_min) else min(vmax, feed_mm_min / 60.0)
+        else:
+            v, amax = 0.0, math.inf
+        self._blocks.append(_Block(self.lines_accepted, n_word, text, a, b, v, dwell_s, beam, rapid,
+                                   accel_mm_s2=amax, is_dwell=length <= 0))
+
+    @staticmethod
+    def _carry(first: "_Block", second: "_Block") -> float:
+        """Fraction of speed kept through a junction: cos of the turn (0 for 90° or more)."""
+        if first.is_dwell or second.is_dwell or first.rapid != second.rapid:
+            return 0.0
+        d0, d1 = first.end - first.start, second.end - second.start
+        n0, n1 = float(np.linalg.norm(d0)), float(np.linalg.norm(d1))
+        return max(0.0, float(np.dot(d0, d1) / (n0 * n1))) if n0 > 0 and n1 > 0 else 0.0
+
+    def _start_block(self, b: "_Block") -> None:
+        """Time the head block when it starts: from the current speed, to the speed the
+        next block allows, never faster than it can still stop within the queued blocks."""
+        b.started = True
+        if b.is_dwell:
+            self._speed = 0.0
+            return
+        length = float(np.linalg.norm(b.end - b.start))
+        acc = b.accel_mm_s2
+        ahead = sum(float(np.linalg.norm(q.end - q.start)) for q in list(self._blocks)[1:])
+        if len(self._blocks) > 1:
+            nxt = self._blocks[1]
+            cap = nxt.speed_mm_s * self._carry(b, nxt)
+        else:
+            cap = 0.0
+        cap = min(cap, math.sqrt(2.0 * acc * ahead), b.speed_mm_s)
+        v_in = min(self._speed, b.speed_mm_s)
+        v_out = min(cap, math.sqrt(v_in * v_in + 2.0 * acc * length))
+        peak = min(b.speed_mm_s, math.sqrt((2.0 * acc * length + v_in ** 2 + v_out ** 2) / 2.0))
+        d_up = (peak ** 2 - v_in ** 2) / (2.0 * acc)
+        d_down = (peak ** 2 - v_out ** 2) / (2.0 * acc)
+        cruise = max(0.0, length - d_up - d_down)
+        b.duration_s = (peak - v_in) / acc + (peak - v_out) / acc + (cruise / peak if peak > 0 else 0)
+        b.exit_mm_s = v_out
+
+
+
+def burn_coverage(moves, vm: VirtualMachine, *, tol_mm: float = 1e-3):
+    """How often each burning move of a job was burned by the virtual machine.
+
+    Every piece of motion the machine executed with the beam on is laid onto
+    the job's burning straight moves (within ``tol_mm`` of the line).
+
+    Returns
+    -------
+    covered : ndarray
+        Burned length on each burning move, mm (equal to its length when burned fully).
+    doubled : ndarray
+        Length burned more than once on each burning move, mm.
+    stray_mm : float
+        Burned length on none of the job's moves.
+    lengths : ndarray
+        Length of each burning move, mm.
+    """
+    on = np.flatnonzero(moves.laser_on & ~moves.is_arc)
+    segments = [(moves.start[i, :2], moves.end[i, :2]) for i in on]
+    pieces = [(np.array(p.start[:2]), np.array(p.end[:2])) for p in vm.executed
+              if p.power > 0 and not p.rapid and p.start != p.end]
+    covered = np.zeros(len(segments))
+    doubled = np.zeros(len(segments))
+    lengths = np.array([float(np.linalg.norm(b - a)) for a, b in segments])
+    used = np.zeros(len(pieces), bool)
+    for k, (a, b) in enumerate(segments):
+        if lengths[k] == 0:
+            continue
+        u = (b - a) / lengths[k]
+        n = np.array([-u[1], u[0]])
+        spans = []
+        for j, (p, q) in enumerate(pieces):
+            if abs(np.dot(p - a, n)) > tol_mm or abs(np.dot(q - a, n)) > tol_mm:
+                continue
+            s0, s1 = sorted((float(np.dot(p - a, u)), float(np.dot(q - a, u))))
+            s0, s1 = max(s0, 0.0), min(s1, lengths[k])
+            if s1 - s0 > 1e-12:
+                spans.append((s0, s1))
+                used[j] = True
+        reach = 0.0
+        for s0, s1 in sorted(spans):
+            if s0 < reach - tol_mm:
+                doubled[k] += min(reach, s1) - s0
+            covered[k] += max(0.0, s1 - max(s0, reach))
+            reach = max(reach, s1)
+    stray = float(sum(np.linalg.norm(q - p) for (p, q), u_ in zip(pieces, used) if not u_))
+    return covered, doubled, stray, lengths

@@ -1,0 +1,133 @@
+"""Dobot Magician protocol (seed 003) against the emulator and hand-worked frames."""
+
+import struct
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from labkit.errors import MachineError
+from labkit.gcode import parse
+from labkit.machine.dobot import (
+    CMD,
+    Dobot,
+    DobotEmulator,
+    FrameReader,
+    canvas_to_robot,
+    check_reach,
+    frame,
+    job_commands,
+)
+
+
+def test_get_pose_frame_matches_the_protocol_document():
+    assert frame(10) == bytes.fromhex("AAAA020A00F6")
+
+
+def test_ptp_frame_layout():
+    f = frame(84, struct.pack("<B4f", 2, 250.0, 0.0, -10.0, 0.0), write=True, queued=True)
+    assert f[:2] == b"\xAA\xAA" and f[2] == 2 + 17 and f[3] == 84 and f[4] == 0b11
+    assert (f[3] + f[4] + sum(f[5:-1]) + f[-1]) % 256 == 0
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.lists(st.tuples(st.binary(max_size=12).map(lambda b: b.replace(b"\xAA", b"\x00")),
+                          st.integers(0, 255), st.binary(max_size=40)), max_size=6),
+       st.integers(1, 7))
+def test_reader_resynchronises_after_garbage(parts, chunk):
+    stream = b"".join(g + frame(i, p) for g, i, p in parts)
+    r = FrameReader()
+    got = []
+    for k in range(0, len(stream), chunk):
+        got += r.feed(stream[k:k + chunk])
+    assert [(f.cmd_id, f.params) for f in got] == [(i, p) for _, i, p in parts]
+
+
+def test_bad_checksum_frame_is_dropped_and_next_frame_survives():
+    bad = bytearray(frame(84, b"\x01\x02"))
+    bad[-1] ^= 0xFF
+    r = FrameReader()
+    got = r.feed(bytes(bad) + frame(10))
+    assert [f.cmd_id for f in got] == [10] and r.bad_checksums == 1
+
+
+def test_queue_index_is_uint64():
+    emu = DobotEmulator()
+    emu.next_index = 2 ** 32 + 5            # a 4-byte reader would answer 5
+    bot = Dobot(emu)
+    assert bot.queued(CMD["ptp"], struct.pack("<B4f", 2, 250, 0, 0, 0)) == 2 ** 32 + 5
+
+
+def test_transform_and_reach_hand_worked():
+    assert canvas_to_robot(0, 0) == (300.0, 100.0)
+    assert canvas_to_robot(50, -20) == (320.0, 50.0)
+    # (0, 0) on the canvas is 316.2 mm from the base: inside the 170-320 mm annulus
+    check_reach(parse("G0 X0 Y0\nG1 X10 Y10 F600\n"))
+    # canvas y' = 100 puts the pen at X = 200, x' = 100 at Y = 0: 200 mm, fine; y' = 150 → 150 mm
+    with pytest.raises(MachineError, match=r"<string>:2: the arm cannot reach.*150\.0 mm"):
+        check_reach(parse("G0 X100 Y100\nG1 Y150 F600\n"))
+    # a line whose ends are reachable but which passes too near the base is refused
+    with pytest.raises(MachineError, match="cannot reach"):
+        check_reach(parse("G0 X100 Y290\nG1 X-150 Y40 F600\n"))
+
+
+def test_nothing_moves_when_out_of_reach():
+    emu = DobotEmulator()
+    with pytest.raises(MachineError, match="cannot reach"):
+        Dobot(emu).run(job_commands(parse("G0 X0 Y0\nG1 X0 Y400 F600\n")))
+    assert emu.frames == 0
+
+
+def test_arc_uses_the_mid_arc_point_and_power_scales():
+    m = parse("G0 X10 Y0\nM3 S128\nG3 X-10 Y0 I-10 J0 F600\nM5\n", dialect="labkit-fw")
+    cmds = job_commands(m)
+    kinds = [c[0] for c in cmds]
+    assert kinds == [CMD["laser"], CMD["ptp"], CMD["io_pwm"], CMD["laser"], CMD["arc"],
+                     CMD["laser"]]
+    pwm = struct.unpack("<Bff", cmds[2][1])
+    assert pwm[2] == pytest.approx(128 * 100 / 255, rel=1e-6)          # float32 on the wire
+    arc = struct.unpack("<8f", cmds[4][1])
+    # CCW half circle (10,0) → (-10,0) about the origin passes (0, 10): robot (290, 100)
+    assert arc[:2] == pytest.approx((290.0, 100.0))
+    assert arc[4:6] == pytest.approx(canvas_to_robot(-10, 0))
+
+
+def test_full_circle_is_split_in_two_arcs():
+    m = parse("G0 X30 Y20\nM3 S255\nG2 X30 Y20 I-10 J0 F600\n", dialect="labkit-fw")
+    arcs = [struct.unpack("<8f", p) for c, p, _ in job_commands(m) if c == CMD["arc"]]
+    assert len(arcs) == 2
+    assert arcs[0][4:6] == pytest.approx(canvas_to_robot(10, 20))
+    assert arcs[1][4:6] == pytest.approx(canvas_to_robot(30, 20))
+    # clockwise from the rightmost point the first half passes below the centre, (20, 10)
+    assert arcs[0][:2] == pytest.approx(canvas_to_robot(20, 10))
+
+
+def test_job_runs_on_the_emulator_and_ends_laser_off():
+    text = "G0 X0 Y0\nM3 S200\n" + "".join(f"G1 X{5 * (k % 2)} Y{k} F600\n" for k in range(30))
+    m = parse(text + "M5\nG0 X0 Y0\n", dialect="labkit-fw")
+    cmds = job_commands(m)
+    emu = DobotEmulator(per_poll=2)
+    last = Dobot(emu).run(cmds, ahead=8)
+    assert last == len(cmds) - 1
+    assert [(f.cmd_id, f.params) for f in emu.executed] == [(c, p) for c, p, _ in cmds]
+    assert emu.laser_on is False and emu.reader.bad_checksums == 0
+    assert emu.pose[:2] == pytest.approx(canvas_to_robot(0, 0))
+
+
+def test_cancel_force_stops_and_switches_the_laser_off():
+    m = parse("G0 X0 Y0\nM3 S200\n" + "".join(f"G1 X{k % 7} Y{k % 5} F600\n" for k in range(60)),
+              dialect="labkit-fw")
+    emu = DobotEmulator(per_poll=1)
+    with pytest.raises(MachineError, match="cancelled"):
+        Dobot(emu).run(job_commands(m), ahead=4, cancel=lambda: len(emu.executed) > 10)
+    assert emu.laser_on is False and emu.running is False and emu.queue == []
+
+
+def test_cli_dobot_on_the_emulator(tmp_path, capsys):
+    from labkit.cli import main
+
+    p = tmp_path / "draw.gcode"
+    p.write_text("G0 X0 Y0\nM3 S500\nG1 X20 Y0 F600\nG2 X20 Y20 I0 J10\nM5\n")
+    assert main(["stream", str(p), "--protocol", "dobot"]) == 0
+    assert "completed" in capsys.readouterr().out
