@@ -551,7 +551,7 @@ def check_job(grbl: Grbl, job: Job) -> list:
 
 def _modal_at(job: Job, line: int):
     """The modal state in effect *before* source line ``line`` (a pandas row)."""
-    from labkit.gcode.parse import modal_trace
+    from labkit.gcode.reader import modal_trace
 
     text = "\n".join(job.source_lines[: max(0, line - 1)])
     if line <= 1 or not text:

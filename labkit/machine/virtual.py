@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from labkit.gcode.dialects import get_dialect
-from labkit.gcode.parse import _run as _parse_run
+from labkit.gcode.reader import _run as _parse_run
 from labkit.geometry.circle import arc_points, grbl_segments, sweep_angle
 # The one place labkit.machine imports the motion machine description (a rename is a one-line fix).
 from labkit.motion import load_machine
