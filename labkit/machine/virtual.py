@@ -463,11 +463,13 @@ class VirtualMachine:
                   f"M{self.laser_mode_word or 5}\n{motion}\n")
         data = (prefix + text + "\n").encode("ascii", "replace")
         out = _parse_run(data, get_dialect("grbl"), True, True)
-        kind, start, end, centre, plane, feed_col, power, laser, dwell, line = out[:10]
-        e_code = out[13]
+        kind, start, end, centre, plane = (out[k] for k in ("kind", "start", "end", "centre", "plane"))
+        feed_col, power, laser, dwell, line = (out[k] for k in ("feed_mm_min", "power_s", "laser",
+                                                                 "dwell_s", "line"))
+        e_code = out["e_code"]
         if len(e_code):
             return int(e_code[0])
-        state, pos = out[22], out[23]
+        state, pos = out["t_state"], out["t_pos"]
         row = 3
         new_pos = pos[row]
         lo = np.zeros(3)

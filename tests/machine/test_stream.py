@@ -260,7 +260,7 @@ def test_bad_file_and_options_are_refused_up_front():
     with pytest.raises(GcodeError, match="<string>:2:"):
         Job.from_text("G21\nG1 X1 X2 F100\n")
     with pytest.raises(InputError, match="at most 80"):
-        Job.from_text("G1 X" + "1" * 90 + " F100\n")
+        Job.from_text("G1 X1." + "0" * 90 + " F100\n")
     job = Job.from_text("G1 X1 F100\n")
     with pytest.raises(InputError, match="mode must be"):
         run_job(None, job, mode="fast")
