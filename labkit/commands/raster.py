@@ -10,27 +10,32 @@ __all__ = ["add_img2gcode_arguments", "run_img2gcode"]
 
 def add_img2gcode_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``labkit img2gcode``."""
+    from labkit.commands._args import number
     from labkit.raster.dither import DIFFUSION
     from labkit.raster.engrave import MODES
+
+    positive = number(0, lo_open=True)
+    non_negative = number(0)
+    fraction = number(0, 1)
 
     parser.add_argument("input", help="image file (PNG, BMP, JPEG, …)")
     parser.add_argument("-o", "--output", required=True, help="G-code file to write")
     parser.add_argument("--mode", choices=MODES, default="zigzag", help="how to engrave (default zigzag)")
-    parser.add_argument("--beam", type=float, default=0.1, metavar="MM",
+    parser.add_argument("--beam", type=positive, default=0.1, metavar="MM",
                         help="beam diameter = pixel size of the job, mm (default 0.1)")
     size = parser.add_mutually_exclusive_group()
-    size.add_argument("--width", type=float, metavar="MM", help="engraved width, mm")
-    size.add_argument("--height", type=float, metavar="MM", help="engraved height, mm")
-    size.add_argument("--dpi", type=float, help="image resolution (default: the file's, else 96)")
+    size.add_argument("--width", type=positive, metavar="MM", help="engraved width, mm")
+    size.add_argument("--height", type=positive, metavar="MM", help="engraved height, mm")
+    size.add_argument("--dpi", type=positive, help="image resolution (default: the file's, else 96)")
     parser.add_argument("--resample", choices=("bicubic", "nearest"), default="bicubic",
                         help="resampling to the beam (nearest for pixel art)")
-    parser.add_argument("--feed", type=float, default=1000.0, metavar="MM_MIN", help="feed, mm/min")
-    parser.add_argument("--rapid", type=float, default=None, metavar="MM_MIN",
+    parser.add_argument("--feed", type=positive, default=1000.0, metavar="MM_MIN", help="feed, mm/min")
+    parser.add_argument("--rapid", type=positive, default=None, metavar="MM_MIN",
                         help="travel speed for the time estimate (default: the feed, as the seed)")
-    parser.add_argument("--power", type=float, default=1000.0, metavar="S",
+    parser.add_argument("--power", type=non_negative, default=1000.0, metavar="S",
                         help="S for binary modes (default 1000)")
-    parser.add_argument("--s-max", type=float, default=1000.0, help="S of full power (GRBL $30)")
-    parser.add_argument("--threshold", type=float, default=128, metavar="LEVEL",
+    parser.add_argument("--s-max", type=positive, default=1000.0, help="S of full power (GRBL $30)")
+    parser.add_argument("--threshold", type=number(0, 256), default=128, metavar="LEVEL",
                         help="gray level 0…256 below which a pixel burns (binary modes)")
     parser.add_argument("--invert", action="store_true", help="negative image first")
     parser.add_argument("--blur", action="store_true", help="3×3 blur first")
@@ -41,19 +46,22 @@ def add_img2gcode_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--unidirectional", action="store_true", help="zig-zag in one direction only")
     parser.add_argument("--edge-operator", choices=("sobel", "prewitt", "roberts", "sxor", "canny"),
                         default="sobel", help="edges mode: the detector")
-    parser.add_argument("--edge-threshold", type=float, default=None,
+    parser.add_argument("--edge-threshold", type=non_negative, default=None,
                         help="edges mode: magnitude threshold (default a quarter of the maximum)")
     parser.add_argument("--edge-path", choices=("spiral", "zigzag"), default="spiral",
                         help="edges mode: how edge pixels are pathed")
-    parser.add_argument("--min-power", type=float, default=0.0, help="gray: power of the lightest pixel, 0…1")
-    parser.add_argument("--max-power", type=float, default=1.0, help="gray/dither: power of the darkest, 0…1")
-    parser.add_argument("--gamma", type=float, default=1.0, help="gray/dither: gamma")
+    parser.add_argument("--min-power", type=fraction, default=0.0, help="gray: power of the lightest pixel, 0…1")
+    parser.add_argument("--max-power", type=fraction, default=1.0, help="gray/dither: power of the darkest, 0…1")
+    parser.add_argument("--gamma", type=positive, default=1.0, help="gray/dither: gamma")
     parser.add_argument("--dither", choices=sorted(DIFFUSION), default="floyd-steinberg",
                         help="dither mode: error diffusion method")
-    parser.add_argument("--overscan", type=float, default=2.0, metavar="MM", help="gray/dither: overscan, mm")
-    parser.add_argument("--skip-white", type=float, default=5.0, metavar="MM",
+    parser.add_argument("--overscan", type=non_negative, default=2.0, metavar="MM", help="gray/dither: overscan, mm")
+    parser.add_argument("--skip-white", type=non_negative, default=5.0, metavar="MM",
                         help="gray/dither: rapid over white gaps longer than this, mm")
     parser.add_argument("--dialect", default="grbl", help="G-code dialect (grbl, labkit-fw, marlin)")
+    parser.add_argument("--travel-beam-off", action="store_true",
+                        help="switch the beam off (M5) for every rapid, for controllers that "
+                             "burn on G0 (GRBL with $32=0)")
     parser.add_argument("--preview", default=None, metavar="PNG",
                         help="preview image (default: OUTPUT with .png); 'none' for no preview")
 
@@ -64,14 +72,37 @@ def run_img2gcode(args) -> int:
     from labkit.raster.engrave import image_to_job
     from labkit.raster.io import read_image
 
+    from labkit._files import check_output_file
+    from labkit.budget import check_budget
+    from labkit.errors import InputError
+
+    output = check_output_file(args.output, args.input)
+    if args.power > args.s_max:
+        raise InputError(f"--power {args.power:g} is above --s-max {args.s_max:g}; "
+                         f"expected a power within 0…{args.s_max:g}")
+    if args.min_power > args.max_power:
+        raise InputError(f"--min-power {args.min_power:g} is above --max-power {args.max_power:g}")
     img = read_image(args.input)
+    rows, cols = img.pixels.shape[:2]
     size = {}
     if args.width is not None:
         size["width_mm"] = args.width
+        width_mm, source = args.width, "--width"
     elif args.height is not None:
         size["height_mm"] = args.height
+        width_mm, source = args.height * cols / rows, "--height"
     else:
-        size["dpi"] = args.dpi or img.dpi or 96.0
+        dpi = args.dpi or img.dpi or 96.0
+        size["dpi"] = dpi
+        width_mm = cols * 25.4 / dpi
+        source = ("--dpi" if args.dpi else "the file's resolution" if img.dpi
+                  else "no resolution in the file: 96 dpi assumed") + f" ({dpi:g} dpi)"
+    height_mm = width_mm * rows / cols
+    print(f"job size {width_mm:.1f} × {height_mm:.1f} mm from {source}")
+    # Estimate the resampled size before resampling: one pixel per beam diameter.
+    check_budget("pixels", (width_mm / args.beam) * (height_mm / args.beam),
+                 cause=f"a {width_mm:.0f} × {height_mm:.0f} mm job at a {args.beam:g} mm beam",
+                 option="--width/--height/--dpi or raise --beam")
     common = dict(feed_mm_min=args.feed, rapid_mm_min=args.rapid, s_max=args.s_max)
     if args.mode in ("gray", "dither"):
         opts = dict(min_power=args.min_power, max_power=args.max_power, overscan_mm=args.overscan,
@@ -85,9 +116,17 @@ def run_img2gcode(args) -> int:
                        level=args.threshold, invert=args.invert, blur=args.blur, sharpen=args.sharpen,
                        edge_operator=args.edge_operator, edge_threshold=args.edge_threshold,
                        edge_path=args.edge_path, **size, **common, **opts)
-    text = emit(job.moves, dialect=args.dialect,
+    if not len(job.moves):
+        from labkit.errors import RasterError
+
+        hint = ("--edge-threshold lower, or another --edge-operator" if args.mode == "edges" else
+                "--threshold higher, or --invert" if args.mode in ("zigzag", "spiral") else
+                "--max-power higher, or a darker image")
+        raise RasterError(f"{args.input}: nothing to burn in mode {args.mode} (no marked pixel); "
+                          f"expected an image with dark content — try {hint}")
+    text = emit(job.moves, dialect=args.dialect, travel_beam_off=args.travel_beam_off or None,
                 comment=f"img2gcode {Path(args.input).name}: mode {args.mode}, beam {args.beam:g} mm")
-    Path(args.output).write_text(text, encoding="ascii")
+    output.write_text(text, encoding="ascii")
     report = job.report.with_gcode(text)
     print(report.format())
     print(f"{'G-code':<{_label_width(report)}}  {args.output}")

@@ -463,6 +463,11 @@ def image_to_job(image, *, mode: str = "zigzag", beam_mm: float = 0.1, width_mm=
             options.setdefault("dither", "floyd-steinberg")
         return gray_job(img, **common, **options)
     if mode == "edges":
+        if img.shape[0] > arr.shape[0] or img.shape[1] > arr.shape[1]:
+            # Upscaling spreads a sharp edge over several beam pixels, so no gradient
+            # reaches the detector's threshold and the job came out empty: find the
+            # edges of the shapes (thresholded at ``level``) at the beam's resolution.
+            img = np.where(img < level, 0.0, 255.0)
         mask = detect_edges(img, edge_operator, threshold=edge_threshold, pseudo=edge_pseudo, level=level)
         return mask_job(mask, mode=edge_path, report_mode="edges", **common, **options)
     mask = img if is_mask else threshold(img, level)

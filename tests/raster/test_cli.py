@@ -46,4 +46,4 @@ def test_img2gcode_errors(tmp_path, capsys):
     assert main(["img2gcode", str(bad), "-o", str(tmp_path / "x.gcode")]) == 1
     assert "not an image file" in capsys.readouterr().err
     assert main(["img2gcode", str(tmp_path / "missing.png"), "-o", str(tmp_path / "x.gcode")]) == 1
-    assert "No such file" in capsys.readouterr().err
+    assert "missing.png: no such file; expected an existing image file" in capsys.readouterr().err
