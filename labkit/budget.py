@@ -15,6 +15,7 @@ budget                 default      what it bounds
 ``pixels``             200,000,000  pixels of an image after resampling (~14,000²)
 ``output_bytes``       2,000,000,000 bytes of G-code text one command may write
 ``steps``              10,000,000,000 Bresenham steps of one job (streamed, not held)
+``held_steps``         50,000,000   lattice points of one line or arc held in memory at once
 ``elements``           2,000,000    SVG/DXF elements after expanding ``use``/``INSERT``
 ``diagnostics``        10,000       diagnostics kept in lenient mode (the rest counted)
 =====================  ===========  ===================================================
@@ -34,6 +35,7 @@ BUDGETS: dict[str, float] = {
     "pixels": 200_000_000,
     "output_bytes": 2_000_000_000,
     "steps": 10_000_000_000,
+    "held_steps": 50_000_000,
     "elements": 2_000_000,
     "diagnostics": 10_000,
 }

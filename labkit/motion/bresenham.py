@@ -35,6 +35,7 @@ import math
 
 import numpy as np
 
+from labkit.budget import check_budget
 from labkit.errors import MotionError
 from labkit.motion import _bresenham as K
 
@@ -53,6 +54,10 @@ __all__ = [
 
 #: Fixed-point sub-steps per step for an arc's centre and radius (2⁸).
 ARC_SCALE = 256
+
+#: Largest (radius + 4) × scale (fixed-point sub-steps) for which X² + Y² − R² stays exact
+#: in int64 near the circle (√(2⁶³) ≈ 3.04e9); larger radii walk with fewer sub-steps.
+_MAX_FIXED_RADIUS = 3_000_000_000
 
 #: Arcs with a smaller radius (in steps) are drawn as a line to the end point.
 MIN_ARC_RADIUS_STEPS = 2
@@ -195,6 +200,9 @@ def lines_points(starts, ends) -> tuple[np.ndarray, np.ndarray]:
     counts = np.abs(e - s).max(axis=1) + 1
     offsets = np.zeros(len(s) + 1, np.int64)
     np.cumsum(counts, out=offsets[1:])
+    check_budget("held_steps", float(offsets[-1]),
+                 cause=f"{len(s)} line(s) with {int(counts.max()) - 1:,} steps on the longest",
+                 option="the job's length or the machine's steps per mm")
     pts = np.empty((offsets[-1], s.shape[1]), np.int64)
     K.lines_walk(s, e, offsets, pts)
     return pts, offsets
@@ -253,7 +261,8 @@ def arc_points(start, end, centre, *, clockwise: bool, radius: float | None = No
         arc or almost a full circle). Default: from the angles of start and
         end; ``start == end`` is a full circle.
     scale : int
-        Fixed-point sub-steps per step for centre and radius (≥ 1).
+        Fixed-point sub-steps per step for centre and radius (≥ 1); reduced for
+        radii so large that ``(r + 4)·scale`` would exceed 3·10⁹ (int64 exactness).
 
     Returns
     -------
@@ -317,6 +326,14 @@ def arc_points(start, end, centre, *, clockwise: bool, radius: float | None = No
         raise MotionError(f"radius must be > 0 steps, got {radius!r}")
     if r < MIN_ARC_RADIUS_STEPS:
         return line_points(s, e)
+    if (r + 4) * scale > _MAX_FIXED_RADIUS:
+        # e = X² + Y² − R² must stay exact in int64: a large radius gets fewer sub-steps
+        # (a 1/q-step centre is far finer than such an arc needs), never overflowed errors.
+        scale = int(_MAX_FIXED_RADIUS // (r + 4))
+        if scale < 1:
+            raise MotionError(f"arc radius {r:.6g} steps is beyond the exact integer walk "
+                              f"(at most {_MAX_FIXED_RADIUS - 4:.6g} steps); cut the arc into "
+                              "chords instead (--arc-tol, GRBL's $12)")
     if clockwise:   # walk the mirror image counter-clockwise
         pts = arc_points(s * [1, -1], e * [1, -1], c * [1, -1], clockwise=False, radius=r,
                          sweep_rad=None if sweep_rad is None else -sweep_rad, scale=scale)
@@ -335,7 +352,13 @@ def arc_points(start, end, centre, *, clockwise: bool, radius: float | None = No
         raise MotionError(f"a counter-clockwise arc needs a positive sweep, got {sweep_rad!r} rad")
     base = (o_e - o_s) % 8
     n_cross = base + 8 * round((sweep_rad / (math.pi / 4) - base) / 8)
-    max_ticks = int(8 * (r + 2) * max(1, math.ceil(sweep_rad / (2 * math.pi)))) + 16
+    # Ticks of an 8-connected walk never exceed the arc's length in steps (each octant's
+    # driver span is shorter than its arc) plus a few per octant for the rounded ends,
+    # so memory follows the arc's length, not its radius.
+    max_ticks = int(min(8 * (r + 2) * max(1, math.ceil(sweep_rad / (2 * math.pi))),
+                        1.05 * r * sweep_rad + 8 * (abs(n_cross) + 3))) + 16
+    check_budget("held_steps", max_ticks, cause=f"an arc of radius {r:.6g} steps sweeping "
+                 f"{math.degrees(sweep_rad):.4g}°", option="the arc, or give --arc-tol to cut arcs into chords")
     pts, ok = K.arc_walk_ccw(int(s[0]), int(s[1]), int(e[0]), int(e[1]), cxq, cyq, rq, q,
                              int(n_cross), max_ticks)
     if not ok:
