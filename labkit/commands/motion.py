@@ -23,7 +23,7 @@ def _add_common(parser):
                         help="look-ahead: GRBL junction deviation, or seed 004's MBLA modes "
                              "fast/normal/hq (default: junction)")
     parser.add_argument("--machine", default=None, metavar="TOML",
-                        help="machine description file or name in data/machines/ (default: cbr40-laser)")
+                        help="machine description file or name shipped with labkit (labkit/motion/machines/) (default: cbr40-laser)")
     parser.add_argument("--buffer", type=int, default=None, metavar="N",
                         help="look-ahead depth in blocks (default: the machine's)")
     parser.add_argument("--law", choices=("linear", "accel"), default=None,

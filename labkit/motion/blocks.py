@@ -320,7 +320,7 @@ def build_blocks(moves: Moves, machine: Machine | str | None = None, *,
     moves : Moves
         The program (absolute mm; feeds in mm/min).
     machine : Machine, str or None
-        Machine or the name of a description in ``data/machines/``
+        Machine or the name of a description in ``labkit/motion/machines/``
         (default :data:`~labkit.motion.CBR40`).
     arc_tol_mm : float, optional
         Cut arcs into chords at this tolerance first (GRBL ``$12``). By

@@ -5,7 +5,7 @@ accelerations, travel), the controller settings the planners use (the seed's
 ramp slopes in Hz per step, GRBL's junction deviation, the look-ahead depth),
 the laser (maximum optical power, the S value of full power) and the step
 timer (clock, prescaler, width). It is frozen; :meth:`Machine.replace` makes a
-changed copy. Descriptions live as small TOML files in ``data/machines/`` and
+changed copy. Descriptions live as small TOML files in ``labkit/motion/machines/`` and
 load with :func:`load_machine`.
 
 The default, :data:`CBR40`, is seed 004's machine: a Colinbus CBR-40 frame
@@ -13,7 +13,7 @@ whose lead screws advance 3 mm per turn, driven at 1/32 microstep (6400 steps
 per turn: 0.46875 µm per step), 300 × 400 × 100 mm of travel, at most
 1546.0875 mm/min (54 972 steps/s), a 2500 mW diode laser and a 48 MHz step
 timer. The seed gives neither ramp slopes nor accelerations nor a prescaler;
-the values here are chosen (and said so in ``data/machines/README.md``).
+the values here are chosen (and said so in ``labkit/motion/machines/README.md``).
 """
 
 from __future__ import annotations
@@ -34,7 +34,8 @@ __all__ = ["Machine", "CBR40", "AXES", "load_machine", "machine_files", "MACHINE
 AXES = ("x", "y", "z")
 
 #: Folder of the machine description files shipped with the repository.
-MACHINES_DIR = Path(__file__).resolve().parents[2] / "data" / "machines"
+# Shipped inside the package (package data), so a wheel install finds them too.
+MACHINES_DIR = Path(__file__).resolve().parent / "machines"
 
 
 def _triple(name: str, value) -> tuple[float, float, float]:
@@ -205,7 +206,7 @@ _FIELDS = {f.name for f in dataclasses.fields(Machine)}
 
 
 def machine_files() -> list[Path]:
-    """The machine descriptions in ``data/machines/`` (sorted)."""
+    """The machine descriptions in ``labkit/motion/machines/`` (sorted)."""
     return sorted(MACHINES_DIR.glob("*.toml")) if MACHINES_DIR.is_dir() else []
 
 
@@ -215,7 +216,7 @@ def load_machine(source: str | Path | Machine | None = None) -> Machine:
     Parameters
     ----------
     source : str, Path, Machine or None
-        A TOML file, or the stem of a file in ``data/machines/``
+        A TOML file, or the stem of a file in ``labkit/motion/machines/``
         (``"cbr40-laser"``), or a :class:`Machine` (returned as is).
         ``None`` gives :data:`CBR40`.
 

@@ -250,7 +250,7 @@ def plan(moves: Moves | Blocks, machine: Machine | str | None = None, *, planner
     moves : Moves or Blocks
         The program (or blocks already built for this machine).
     machine : Machine, str or None
-        Machine or name of a description in ``data/machines/`` (default CBR-40).
+        Machine or name of a description in ``labkit/motion/machines/`` (default CBR-40).
     planner : {"junction", "fast", "normal", "hq"}
         GRBL's junction deviation, or seed 004's MBLA modes.
     buffer_blocks : int, optional
