@@ -16,6 +16,8 @@ budget                 default      what it bounds
 ``output_bytes``       2,000,000,000 bytes of G-code text one command may write
 ``steps``              10,000,000,000 Bresenham steps of one job (streamed, not held)
 ``held_steps``         50,000,000   lattice points of one line or arc held in memory at once
+``hatch_lines``        1,000,000    hatch lines of one fill (each becomes a path; 100 m of
+                                    shapes at a 0.1 mm spacing)
 ``elements``           2,000,000    SVG/DXF elements after expanding ``use``/``INSERT``
 ``diagnostics``        10,000       diagnostics kept in lenient mode (the rest counted)
 =====================  ===========  ===================================================
@@ -36,6 +38,7 @@ BUDGETS: dict[str, float] = {
     "output_bytes": 2_000_000_000,
     "steps": 10_000_000_000,
     "held_steps": 50_000_000,
+    "hatch_lines": 1_000_000,
     "elements": 2_000_000,
     "diagnostics": 10_000,
 }

@@ -68,7 +68,7 @@ def s_to_duty(s, *, s_max=1000.0):
     s : float or array
         Power word S as programmed.
     s_max : float
-        S value meaning full power (GRBL ``$30``, default 1000; seed 003's
+        S value meaning full power (GRBL ``$30``, default 1000; [DobotLaser]'s
         Dobot PWM uses 255, so S′ = S·100/255 percent).
     """
     _check_s_max(s_max)
@@ -82,14 +82,14 @@ def duty_to_s(duty, *, s_max=1000.0):
 
 
 def s_to_percent(s, *, s_max=1000.0):
-    """Power word S → duty in percent (seed 003: S′ = S·100/255 with s_max=255)."""
+    """Power word S → duty in percent ([DobotLaser]: S′ = S·100/255 with s_max=255)."""
     return s_to_duty(s, s_max=s_max) * 100.0
 
 
 def s_to_mw(s, *, s_max=1000.0, max_power_mw=2500.0):
     """Power word S → optical power in mW, linear up to ``max_power_mw``.
 
-    Seed 004's diode laser delivers at most 2500 mW.
+    [CBR40]'s diode laser delivers at most 2500 mW.
     """
     return s_to_duty(s, s_max=s_max) * max_power_mw
 

@@ -20,14 +20,14 @@ def _add_common(parser):
 
     parser.add_argument("file", help="G-code file")
     parser.add_argument("--planner", choices=PLANNERS, default="junction",
-                        help="look-ahead: GRBL junction deviation, or seed 004's MBLA modes "
+                        help="look-ahead: GRBL junction deviation, or [CBR40]'s MBLA modes "
                              "fast/normal/hq (default: junction)")
     parser.add_argument("--machine", default=None, metavar="TOML",
                         help="machine description file or name shipped with labkit (labkit/motion/machines/) (default: cbr40-laser)")
     parser.add_argument("--buffer", type=int, default=None, metavar="N",
                         help="look-ahead depth in blocks (default: the machine's)")
     parser.add_argument("--law", choices=("linear", "accel"), default=None,
-                        help="ramp law: seed 004 Hz/step (linear) or constant acceleration "
+                        help="ramp law: [CBR40] Hz/step (linear) or constant acceleration "
                              "(default: linear for MBLA, accel for junction)")
     parser.add_argument("--arc-tol", type=float, default=None, metavar="MM",
                         help="cut arcs into chords at this tolerance (GRBL $12) instead of "

@@ -8,8 +8,13 @@ import re
 import warnings
 from pathlib import Path as FilePath
 
+import numpy as np
+
 __all__ = ["add_svg2gcode_arguments", "run_svg2gcode", "add_dxf2gcode_arguments", "run_dxf2gcode",
            "parse_layer_option", "motion_lines"]
+
+#: The range of --tol, mm.
+TOL_MIN_MM, TOL_MAX_MM = 1e-4, 10.0
 
 _FIRST_WORD = re.compile(r"^\s*(?:N\d+\s*)?([A-Z])\s*([-+]?\d*\.?\d*)", re.IGNORECASE)
 
@@ -54,37 +59,61 @@ def parse_layer_option(text: str):
         raise GeometryError(f"--layer {text!r}: expected NAME:FEED:POWER[:PASSES[:ZSTEP]], "
                             "e.g. '#ff0000:600:1000:2'")
     feed, power = numbers[0], numbers[1]
-    passes = int(numbers[2]) if len(numbers) > 2 else 1
+    passes = numbers[2] if len(numbers) > 2 else 1.0
     z_step = numbers[3] if len(numbers) > 3 else 0.0
+    problems = []
+    if not (math.isfinite(feed) and feed > 0):
+        problems.append(f"FEED {feed:g} must be a finite number > 0 (mm/min)")
+    if not (math.isfinite(power) and power >= 0):
+        problems.append(f"POWER {power:g} must be a finite number >= 0 (S)")
+    if not (math.isfinite(passes) and passes >= 1 and passes == int(passes)):
+        problems.append(f"PASSES {passes:g} must be a whole number >= 1")
+    if not math.isfinite(z_step):
+        problems.append(f"ZSTEP {z_step:g} must be finite (mm)")
+    if problems:
+        raise GeometryError(f"--layer {text!r}: " + "; ".join(problems))
+    passes = int(passes)
     return name, LayerSettings(feed_mm_min=feed, power_s=power, passes=passes, z_step_mm=z_step)
 
 
 def _common_arguments(parser: argparse.ArgumentParser, kind: str) -> None:
+    from labkit.commands._args import integer, number
+
+    positive = number(0, lo_open=True)
+    non_negative = number(0)
     parser.add_argument("input", help=f"{kind} file")
     parser.add_argument("-o", "--output", required=True, help="G-code file to write")
-    parser.add_argument("--tol", type=float, default=0.01, metavar="MM",
-                        help="largest deviation of the toolpath from the drawing, mm (default 0.01)")
-    parser.add_argument("--feed", type=float, default=1000.0, metavar="MM_MIN",
+    # Below 0.1 µm no laser machine can tell the difference and flattening explodes;
+    # above 10 mm a circle is no longer a circle.
+    parser.add_argument("--tol", type=number(TOL_MIN_MM, TOL_MAX_MM), default=0.01, metavar="MM",
+                        help="largest deviation of the toolpath from the drawing, mm "
+                             f"({TOL_MIN_MM:g}…{TOL_MAX_MM:g}, default 0.01)")
+    parser.add_argument("--feed", type=positive, default=1000.0, metavar="MM_MIN",
                         help="cutting feed, mm/min (default 1000)")
-    parser.add_argument("--power", type=float, default=1000.0, metavar="S", help="laser power S (default 1000)")
-    parser.add_argument("--passes", type=int, default=1, help="passes over every layer (default 1)")
-    parser.add_argument("--z-step", type=float, default=0.0, metavar="MM", help="Z down after each pass, mm")
+    parser.add_argument("--power", type=non_negative, default=1000.0, metavar="S",
+                        help="laser power S, 0…--s-max (default 1000)")
+    parser.add_argument("--passes", type=integer(1), default=1, help="passes over every layer (default 1)")
+    parser.add_argument("--z-step", type=number(), default=0.0, metavar="MM", help="Z down after each pass, mm")
     parser.add_argument("--dynamic", action="store_true", help="M4 (power follows speed) instead of M3")
     parser.add_argument("--layer", action="append", default=[], metavar="NAME:FEED:POWER[:PASSES[:ZSTEP]]",
                         help="settings for one layer (SVG colour such as #ff0000, or DXF layer); repeatable")
     parser.add_argument("--arcs", action="store_true", help="keep arcs and fit arcs to curves (G2/G3)")
     parser.add_argument("--fill", action="store_true", help="hatch closed shapes before their contours")
-    parser.add_argument("--fill-spacing", type=float, default=0.1, metavar="MM",
+    parser.add_argument("--fill-spacing", type=positive, default=0.1, metavar="MM",
                         help="hatch line spacing = beam width, mm (default 0.1)")
-    parser.add_argument("--fill-angle", type=float, default=0.0, metavar="DEG", help="hatch angle, degrees")
-    parser.add_argument("--kerf", type=float, default=0.0, metavar="MM",
+    parser.add_argument("--fill-angle", type=number(-360, 360), default=0.0, metavar="DEG",
+                        help="hatch angle, degrees")
+    parser.add_argument("--kerf", type=non_negative, default=0.0, metavar="MM",
                         help="kerf width: closed shapes are offset by half of it (parts to size)")
     parser.add_argument("--no-order", action="store_true", help="cut in drawing order")
     parser.add_argument("--no-improve", action="store_true", help="greedy ordering only (no 2-opt)")
-    parser.add_argument("--rapid", type=float, default=None, metavar="MM_MIN",
+    parser.add_argument("--rapid", type=positive, default=None, metavar="MM_MIN",
                         help="travel speed for the time estimate (default: the simulator's)")
-    parser.add_argument("--s-max", type=float, default=1000.0, help="S of full power (GRBL $30)")
+    parser.add_argument("--s-max", type=positive, default=1000.0, help="S of full power (GRBL $30)")
     parser.add_argument("--dialect", default="grbl", help="G-code dialect (grbl, labkit-fw, marlin)")
+    parser.add_argument("--travel-beam-off", action="store_true",
+                        help="switch the beam off (M5) for every rapid, for controllers that "
+                             "burn on G0 (GRBL with $32=0)")
     parser.add_argument("--preview", default=None, metavar="PNG", help="also draw the job to this PNG")
 
 
@@ -109,10 +138,11 @@ def _run(args, drawing) -> int:
     from labkit.toolpath.build import LayerSettings, build_moves, prepare_paths
     from labkit.toolpath.moves import LaserMode
 
-    if not args.tol > 0:
-        from labkit.errors import GeometryError
+    from labkit._files import check_output_file
+    from labkit.budget import check_budget
+    from labkit.errors import InputError
 
-        raise GeometryError(f"--tol must be > 0 mm, got {args.tol}")
+    output = check_output_file(args.output, args.input)
     laser = LaserMode.DYNAMIC if args.dynamic else LaserMode.CONSTANT
     default = LayerSettings(feed_mm_min=args.feed, power_s=args.power, passes=args.passes,
                             z_step_mm=args.z_step, laser=laser)
@@ -120,7 +150,18 @@ def _run(args, drawing) -> int:
     for text in args.layer:
         name, s = parse_layer_option(text)
         per_layer[name] = LayerSettings(s.feed_mm_min, s.power_s, s.passes, s.z_step_mm, laser)
+    for name, layer in [("--power", default)] + [(f"--layer {n}", v) for n, v in per_layer.items()]:
+        if layer.power_s > args.s_max:
+            raise InputError(f"{name}: power S{layer.power_s:g} is above --s-max {args.s_max:g}; "
+                             f"expected a power within 0…{args.s_max:g}")
     source = drawing.paths
+    if args.fill and source:
+        # Hatch lines across each closed shape: its extent over the spacing, estimated
+        # before hatching so that --fill-spacing 1e-5 is refused, not computed.
+        extents = [float(np.ptp(p.bounds().reshape(2, 2), axis=0).max()) for p in source if p.closed]
+        check_budget("hatch_lines", sum(extents) / args.fill_spacing,
+                     cause=f"hatching {len(extents)} closed shape(s) at {args.fill_spacing:g} mm",
+                     option="the drawing, or raise --fill-spacing")
     if not args.arcs:       # DXF arcs (read at tol/2) become chords within the other half
         source = [p if not p.is_arc.any() else
                   p.with_geometry(p.sample(args.tol / 2), deviation_mm=p.deviation_mm + args.tol / 2)
@@ -129,11 +170,16 @@ def _run(args, drawing) -> int:
                           fill=args.fill, fill_spacing_mm=args.fill_spacing,
                           fill_angle_rad=math.radians(args.fill_angle), order=not args.no_order,
                           improve=not args.no_improve)
+    most_passes = max([default.passes] + [v.passes for v in per_layer.values()])
+    segments = sum(len(p.vertices) for p in paths)
+    check_budget("moves", float(segments) * most_passes,
+                 cause=f"{segments:,} segments × {most_passes:,} passes", option="--passes")
     moves = build_moves(paths, per_layer, default=default, s_max=args.s_max)
     text = emit(moves, dialect=args.dialect, tol_mm=min(args.tol / 10, 0.001),
+                travel_beam_off=args.travel_beam_off or None,
                 comment=f"{FilePath(args.input).name}: tol {args.tol:g} mm, "
                         f"{'arcs' if args.arcs else 'lines'}")
-    FilePath(args.output).write_text(text, encoding="ascii")
+    output.write_text(text, encoding="ascii")
     opts = {} if args.rapid is None else {"rapid_mm_min": args.rapid}
     summary = summarize(moves, source_lines=text.count("\n"), **opts)
     lines, arcs = count_segments(paths)
@@ -156,8 +202,10 @@ def _run(args, drawing) -> int:
 
 def run_svg2gcode(args) -> int:
     """Read the SVG, build the job, write G-code (and a preview), print the summary."""
+    from labkit._files import check_input_file
     from labkit.vector.svg import read_svg
 
+    check_input_file(args.input, what="SVG file")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         drawing = read_svg(args.input, tol_mm=args.tol, arcs=args.arcs, fit=args.fit, flip_y=not args.no_flip)
@@ -168,8 +216,10 @@ def run_svg2gcode(args) -> int:
 
 def run_dxf2gcode(args) -> int:
     """Read the DXF, build the job, write G-code (and a preview), print the summary."""
+    from labkit._files import check_input_file
     from labkit.vector.dxf import read_dxf
 
+    check_input_file(args.input, what="DXF file")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         drawing = read_dxf(args.input, tol_mm=args.tol if args.arcs else args.tol / 2)

@@ -4,7 +4,7 @@ The parser computes the same centres inside its compiled kernel; these
 functions are the readable, per-arc versions for teaching, tests and
 generators. Plane-free 2-D helpers live in :mod:`labkit.geometry.circle`.
 
-Seed 000 appendix A gives the two centres of an arc of radius R through P1
+[LaserApp] appendix A gives the two centres of an arc of radius R through P1
 and P2: with the chord Q = |P2 − P1|, its midpoint P3 and H = √(R² − (Q/2)²),
 
     C = P3 ± H · ((y1 − y2)/Q, (x2 − x1)/Q).
@@ -72,7 +72,7 @@ def centre_from_offsets(start, offsets, *, absolute=False):
 
 
 def centres_from_radius(start, end, radius, *, r_tol_mm=0.0):
-    """Both centres of the circles of radius |R| through ``start`` and ``end`` (seed 000 app. A).
+    """Both centres of the circles of radius |R| through ``start`` and ``end`` ([LaserApp] app. A).
 
     Parameters
     ----------
@@ -121,7 +121,7 @@ def centres_from_radius(start, end, radius, *, r_tol_mm=0.0):
 
 
 def centre_from_radius(start, end, radius, clockwise, *, r_tol_mm=0.0):
-    """The centre G2/G3 with R selects, by seed 000's sweep rule.
+    """The centre G2/G3 with R selects, by [LaserApp]'s sweep rule.
 
     Parameters
     ----------

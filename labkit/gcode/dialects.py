@@ -19,7 +19,7 @@ them). Three are defined:
     taken as a half circle (text rounding), a larger shortfall is an error.
 ``marlin``
     Marlin 2 with its laser feature: F in mm/min, ``G4 P`` in milliseconds,
-    S 0–255, M3/M4/M5 plus the fan words M106 S/M107 that seed 003's
+    S 0–255, M3/M4/M5 plus the fan words M106 S/M107 that [DobotLaser]'s
     Dobot-era tools used for the laser; emitted lines carry N numbers and
     ``*`` checksums as Marlin's host protocol expects.
 
@@ -58,7 +58,7 @@ class Dialect:
         M numbers that switch the beam on (3 = constant, 4 = dynamic,
         106 = fan output used as laser) and off (5, 107).
     lookahead_g5 : bool
-        ``G5 P<n>`` sets the look-ahead depth (seed 000) instead of being unsupported.
+        ``G5 P<n>`` sets the look-ahead depth ([LaserApp]) instead of being unsupported.
     arc_r_tol_mm : float
         How far |R| may fall short of half the chord and still be taken as a
         half circle (GRBL: 0, any shortfall is error 33).

@@ -1,6 +1,6 @@
 """Dry-run a program: envelope check, lengths with the beam on and off, time at constant feed.
 
-This is seed 000's simulation step (§3.2) — validate every line, track the
+This is [LaserApp]'s simulation step (§3.2) — validate every line, track the
 modal state, flag moves that leave the machine, report lengths and an
 estimated time — on a parsed :class:`~labkit.toolpath.Moves`. The time here
 assumes every move runs at its programmed feed (infinite acceleration), the

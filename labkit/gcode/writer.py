@@ -3,7 +3,7 @@
 The writer keeps the modal state the controller will have and writes only
 what changes: the motion word when the motion mode changes, an axis only
 when its written coordinate changes, F and S only when they change.
-Numbers get the decimals the tolerance needs (seed 001 §6.1.5: the
+Numbers get the decimals the tolerance needs ([MicroCAM] §6.1.5: the
 generator works out the digits from the tolerance) and no trailing zeros.
 
 Arc offsets I J K are measured from the point actually written for the

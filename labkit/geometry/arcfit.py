@@ -1,7 +1,7 @@
-"""Curves to circular arcs within a tolerance (seed 001 §6.1.4).
+"""Curves to circular arcs within a tolerance ([MicroCAM] §6.1.4).
 
 Cutting a curve as many short lines makes many G-code blocks and short
-segments, and seed 001 measured that segments shorter than ~0.4 mm keep a
+segments, and [MicroCAM] measured that segments shorter than ~0.4 mm keep a
 controller below the programmed feed. Replacing the curve by arcs (G2/G3)
 that stay within a tolerance gives fewer, longer blocks. Two methods:
 
@@ -502,9 +502,9 @@ def cubics_to_arcs(ctrls, tol_mm, *, arcs=True, start=None, method="greedy", **m
 
     Notes
     -----
-    Seed 001 §6.1.4 converts curves to arcs "by matching curve curvature
+    [MicroCAM] §6.1.4 converts curves to arcs "by matching curve curvature
     radius values based on the input tolerance"; the biarc is the standard
-    modern form of that idea (ALGORITHMS.md §2).
+    modern form of that idea.
 
     Examples
     --------

@@ -1,21 +1,21 @@
-"""Bezier curves: evaluation, De Casteljau split and flattening (seed 000 §3.4.2, seed 003).
+"""Bezier curves: evaluation, De Casteljau split and flattening ([LaserApp] §3.4.2, [DobotLaser]).
 
 A cubic is a (4, 2) array of control points S, C1, C2, E in mm; a quadratic
-(S, C, E) is raised to the cubic S, (S + 2C)/3, (E + 2C)/3, E (seed 000
+(S, C, E) is raised to the cubic S, (S + 2C)/3, (E + 2C)/3, E ([LaserApp]
 eq. 21), so everything downstream handles cubics only.
 
 Two flatteners turn a cubic into a polyline:
 
-:func:`flatten_cubics` — recursive De Casteljau halving (seed 000): split at
-t = ½ until the control points lie close to the chord. Seed 000 stops at a
+:func:`flatten_cubics` — recursive De Casteljau halving ([LaserApp]): split at
+t = ½ until the control points lie close to the chord. [LaserApp] stops at a
 distance of 1 % of the chord (``chord_fraction=0.01``); a machine needs an
 absolute tolerance in mm (``tol_mm``), which also *bounds* the error: the
 curve lies in the convex hull of its control points, so if both control
 points are within ``tol_mm`` of the chord *segment*, so is every curve point.
-(Seed 000 measures the distance to the infinite chord line; the segment
+([LaserApp] measures the distance to the infinite chord line; the segment
 distance also catches curves that overshoot the chord's ends.)
 
-:func:`flatten_adaptive_t` — seed 003's t-stepping (the svg-to-gcode library's
+:func:`flatten_adaptive_t` — [DobotLaser]'s t-stepping (the svg-to-gcode library's
 ``line_segment_approximation``): walk t from 0 to 1, try a step, measure the
 largest curve-to-line distance on that t range; above ``error_cap`` shrink
 the step by ``increment_growth`` and retry, below ``error_floor`` grow it.
@@ -49,7 +49,7 @@ def _cubic(ctrl) -> np.ndarray:
 
 
 def quad_to_cubic(start, control, end) -> np.ndarray:
-    """Exact degree elevation of a quadratic Bezier (seed 000 eq. 21).
+    """Exact degree elevation of a quadratic Bezier ([LaserApp] eq. 21).
 
     >>> quad_to_cubic((0, 0), (3, 3), (6, 0))
     array([[0., 0.],
@@ -62,7 +62,7 @@ def quad_to_cubic(start, control, end) -> np.ndarray:
 
 
 def cubic_point(ctrl, t) -> np.ndarray:
-    """Point(s) of a cubic at parameter(s) t (Bernstein form, seed 000 eq. 20)."""
+    """Point(s) of a cubic at parameter(s) t (Bernstein form, [LaserApp] eq. 20)."""
     c = _cubic(ctrl)
     t = np.asarray(t, dtype=float)[..., None]
     u = 1.0 - t
@@ -72,7 +72,7 @@ def cubic_point(ctrl, t) -> np.ndarray:
 def split_cubic(ctrl, t=0.5) -> tuple[np.ndarray, np.ndarray]:
     """De Casteljau split at t into two cubics that together trace the same curve.
 
-    Repeated linear interpolation of the control polygon (seed 000 eqs.
+    Repeated linear interpolation of the control polygon ([LaserApp] eqs.
     22–23 give the t = ½ case).
 
     Examples
@@ -101,7 +101,7 @@ def split_cubic(ctrl, t=0.5) -> tuple[np.ndarray, np.ndarray]:
 def flatness(ctrl, *, segment=True) -> float:
     """Larger distance of the two inner control points from the chord S–E, mm.
 
-    ``segment=False`` gives seed 000's eq. 24 (distance to the infinite line).
+    ``segment=False`` gives [LaserApp]'s eq. 24 (distance to the infinite line).
 
     >>> flatness([[0, 0], [1, 2], [3, -1], [4, 0]])
     2.0
@@ -189,7 +189,7 @@ def _flatten_kernel(ctrl, tol, frac, max_depth, segment):
 def _check_tol(tol_mm, chord_fraction):
     if (tol_mm is None) == (chord_fraction is None):
         raise GeometryError("give exactly one of tol_mm (absolute, mm) or chord_fraction "
-                            "(seed 000's relative rule, e.g. 0.01)")
+                            "([LaserApp]'s relative rule, e.g. 0.01)")
     if tol_mm is not None and not tol_mm > 0:
         raise GeometryError(f"tol_mm must be > 0 mm, got {tol_mm!r}")
     if chord_fraction is not None and not 0 < chord_fraction < 1:
@@ -207,12 +207,12 @@ def flatten_cubics(ctrls, tol_mm=None, *, chord_fraction=None, max_depth=24,
     tol_mm : float, optional
         Absolute flatness limit, mm (bounds the deviation; see module notes).
     chord_fraction : float, optional
-        Seed 000's rule instead: stop when the flatness is below this fraction
+        [LaserApp]'s rule instead: stop when the flatness is below this fraction
         of the chord (0.01 in the seed). Gives no bound in mm.
     max_depth : int
         Deepest halving (2**24 pieces per curve at most).
     segment : bool
-        Measure to the chord segment (True) or its infinite line (seed 000).
+        Measure to the chord segment (True) or its infinite line ([LaserApp]).
 
     Returns
     -------
@@ -236,7 +236,7 @@ def flatten_cubic(ctrl, tol_mm=None, *, chord_fraction=None, max_depth=24, segme
     >>> arch = [[0, 0], [0, 10], [10, 10], [10, 0]]
     >>> len(flatten_cubic(arch, tol_mm=0.1)) - 1, len(flatten_cubic(arch, tol_mm=0.01)) - 1
     (16, 32)
-    >>> len(flatten_cubic(arch, chord_fraction=0.01)) - 1      # seed 000's 1 % rule
+    >>> len(flatten_cubic(arch, chord_fraction=0.01)) - 1      # [LaserApp]'s 1 % rule
     78
     """
     c = _cubic(ctrl)
@@ -258,7 +258,7 @@ def _max_distance_to_line(ctrl, t0, t1, p0, p1, samples):
 
 def flatten_adaptive_t(ctrl, error_cap, *, increment_growth=1.1, error_floor=None,
                        samples=16, counter=None) -> np.ndarray:
-    """Seed 003's adaptive t-stepping: a polyline whose pieces stay within ``error_cap`` mm.
+    """[DobotLaser]'s adaptive t-stepping: a polyline whose pieces stay within ``error_cap`` mm.
 
     Parameters
     ----------
@@ -268,9 +268,9 @@ def flatten_adaptive_t(ctrl, error_cap, *, increment_growth=1.1, error_floor=Non
         points of each trial range, so not a strict bound).
     increment_growth : float
         Factor (> 1) by which the t step shrinks after a failed try and grows
-        after a very good one (seed 003 default 1.1).
+        after a very good one ([DobotLaser] default 1.1).
     error_floor : float, optional
-        Below this the step grows; default (growth − 1)·cap as in seed 003.
+        Below this the step grows; default (growth − 1)·cap as in [DobotLaser].
     samples : int
         Points per trial range at which the distance is measured.
     counter : dict, optional

@@ -1,6 +1,6 @@
 """Biarcs: two tangent-continuous circular arcs between two points with given tangents.
 
-Seed 001 §6.1.4 replaces the many short lines of a flattened curve by arcs
+[MicroCAM] §6.1.4 replaces the many short lines of a flattened curve by arcs
 that match the curve within a tolerance; biarcs are the standard way to do it
 with G1 (tangent) continuity, so the machine never sees a kink where the
 drawing has none.
@@ -372,7 +372,7 @@ def biarc(p0, t0, p1, t1, **meta) -> Path:
 
     Notes
     -----
-    See the module docstring for the construction (seed 001 §6.1.4 asks
+    See the module docstring for the construction ([MicroCAM] §6.1.4 asks
     for curves as arcs; the biarc is the tangent-continuous way).
 
     Examples

@@ -1,8 +1,8 @@
-"""Automatic chain detection (seed 001 §6.1.2): join pieces whose ends meet.
+"""Automatic chain detection ([MicroCAM] §6.1.2): join pieces whose ends meet.
 
 DXF drawings and many SVGs arrive as loose pieces — lines, arcs, short paths
 — in no particular order. Cutting them as they come makes the head jump
-back and forth and leaves closed outlines as several open cuts. Seed 001
+back and forth and leaves closed outlines as several open cuts. [MicroCAM]
 joins entities whose end points coincide into open or closed chains by
 comparing every end with every chain end, recursively — O(n²).
 
@@ -83,7 +83,7 @@ def _join(pieces: list[tuple[Path, bool]], closed: bool) -> Path:
 
 
 def join_chains(paths: Sequence[Path], tol_mm: float = 1e-3, *, by_layer=True) -> list[Path]:
-    """Join pieces whose ends meet within ``tol_mm`` into chains (seed 001 §6.1.2).
+    """Join pieces whose ends meet within ``tol_mm`` into chains ([MicroCAM] §6.1.2).
 
     Parameters
     ----------

@@ -2,7 +2,7 @@
 
 Everything here is plain 2-D vector algebra on numpy arrays (last axis = x, y),
 written with cross and dot products so that vertical chords, which break the
-slope formulas in seeds 000 and 003, need no special case.
+slope formulas in [LaserApp] and [DobotLaser], need no special case.
 
 Sign conventions: a sweep angle is in radians, positive counter-clockwise
 (G3), negative clockwise (G2), with magnitude in (0, 2π]. An arc whose end
@@ -62,7 +62,7 @@ def orientation(a, b, c, *, rel_tol=1e-12):
 
     Notes
     -----
-    Seed 003 compares slopes, which divides by zero on vertical chords; the
+    [DobotLaser] compares slopes, which divides by zero on vertical chords; the
     sign of the cross product (b − a) × (c − a) has no such case.
 
     Examples
@@ -101,7 +101,7 @@ def circumcentre(a, b, c):
     With u = b − a, v = c − a and d = 2·(u × v), the centre is
     a + (v_y·|u|² − u_y·|v|², u_x·|v|² − v_x·|u|²) / d — the intersection of
     the perpendicular bisectors without slopes, so vertical chords need no
-    special case (seed 000 intersected bisector slopes).
+    special case ([LaserApp] intersected bisector slopes).
 
     Examples
     --------
@@ -247,7 +247,7 @@ def grbl_segments(radius, sweep, tol_mm=0.002):
 
 
 def mid_arc_point(start, end, centre, clockwise):
-    """The point halfway along an arc — seed 003's "circular point".
+    """The point halfway along an arc — [DobotLaser]'s "circular point".
 
     A Dobot arm's ARC command takes one point on the arc instead of the
     centre. It lies where the line through the centre perpendicular to the

@@ -1,8 +1,8 @@
-"""Ellipses and elliptical arcs as circular arcs (seed 000 §3.4.2, after Eberly).
+"""Ellipses and elliptical arcs as circular arcs ([LaserApp] §3.4.2, after Eberly).
 
 G-code has circular arcs only, so an ellipse is cut as a chain of them. The
 points where one arc hands over to the next are chosen where the curvature
-changes, by the curvature weighting of seed 000 (eqs. 13–17): along the first
+changes, by the curvature weighting of [LaserApp] (eqs. 13–17): along the first
 quadrant of the axis-aligned ellipse x²/a² + y²/b² = 1 the curvature runs
 from K₀ = a/b² at (a, 0) to Kₙ = b/a² at (0, b); the i-th point is the one
 whose curvature is Kᵢ = (1 − i/n)·K₀ + (i/n)·Kₙ, found with
@@ -16,7 +16,7 @@ point of the ellipse; that third point is the choice of ``method``:
     the ellipse point halfway in parameter between the two — the arc then
     crosses the ellipse three times and its error is small on both sides;
 ``"seed"``
-    seed 000's choice, the previous hand-over point (circle Cᵢ through
+    [LaserApp]'s choice, the previous hand-over point (circle Cᵢ through
     Pᵢ₋₁, Pᵢ, Pᵢ₊₁ carries the arc Pᵢ → Pᵢ₊₁; the arcs that touch an axis use
     the circle symmetric about that axis). Kept to compare; its error is
     several times larger at the same count (see notebook 04).
@@ -51,7 +51,7 @@ _MAX_PER_QUADRANT = 4096
 
 
 def default_arcs_per_quadrant(rx, ry) -> int:
-    """Seed 000's count: round(8 · max(rx, ry) / min(rx, ry)) arcs per quadrant.
+    """[LaserApp]'s count: round(8 · max(rx, ry) / min(rx, ry)) arcs per quadrant.
 
     >>> default_arcs_per_quadrant(2.0, 1.0), default_arcs_per_quadrant(2.0, 1.5)
     (16, 11)
@@ -78,7 +78,7 @@ def curvature_weighted_points(a, b, n) -> np.ndarray:
 
     Notes
     -----
-    Seed 000 eqs. 15–17 (curvatures equally spaced between the two vertices).
+    [LaserApp] eqs. 15–17 (curvatures equally spaced between the two vertices).
     For a circle (a = b) the curvature is constant and the formula has no
     answer; the points are then spaced equally in angle.
 
@@ -221,7 +221,7 @@ def _intervals(a, b, u0, du, n):
 
 
 def _seed_third(u_a, u_b, allbp, eps):
-    """Seed 000's third point: the previous hand-over point (or, for the arc ending on an
+    """[LaserApp]'s third point: the previous hand-over point (or, for the arc ending on an
     axis, the next one, so that arc's circle is symmetric about the axis)."""
     third = 0.5 * (u_a + u_b)
     last = len(allbp) - 1
@@ -362,7 +362,7 @@ def ellipse_arc_arrays(centre, jacobian, t0, dt, arcs_per_quadrant, tol_mm, meth
 
 def ellipse_to_arcs(centre, rx, ry, rotation=0.0, *, arcs_per_quadrant=None, tol_mm=None,
                     method="midpoint", **meta) -> Path:
-    """A whole ellipse as a closed chain of circular arcs (seed 000 §3.4.2).
+    """A whole ellipse as a closed chain of circular arcs ([LaserApp] §3.4.2).
 
     Parameters
     ----------
@@ -373,7 +373,7 @@ def ellipse_to_arcs(centre, rx, ry, rotation=0.0, *, arcs_per_quadrant=None, tol
     rotation : float
         Angle of the ellipse's x axis, rad (CCW).
     arcs_per_quadrant, tol_mm, method, **meta
-        As in :func:`ellipse_arc_to_arcs`; the default count is seed 000's
+        As in :func:`ellipse_arc_to_arcs`; the default count is [LaserApp]'s
         round(8·max/min).
 
     Returns
@@ -384,7 +384,7 @@ def ellipse_to_arcs(centre, rx, ry, rotation=0.0, *, arcs_per_quadrant=None, tol
 
     Examples
     --------
-    Seed 000's default for a 2 : 1 ellipse is 16 arcs per quadrant; on a
+    [LaserApp]'s default for a 2 : 1 ellipse is 16 arcs per quadrant; on a
     40 × 20 mm ellipse they deviate by 0.011 mm. Asking for a tolerance starts
 from 2 per quadrant and halves only the arcs that miss it:
 

@@ -1,6 +1,6 @@
-"""Hatch fill straight from the vectors (replaces seed 000's rasterised fill).
+"""Hatch fill straight from the vectors (replaces [LaserApp]'s rasterised fill).
 
-Seed 000 fills SVG shapes by rasterising them and engraving the raster, then
+[LaserApp] fills SVG shapes by rasterising them and engraving the raster, then
 cuts the vector outline on top. Filling from the vectors needs no pixels:
 parallel scan lines ``spacing_mm`` apart (the beam width) are intersected with
 every edge of the closed paths, and each scan line is burnt where it is

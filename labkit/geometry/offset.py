@@ -1,8 +1,8 @@
-"""Contour offsets for kerf compensation (seed 001 §6.1.3.1, fig. 6-11/6-12).
+"""Contour offsets for kerf compensation ([MicroCAM] §6.1.3.1, fig. 6-11/6-12).
 
 A beam of width w removes w/2 on each side of its path. To cut a part to
 size, its outline's path moves w/2 outwards and its holes' paths w/2 inwards
-— both are one offset of the *filled region* by +w/2. Seed 001 offsets each
+— both are one offset of the *filled region* by +w/2. [MicroCAM] offsets each
 entity and repairs the joins case by case (trim at an intersection, or fill
 a gap with an arc). Here the region is offset by shapely (GEOS), which also
 resolves the self-intersections and vanishing features that case-by-case

@@ -1,4 +1,4 @@
-"""Cutting order: minimise travel between chains (seed 001 §6.1.3.1, fig. 6-13).
+"""Cutting order: minimise travel between chains ([MicroCAM] §6.1.3.1, fig. 6-13).
 
 The head must visit every chain once; travel (laser off) is wasted time. The
 problem is a travelling-salesman path with choices: an open chain may be cut

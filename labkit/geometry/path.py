@@ -17,7 +17,7 @@ from a curve carries ``deviation_mm``: the largest distance, measured by the
 converter, between this path and the curve it stands for.
 
 The attributes ``layer``, ``stroke``, ``fill`` and ``fill_rule`` travel with
-the geometry so that per-layer power and speed (seed 003's settings per
+the geometry so that per-layer power and speed ([DobotLaser]'s settings per
 operation) and fill rules survive import, ordering and offsetting.
 """
 

@@ -1,6 +1,6 @@
 """Affine transforms in the plane as 3×3 matrices, and what they do to ellipses.
 
-A transform is the matrix ``[[a, c, e], [b, d, f], [0, 0, 1]]`` of seed 000
+A transform is the matrix ``[[a, c, e], [b, d, f], [0, 0, 1]]`` of [LaserApp]
 §3.4.2 (eq. 25): a point (x, y) maps to (a·x + c·y + e, b·x + d·y + f). SVG
 writes the same six numbers as ``matrix(a b c d e f)``. Transforms compose by
 matrix product; ``compose(outer, inner)`` applies ``inner`` first, as nested
@@ -41,7 +41,7 @@ def identity() -> np.ndarray:
 
 
 def matrix(a, b, c, d, e=0.0, f=0.0) -> np.ndarray:
-    """The transform of SVG's ``matrix(a b c d e f)`` (seed 000 eq. 25).
+    """The transform of SVG's ``matrix(a b c d e f)`` ([LaserApp] eq. 25).
 
     >>> matrix(1, 0, 0, 1, 5, 7) @ [0, 0, 1]
     array([5., 7., 1.])

@@ -7,7 +7,7 @@ machine) and lists ports; :mod:`~labkit.machine.grbl` speaks GRBL 1.1
 status reports, settings); :mod:`~labkit.machine.virtual` is a simulated GRBL
 machine, the default when no port is given; :mod:`~labkit.machine.stream` runs
 a job with progress, pause, resume, cancel and laser-off on every fault;
-:mod:`~labkit.machine.dobot` drives seed 003's arm.
+:mod:`~labkit.machine.dobot` drives [DobotLaser]'s arm.
 
 pyserial is imported here, never by :mod:`labkit.gcode`, so parsing stays
 headless and fast.

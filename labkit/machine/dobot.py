@@ -1,4 +1,4 @@
-"""The Dobot Magician (seed 003): its binary protocol, the canvas → arm transform, a job streamer
+"""The Dobot Magician ([DobotLaser]): its binary protocol, the canvas → arm transform, a job streamer
 and an emulator.
 
 Frames are ``AA AA len id ctrl params… checksum`` with ``len = 2 + len(params)``,
@@ -10,10 +10,10 @@ word). The reader resynchronises on the ``AA AA`` header after garbage and
 drops frames whose length or checksum is wrong.
 
 A G-code job becomes queued commands: SetPTPCmd (84) in MOVL mode for lines
-and rapids, SetARCCmd (101) with seed 003's mid-arc point
+and rapids, SetARCCmd (101) with [DobotLaser]'s mid-arc point
 (:func:`labkit.geometry.circle.mid_arc_point`) for arcs, the end-effector laser
 (61) on and off, and I/O PWM (132) for power (duty % = S × 100 / S_max; S_max
-= 255 in seed 003's programs). Canvas coordinates (x′, y′) map to the arm as
+= 255 in [DobotLaser]'s programs). Canvas coordinates (x′, y′) map to the arm as
 X = −y′ + x0, Y = −x′ + y0 with the origin (x0, y0) = (300, 100) mm, and
 every point the arm would pass is checked against the reachable annulus of
 170–320 mm around its base **before anything is sent**.
@@ -42,11 +42,11 @@ CMD = {"get_pose": 10, "home": 31, "laser": 61, "ptp": 84, "arc": 101, "wait": 1
 #: PTP modes (SetPTPCmd).
 PTP_JUMP, PTP_MOVJ, PTP_MOVL = 0, 1, 2
 
-#: Seed 003's canvas origin on the arm's table, mm.
+#: [DobotLaser]'s canvas origin on the arm's table, mm.
 ORIGIN_MM = (300.0, 100.0)
 #: The arm's reach around its base in the drawing plane, mm.
 REACH_MM = (170.0, 320.0)
-#: I/O address of the laser's PWM on seed 003's set-up (the arm's EIO port 4).
+#: I/O address of the laser's PWM on [DobotLaser]'s set-up (the arm's EIO port 4).
 LASER_PWM_ADDRESS = 4
 LASER_PWM_HZ = 10_000.0
 
@@ -140,7 +140,7 @@ class FrameReader:
 # -- geometry -----------------------------------------------------------------------------------
 
 def canvas_to_robot(x, y, origin=ORIGIN_MM):
-    """Seed 003's transform: X = −y′ + x0, Y = −x′ + y0 (mm).
+    """[DobotLaser]'s transform: X = −y′ + x0, Y = −x′ + y0 (mm).
 
     >>> canvas_to_robot(0, 0)
     (300.0, 100.0)

@@ -1,7 +1,7 @@
 """GRBL 1.1 over a :class:`~labkit.machine.link.Link`.
 
 A background reader turns the machine's bytes into lines and sorts them, as
-seed 000's communication thread does with its producer–consumer queue:
+[LaserApp]'s communication thread does with its producer–consumer queue:
 
 * ``ok`` and ``error:N`` answer the oldest line still unanswered — they go to
   the response queue (:meth:`Grbl.next_event`);
@@ -68,7 +68,7 @@ def error_message(code: int) -> str:
     'G-code is locked out during an alarm or jog; unlock with $X or home with $H'
     >>> error_message(99)
     'unknown error 99'
-    >>> error_message(0)              # seed 004's bare 'er'
+    >>> error_message(0)              # [CBR40]'s bare 'er'
     'line rejected (the controller gave no code)'
     """
     if int(code) == 0:

@@ -4,7 +4,7 @@ The readable, exact reference the labkit firmware is checked against step for
 step: the machine description (:mod:`~labkit.motion.machine`), Bresenham
 lines and arcs on the step lattice (:mod:`~labkit.motion.bresenham`), blocks
 and their FIFO (:mod:`~labkit.motion.blocks`), per-block speed profiles
-(:mod:`~labkit.motion.profile`), multi-block look-ahead — seed 004's three
+(:mod:`~labkit.motion.profile`), multi-block look-ahead — [CBR40]'s three
 MBLA modes and GRBL's junction-deviation planner (:mod:`~labkit.motion.lookahead`),
 laser power that follows speed (:mod:`~labkit.motion.laser`), the step timer
 (:mod:`~labkit.motion.timer`) and the whole chain (:func:`plan`).

@@ -122,7 +122,7 @@ def arc_walk_ccw(sx, sy, ex, ey, cxq, cyq, rq, q, n_cross, max_ticks):
     error e = X² + Y² − rq² with X = q·x − cxq, Y = q·y − cyq.
 
     Each tick the octant's driver axis steps; the driven axis steps forward
-    when that lowers |e| strictly (seed 004 eq. 4), or backward when that
+    when that lowers |e| strictly ([CBR40] eq. 4), or backward when that
     lowers it further — which happens only while the walk recovers from a
     start point that rounding left off the circle. The walk counts octant
     crossings and stops in the end point's octant (``n_cross`` crossings

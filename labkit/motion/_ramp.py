@@ -2,7 +2,7 @@
 
 Each function is plain Python on numbers that also works element-wise on numpy
 arrays; the ``*_nb`` twins are the same source compiled with numba for the
-sequential planner loops. ``law`` is :data:`LINEAR` (seed 004: speed rises
+sequential planner loops. ``law`` is :data:`LINEAR` ([CBR40]: speed rises
 linearly with distance, slope in Hz per step = 1/s) or :data:`ACCEL`
 (constant acceleration: speed² rises linearly with distance, slope in mm/s²).
 """

@@ -1,10 +1,10 @@
-"""Blocks: the executable units a controller plans and runs (seed 004 §H).
+"""Blocks: the executable units a controller plans and runs ([CBR40] §H).
 
 The parser turns each motion of a program into a *block*: where it starts
 and ends in steps, how many ticks of the step timer it takes, its length and
 direction, the highest speed it may run at and the laser power it asks for.
 Blocks wait in a first-in first-out buffer (:class:`BlockFifo`) between the
-parser/planner and the runner, as in seed 004's firmware and GRBL's planner
+parser/planner and the runner, as in [CBR40]'s firmware and GRBL's planner
 buffer.
 
 Conventions (what the firmware must reproduce)
@@ -25,7 +25,7 @@ Conventions (what the firmware must reproduce)
 - The rest speed of a block is the path speed at which its driver axis steps
   at the machine's start rate, start_rate_hz × L / N (or the cap if lower).
 - Power: S / s_max × laser maximum (mW) while the beam burns (M3/M4 with
-  S > 0 on a feed move), else 0; the power/speed ratio of seed 004 §IV is
+  S > 0 on a feed move), else 0; the power/speed ratio of [CBR40] §IV is
   that power over the programmed speed (mW per mm/s).
 """
 
@@ -164,7 +164,7 @@ class Blocks:
 
     @property
     def power_ratio(self) -> np.ndarray:
-        """Seed 004's power/speed ratio: programmed power / programmed speed, mW per mm/s."""
+        """[CBR40]'s power/speed ratio: programmed power / programmed speed, mW per mm/s."""
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(self.laser_on, self.power_mw / self.feed_mm_s, 0.0)
 
@@ -325,7 +325,7 @@ def build_blocks(moves: Moves, machine: Machine | str | None = None, *,
     arc_tol_mm : float, optional
         Cut arcs into chords at this tolerance first (GRBL ``$12``). By
         default each arc is one block walked by the octant Bresenham
-        (seed 004 §J), which needs equal steps/mm on the arc's two axes.
+        ([CBR40] §J), which needs equal steps/mm on the arc's two axes.
 
     Returns
     -------

@@ -21,7 +21,7 @@ equally near points a tie picks.
 Direction bits: bit i is set when axis i moves in the negative direction
 (GRBL's convention), see :func:`direction_bits`.
 
-Arcs (seed 004 §J) walk the circle octant by octant: in each octant the axis
+Arcs ([CBR40] §J) walk the circle octant by octant: in each octant the axis
 along which the circle runs faster is the driver and steps every tick, the
 other is driven and steps only when that brings the point closer to the
 circle, comparing the integer error e = x² + y² − r² of the candidates
@@ -91,7 +91,7 @@ def line_points(start, end) -> np.ndarray:
 
     Notes
     -----
-    The sequential integer-error form of seed 004 §I (eq. 3 multiplied by the
+    The sequential integer-error form of [CBR40] §I (eq. 3 multiplied by the
     driver's Δ to avoid the division); the module docstring gives the exact
     rule. :func:`lines_points` computes the same points in closed form for
     many lines at once.
@@ -243,7 +243,7 @@ def _fixed(value: float, scale: int) -> int:
 
 def arc_points(start, end, centre, *, clockwise: bool, radius: float | None = None,
                sweep_rad: float | None = None, scale: int = ARC_SCALE) -> np.ndarray:
-    """Lattice points of a circular arc walked octant by octant (seed 004 §J).
+    """Lattice points of a circular arc walked octant by octant ([CBR40] §J).
 
     Parameters
     ----------

@@ -1,8 +1,8 @@
-"""Laser power that follows speed (seed 004 §IV) and GRBL's M3/M4 laser modes.
+"""Laser power that follows speed ([CBR40] §IV) and GRBL's M3/M4 laser modes.
 
 While a block accelerates and decelerates, a beam at constant power leaves
 more energy per millimetre where the head is slow: corners and line ends
-burn darker. Seed 004 keeps the cut uniform by holding the ratio of laser
+burn darker. [CBR40] keeps the cut uniform by holding the ratio of laser
 power to speed: the planner computes, per block, ratio = programmed power /
 programmed speed, and the runner sets the power to ratio × instantaneous
 speed — capped at the laser's maximum (2500 mW on the seed's diode), so the
@@ -26,7 +26,7 @@ __all__ = ["power_ratio", "laser_power_mw", "dose_mj_per_mm", "dose_uniformity"]
 
 
 def power_ratio(power_mw, speed):
-    """Seed 004's power/speed ratio: programmed power over programmed speed.
+    """[CBR40]'s power/speed ratio: programmed power over programmed speed.
 
     Parameters
     ----------
@@ -57,7 +57,7 @@ def laser_power_mw(speed_mm_s, *, mode, power_mw, feed_mm_s, max_power_mw=2500.0
     speed_mm_s : float or array
         Instantaneous speed, mm/s.
     mode : LaserMode or int or array
-        0 off (M5), 3 constant (M3), 4 dynamic (M4, seed 004).
+        0 off (M5), 3 constant (M3), 4 dynamic (M4, [CBR40]).
     power_mw : float or array
         Programmed power, mW.
     feed_mm_s : float or array

@@ -3,7 +3,7 @@
 Two families of planners decide the speed at every junction (the exit of one
 block = the entry of the next):
 
-Seed 004's multi-block look-ahead (MBLA, §L)
+[CBR40]'s multi-block look-ahead (MBLA, §L)
     Consecutive blocks join into a *super block* that is profiled as one
     motion: it starts and ends at rest, and inside it the blocks pass into
     each other without stopping. A super block ends at a change between
@@ -53,7 +53,7 @@ from labkit.motion.profile import RAMP_LAWS
 
 __all__ = ["PLANNERS", "Lookahead", "junction_speed_caps", "lookahead", "SAME_DIRECTION_COS"]
 
-#: Planner names: GRBL's junction deviation, then seed 004's three MBLA modes.
+#: Planner names: GRBL's junction deviation, then [CBR40]'s three MBLA modes.
 PLANNERS = ("junction", "fast", "normal", "hq")
 
 #: Two blocks run "in the same direction" (high-quality MBLA) when cos(angle) ≥ this.
@@ -82,7 +82,7 @@ def junction_speed_caps(unit_prev, unit_next, accel_mm_s2, deviation_mm):
     -----
     With cos θ = −u_prev·u_next (GRBL's sign) and sin(θ/2) = sqrt((1 − cos θ)/2),
     the junction is driven like a circle of radius R = δ·sin(θ/2)/(1 − sin(θ/2))
-    at centripetal acceleration a: v² = a·R (ALGORITHMS.md §6).
+    at centripetal acceleration a: v² = a·R (GRBL 1.1 planner.c, junction deviation).
 
     Examples
     --------

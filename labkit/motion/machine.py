@@ -8,7 +8,7 @@ timer (clock, prescaler, width). It is frozen; :meth:`Machine.replace` makes a
 changed copy. Descriptions live as small TOML files in ``labkit/motion/machines/`` and
 load with :func:`load_machine`.
 
-The default, :data:`CBR40`, is seed 004's machine: a Colinbus CBR-40 frame
+The default, :data:`CBR40`, is [CBR40]'s machine: a Colinbus CBR-40 frame
 whose lead screws advance 3 mm per turn, driven at 1/32 microstep (6400 steps
 per turn: 0.46875 µm per step), 300 × 400 × 100 mm of travel, at most
 1546.0875 mm/min (54 972 steps/s), a 2500 mW diode laser and a 48 MHz step
@@ -61,7 +61,7 @@ class Machine:
     travel_mm : float or sequence of 3 floats
         Length of each axis, mm.
     accel_hz_per_step, decel_hz_per_step : int
-        Seed 004's ramp slopes: the driver axis' step rate rises (falls) by
+        [CBR40]'s ramp slopes: the driver axis' step rate rises (falls) by
         this many Hz per step, ≥ 1.
     start_rate_hz : int
         Step rate the motors start and stop at without a ramp, Hz; the floor
@@ -72,18 +72,18 @@ class Machine:
         GRBL ``$12``: chord tolerance when arcs are cut into lines, mm (> 0).
     buffer_blocks : int
         Look-ahead depth: planner buffer (GRBL: 16) or super block size
-        (seed 000's ``G5 P``), ≥ 1.
+        ([LaserApp]'s ``G5 P``), ≥ 1.
     laser_max_power_mw : float
-        Optical power at full duty, mW (seed 004: 2500 mW). The S word of
+        Optical power at full duty, mW ([CBR40]: 2500 mW). The S word of
         full power belongs to the program (``Moves.s_max``, set by the dialect).
     timer_clock_hz : int
-        Step timer input clock, Hz (seed 004: 48 MHz).
+        Step timer input clock, Hz ([CBR40]: 48 MHz).
     prescaler : int
         Timer prescaler register: the timer counts at clock / (prescaler + 1).
     timer_bits : int
         Width of the period register (16 or 32).
     step_pulse_us : float
-        Width of each step pulse, µs (seed 004: 5 µs); the fastest tick must
+        Width of each step pulse, µs ([CBR40]: 5 µs); the fastest tick must
         hold the pulse high and as long low.
     description : str
         One line for people.
@@ -171,7 +171,7 @@ class Machine:
 
     @property
     def resolution_um(self) -> tuple[float, float, float]:
-        """Distance of one step per axis, µm (seed 004 eq. 1: lead / steps per turn)."""
+        """Distance of one step per axis, µm ([CBR40] eq. 1: lead / steps per turn)."""
         return tuple(1000.0 / s for s in self.steps_per_mm)
 
     @property
@@ -199,8 +199,8 @@ class Machine:
         return dataclasses.asdict(self)
 
 
-#: Seed 004's machine (Colinbus CBR-40 frame, 6400 steps per 3 mm lead, 2500 mW laser).
-CBR40 = Machine(description="Colinbus CBR-40 frame with a 2500 mW diode laser (seed 004)")
+#: [CBR40]'s machine (Colinbus CBR-40 frame, 6400 steps per 3 mm lead, 2500 mW laser).
+CBR40 = Machine(description="Colinbus CBR-40 frame with a 2500 mW diode laser ([CBR40])")
 
 _FIELDS = {f.name for f in dataclasses.fields(Machine)}
 
@@ -234,7 +234,7 @@ def load_machine(source: str | Path | Machine | None = None) -> Machine:
     -----
     The file is flat or grouped in tables; table names are ignored, keys are
     the :class:`Machine` field names. ``steps_per_mm`` may be given instead as
-    ``steps_per_rev`` and ``lead_mm`` (seed 004 eq. 1: steps per mm = steps
+    ``steps_per_rev`` and ``lead_mm`` ([CBR40] eq. 1: steps per mm = steps
     per turn / lead). A scalar applies to all three axes.
 
     Examples

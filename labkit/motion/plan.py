@@ -26,7 +26,7 @@ __all__ = ["Plan", "PlanSummary", "plan", "default_law"]
 
 
 def default_law(planner: str) -> str:
-    """The ramp law a planner uses unless told: seed 004's linear ramps for its MBLA
+    """The ramp law a planner uses unless told: [CBR40]'s linear ramps for its MBLA
     modes, constant acceleration for GRBL's junction planner.
 
     >>> default_law("hq"), default_law("junction")
@@ -252,7 +252,7 @@ def plan(moves: Moves | Blocks, machine: Machine | str | None = None, *, planner
     machine : Machine, str or None
         Machine or name of a description in ``labkit/motion/machines/`` (default CBR-40).
     planner : {"junction", "fast", "normal", "hq"}
-        GRBL's junction deviation, or seed 004's MBLA modes.
+        GRBL's junction deviation, or [CBR40]'s MBLA modes.
     buffer_blocks : int, optional
         Look-ahead depth; default the machine's ``buffer_blocks``.
     law : {"linear", "accel"}, optional

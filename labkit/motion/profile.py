@@ -1,7 +1,7 @@
-"""Speed profile of a block: ramp up, cruise at the peak, ramp down (seed 004 §K).
+"""Speed profile of a block: ramp up, cruise at the peak, ramp down ([CBR40] §K).
 
 A block of length L (mm) is entered at speed v_e and left at v_x (mm/s) and
-may not exceed its cap v_c. Seed 004 profiles a block with a first-order
+may not exceed its cap v_c. [CBR40] profiles a block with a first-order
 polynomial: the step rate rises by a constant number of Hz per step while
 accelerating and falls by a constant number of Hz per step while
 decelerating. Per step of the driver axis, Hz per step is the same number as
@@ -102,7 +102,7 @@ class Profiles:
     Attributes
     ----------
     law : str
-        ``"linear"`` (seed 004) or ``"accel"`` (constant acceleration).
+        ``"linear"`` ([CBR40]) or ``"accel"`` (constant acceleration).
     length_mm, entry_mm_s, peak_mm_s, exit_mm_s, cap_mm_s : ndarray
         Block length, speeds at entry, top, exit, and the cap the block may not exceed.
     up, down : ndarray
@@ -187,7 +187,7 @@ class Profiles:
 
 
 def block_profiles(length_mm, entry_mm_s, cap_mm_s, exit_mm_s, up, down, law="linear") -> Profiles:
-    """Profile blocks from their entry, cap and exit speeds (seed 004 §K).
+    """Profile blocks from their entry, cap and exit speeds ([CBR40] §K).
 
     Parameters
     ----------

@@ -1,8 +1,8 @@
-"""Step timing: from planned speeds to timer periods and the step pulse train (seed 004 §IV).
+"""Step timing: from planned speeds to timer periods and the step pulse train ([CBR40] §IV).
 
 The runner drives the motors with a hardware timer: each time it overflows,
-an interrupt pulses the step pins (5 µs on seed 004) and loads the period
-of the next tick. Seed 004 sets the period register from the wanted step
+an interrupt pulses the step pins (5 µs on [CBR40]) and loads the period
+of the next tick. [CBR40] sets the period register from the wanted step
 rate (``motorFreq``):
 
     Period = Timer_clk / (motorFreq · (Prescaler + 1)) − 1
@@ -21,7 +21,7 @@ speed v (mm/s) is the driver rate floor(v · N / L) Hz, raised to the floor
 f_min = min(start_rate_hz, floor(cap · N / L)) and at least 1. Tick k = 0 … N−1
 then runs at
 
-    linear law (seed 004, slopes A, D in Hz per step):
+    linear law ([CBR40], slopes A, D in Hz per step):
         f_k = max(f_min, min(f_e + A·k,  f_p,  f_x + D·(N − 1 − k)))
     constant-acceleration law (slopes α, δ in steps/s², floor(a · N / L), ≥ 1):
         f_k = max(f_min, min(isqrt(f_e² + 2α·k),  f_p,  isqrt(f_x² + 2δ·(N − 1 − k))))
@@ -35,7 +35,7 @@ cycles, and the step pulse of tick k fires at its end. A dwell lasts
 round(dwell_s · Timer_clk) cycles. Times are kept as integer clock cycles
 from the start of the job.
 
-The laser follows the same ticks (seed 004 §IV, ratio = power / speed with
+The laser follows the same ticks ([CBR40] §IV, ratio = power / speed with
 the speed as a step rate): with f_feed = floor(feed · N / L) the programmed
 rate, an M4 block burns min(P_max, P · f_k / f_feed) mW during tick k, an M3
 block P, a dark block 0 (IEEE double: one multiply and one divide).
@@ -69,7 +69,7 @@ def timer_period(freq_hz, *, timer_clock_hz: int = 48_000_000, prescaler: int = 
     freq_hz : int or array of int
         Step rate, Hz (≥ 1).
     timer_clock_hz : int
-        Timer input clock (seed 004: 48 MHz).
+        Timer input clock ([CBR40]: 48 MHz).
     prescaler : int
         Prescaler register (the timer counts every Prescaler + 1 cycles).
 

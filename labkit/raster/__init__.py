@@ -1,4 +1,4 @@
-"""Raster images → laser moves (seed 000 §2.5, §3.4.1).
+"""Raster images → laser moves ([LaserApp] §2.5, §3.4.1).
 
 color       gray conversion (seed, Rec. 601, Rec. 709), threshold, invert, gamma
 filters     3×3 blur and sharpen

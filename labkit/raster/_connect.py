@@ -33,7 +33,7 @@ def _exit_point(sx, sy, ex, ey, i, flipped):
 
 @numba.njit(cache=True)
 def greedy_reference(sx, sy, ex, ey, reversible, ox, oy):
-    """Seed 000 §3.4.1: look at every remaining segment at every step.
+    """[LaserApp] §3.4.1: look at every remaining segment at every step.
 
     The remaining segments are kept in their original order and the chosen
     one is removed from the list, as the seed does. Returns (order,

@@ -20,7 +20,7 @@ def magnitude3x3(p, a, pseudo, out):
 
     Gx = (P3 + aP6 + P9) − (P1 + aP4 + P7) (right − left), Gy = (P1 + aP2 + P3)
     − (P7 + aP8 + P9) (top − bottom); writes sqrt(Gx² + Gy²), or with
-    ``pseudo`` seed 000 eq. (4), |Gx| + |Gy|.
+    ``pseudo`` [LaserApp] eq. (4), |Gx| + |Gy|.
     """
     rows, cols = out.shape
     for i in range(rows):
@@ -45,7 +45,7 @@ def magnitude3x3(p, a, pseudo, out):
 def magnitude2x2(p, pseudo, out):
     """Roberts cross on the window P1 P2 / P3 P4: Gx = P1 − P4, Gy = P2 − P3.
 
-    Writes sqrt(Gx² + Gy²), or with ``pseudo`` seed 000 eq. (3), |P1 − P4| + |P2 − P3|.
+    Writes sqrt(Gx² + Gy²), or with ``pseudo`` [LaserApp] eq. (3), |P1 − P4| + |P2 − P3|.
     """
     rows, cols = out.shape
     for i in range(rows):

@@ -1,4 +1,4 @@
-"""Compiled spiral (contour-parallel) walk of seed 000 §3.4.1, "Segment Pathing"."""
+"""Compiled spiral (contour-parallel) walk of [LaserApp] §3.4.1, "Segment Pathing"."""
 
 from __future__ import annotations
 

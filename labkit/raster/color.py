@@ -1,7 +1,7 @@
 """Colour to gray, gray to one bit, inversion and gamma.
 
 labkit's gray images are float64 arrays in 0…255 (0 black, 255 white), the
-8-bit scale seed 000 works in (§3.4.1). A *mask* is a boolean array where
+8-bit scale [LaserApp] works in (§3.4.1). A *mask* is a boolean array where
 True marks a pixel the laser burns (a dark pixel).
 """
 
@@ -25,14 +25,14 @@ __all__ = [
     "adjust_gamma",
 ]
 
-#: Luma weights (R, G, B) by name: seed 000 eq. (8), ITU-R BT.601 and BT.709.
+#: Luma weights (R, G, B) by name: [LaserApp] eq. (8), ITU-R BT.601 and BT.709.
 GRAY_WEIGHTS = {
     "seed": (0.3, 0.59, 0.11),
     "rec601": (0.299, 0.587, 0.114),
     "rec709": (0.2126, 0.7152, 0.0722),
 }
 
-#: The nine depths (percent) seed 000's application keeps ready: 10 % … 90 %.
+#: The nine depths (percent) [LaserApp]'s application keeps ready: 10 % … 90 %.
 SEED_DEPTHS = (10, 20, 30, 40, 50, 60, 70, 80, 90)
 
 
@@ -63,7 +63,7 @@ def to_gray(image, weights="seed") -> np.ndarray:
         0/255 (True = white, as scikit-image's ``horse``), floats must lie in
         0…1. Transparent pixels are composited onto white (not burned).
     weights : str or sequence of 3 floats
-        ``"seed"`` (0.3, 0.59, 0.11 — seed 000 eq. 8), ``"rec601"``
+        ``"seed"`` (0.3, 0.59, 0.11 — [LaserApp] eq. 8), ``"rec601"``
         (0.299, 0.587, 0.114) or ``"rec709"`` (0.2126, 0.7152, 0.0722), or
         your own R, G, B weights (they must sum to 1).
 
@@ -78,7 +78,7 @@ def to_gray(image, weights="seed") -> np.ndarray:
 
     Notes
     -----
-    Gray = wR·R + wG·G + wB·B on the 0…255 scale (seed 000 §3.4.1, the
+    Gray = wR·R + wG·G + wB·B on the 0…255 scale ([LaserApp] §3.4.1, the
     colour-TV luma). The result is not rounded; :func:`threshold` compares
     it with an 8-bit level.
 
@@ -142,7 +142,7 @@ def threshold(gray, level: float = 128) -> np.ndarray:
 
 
 def depth_to_level(percent: float) -> int:
-    """Seed 000's depth in percent → 8-bit threshold level.
+    """[LaserApp]'s depth in percent → 8-bit threshold level.
 
     Notes
     -----
@@ -186,7 +186,7 @@ def threshold_depths(gray, depths=SEED_DEPTHS) -> dict[int, np.ndarray]:
 
 
 def invert(image) -> np.ndarray:
-    """Negative image: 255 − value (seed 000 eq. 9); masks swap True and False.
+    """Negative image: 255 − value ([LaserApp] eq. 9); masks swap True and False.
 
     Parameters
     ----------

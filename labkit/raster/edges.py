@@ -1,4 +1,4 @@
-"""Edge detectors of seed 000 (§2.5.3): SXOR, Roberts cross, Sobel, Prewitt; Canny to compare.
+"""Edge detectors of [LaserApp] (§2.5.3): SXOR, Roberts cross, Sobel, Prewitt; Canny to compare.
 
 Magnitudes are in the units of the input gray (0…255) with the kernels as
 the seed draws them — no normalisation. scikit-image scales its filters
@@ -85,7 +85,7 @@ def _as_gray(gray) -> np.ndarray:
 
 
 def sxor(mask, *, border: str = "constant") -> np.ndarray:
-    """Simple XOR edge detection on a one-bit image (Diaconu & Sima; seed 000 eqs. 5–7).
+    """Simple XOR edge detection on a one-bit image (Diaconu & Sima; [LaserApp] eqs. 5–7).
 
     Parameters
     ----------
@@ -172,7 +172,7 @@ def sobel(gray, *, pseudo: bool = False, border: str = "reflect", cval: float = 
         labkit gray (0…255) or uint8.
     pseudo : bool
         False: sqrt(Gx² + Gy²) from the two 3×3 kernels (:data:`WINDOW_WEIGHTS`).
-        True: seed 000 eq. (4) with a = 2, which equals |Gx| + |Gy|.
+        True: [LaserApp] eq. (4) with a = 2, which equals |Gx| + |Gy|.
     border : {"reflect", "nearest", "constant"}
         Values beyond the edges (see the module docstring).
     cval : float
@@ -252,7 +252,7 @@ def gradients(gray, operator: str = "sobel", *, border: str = "reflect",
 def edge_angle(gx, gy, *, roberts_offset: bool = True):
     """Orientation of the edge from the gradient components, rad.
 
-    Seed 000 eq. (2): θ = atan(Gy / Gx) − 3π/4 for the Roberts cross, whose
+    [LaserApp] eq. (2): θ = atan(Gy / Gx) − 3π/4 for the Roberts cross, whose
     kernels are rotated 45° (plus a quarter turn) from the pixel grid; the
     quadrant comes from atan2. ``roberts_offset=False`` gives the plain
     gradient direction atan2(Gy, Gx) for Sobel and Prewitt.
@@ -300,7 +300,7 @@ def detect_edges(gray, operator: str = "sobel", *, threshold: float | None = Non
     pseudo : bool
         Use the pseudo-convolution (|Gx| + |Gy|) instead of sqrt(Gx² + Gy²).
     blur : bool
-        Blur with :data:`~labkit.raster.filters.BLUR_KERNEL` first (seed 000
+        Blur with :data:`~labkit.raster.filters.BLUR_KERNEL` first ([LaserApp]
         Fig. 3.14: fewer noise edges).
     level : float
         Threshold level for sxor (0…256).

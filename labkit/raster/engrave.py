@@ -6,7 +6,7 @@ G1 with the laser on; travel between segments is G0 (beam off). Gray
 engraving adds G1 moves at S 0 — overscan lead-ins/outs and short white
 gaps crossed at speed — which burn nothing.
 
-The report carries the figures of seed 000's tables 4.3–4.8: segments before
+The report carries the figures of [LaserApp]'s tables 4.3–4.8: segments before
 and after pathing, tool lines, G-code lines, cut and travel distance and an
 estimated time at constant speed (the seed's assumption: no acceleration).
 """
@@ -39,7 +39,7 @@ MODES = ("zigzag", "spiral", "edges", "gray", "dither")
 
 @dataclass(frozen=True)
 class RasterReport:
-    """What a raster job will do (seed 000 tables 4.3–4.8 and more).
+    """What a raster job will do ([LaserApp] tables 4.3–4.8 and more).
 
     Distances in mm, time in s, feeds in mm/min. ``segments_before`` is the
     seed's "segments pre-pathing" (scan lines holding marked pixels for
@@ -136,7 +136,7 @@ class RasterJob:
 def summarize(moves: Moves, *, feed_mm_min: float, rapid_mm_min: float | None = None) -> dict:
     """Cut, travel and laser-off feed distances (mm) and the constant-speed time (s).
 
-    Seed 000 §4.1 estimates time as distance / speed with no acceleration;
+    [LaserApp] §4.1 estimates time as distance / speed with no acceleration;
     travel (G0) runs at ``rapid_mm_min`` (default: the feed, as the seed's
     estimate assumes one speed for everything).
 
@@ -398,7 +398,7 @@ def image_to_job(image, *, mode: str = "zigzag", beam_mm: float = 0.1, width_mm=
                  sharpen: bool = False, gamma: float = 1.0, edge_operator: str = "sobel",
                  edge_threshold: float | None = None, edge_pseudo: bool = False,
                  edge_path: str = "spiral", **options) -> RasterJob:
-    """The whole chain of seed 000 §3.4.1 from an image array to Moves.
+    """The whole chain of [LaserApp] §3.4.1 from an image array to Moves.
 
     gray → (invert, sharpen, blur, gamma) → resample to the beam → then by mode:
     ``zigzag``/``spiral`` threshold at ``level`` and path; ``edges`` runs an

@@ -1,4 +1,4 @@
-"""3×3 kernel convolution: blur and sharpen (seed 000 §3.4.1, "Sharp and Blur").
+"""3×3 kernel convolution: blur and sharpen ([LaserApp] §3.4.1, "Sharp and Blur").
 
 Blurring before edge detection removes noise that would otherwise turn into
 edges; sharpening brings out fine detail. Both are a convolution of the gray

@@ -1,4 +1,4 @@
-"""Split a mask into 4-connected islands (seed 000 §3.4.1, "Image Segmentation").
+"""Split a mask into 4-connected islands ([LaserApp] §3.4.1, "Image Segmentation").
 
 The seed grows each island from a seed pixel through its up, down, left and
 right neighbours; the same partition is scikit-image's connected-component

@@ -1,4 +1,4 @@
-"""Tool paths over the marked pixels of a mask (seed 000 §2.5.1–2.5.2, §3.4.1).
+"""Tool paths over the marked pixels of a mask ([LaserApp] §2.5.1–2.5.2, §3.4.1).
 
 Coordinates
 -----------
@@ -182,7 +182,7 @@ def zigzag_segments(mask, *, axis: str = "auto", direction: str = "bidirectional
 
     Notes
     -----
-    Seed 000 §3.4.1: each run is its own segment, so that the connection can
+    [LaserApp] §3.4.1: each run is its own segment, so that the connection can
     jump to the nearest run rather than the next one on the same line.
 
     Examples
@@ -234,7 +234,7 @@ def spiral_segments(mask, *, ends: str = "edge") -> Segments:
 
     Notes
     -----
-    Seed 000 §3.4.1, "Segment Pathing": start at the bottom-left pixel of the
+    [LaserApp] §3.4.1, "Segment Pathing": start at the bottom-left pixel of the
     bottom row heading up; at each pixel try left, straight, right (relative
     to the heading), so the walk hugs the outline clockwise and then spirals
     inward; every pixel is consumed as it is passed, so none is pathed twice;
@@ -286,7 +286,7 @@ def connect(segments: Segments, *, method: str = "indexed", origin=(0, 0)) -> Co
     ----------
     segments : Segments
     method : {"indexed", "reference", "scan"}
-        ``"reference"`` — seed 000's O(n²) scan of every remaining segment at
+        ``"reference"`` — [LaserApp]'s O(n²) scan of every remaining segment at
         every step; ``"indexed"`` — the same choices found through a uniform
         grid of entry points (about O(n log n) on images); ``"scan"`` — no
         search, the classic zig-zag order (:func:`scan_order`).
@@ -341,7 +341,7 @@ def scan_order(segments: Segments) -> Connection:
     """The plain zig-zag order, no search: line by line from the bottom (rows) or the left (columns).
 
     Along each line the runs follow one another; with reversible segments
-    every other line runs backwards (the boustrophedon of seed 000 Fig. 2.15,
+    every other line runs backwards (the boustrophedon of [LaserApp] Fig. 2.15,
     left), otherwise all go the same way (Fig. 2.15, right).
 
     Examples

@@ -1,4 +1,4 @@
-"""Pixel density adjustment: one pixel = one beam diameter (seed 000 §3.4.1).
+"""Pixel density adjustment: one pixel = one beam diameter ([LaserApp] §3.4.1).
 
 The tool paths put the beam on pixel centres, so a pixel should be as wide
 as the beam: then neighbouring lines touch without overlapping. The image
@@ -122,7 +122,7 @@ def resample_to_beam(image, *, beam_mm: float, width_mm=None, height_mm=None, pi
     Notes
     -----
     The new size is ``max(1, round(size / beam))`` pixels per side, so the
-    size error per side is at most half a beam diameter (seed 000 §3.4.1
+    size error per side is at most half a beam diameter ([LaserApp] §3.4.1
     calls it negligible for beams under 0.2 mm).
 
     Examples

@@ -1,7 +1,7 @@
-"""Constant-velocity corner loops (seed 001 §6.1.3.1).
+"""Constant-velocity corner loops ([MicroCAM] §6.1.3.1).
 
 A controller must slow down at a sharp corner and at the two ends of a cut;
-a beam that keeps burning meanwhile leaves more energy there. Seed 001's CAM
+a beam that keeps burning meanwhile leaves more energy there. [MicroCAM]'s CAM
 keeps the feed constant wherever the laser burns by letting the head run on
 past every non-tangent corner along a detour with the laser off, and come
 back onto the next segment already at full speed:
@@ -15,7 +15,7 @@ back onto the next segment already at full speed:
   corner Int1 cuts the forward extension of the incoming segment at P1 and
   the backward extension of the outgoing one at P2; the head goes
   Int1 → P1 → P2 → Int1 with both corners P1 and P2 filleted at |L1|/5.
-  Seed 001 takes r1 = max(TA, TD)·Feed with TA, TD the acceleration and
+  [MicroCAM] takes r1 = max(TA, TD)·Feed with TA, TD the acceleration and
   deceleration times; for a = v/TA that is v²/a.
 - Cut ends (the seed's start and end loops): a laser-off lead-in before the
   first cut of a chain and a lead-out after its last one, each the ramp
@@ -129,7 +129,7 @@ def add_corner_loops(moves: Moves, *, accel_mm_s2: float, split_deg: float = 45.
         Machine acceleration a (mm/s², > 0): sets ρ = r1 = v²/a and the leads v²/(2a).
     split_deg : float
         Turns below this get the tangent-arc loop, the others the triangular
-        loop (seed 001: 45°), in (0, 180).
+        loop ([MicroCAM]: 45°), in (0, 180).
     min_turn_deg : float
         Turns below this count as tangent and get no loop, ≥ 0.
     junction_deviation_mm : float, optional
@@ -137,7 +137,7 @@ def add_corner_loops(moves: Moves, *, accel_mm_s2: float, split_deg: float = 45.
         passes at full feed get no loop either: GRBL's v_j² =
         a·δ·sin(φ/2)/(1 − sin(φ/2)) ≥ v², with φ = π − turn (useful for
         polylines that approximate curves). By default every corner above
-        ``min_turn_deg`` gets one, as in seed 001.
+        ``min_turn_deg`` gets one, as in [MicroCAM].
     leads : bool
         Add a lead-in before and a lead-out after every chain of cuts.
     fillet_ratio : float

@@ -132,7 +132,7 @@ def bezier_explorer(ctrl=((0, 0), (10, 40), (50, -20), (60, 20))):
     import matplotlib.pyplot as plt
 
     t = w.FloatSlider(value=0.5, min=0.0, max=1.0, step=0.01, description="split t")
-    method = w.ToggleButtons(options=["absolute", "chord 1 %", "seed 003 t-steps"], description="flatten")
+    method = w.ToggleButtons(options=["absolute", "chord 1 %", "[DobotLaser] t-steps"], description="flatten")
     tol = w.FloatLogSlider(value=0.5, base=10, min=-3, max=1, step=0.1, description="tol (mm)")
     out = w.Output()
 

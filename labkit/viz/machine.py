@@ -1,10 +1,10 @@
-"""The machine control panel (seed 000's CNC control manager) and streaming plots.
+"""The machine control panel ([LaserApp]'s CNC control manager) and streaming plots.
 
-:class:`ControlPanel` has seed 000's three states, each enabling only its own
+:class:`ControlPanel` has [LaserApp]'s three states, each enabling only its own
 controls: **disconnected** (port list and connect), **manual control**
 (status, jog with a step size, home, unlock, console, load / frame / start a
 job) and **printing** (pause, resume, stop, overrides and the progress bar;
-the console is locked). A job runs in a background thread — seed 000's
+the console is locked). A job runs in a background thread — [LaserApp]'s
 communication thread — through :func:`labkit.machine.stream.run_job`, so
 every fault ends with the laser off and a report. With no port it drives the
 virtual machine.

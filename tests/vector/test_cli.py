@@ -48,11 +48,13 @@ def test_dxf2gcode_with_fill_and_kerf(tmp_path, capsys):
 
 def test_errors_are_one_line(tmp_path, capsys):
     assert main(["svg2gcode", str(tmp_path / "none.svg"), "-o", str(tmp_path / "x.gcode")]) == 1
-    assert "SVG file not found" in capsys.readouterr().err
+    assert "none.svg: no such file; expected an existing SVG file" in capsys.readouterr().err
     assert main(["svg2gcode", SVG, "-o", str(tmp_path / "x.gcode"), "--layer", "red"]) == 1
     assert "expected NAME:FEED:POWER" in capsys.readouterr().err
-    assert main(["svg2gcode", SVG, "-o", str(tmp_path / "x.gcode"), "--tol", "0"]) == 1
-    assert "tol" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as stop:             # argparse: usage error, status 2
+        main(["svg2gcode", SVG, "-o", str(tmp_path / "x.gcode"), "--tol", "0"])
+    assert stop.value.code == 2
+    assert "argument --tol: '0' is not a finite number >= 0.0001 and <= 10" in capsys.readouterr().err
 
 
 def test_layer_option():
