@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import re
+import sys
 import warnings
 from pathlib import Path as FilePath
 
@@ -128,7 +129,12 @@ def add_svg2gcode_arguments(parser: argparse.ArgumentParser) -> None:
 
 def add_dxf2gcode_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``labkit dxf2gcode``."""
+    from labkit.vector.dxf import UNIT_NAMES
+
     _common_arguments(parser, "DXF")
+    parser.add_argument("--units", choices=sorted(UNIT_NAMES), default=None,
+                        help="the drawing's unit, overriding $INSUNITS (a drawing without units "
+                             "is taken as mm, with a warning)")
 
 
 def _run(args, drawing) -> int:
@@ -210,7 +216,7 @@ def run_svg2gcode(args) -> int:
         warnings.simplefilter("always")
         drawing = read_svg(args.input, tol_mm=args.tol, arcs=args.arcs, fit=args.fit, flip_y=not args.no_flip)
     for w in caught:
-        print(f"warning: {w.message}")
+        print(f"warning: {w.message}", file=sys.stderr)
     return _run(args, drawing)
 
 
@@ -222,7 +228,8 @@ def run_dxf2gcode(args) -> int:
     check_input_file(args.input, what="DXF file")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        drawing = read_dxf(args.input, tol_mm=args.tol if args.arcs else args.tol / 2)
+        drawing = read_dxf(args.input, tol_mm=args.tol if args.arcs else args.tol / 2,
+                           units=args.units)
     for w in caught:
-        print(f"warning: {w.message}")
+        print(f"warning: {w.message}", file=sys.stderr)
     return _run(args, drawing)

@@ -1,40 +1,74 @@
-"""DXF drawings → Paths in millimetres, through ezdxf (seed 001 §6.1.1).
+"""DXF drawings → Paths in millimetres, through ezdxf ([MicroCAM] §6.1.1).
 
-Entities read from model space (and from block references, which ezdxf
-expands with their transforms): LINE, ARC, CIRCLE, ELLIPSE,
-LWPOLYLINE and 2-D POLYLINE (with bulges), SPLINE. Units come from the
-header variable ``$INSUNITS`` (inches, feet, mm, cm, m, µm; unitless is
-taken as mm). The entity's layer becomes the Path's layer, so layers can be
-given their own power and speed. Anything else (TEXT, HATCH, DIMENSION, 3-D
-entities…) is skipped with a warning naming it.
+Entities read from model space and from block references (INSERT and MINSERT, with
+their transforms, nested): LINE, ARC, CIRCLE, ELLIPSE, LWPOLYLINE and 2-D POLYLINE
+(with bulges), SPLINE. Entities whose extrusion is −Z (mirrored blocks, some CAD
+programs' arcs) are mapped to the XY plane; entities in other planes are skipped.
+Units come from ``$INSUNITS`` (inches, feet, mm, cm, m, µm) or the ``units``
+argument; a drawing without units is taken as mm with a warning. The entity's layer
+becomes the Path's layer. Anything else (TEXT, HATCH, DIMENSION, POINT, 3-D entities…)
+is counted by kind and reported once.
 
-Geometry: a polyline vertex's bulge b = tan(θ/4) gives the arc to the next
-vertex — sweep θ = 4·atan(b), centre on the chord's perpendicular bisector
-at (chord/2)·(1 − b²)/(2b) to the left. ELLIPSE has a major-axis vector and a
-ratio; its parametric arc goes through
-:func:`labkit.geometry.ellipse_arc_to_arcs`. SPLINE is flattened by ezdxf
-within a share of the tolerance and refitted with arcs.
+Files ezdxf's strict reader refuses but its recover mode reads (OpenSCAD's R12, for
+one) are read with a warning. Before any geometry is made, the reader refuses with
+the entity's handle and layer: numbers that are not finite, a zero or non-finite
+INSERT scale (AutoCAD refuses scale 0; ezdxf draws it at scale 1), an ELLIPSE ratio
+outside (0, 1], a SPLINE whose degree, control points and knots do not fit together,
+block references that form a cycle, and more entities after expanding every block
+reference than the ``elements`` budget.
+
+Geometry: a polyline vertex's bulge b = tan(θ/4) gives the arc to the next vertex —
+sweep θ = 4·atan(b), centre on the chord's perpendicular bisector at
+(chord/2)·(1 − b²)/(2b) to the left. ELLIPSE has a major-axis vector and a ratio;
+its parametric arc goes through :func:`labkit.geometry.ellipse_arc_to_arcs`. SPLINE
+(NURBS) is evaluated with :class:`scipy.interpolate.BSpline` on homogeneous
+coordinates over its valid knot range [t_p, t_n] only (closed splines from QCAD carry
+knots outside it), flattened by subdivision within a share of the tolerance, then
+refitted with arcs.
 """
 
 from __future__ import annotations
 
 import math
-import os
 import warnings
+from collections import Counter
 
 import numpy as np
 
+from labkit._files import check_input_file
+from labkit.budget import check_budget
 from labkit.errors import GeometryError
 from labkit.geometry.arcfit import FLATTEN_SHARE, fit_arcs
 from labkit.geometry.ellipse import ellipse_arc_to_arcs
 from labkit.geometry.path import Path
 from labkit.vector.svg import Drawing
 
-__all__ = ["read_dxf", "bulge_arc", "INSUNITS_MM"]
+__all__ = ["read_dxf", "bulge_arc", "spline_points", "INSUNITS_MM", "UNIT_NAMES"]
 
 #: $INSUNITS code → millimetres per drawing unit (0 = unitless, taken as mm).
 INSUNITS_MM = {0: 1.0, 1: 25.4, 2: 304.8, 4: 1.0, 5: 10.0, 6: 1000.0, 8: 25.4e-6, 9: 25.4e-3,
                10: 914.4, 13: 1e-3, 14: 100.0}
+
+#: Unit names accepted by ``read_dxf(units=…)`` and ``--units`` → millimetres per unit.
+UNIT_NAMES = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "um": 1e-3, "inch": 25.4, "in": 25.4,
+              "ft": 304.8, "mil": 25.4e-3}
+
+#: Block references nested deeper than this are refused (CAD programs nest a few levels).
+MAX_BLOCK_DEPTH = 64
+#: Highest SPLINE degree accepted (CAD programs write 2–5; de Boor costs grow with the square).
+MAX_SPLINE_DEGREE = 25
+
+
+def _where(e) -> str:
+    return f"{e.dxftype()} #{e.dxf.handle} on layer {e.dxf.get('layer', '0')!r}"
+
+
+def _finite(e, what: str, values) -> None:
+    parts = [np.ravel(np.asarray(v, dtype=float)) for v in values]
+    arr = np.concatenate(parts) if parts else np.zeros(0)
+    if not np.isfinite(arr).all():
+        bad = arr[~np.isfinite(arr)].ravel()[0]
+        raise GeometryError(f"{_where(e)}: {what} holds {float(bad)!r}, not a finite number")
 
 
 def bulge_arc(p0, p1, bulge):
@@ -75,63 +109,271 @@ def _poly(points, bulges, closed, meta, k) -> Path | None:
     return Path(pts, np.array(cents).reshape(-1, 2), np.array(sweeps), closed=closed, **meta)
 
 
-def _entity_paths(e, k, tol_mm, meta, skipped):
+def _plane(e) -> float | None:
+    """+1 for entities in the XY plane, −1 for extrusion −Z (x mirrored), None otherwise."""
+    ex = e.dxf.get("extrusion", (0.0, 0.0, 1.0))
+    _finite(e, "extrusion", ex)
+    if abs(ex[0]) < 1e-9 and abs(ex[1]) < 1e-9 and ex[2] != 0:
+        return 1.0 if ex[2] > 0 else -1.0
+    return None
+
+
+def spline_points(degree, control_points, knots, weights=None, *, tol_mm) -> np.ndarray:
+    """Points of a (rational) B-spline over its valid knot range, within ``tol_mm`` of it.
+
+    Parameters
+    ----------
+    degree : int
+        p ≥ 1.
+    control_points : array_like, shape (n, 2 or 3)
+        n ≥ p + 1 control points, mm (z is ignored).
+    knots : array_like, shape (n + p + 1,)
+        Non-decreasing knot vector.
+    weights : array_like, shape (n,), optional
+        Positive weights (a NURBS); all 1 when omitted.
+    tol_mm : float
+        Largest distance of the chord polyline from the curve, checked at a quarter,
+        half and three quarters of every chord's parameter interval, mm.
+
+    Returns
+    -------
+    ndarray, shape (m, 2)
+        Points from C(t_p) to C(t_n); the parts of the knot vector outside that
+        range (periodic and "closed" splines carry them) are never evaluated.
+
+    Examples
+    --------
+    A quadratic Bézier as a clamped B-spline: C(½) = (1, 1) for control points (0, 0), (1, 2), (2, 0).
+
+    >>> pts = spline_points(2, [[0, 0], [1, 2], [2, 0]], [0, 0, 0, 1, 1, 1], tol_mm=1e-3)
+    >>> pts[0].tolist(), pts[-1].tolist(), bool(np.isclose(pts[:, 1].max(), 1.0, atol=1e-3))
+    ([0.0, 0.0], [2.0, 0.0], True)
+    """
+    from scipy.interpolate import BSpline
+
+    p = int(degree)
+    c = np.asarray(control_points, float)[:, :2]
+    n = len(c)
+    t = np.asarray(knots, float)
+    w = np.ones(n) if weights is None or len(weights) == 0 else np.asarray(weights, float)
+    spl = BSpline(t, np.column_stack([c * w[:, None], w]), p, extrapolate=False)
+
+    def at(u):
+        h = spl(u)
+        return h[:, :2] / h[:, 2:3]
+
+    lo, hi = t[p], t[n]
+    breaks = np.unique(t[(t >= lo) & (t <= hi)])
+    u = np.unique(np.concatenate([np.linspace(a, b, 2 * p + 3) for a, b in zip(breaks[:-1], breaks[1:])]))
+    pts = at(u)
+    for _ in range(60):                    # each pass halves the parameter steps still too coarse
+        du = np.diff(u)
+        a, b = pts[:-1], pts[1:]
+        ab = b - a
+        ll = np.einsum("ij,ij->i", ab, ab)
+        err = np.zeros(len(du))
+        for f in (0.25, 0.5, 0.75):        # the chord's largest sag need not sit at the midpoint
+            q = at(u[:-1] + f * du)
+            s = np.clip(np.einsum("ij,ij->i", q - a, ab) / np.where(ll > 0, ll, 1.0), 0.0, 1.0)
+            err = np.maximum(err, np.hypot(*(q - a - s[:, None] * ab).T))
+            if f == 0.5:
+                pm = q
+        bad = err > tol_mm
+        if not bad.any():
+            break
+        check_budget("segments", len(u) + int(bad.sum()),
+                     cause=f"a spline flattened to {tol_mm:g} mm", option="--tol")
+        mid = u[:-1] + 0.5 * du
+        order = np.argsort(np.concatenate([u, mid[bad]]), kind="stable")
+        u = np.concatenate([u, mid[bad]])[order]
+        pts = np.concatenate([pts, pm[bad]])[order]
+    return pts
+
+
+def _spline(e, k, tol_mm, meta) -> list[Path]:
+    p = int(e.dxf.degree)
+    if not 1 <= p <= MAX_SPLINE_DEGREE:
+        raise GeometryError(f"{_where(e)}: degree {p} is outside 1…{MAX_SPLINE_DEGREE}")
+    if len(e.control_points) == 0:                  # defined by fit points only: ezdxf interpolates
+        if len(e.fit_points) < 2:
+            raise GeometryError(f"{_where(e)}: neither control points nor two fit points")
+        _finite(e, "a fit point", e.fit_points)
+        tool = e.construction_tool()
+        ctrl, knots, weights = np.asarray(tool.control_points, float), tool.knots(), tool.weights()
+        p = tool.degree
+    else:
+        ctrl = np.asarray(e.control_points, float)
+        knots, weights = list(e.knots), list(e.weights)
+    _finite(e, "a control point", ctrl)
+    _finite(e, "a knot", knots)
+    _finite(e, "a weight", weights)
+    n = len(ctrl)
+    if n < p + 1:
+        raise GeometryError(f"{_where(e)}: {n} control points cannot carry degree {p} "
+                            f"(at least {p + 1} needed)")
+    if len(knots) == 0:                              # no knots: clamped and uniform, as ezdxf does
+        knots = np.r_[np.zeros(p), np.linspace(0.0, 1.0, n - p + 1), np.ones(p)]
+    knots = np.asarray(knots, float)
+    if len(knots) != n + p + 1:
+        raise GeometryError(f"{_where(e)}: {len(knots)} knots for {n} control points of degree "
+                            f"{p} (expected {n + p + 1})")
+    if np.any(np.diff(knots) < 0) or not knots[n] > knots[p]:
+        raise GeometryError(f"{_where(e)}: the knot vector decreases or has an empty valid range")
+    if len(weights) not in (0, n) or (len(weights) and not np.all(np.asarray(weights) > 0)):
+        raise GeometryError(f"{_where(e)}: weights must be {n} positive numbers")
+    flat = FLATTEN_SHARE * tol_mm
+    pts = spline_points(p, ctrl * k, knots, weights, tol_mm=flat)
+    if len(pts) < 2 or not np.any(pts != pts[0]):
+        return []
+    closed = bool(e.closed) or (len(pts) > 2 and np.allclose(pts[0], pts[-1], atol=1e-9))
+    return [fit_arcs(pts, tol_mm - flat, closed=closed, base_deviation_mm=flat, **meta)]
+
+
+def _entity_paths(e, k, tol_mm, meta, skipped, depth=0) -> list[Path]:
+    import ezdxf
+
     kind = e.dxftype()
     if kind == "LINE":
-        a, b = np.array(e.dxf.start)[:2] * k, np.array(e.dxf.end)[:2] * k
-        return [Path([a, b], **meta)] if np.any(a != b) else []
-    if kind == "CIRCLE":
-        return [Path.circle(np.array(e.dxf.center)[:2] * k, e.dxf.radius * k, **meta)]
-    if kind == "ARC":
-        a0 = math.radians(e.dxf.start_angle)
-        sweep = math.radians((e.dxf.end_angle - e.dxf.start_angle) % 360.0) or 2 * math.pi
-        return [Path.arc(np.array(e.dxf.center)[:2] * k, e.dxf.radius * k, a0, sweep, **meta)]
-    if kind == "ELLIPSE":
-        major = np.array(e.dxf.major_axis)[:2] * k
-        minor = e.dxf.ratio * np.array([-major[1], major[0]])
-        if e.dxf.extrusion[2] < 0:         # seen from below: mirrored in x
-            major, minor = major * [-1, 1], minor * [-1, 1]
-        jac = np.column_stack([major, minor])
-        t0, t1 = e.dxf.start_param, e.dxf.end_param
-        dt = (t1 - t0) % (2 * math.pi) or 2 * math.pi
-        centre = np.array(e.dxf.center)[:2] * k
-        if e.dxf.extrusion[2] < 0:
-            centre = centre * [-1, 1]
-        return [ellipse_arc_to_arcs(centre, jac, t0, dt, tol_mm=tol_mm, **meta)]
-    if kind == "LWPOLYLINE":
-        pts = list(e.get_points("xyb"))
-        if len(pts) < 2:
-            return []
-        arr = np.array(pts, float)
-        p = _poly(arr[:, :2], arr[:, 2], bool(e.closed), meta, k)
-        return [p] if p else []
-    if kind == "POLYLINE":
-        if e.is_3d_polyline or e.is_poly_face_mesh or e.is_polygon_mesh:
+        a, b = np.array(e.dxf.start)[:2], np.array(e.dxf.end)[:2]
+        _finite(e, "an end point", [a, b])
+        return [Path([a * k, b * k], **meta)] if np.any(a != b) else []
+    if kind in ("CIRCLE", "ARC", "LWPOLYLINE", "POLYLINE"):
+        if kind == "POLYLINE" and (e.is_3d_polyline or e.is_poly_face_mesh or e.is_polygon_mesh):
             skipped.append(f"{kind}(3D)#{e.dxf.handle}")
             return []
-        verts = list(e.vertices)
-        if len(verts) < 2:
+        mirror = _plane(e)                       # these are given in the entity's plane (OCS)
+        if mirror is None:
+            skipped.append(f"{kind}(not in the XY plane)#{e.dxf.handle}")
             return []
-        pts = np.array([v.dxf.location for v in verts], float)[:, :2]
-        bul = np.array([v.dxf.bulge for v in verts], float)
-        p = _poly(pts, bul, bool(e.is_closed), meta, k)
+    if kind in ("CIRCLE", "ARC"):
+        centre, r = np.array(e.dxf.center)[:2], e.dxf.radius
+        _finite(e, "the centre or radius", [*centre, r])
+        if not r > 0:
+            raise GeometryError(f"{_where(e)}: radius {r!r} is not positive")
+        centre = centre * [mirror, 1.0] * k
+        if kind == "CIRCLE":
+            return [Path.circle(centre, r * k, ccw=mirror > 0, **meta)]
+        _finite(e, "an angle", [e.dxf.start_angle, e.dxf.end_angle])
+        a0 = math.radians(e.dxf.start_angle)
+        sweep = math.radians((e.dxf.end_angle - e.dxf.start_angle) % 360.0) or 2 * math.pi
+        if mirror < 0:
+            a0, sweep = math.pi - a0, -sweep
+        return [Path.arc(centre, r * k, a0, sweep, **meta)]
+    if kind == "ELLIPSE":
+        centre, major = np.array(e.dxf.center)[:2], np.array(e.dxf.major_axis)[:2]
+        ratio, t0, t1 = e.dxf.ratio, e.dxf.start_param, e.dxf.end_param
+        _finite(e, "the centre, axis, ratio or parameters", [*centre, *major, ratio, t0, t1])
+        if not 0 < ratio <= 1 + 1e-9:
+            raise GeometryError(f"{_where(e)}: axis ratio {ratio!r} is outside (0, 1]")
+        if not np.any(major != 0):
+            raise GeometryError(f"{_where(e)}: the major axis has length 0")
+        mirror = _plane(e)
+        if mirror is None:
+            skipped.append(f"{kind}(not in the XY plane)#{e.dxf.handle}")
+            return []
+        # centre and major axis are in world coordinates; the minor axis is ratio · (N × major)
+        minor = ratio * mirror * np.array([-major[1], major[0]])
+        dt = (t1 - t0) % (2 * math.pi) or 2 * math.pi
+        jac = np.column_stack([major, minor]) * k
+        return [ellipse_arc_to_arcs(centre * k, jac, t0, dt, tol_mm=tol_mm, **meta)]
+    if kind == "LWPOLYLINE":
+        pts = np.array(list(e.get_points("xyb")), float).reshape(-1, 3)
+        _finite(e, "a vertex or bulge", pts)
+        if len(pts) < 2:
+            return []
+        p = _poly(pts[:, :2] * [mirror, 1.0], pts[:, 2] * mirror, bool(e.closed), meta, k)
+        return [p] if p else []
+    if kind == "POLYLINE":
+        verts = list(e.vertices)
+        pts = np.array([v.dxf.location for v in verts], float).reshape(-1, 3)[:, :2]
+        bul = np.array([v.dxf.get("bulge", 0.0) for v in verts], float)
+        _finite(e, "a vertex or bulge", [pts.ravel(), bul] if len(pts) else [])
+        if len(pts) < 2:
+            return []
+        p = _poly(pts * [mirror, 1.0], bul * mirror, bool(e.is_closed), meta, k)
         return [p] if p else []
     if kind == "SPLINE":
-        flat = FLATTEN_SHARE * tol_mm
-        pts = np.array(list(e.construction_tool().flattening(flat / k)), float)[:, :2] * k
-        closed = bool(e.closed) or (len(pts) > 2 and np.allclose(pts[0], pts[-1], atol=1e-9))
-        return [fit_arcs(pts, tol_mm - flat, closed=closed, base_deviation_mm=flat, **meta)]
+        return _spline(e, k, tol_mm, meta)
     if kind == "INSERT":
+        scale = [e.dxf.get("xscale", 1.0), e.dxf.get("yscale", 1.0), e.dxf.get("zscale", 1.0)]
+        _finite(e, "the insertion point, scale or rotation",
+                [*e.dxf.get("insert", (0, 0, 0)), *scale, e.dxf.get("rotation", 0.0)])
+        if any(v == 0 for v in scale):
+            raise GeometryError(f"{_where(e)}: block {e.dxf.name!r} inserted at scale "
+                                f"{scale[0]:g} × {scale[1]:g} × {scale[2]:g}; a zero scale "
+                                f"collapses it (AutoCAD refuses it)")
+        if depth >= MAX_BLOCK_DEPTH:
+            raise GeometryError(f"{_where(e)}: block references nested more than "
+                                f"{MAX_BLOCK_DEPTH} deep")
         out = []
-        for sub in e.virtual_entities():
-            sub_meta = dict(meta, layer=meta["layer"] if sub.dxf.layer == "0" else sub.dxf.layer)
-            out += _entity_paths(sub, k, tol_mm, sub_meta, skipped)
+        copies = e.multi_insert() if e.mcount > 1 else [e]
+        for ins in copies:
+            try:
+                subs = list(ins.virtual_entities())
+            except (ValueError, ZeroDivisionError, ezdxf.DXFError) as exc:
+                raise GeometryError(f"{_where(e)}: block {e.dxf.name!r} cannot be placed "
+                                    f"({exc})") from None
+            for sub in subs:
+                sub_meta = dict(meta, layer=meta["layer"] if sub.dxf.layer == "0" else sub.dxf.layer)
+                out += _entity_paths(sub, k, tol_mm, sub_meta, skipped, depth + 1)
         return out
     skipped.append(f"{kind}#{e.dxf.handle}")
     return []
 
 
-def read_dxf(source, *, tol_mm=0.01, warn=True) -> Drawing:
+def _expanded_count(doc, name) -> int:
+    """Entities after expanding every block reference; refuses cycles and the budget."""
+    memo: dict[str, int] = {}
+
+    def block(bname, chain, where):
+        if bname in memo:
+            return memo[bname]
+        if bname in chain:
+            ring = " → ".join([*chain[chain.index(bname):], bname])
+            raise GeometryError(f"{name}: {where}: block references form a cycle ({ring})")
+        if len(chain) >= MAX_BLOCK_DEPTH:
+            raise GeometryError(f"{name}: {where}: block references nested more than "
+                                f"{MAX_BLOCK_DEPTH} deep")
+        layout = doc.blocks.get(bname)
+        total = 0 if layout is None else sum(entity(e, [*chain, bname]) for e in layout)
+        memo[bname] = total
+        check_budget("elements", total, cause=f"copies inside block {bname!r} of {name}")
+        return total
+
+    def entity(e, chain):
+        if e.dxftype() != "INSERT":
+            return 1
+        reps = max(1, int(e.dxf.get("row_count", 1))) * max(1, int(e.dxf.get("column_count", 1)))
+        return 1 + reps * block(e.dxf.name, chain, _where(e))
+
+    total = sum(entity(e, []) for e in doc.modelspace())
+    check_budget("elements", total, cause=f"block references (INSERT) in {name}")
+    return total
+
+
+def _unit_scale(doc, units, name, warn) -> float:
+    if units is not None:
+        try:
+            return UNIT_NAMES[str(units).lower()]
+        except KeyError:
+            raise GeometryError(f"units {units!r}: expected one of {', '.join(UNIT_NAMES)}") from None
+    code = doc.header.get("$INSUNITS", 0)
+    try:
+        code = int(code)
+    except (TypeError, ValueError):
+        code = -1
+    if code not in INSUNITS_MM:
+        raise GeometryError(f"{name}: $INSUNITS = {code} is not a length unit labkit knows "
+                            f"(expected one of {sorted(INSUNITS_MM)}); give the units (--units)")
+    if code == 0 and warn:
+        imperial = doc.header.get("$MEASUREMENT", 1) == 0
+        warnings.warn(f"{name}: the drawing does not say its units ($INSUNITS missing or 0"
+                      f"{', $MEASUREMENT imperial' if imperial else ''}); taken as millimetres — "
+                      f"give --units inch (or units='inch') if it was drawn in inches", stacklevel=3)
+    return INSUNITS_MM[code]
+
+
+def read_dxf(source, *, tol_mm=0.01, units=None, warn=True) -> Drawing:
     """Read a DXF file into Paths in mm (see the module docstring for entities and units).
 
     Parameters
@@ -140,8 +382,11 @@ def read_dxf(source, *, tol_mm=0.01, warn=True) -> Drawing:
         DXF file name.
     tol_mm : float
         Largest deviation of ellipses and splines from their arcs, mm.
+    units : str, optional
+        The drawing unit (``"mm"``, ``"cm"``, ``"m"``, ``"um"``, ``"inch"``, ``"ft"``,
+        ``"mil"``), overriding ``$INSUNITS``.
     warn : bool
-        Warn about skipped entities, naming each (type and handle).
+        Warn about recovery, missing units and skipped entities (counted by kind).
 
     Returns
     -------
@@ -150,27 +395,43 @@ def read_dxf(source, *, tol_mm=0.01, warn=True) -> Drawing:
         :func:`labkit.geometry.join_chains`.
     """
     import ezdxf
+    from ezdxf import recover
 
-    if not tol_mm > 0:
-        raise GeometryError(f"tol_mm must be > 0 mm, got {tol_mm!r}")
-    name = os.fspath(source)
-    if not os.path.exists(name):
-        raise FileNotFoundError(f"DXF file not found: {name}")
+    if not (isinstance(tol_mm, (int, float)) and 0 < tol_mm < math.inf):
+        raise GeometryError(f"tol_mm must be a finite number > 0 mm, got {tol_mm!r}")
+    path = check_input_file(source, what="DXF file")
+    name = str(path)
     try:
-        doc = ezdxf.readfile(name)
-    except (ezdxf.DXFStructureError, OSError) as exc:
-        raise GeometryError(f"{name}: not a readable DXF file ({exc})") from None
-    code = int(doc.header.get("$INSUNITS", 0))
-    if code not in INSUNITS_MM:
-        raise GeometryError(f"{name}: $INSUNITS = {code} is not a length unit labkit knows "
-                            f"(expected one of {sorted(INSUNITS_MM)})")
-    k = INSUNITS_MM[code]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            doc = ezdxf.readfile(name)
+        recovered = False
+    except (ezdxf.DXFError, UnicodeDecodeError, ValueError, OSError):
+        try:
+            doc, auditor = recover.readfile(name)
+        except (ezdxf.DXFError, OSError, UnicodeDecodeError, ValueError) as exc:
+            raise GeometryError(f"{name}: not a readable DXF file ({exc})") from None
+        if auditor.has_errors or len(doc.modelspace()) == 0:
+            raise GeometryError(f"{name}: not a readable DXF file (ezdxf's recover mode found "
+                                f"{len(auditor.errors)} unrecoverable error(s))")
+        recovered = True
+    if recovered and warn:
+        warnings.warn(f"{name}: the file breaks the DXF structure; read with ezdxf's recover "
+                      f"mode — check the result", stacklevel=2)
+    k = _unit_scale(doc, units, name, warn)
+    _expanded_count(doc, name)
     paths: list[Path] = []
     skipped: list[str] = []
     for e in doc.modelspace():
-        meta = dict(layer=e.dxf.layer, source=f"{e.dxftype()}#{e.dxf.handle}", fill_rule="evenodd")
-        paths += _entity_paths(e, k, tol_mm, meta, skipped)
+        meta = dict(layer=e.dxf.get("layer", "0"), source=f"{e.dxftype()}#{e.dxf.handle}",
+                    fill_rule="evenodd")
+        try:
+            paths += _entity_paths(e, k, tol_mm, meta, skipped)
+        except GeometryError as exc:
+            raise GeometryError(f"{name}: {exc}") from None
     if skipped and warn:
-        warnings.warn(f"{name}: skipped {len(skipped)} DXF entities labkit does not cut: "
-                      f"{', '.join(skipped)}", stacklevel=2)
+        kinds = Counter(s.split("#")[0] for s in skipped)
+        listed = ", ".join(f"{n} {kind}" for kind, n in kinds.most_common())
+        warnings.warn(f"{name}: skipped {len(skipped)} entities labkit does not cut ({listed}): "
+                      f"{', '.join(skipped[:10])}{' …' if len(skipped) > 10 else ''}", stacklevel=2)
     return Drawing(paths, math.nan, math.nan, skipped, name)

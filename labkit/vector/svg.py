@@ -31,12 +31,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from labkit._files import check_input_file
 from labkit.errors import GeometryError
 from labkit.geometry import transform as tf
 from labkit.geometry.arcfit import FLATTEN_SHARE, cubics_to_arcs
 from labkit.geometry.bezier import flatten_cubics, quad_to_cubic
 from labkit.geometry.ellipse import ellipse_arc_arrays
 from labkit.geometry.path import Path
+from labkit.vector._svg_scan import scan_svg
 
 __all__ = ["Drawing", "read_svg", "svg_reference_samples", "PX_PER_INCH", "MM_PER_PX"]
 
@@ -78,16 +80,15 @@ def _load(source):
     import svgelements as se
 
     if isinstance(source, (bytes, bytearray)):
-        stream, name = io.BytesIO(source), "<bytes>"
+        data, name = bytes(source), "<bytes>"
     elif str(source).lstrip().startswith("<"):
-        stream, name = io.StringIO(str(source)), "<string>"
+        data, name = str(source).encode("utf-8"), "<string>"
     else:
         name = os.fspath(source)
-        if not os.path.exists(name):
-            raise FileNotFoundError(f"SVG file not found: {name}")
-        stream = name
+        data = check_input_file(name, what="SVG file").read_bytes()
+    scan_svg(data, name)            # structure, cycles, depth, fan-out, non-finite numbers
     try:
-        return se.SVG.parse(stream, reify=False, ppi=PX_PER_INCH), name
+        return se.SVG.parse(io.BytesIO(data), reify=False, ppi=PX_PER_INCH), name
     except (ValueError, SyntaxError) as exc:       # svgelements: unresolvable units, bad XML
         raise GeometryError(f"{name}: cannot read this SVG ({exc})") from None
 
@@ -377,11 +378,16 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
                     fill_rule="evenodd" if rule == "evenodd" else "nonzero", source=label)
         m = _element_matrix(el, page)
         try:
-            paths += _shape_paths(el, m, tol_mm, arcs, fit, meta)
+            new = _shape_paths(el, m, tol_mm, arcs, fit, meta)
         except GeometryError:
             raise
         except ValueError as exc:                  # svgelements resolves some units lazily
             raise GeometryError(f"{name}: cannot read this SVG ({exc}) at {label}") from None
+        for p in new:
+            if not (np.isfinite(p.vertices).all() and np.isfinite(p.sweeps).all()):
+                raise GeometryError(f"{name}: {label} maps to coordinates that are not finite "
+                                    f"numbers (a transform or size beyond double range)")
+        paths += new
     if skipped and warn:
         warnings.warn(f"{name}: skipped {len(skipped)} element(s) that are not vector shapes "
                       f"(convert text to paths first): {', '.join(skipped)}", stacklevel=2)

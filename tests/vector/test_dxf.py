@@ -8,7 +8,7 @@ import ezdxf.path
 import numpy as np
 import pytest
 
-from labkit.errors import GeometryError
+from labkit.errors import GeometryError, InputError
 from labkit.geometry import Path, hausdorff, join_chains
 from labkit.vector import read_dxf
 from labkit.vector.dxf import bulge_arc
@@ -76,7 +76,7 @@ def test_bulge_matches_ezdxf():
 
 
 def test_errors(tmp_path):
-    with pytest.raises(FileNotFoundError, match="DXF file not found"):
+    with pytest.raises(InputError, match="no such file; expected an existing DXF file"):
         read_dxf(tmp_path / "missing.dxf")
     bad = tmp_path / "bad.dxf"
     bad.write_text("this is not a dxf")
@@ -87,5 +87,5 @@ def test_errors(tmp_path):
     doc.saveas(tmp_path / "miles.dxf")
     with pytest.raises(GeometryError, match=r"\$INSUNITS = 3"):
         read_dxf(tmp_path / "miles.dxf")
-    with pytest.raises(GeometryError, match="tol_mm must be > 0"):
+    with pytest.raises(GeometryError, match="tol_mm must be a finite number > 0"):
         read_dxf(PARTS, tol_mm=0)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import svgelements as se
 
-from labkit.errors import GeometryError
+from labkit.errors import GeometryError, InputError
 from labkit.geometry import Path, hausdorff
 from labkit.vector import read_svg, svg_reference_samples
 
@@ -138,7 +138,7 @@ def test_arc_flags_pick_four_different_arcs():
 def test_errors():
     with pytest.raises(GeometryError, match="tol_mm must be > 0"):
         read_svg(FILES[0], tol_mm=0)
-    with pytest.raises(FileNotFoundError, match="SVG file not found"):
+    with pytest.raises(InputError, match="no such file; expected an existing SVG file"):
         read_svg("no/such/file.svg")
     with pytest.raises(GeometryError, match=r"em-values.svg: cannot read this SVG \(em units.*rect#rect1"):
         read_svg(os.path.join(DATA, "resvg", "shapes_rect_em-values.svg"))

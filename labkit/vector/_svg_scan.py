@@ -1,0 +1,209 @@
+"""A streaming pass over an SVG document before svgelements sees it.
+
+svgelements builds its tree recursively and expands ``<use>`` eagerly: a ``<use>``
+that references its own ancestor recurses until Python gives up, ten thousand nested
+groups take minutes (its cost grows with the square of the depth), and a fan-out of
+``<use>`` copies (4 uses of 4 uses of … 11 levels: 4^11 shapes) takes all the memory
+there is. Renderers refuse or cap these. This pass reads the document once with expat
+(iterative, C speed, line and column of every element) and refuses, with the place:
+
+* XML that does not parse, or a root element that is not ``<svg>``;
+* nesting deeper than :data:`MAX_DEPTH` levels;
+* ``<use>`` cycles (a reference to itself, to an ancestor, or a ring of references);
+* more elements after expanding every ``<use>`` than the ``elements`` budget;
+* a ``viewBox`` whose width or height is not positive (SVG: rendering is disabled —
+  a renderer draws nothing, so labkit cuts nothing rather than a mirrored page);
+* a geometry attribute holding a number that is not finite (``nan``, ``inf``, ``1e400``).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import xml.parsers.expat
+from collections import Counter
+from dataclasses import dataclass
+
+from labkit.budget import check_budget
+from labkit.errors import GeometryError
+
+__all__ = ["MAX_DEPTH", "scan_svg", "SvgScan"]
+
+#: Deepest element nesting accepted. Drawing programs write under 30 levels;
+#: svgelements' time grows with the square of the depth (1,000 levels: 7 s).
+MAX_DEPTH = 256
+
+_XLINK = "http://www.w3.org/1999/xlink"
+_GEOMETRY_ATTRS = frozenset(("d", "points", "x", "y", "width", "height", "cx", "cy", "r", "rx",
+                             "ry", "x1", "y1", "x2", "y2", "transform", "viewBox"))
+_NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+_NON_FINITE_WORD = re.compile(r"(?i)(?<![a-z])(nan|inf(inity)?)(?![a-z])")
+
+
+@dataclass
+class SvgScan:
+    """What the scan found: element counts before and after expanding ``<use>``."""
+
+    elements: int
+    expanded_elements: int
+    max_depth: int
+    uses: int
+
+
+def _local(tag: str) -> str:
+    return tag.rsplit(" ", 1)[-1].rsplit("}", 1)[-1]
+
+
+def _non_finite(value: str) -> str | None:
+    """The first token of ``value`` that is not a finite number, or None."""
+    m = _NON_FINITE_WORD.search(value)
+    if m:
+        return m.group(0)
+    for tok in _NUMBER.findall(value):
+        if len(tok) > 15 or "e" in tok or "E" in tok:      # only these can overflow a double
+            if not math.isfinite(float(tok)):
+                return tok
+    return None
+
+
+def scan_svg(data: bytes, name: str) -> SvgScan:
+    """Check an SVG document's structure before it is parsed into shapes.
+
+    Parameters
+    ----------
+    data : bytes
+        The whole document.
+    name : str
+        The file name used in messages.
+
+    Returns
+    -------
+    SvgScan
+        Element counts; raises :class:`~labkit.errors.GeometryError` (or
+        :class:`~labkit.errors.BudgetError`) for the cases in the module docstring.
+
+    Examples
+    --------
+    >>> s = scan_svg(b'<svg xmlns="http://www.w3.org/2000/svg"><rect id="a" width="1" height="1"/>'
+    ...              b'<use href="#a"/><use href="#a"/></svg>', "x.svg")
+    >>> (s.elements, s.expanded_elements, s.uses)
+    (4, 6, 2)
+    >>> scan_svg(b'<svg xmlns="http://www.w3.org/2000/svg"><g id="g"><use href="#g"/></g></svg>',
+    ...          "loop.svg")
+    Traceback (most recent call last):
+    ...
+    labkit.errors.GeometryError: loop.svg:1:51: <use> cycle: #g → #g (a renderer refuses to draw it)
+    """
+    parser = xml.parsers.expat.ParserCreate(namespace_separator=" ")
+    stack: list[list] = []            # per open element: [id or None, Counter of use targets below]
+    ids: dict[str, tuple[int, int]] = {}
+    subtree: dict[str, tuple[int, Counter]] = {}   # id → (elements in its subtree, use targets)
+    use_at: dict[str, tuple[int, int]] = {}        # a use target → place of its first use
+    root_targets: Counter = Counter()
+    state = {"n": 0, "depth": 0, "uses": 0, "root": None}
+    counts: list[int] = []            # running element count per open element (to size subtrees)
+
+    def where() -> str:
+        return f"{name}:{parser.CurrentLineNumber}:{parser.CurrentColumnNumber + 1}"
+
+    def start(tag, attrs):
+        local = _local(tag)
+        if state["root"] is None:
+            state["root"] = local
+            if local != "svg":
+                raise GeometryError(f"{where()}: not an SVG document (the root element is "
+                                    f"<{local}>, expected <svg>)")
+        state["n"] += 1
+        depth = len(stack) + 1
+        if depth > MAX_DEPTH:
+            raise GeometryError(f"{where()}: elements nested {depth} deep; labkit reads at most "
+                                f"{MAX_DEPTH} levels (drawing programs write under 30) — "
+                                f"flatten the groups in the drawing program")
+        state["depth"] = max(state["depth"], depth)
+        ident = None
+        for key, value in attrs.items():
+            k = _local(key)
+            if k == "id":
+                ident = value
+                ids.setdefault(value, (parser.CurrentLineNumber, parser.CurrentColumnNumber + 1))
+            elif k in _GEOMETRY_ATTRS:
+                bad = _non_finite(value)
+                if bad is not None:
+                    raise GeometryError(f"{where()}: <{local}> attribute {k}={value[:40]!r} holds "
+                                        f"{bad!r}, not a finite number")
+                if k == "viewBox":
+                    nums = [float(t) for t in _NUMBER.findall(value)]
+                    if len(nums) == 4 and not (nums[2] > 0 and nums[3] > 0):
+                        raise GeometryError(
+                            f"{where()}: <{local}> viewBox={value!r} has a width or height that is "
+                            f"not positive; SVG disables rendering of such an element (a renderer "
+                            f"draws nothing), so labkit will not cut it")
+        stack.append([ident, Counter()])
+        counts.append(state["n"])
+        if local == "use":
+            href = attrs.get(f"{_XLINK} href") or attrs.get("href") or ""
+            if href.startswith("#"):
+                target = href[1:]
+                state["uses"] += 1
+                use_at.setdefault(target, (parser.CurrentLineNumber, parser.CurrentColumnNumber + 1))
+                stack[-1][1][target] += 1
+                # a use inside the element it references (or inside a use pointing here): a cycle
+                if any(frame[0] == target for frame in stack):
+                    raise GeometryError(f"{where()}: <use> cycle: #{target} → #{target} "
+                                        f"(a renderer refuses to draw it)")
+
+    def end(tag):
+        ident, targets = stack.pop()
+        first = counts.pop()
+        if ident is not None:
+            subtree[ident] = (state["n"] - first + 1, targets.copy() if stack else targets)
+        if stack:
+            stack[-1][1].update(targets)
+        else:
+            root_targets.update(targets)
+
+    parser.StartElementHandler = start
+    parser.EndElementHandler = end
+    try:
+        parser.Parse(data, True)
+    except xml.parsers.expat.ExpatError as exc:
+        raise GeometryError(f"{name}:{exc.lineno}:{exc.offset + 1}: not well-formed XML "
+                            f"({xml.parsers.expat.ErrorString(exc.code)}); expected an SVG "
+                            f"document") from None
+    if state["root"] is None:
+        raise GeometryError(f"{name}: empty document; expected an SVG document")
+
+    # Expanded size of each referenced element, by an iterative depth-first walk over
+    # the reference graph (id → ids its subtree uses); a grey node met again is a cycle.
+    size: dict[str, int] = {}
+    for target in use_at:
+        if target in size or target not in subtree:
+            continue
+        path, todo = [target], [(target, iter(subtree[target][1]))]
+        grey = {target}
+        while todo:
+            node, children = todo[-1]
+            for child in children:
+                if child not in subtree or child in size:
+                    continue
+                if child in grey:
+                    ring = path[path.index(child):] + [child]
+                    line, col = use_at[child]
+                    raise GeometryError(f"{name}:{line}:{col}: <use> cycle: "
+                                        f"{' → '.join('#' + r for r in ring)} "
+                                        f"(a renderer refuses to draw it)")
+                grey.add(child)
+                path.append(child)
+                todo.append((child, iter(subtree[child][1])))
+                break
+            else:
+                todo.pop()
+                path.pop()
+                grey.discard(node)
+                own, uses = subtree[node]
+                size[node] = own + sum(k * size.get(t, 0) for t, k in uses.items())
+                check_budget("elements", size[node],
+                             cause=f"<use> copies of #{node} in {name}")
+    expanded = state["n"] + sum(k * size.get(t, 0) for t, k in root_targets.items())
+    check_budget("elements", expanded, cause=f"<use> copies in {name}")
+    return SvgScan(state["n"], expanded, state["depth"], state["uses"])
