@@ -78,3 +78,8 @@ def integer(lo: int | None = None, hi: int | None = None):
 
     parse.__name__ = "integer"
     return parse
+
+
+#: Feeds and travel speeds, mm/min: below 1 mm/min a program's F rounds away and no laser
+#: machine moves above a million (GRBL's own rates stay far below).
+FEED = number(1, 1_000_000)

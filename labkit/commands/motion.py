@@ -16,6 +16,7 @@ from labkit.gcode.dialects import DIALECTS
 
 
 def _add_common(parser):
+    from labkit.commands._args import integer, number
     from labkit.motion.lookahead import PLANNERS
 
     parser.add_argument("file", help="G-code file")
@@ -24,13 +25,13 @@ def _add_common(parser):
                              "fast/normal/hq (default: junction)")
     parser.add_argument("--machine", default=None, metavar="TOML",
                         help="machine description file or name shipped with labkit (labkit/motion/machines/) (default: cbr40-laser)")
-    parser.add_argument("--buffer", type=int, default=None, metavar="N",
-                        help="look-ahead depth in blocks (default: the machine's)")
+    parser.add_argument("--buffer", type=integer(1, 100_000), default=None, metavar="N",
+                        help="look-ahead depth in blocks, 1…100000 (default: the machine's)")
     parser.add_argument("--law", choices=("linear", "accel"), default=None,
                         help="ramp law: [CBR40] Hz/step (linear) or constant acceleration "
                              "(default: linear for MBLA, accel for junction)")
-    parser.add_argument("--arc-tol", type=float, default=None, metavar="MM",
-                        help="cut arcs into chords at this tolerance (GRBL $12) instead of "
+    parser.add_argument("--arc-tol", type=number(0.0001, 10), default=None, metavar="MM",
+                        help="cut arcs into chords at this tolerance, 0.0001…10 mm (GRBL $12) instead of "
                              "walking them as octant Bresenham arcs")
     parser.add_argument("--dialect", choices=list(DIALECTS), default="grbl",
                         help="how F, G4 P and S are read (default: grbl)")

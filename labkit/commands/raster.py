@@ -10,7 +10,7 @@ __all__ = ["add_img2gcode_arguments", "run_img2gcode"]
 
 def add_img2gcode_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``labkit img2gcode``."""
-    from labkit.commands._args import number
+    from labkit.commands._args import FEED, number
     from labkit.raster.dither import DIFFUSION
     from labkit.raster.engrave import MODES
 
@@ -29,8 +29,8 @@ def add_img2gcode_arguments(parser: argparse.ArgumentParser) -> None:
     size.add_argument("--dpi", type=positive, help="image resolution (default: the file's, else 96)")
     parser.add_argument("--resample", choices=("bicubic", "nearest"), default="bicubic",
                         help="resampling to the beam (nearest for pixel art)")
-    parser.add_argument("--feed", type=positive, default=1000.0, metavar="MM_MIN", help="feed, mm/min")
-    parser.add_argument("--rapid", type=positive, default=None, metavar="MM_MIN",
+    parser.add_argument("--feed", type=FEED, default=1000.0, metavar="MM_MIN", help="feed, 1…1000000 mm/min")
+    parser.add_argument("--rapid", type=FEED, default=None, metavar="MM_MIN",
                         help="travel speed for the time estimate (default: the feed, as the seed)")
     parser.add_argument("--power", type=non_negative, default=1000.0, metavar="S",
                         help="S for binary modes (default 1000)")

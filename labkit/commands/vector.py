@@ -78,7 +78,7 @@ def parse_layer_option(text: str):
 
 
 def _common_arguments(parser: argparse.ArgumentParser, kind: str) -> None:
-    from labkit.commands._args import integer, number
+    from labkit.commands._args import FEED, integer, number
 
     positive = number(0, lo_open=True)
     non_negative = number(0)
@@ -89,12 +89,13 @@ def _common_arguments(parser: argparse.ArgumentParser, kind: str) -> None:
     parser.add_argument("--tol", type=number(TOL_MIN_MM, TOL_MAX_MM), default=0.01, metavar="MM",
                         help="largest deviation of the toolpath from the drawing, mm "
                              f"({TOL_MIN_MM:g}…{TOL_MAX_MM:g}, default 0.01)")
-    parser.add_argument("--feed", type=positive, default=1000.0, metavar="MM_MIN",
+    parser.add_argument("--feed", type=FEED, default=1000.0, metavar="MM_MIN",
                         help="cutting feed, mm/min (default 1000)")
     parser.add_argument("--power", type=non_negative, default=1000.0, metavar="S",
                         help="laser power S, 0…--s-max (default 1000)")
     parser.add_argument("--passes", type=integer(1), default=1, help="passes over every layer (default 1)")
-    parser.add_argument("--z-step", type=number(), default=0.0, metavar="MM", help="Z down after each pass, mm")
+    parser.add_argument("--z-step", type=number(-100, 100), default=0.0, metavar="MM",
+                        help="Z down after each pass, -100…100 mm")
     parser.add_argument("--dynamic", action="store_true", help="M4 (power follows speed) instead of M3")
     parser.add_argument("--layer", action="append", default=[], metavar="NAME:FEED:POWER[:PASSES[:ZSTEP]]",
                         help="settings for one layer (SVG colour such as #ff0000, or DXF layer); repeatable")
@@ -104,11 +105,11 @@ def _common_arguments(parser: argparse.ArgumentParser, kind: str) -> None:
                         help="hatch line spacing = beam width, mm (default 0.1)")
     parser.add_argument("--fill-angle", type=number(-360, 360), default=0.0, metavar="DEG",
                         help="hatch angle, degrees")
-    parser.add_argument("--kerf", type=non_negative, default=0.0, metavar="MM",
+    parser.add_argument("--kerf", type=number(0, 10), default=0.0, metavar="MM",
                         help="kerf width: closed shapes are offset by half of it (parts to size)")
     parser.add_argument("--no-order", action="store_true", help="cut in drawing order")
     parser.add_argument("--no-improve", action="store_true", help="greedy ordering only (no 2-opt)")
-    parser.add_argument("--rapid", type=positive, default=None, metavar="MM_MIN",
+    parser.add_argument("--rapid", type=FEED, default=None, metavar="MM_MIN",
                         help="travel speed for the time estimate (default: the simulator's)")
     parser.add_argument("--s-max", type=positive, default=1000.0, help="S of full power (GRBL $30)")
     parser.add_argument("--dialect", default="grbl", help="G-code dialect (grbl, labkit-fw, marlin)")

@@ -238,11 +238,14 @@ def _refuse_unwritable(moves: Moves, d: Dialect, decimals: int) -> None:
             raise EmitError(f"{_where(moves, i)}: {what}{'XYZ'[a]} {why}; "
                             "expected coordinates of a real machine")
     feed = moves.feed_mm_min
-    bad = moves.is_feed & ~((feed > 0) & (feed < _EXACT_LIMIT / 10.0 ** VALUE_DECIMALS))
+    written = d.feed_from_mm_min(feed)          # F as the dialect writes it (mm/s for labkit-fw)
+    smallest = 0.5 * 10.0 ** -VALUE_DECIMALS    # anything below is written as F0
+    bad = moves.is_feed & ~((written >= smallest) & (feed < _EXACT_LIMIT / 10.0 ** VALUE_DECIMALS))
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
-        raise EmitError(f"{_where(moves, i)} is a feed move without a feed rate > 0 "
-                        f"(got {float(feed[i])!r} mm/min); set feed_mm_min")
+        raise EmitError(f"{_where(moves, i)} is a feed move without a feed rate the program can "
+                        f"state (got {float(feed[i])!r} mm/min; F is written with "
+                        f"{VALUE_DECIMALS} decimals and must not round to 0); set feed_mm_min")
     if not (moves.s_max > 0 and math.isfinite(moves.s_max)):
         raise EmitError(f"s_max must be a finite number > 0, got {moves.s_max!r}")
     power = moves.power_s.astype(np.float64)

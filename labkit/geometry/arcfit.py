@@ -59,12 +59,28 @@ from labkit.geometry._biarcfit import _PER_CUBIC, fit_cubic_chain, hermite_chain
 from labkit.geometry.bezier import flatten_cubics
 from labkit.geometry.path import Path
 
-__all__ = ["fit_arcs", "cubics_to_arcs", "FLATTEN_SHARE", "CORNER_RAD", "KINK_RAD", "METHODS"]
+__all__ = ["fit_arcs", "cubics_to_arcs", "coordinate_limit_mm", "FLATTEN_SHARE", "CORNER_RAD", "KINK_RAD", "METHODS"]
 
 #: Share of the tolerance spent on sampling a curve before a polyline fit (the rest fits).
 #: Denser samples leave more to the fit and give longer arcs (0.15 → 0.1: 8 % fewer
 #: blocks on the cncjs drawing at 0.1 mm, for 15 % more fitting time).
 FLATTEN_SHARE = 0.1
+
+
+def coordinate_limit_mm(tol_mm: float) -> float:
+    """Largest coordinate magnitude at which geometry can still be computed within ``tol_mm``.
+
+    A double resolves |x| to |x|·2⁻⁵²; arc centres, chord sags and offsets lose a few
+    more bits. Beyond ``tol_mm · 2⁴⁰`` (11,000 km at 0.01 mm) a drawing's numbers no
+    longer carry its tolerance and flattening them only burns memory, so readers refuse
+    them with the element's name.
+
+    >>> round(coordinate_limit_mm(0.01) / 1e6)     # km
+    10995
+    """
+    return float(tol_mm) * 2.0 ** 40
+
+
 #: A polyline vertex turning by more than this (rad) is a corner for :func:`fit_arcs`.
 CORNER_RAD = math.radians(50.0)
 #: Joints between cubics whose tangents differ by more than this (rad) are corners;

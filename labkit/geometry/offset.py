@@ -24,6 +24,7 @@ from typing import Sequence
 
 import numpy as np
 
+from labkit.budget import check_budget
 from labkit.errors import GeometryError
 from labkit.geometry.arcfit import fit_arcs
 from labkit.geometry.path import Path
@@ -136,7 +137,9 @@ def offset_paths(paths: Sequence[Path], distance_mm: float, *, join="round", tol
     d = float(distance_mm)
     if d != 0:
         step = 2.0 * math.acos(max(-1.0, 1.0 - sample_tol / abs(d))) if abs(d) > sample_tol else math.pi / 2
-        quad_segs = max(1, math.ceil((math.pi / 2) / step))
+        quad_segs = max(1, math.ceil((math.pi / 2) / step)) if step > 0 else math.inf
+        check_budget("segments", 4 * quad_segs, cause=f"rounding corners of an offset of {d:g} mm "
+                     f"at {tol_mm:g} mm", option="--kerf")
         reg = shapely.buffer(reg, d, quad_segs=quad_segs, join_style=_JOINS[join],
                              mitre_limit=miter_limit)
     reg = shapely.orient_polygons(reg) if hasattr(shapely, "orient_polygons") else reg

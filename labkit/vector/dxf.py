@@ -38,7 +38,7 @@ import numpy as np
 from labkit._files import check_input_file
 from labkit.budget import check_budget
 from labkit.errors import GeometryError
-from labkit.geometry.arcfit import FLATTEN_SHARE, fit_arcs
+from labkit.geometry.arcfit import FLATTEN_SHARE, coordinate_limit_mm, fit_arcs
 from labkit.geometry.ellipse import ellipse_arc_to_arcs
 from labkit.geometry.path import Path
 from labkit.vector.svg import Drawing
@@ -63,12 +63,17 @@ def _where(e) -> str:
     return f"{e.dxftype()} #{e.dxf.handle} on layer {e.dxf.get('layer', '0')!r}"
 
 
-def _finite(e, what: str, values) -> None:
+def _finite(e, what: str, values, limit: float = math.inf) -> None:
+    """Refuse values that are not finite, or (coordinates) beyond ``limit`` drawing units."""
     parts = [np.ravel(np.asarray(v, dtype=float)) for v in values]
     arr = np.concatenate(parts) if parts else np.zeros(0)
     if not np.isfinite(arr).all():
         bad = arr[~np.isfinite(arr)].ravel()[0]
         raise GeometryError(f"{_where(e)}: {what} holds {float(bad)!r}, not a finite number")
+    if len(arr) and np.abs(arr).max() > limit:
+        raise GeometryError(f"{_where(e)}: {what} reaches {np.abs(arr).max():.6g} drawing units, "
+                            f"beyond {limit:.3g}, where double precision no longer resolves "
+                            f"the tolerance")
 
 
 def bulge_arc(p0, p1, bulge):
@@ -197,14 +202,14 @@ def _spline(e, k, tol_mm, meta) -> list[Path]:
     if len(e.control_points) == 0:                  # defined by fit points only: ezdxf interpolates
         if len(e.fit_points) < 2:
             raise GeometryError(f"{_where(e)}: neither control points nor two fit points")
-        _finite(e, "a fit point", e.fit_points)
+        _finite(e, "a fit point", e.fit_points, coordinate_limit_mm(tol_mm) / k)
         tool = e.construction_tool()
         ctrl, knots, weights = np.asarray(tool.control_points, float), tool.knots(), tool.weights()
         p = tool.degree
     else:
         ctrl = np.asarray(e.control_points, float)
         knots, weights = list(e.knots), list(e.weights)
-    _finite(e, "a control point", ctrl)
+    _finite(e, "a control point", ctrl, coordinate_limit_mm(tol_mm) / k)
     _finite(e, "a knot", knots)
     _finite(e, "a weight", weights)
     n = len(ctrl)
@@ -233,9 +238,10 @@ def _entity_paths(e, k, tol_mm, meta, skipped, depth=0) -> list[Path]:
     import ezdxf
 
     kind = e.dxftype()
+    lim = coordinate_limit_mm(tol_mm) / k
     if kind == "LINE":
         a, b = np.array(e.dxf.start)[:2], np.array(e.dxf.end)[:2]
-        _finite(e, "an end point", [a, b])
+        _finite(e, "an end point", [a, b], lim)
         return [Path([a * k, b * k], **meta)] if np.any(a != b) else []
     if kind in ("CIRCLE", "ARC", "LWPOLYLINE", "POLYLINE"):
         if kind == "POLYLINE" and (e.is_3d_polyline or e.is_poly_face_mesh or e.is_polygon_mesh):
@@ -247,7 +253,7 @@ def _entity_paths(e, k, tol_mm, meta, skipped, depth=0) -> list[Path]:
             return []
     if kind in ("CIRCLE", "ARC"):
         centre, r = np.array(e.dxf.center)[:2], e.dxf.radius
-        _finite(e, "the centre or radius", [*centre, r])
+        _finite(e, "the centre or radius", [*centre, r], lim)
         if not r > 0:
             raise GeometryError(f"{_where(e)}: radius {r!r} is not positive")
         centre = centre * [mirror, 1.0] * k
@@ -262,7 +268,7 @@ def _entity_paths(e, k, tol_mm, meta, skipped, depth=0) -> list[Path]:
     if kind == "ELLIPSE":
         centre, major = np.array(e.dxf.center)[:2], np.array(e.dxf.major_axis)[:2]
         ratio, t0, t1 = e.dxf.ratio, e.dxf.start_param, e.dxf.end_param
-        _finite(e, "the centre, axis, ratio or parameters", [*centre, *major, ratio, t0, t1])
+        _finite(e, "the centre, axis, ratio or parameters", [*centre, *major, ratio, t0, t1], lim)
         if not 0 < ratio <= 1 + 1e-9:
             raise GeometryError(f"{_where(e)}: axis ratio {ratio!r} is outside (0, 1]")
         if not np.any(major != 0):
@@ -278,7 +284,7 @@ def _entity_paths(e, k, tol_mm, meta, skipped, depth=0) -> list[Path]:
         return [ellipse_arc_to_arcs(centre * k, jac, t0, dt, tol_mm=tol_mm, **meta)]
     if kind == "LWPOLYLINE":
         pts = np.array(list(e.get_points("xyb")), float).reshape(-1, 3)
-        _finite(e, "a vertex or bulge", pts)
+        _finite(e, "a vertex or bulge", pts, lim)
         if len(pts) < 2:
             return []
         p = _poly(pts[:, :2] * [mirror, 1.0], pts[:, 2] * mirror, bool(e.closed), meta, k)
@@ -287,7 +293,7 @@ def _entity_paths(e, k, tol_mm, meta, skipped, depth=0) -> list[Path]:
         verts = list(e.vertices)
         pts = np.array([v.dxf.location for v in verts], float).reshape(-1, 3)[:, :2]
         bul = np.array([v.dxf.get("bulge", 0.0) for v in verts], float)
-        _finite(e, "a vertex or bulge", [pts.ravel(), bul] if len(pts) else [])
+        _finite(e, "a vertex or bulge", [pts.ravel(), bul] if len(pts) else [], lim)
         if len(pts) < 2:
             return []
         p = _poly(pts * [mirror, 1.0], bul * mirror, bool(e.is_closed), meta, k)
@@ -297,7 +303,7 @@ def _entity_paths(e, k, tol_mm, meta, skipped, depth=0) -> list[Path]:
     if kind == "INSERT":
         scale = [e.dxf.get("xscale", 1.0), e.dxf.get("yscale", 1.0), e.dxf.get("zscale", 1.0)]
         _finite(e, "the insertion point, scale or rotation",
-                [*e.dxf.get("insert", (0, 0, 0)), *scale, e.dxf.get("rotation", 0.0)])
+                [*e.dxf.get("insert", (0, 0, 0)), *scale, e.dxf.get("rotation", 0.0)], lim)
         if any(v == 0 for v in scale):
             raise GeometryError(f"{_where(e)}: block {e.dxf.name!r} inserted at scale "
                                 f"{scale[0]:g} × {scale[1]:g} × {scale[2]:g}; a zero scale "

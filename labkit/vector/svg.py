@@ -34,7 +34,8 @@ import numpy as np
 from labkit._files import check_input_file
 from labkit.errors import GeometryError
 from labkit.geometry import transform as tf
-from labkit.geometry.arcfit import FLATTEN_SHARE, cubics_to_arcs
+from labkit.budget import check_budget
+from labkit.geometry.arcfit import FLATTEN_SHARE, coordinate_limit_mm, cubics_to_arcs
 from labkit.geometry.bezier import flatten_cubics, quad_to_cubic
 from labkit.geometry.ellipse import ellipse_arc_arrays
 from labkit.geometry.path import Path
@@ -91,6 +92,9 @@ def _load(source):
         return se.SVG.parse(io.BytesIO(data), reify=False, ppi=PX_PER_INCH), name
     except (ValueError, SyntaxError) as exc:       # svgelements: unresolvable units, bad XML
         raise GeometryError(f"{name}: cannot read this SVG ({exc})") from None
+    except ArithmeticError as exc:                 # svgelements on degenerate numbers (an arc
+        raise GeometryError(f"{name}: cannot read this SVG: a shape's numbers are degenerate "
+                            f"({type(exc).__name__}: {exc})") from None   # radius that underflows)
 
 
 def _page_matrix(doc, flip_y):
@@ -216,7 +220,9 @@ class _Builder:
             # 1 − cos(dt/2n); the map stretches that by at most its largest singular value)
             flat = FLATTEN_SHARE * self.tol
             step = 2.0 * math.acos(max(1.0 - flat / sv[0], -1.0))
-            n = max(2, math.ceil(abs(dt) / step))
+            n = max(2, math.ceil(abs(dt) / step)) if step > 0 else math.inf
+            check_budget("segments", n, cause=f"an elliptical arc {sv[0]:.3g} mm across at "
+                         f"tolerance {self.tol:g} mm ({self.meta['source']})", option="--tol")
             t = t0 + dt * np.arange(1, n) / n
             self._chords(np.vstack([centre + np.stack([np.cos(t), np.sin(t)], axis=1) @ jac.T, np.asarray(end, float)[None]]))
             return
@@ -262,9 +268,16 @@ def _shape_paths(el, m, tol_mm, arcs, fit, meta) -> list[Path]:
     a2 = m[:2, :2]
     (ma, mc, me), (mb, md, mf) = (float(q) for q in m[0]), (float(q) for q in m[1])
 
+    lim = coordinate_limit_mm(tol_mm)
+
     def P(pt):                          # the element's matrix on one point (hot path: no numpy calls)
         x, y = pt.x, pt.y
-        return (ma * x + mc * y + me, mb * x + md * y + mf)
+        x, y = ma * x + mc * y + me, mb * x + md * y + mf
+        if not (-lim < x < lim and -lim < y < lim):         # NaN fails too
+            raise GeometryError(f"{meta['source']}: a point at ({x:.6g}, {y:.6g}) mm lies beyond "
+                                f"{lim:.3g} mm, where double precision no longer resolves the "
+                                f"tolerance of {tol_mm:g} mm")
+        return (x, y)
 
     for seg in el.segments(transformed=False):
         if isinstance(seg, se.Move):
@@ -383,6 +396,9 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
             raise
         except ValueError as exc:                  # svgelements resolves some units lazily
             raise GeometryError(f"{name}: cannot read this SVG ({exc}) at {label}") from None
+        except ArithmeticError as exc:
+            raise GeometryError(f"{name}: {label} has degenerate numbers "
+                                f"({type(exc).__name__}: {exc})") from None
         for p in new:
             if not (np.isfinite(p.vertices).all() and np.isfinite(p.sweeps).all()):
                 raise GeometryError(f"{name}: {label} maps to coordinates that are not finite "

@@ -50,11 +50,12 @@ def test_power_outside_the_laser_range_is_refused(power, message):
         emit(b.build())
 
 
-@pytest.mark.parametrize("feed", [math.nan, math.inf, 0.0, -5.0])
+@pytest.mark.parametrize("feed", [math.nan, math.inf, 0.0, -5.0, 1e-9])
 def test_feed_moves_need_a_finite_positive_feed(feed):
+    """1e-9 mm/min would be written F0: a program GRBL refuses (error 22)."""
     b = MovesBuilder(feed_mm_min=feed)
     b.line(x=5)
-    with pytest.raises(EmitError, match="feed move without a feed rate > 0"):
+    with pytest.raises(EmitError, match="feed move without a feed rate the program can state"):
         emit(b.build())
 
 

@@ -31,7 +31,9 @@ def drawing(tmp_path):
     ("--tol", "inf", "argument --tol: 'inf' is not a finite number >= 0.0001 and <= 10"),
     ("--tol", "1e-12", "argument --tol: '1e-12' is not a finite number >= 0.0001 and <= 10"),
     ("--passes", "2.5", "argument --passes: '2.5' is not a whole number >= 1"),
-    ("--feed", "0", "argument --feed: '0' is not a finite number > 0"),
+    ("--feed", "0", "argument --feed: '0' is not a finite number >= 1 and <= 1e+06"),
+    ("--feed", "1e-9", "argument --feed: '1e-9' is not a finite number >= 1 and <= 1e+06"),
+    ("--kerf", "7e13", "argument --kerf: '7e13' is not a finite number >= 0 and <= 10"),
     ("--fill-spacing", "-1", "argument --fill-spacing: '-1' is not a finite number > 0"),
 ])
 def test_numeric_options_are_checked_by_name(drawing, tmp_path, run_labkit, option, value, message):
