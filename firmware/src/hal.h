@@ -57,6 +57,13 @@ void hal_timer_stop(void);                      /* no st_tick() calls until the 
    laser_off() in the main loop (stop, hold, alarm, reset). */
 void hal_laser_set(uint16_t duty);
 
+/* Laser gate ([CBR40]: the driver runs the diode continuously or pulsed by a
+   PWM square wave on a switch transistor). pwm_hz = 0: gate held open, the
+   power follows hal_laser_set() alone (continuous mode); pwm_hz > 0: the gate
+   is switched at pwm_hz with on_permille/1000 of each period on (pulsed
+   mode). (main) */
+void hal_laser_gate(uint32_t pwm_hz, uint16_t on_permille);
+
 /* Air assist (M7 / M8 on, M9 off). bit 0 = mist (M7), bit 1 = flood (M8). (main) */
 void hal_air_set(uint8_t bits);
 
