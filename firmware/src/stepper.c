@@ -164,8 +164,8 @@ static int load_tick(void)
     hal_set_dir(dir);
   }
   laser_output(t->duty);
-  hal_timer_set_period(t->period);
   sti.rate = t->rate;
+  hal_timer_set_period(t->period);
   sti.pending_bits = bits;
   sti.pending_neg = neg;
   sti.pending = 1;
