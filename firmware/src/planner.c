@@ -17,6 +17,8 @@
 #include "status_codes.h"
 
 #define LK_PI 3.141592653589793
+/* largest |position| in steps: int32 counters with room for the arithmetic */
+#define PLAN_MAX_STEPS 1073741824.0
 
 /* ------------------------------------------------------------------ machine */
 
@@ -463,6 +465,12 @@ uint8_t plan_prepare_move(const plan_move_t *mv, plan_block_t *b)
   const double *spm = m->steps_per_mm;
   double vmax[3];
   memset(b, 0, sizeof *b);
+  for (int a = 0; a < 3; a++) {   /* positions must fit the step counters */
+    double x = mv->end_mm[a] * spm[a];
+    if (!(fabs(x) < PLAN_MAX_STEPS)) return STATUS_VALUE_OUT_OF_RANGE;
+    if (mv->kind >= PLAN_MOVE_ARC_CW && !(fabs(mv->centre_mm[a] * spm[a]) < PLAN_MAX_STEPS))
+      return STATUS_VALUE_OUT_OF_RANGE;
+  }
   for (int a = 0; a < 3; a++) {
     vmax[a] = m->max_rate_mm_min[a] / 60.0;
     b->start_steps[a] = pl.pos[a];

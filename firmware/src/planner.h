@@ -113,7 +113,8 @@ uint32_t plan_get_depth(void);
 
 /* Parser side. plan_prepare_move computes the block of a move into *out
    (returns STATUS_OK, or STATUS_INVALID_ARC for an arc the machine cannot
-   walk). *out->ticks == 0 means the move makes no block (it still moves the
+   walk, STATUS_VALUE_OUT_OF_RANGE for a position beyond the step counters).
+   out->ticks == 0 means the move makes no block (it still moves the
    planner position when pushed). */
 uint8_t plan_prepare_move(const plan_move_t *mv, plan_block_t *out);
 void plan_push_block(const plan_block_t *b);     /* needs !plan_is_full() */
