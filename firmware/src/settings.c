@@ -25,7 +25,7 @@ void settings_defaults(settings_t *s) {
   s->s_min = 0.0;
   s->laser_mode = 1;
   s->status_mask = 1;
-  s->soft_limits = 1;
+  s->soft_limits = 0;            /* GRBL default; $20=1 turns the envelope check on */
   s->planner = SET_PLANNER_JUNCTION;
   s->mbla_mode = SET_MBLA_NORMAL;
   s->law = PLAN_LAW_ACCEL;

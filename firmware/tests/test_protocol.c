@@ -130,7 +130,7 @@ int main(int argc, char **argv) {
   CHECK_HAS(o, "dialect:grbl]");
 
   /* soft limit: a move out of the envelope raises ALARM:2 and locks */
-  o = run("$X\nG90 G0 X-5\n");
+  o = run("$X\n$20=1\nG90 G0 X-5\n");
   CHECK_HAS(o, "ALARM:2");
   CHECK(protocol_state() == PROTO_ALARM);
   o = run("G0 X1\n");
