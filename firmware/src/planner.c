@@ -679,7 +679,7 @@ static void set_step_program(plan_block_t *b)
 {
   const lk_machine_t *m = &pl.m;
   double scale = (double)b->ticks / b->length_mm;
-  double fm = floor(b->plan_cap_mm_s * scale);
+  double fm = floor(b->cap_mm_s * scale);   /* the block's own cap, also in fast mode */
   if (fm > (double)m->start_rate_hz) fm = (double)m->start_rate_hz;
   if (fm < 1) fm = 1;
   uint32_t f_min = (uint32_t)fm;
