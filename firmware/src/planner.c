@@ -732,6 +732,20 @@ plan_block_t *plan_get_current_block(void)
     if (!pl.flushed) return NULL;   /* wait for more blocks or the end of the stream */
     seq_end = 1;
   }
+  if (pl.mode == PLAN_MODE_FAST && !seq_end) {
+    /* fast MBLA: the caps in the window are the tops of their super blocks, so
+       the super block of the window's last block must be complete too */
+    int complete = 0;
+    uint32_t seen = 0;
+    for (uint32_t i = 0; i < pl.count; i++) {
+      plan_block_t *o = slot(i);
+      if (o->kind == PLAN_BLOCK_DWELL) continue;
+      if (++seen <= cnt) continue;
+      if (o->stop_before == PLAN_STOP_START || o->group != win[cnt - 1]->group) complete = 1;
+      break;
+    }
+    if (!complete && !pl.flushed && !plan_is_full()) return NULL;
+  }
   /* speeds at the junctions 0 .. e of the window (0 = entry of this block) */
   double jcap[PLAN_BUFFER_SIZE + 1] = {0}, jrest[PLAN_BUFFER_SIZE + 1] = {0};
   uint32_t e = seq_end ? (cnt < W ? cnt : W) : W;

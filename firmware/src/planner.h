@@ -14,7 +14,9 @@
                         blocks planned from rest to rest.
   and the ramp law PLAN_LAW_LINEAR (Hz per step) or PLAN_LAW_ACCEL (mm/s^2).
   Planning block k needs blocks k .. k + depth in the buffer, or the end of
-  the stream (plan_flush()). Speeds are doubles: the planner runs in the main
+  the stream (plan_flush()); fast MBLA also needs the super block of block
+  k + depth complete (its top speed is every member's cap), as far as the
+  buffer holds it. Speeds are doubles: the planner runs in the main
   loop, never in the step interrupt.
 
   The block also carries its integer step-rate program (f_entry, f_peak,
