@@ -228,7 +228,10 @@ void menu_task(void) {
 }
 
 uint8_t menu_current(void) { return current; }
-const char *menu_lcd_line(uint8_t row) { return row < LCD_ROWS ? lcd[row] : ""; }
+const char *menu_lcd_line(uint8_t row) {
+  redraw();                     /* reading the LCD shows what is true now */
+  return row < LCD_ROWS ? lcd[row] : "";
+}
 uint8_t menu_laser_is_on(void) { return laser_on; }
 
 void menu_report_lcd(void) {

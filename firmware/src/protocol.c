@@ -540,8 +540,12 @@ void protocol_poll(void) {
     parser_task();
   }
   runner_task();                 /* cheap when idle; must run while the stepper does */
-  if (serial_take_flags(RT_MENU) || (ev & EV_MENU))
+  static uint32_t last_lcd_ms;
+  if (serial_take_flags(RT_MENU) || (ev & EV_MENU) ||
+      (uint32_t)(hal_millis() - last_lcd_ms) >= 200u) {   /* the LCD follows the machine */
+    last_lcd_ms = hal_millis();
     menu_task();
+  }
 }
 
 void protocol_main_loop(void) {
