@@ -220,6 +220,8 @@ static void deliver(void) {
       }
       return;
     }
+    if (b == PANEL_ESTOP)
+      protocol_estop();          /* the input pin's interrupt: motion and beam off now */
     serial_rx_isr(b);
     in_pos++;
   }

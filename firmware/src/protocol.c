@@ -33,6 +33,12 @@ static uint8_t jog_cancel;
 static uint8_t flushed = 1;
 static uint32_t last_rx_ms;
 static uint8_t empty_slots;
+/* A feed hold the host asked for. st_feed_hold() only acts on a running
+   stepper; when the stepper is momentarily idle with blocks queued (starved,
+   or waiting for look-ahead) the runner must not start it again until '~'. */
+static uint8_t hold_req;
+
+uint8_t protocol_hold_requested(void) { return hold_req; }
 
 uint8_t protocol_state(void) { return state; }
 uint8_t protocol_planner_blocks(void) { return empty_slots; }
@@ -140,6 +146,7 @@ static void sync_positions(void) {
 
 /* Stop everything now: motion, laser, queued blocks. */
 static void stop_all(void) {
+  hold_req = 0;
   st_reset();
   laser_off();
   plan_reset();
@@ -407,12 +414,15 @@ static void system_task(void) {
     if (!st_is_idle() || !plan_is_empty()) {
       if (state == PROTO_JOG)
         jog_cancel = 1;          /* GRBL: a hold during a jog cancels it */
+      else
+        hold_req = 1;
       st_feed_hold();
       laser_off();
     }
   }
   if (f & RT_RESUME) {
     uint8_t s = st_state();
+    hold_req = 0;
     if (s == ST_HELD || s == ST_HOLDING)
       st_resume();
   }
@@ -478,6 +488,8 @@ static void parser_task(void) {
 }
 
 static void runner_task(void) {
+  if (hold_req && st_state() == ST_IDLE)
+    return;                       /* held before it could start: wait for '~' */
   st_prep_buffer();
   if (!flushed && !have_pending && rx_line.raw == 0 && serial_rx_count() == 0 &&
       (uint32_t)(hal_millis() - last_rx_ms) >= FLUSH_QUIET_MS) {

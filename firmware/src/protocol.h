@@ -80,6 +80,7 @@ void protocol_alarm(uint8_t alarm);
 void protocol_estop(void);
 
 uint8_t protocol_state(void);
+uint8_t protocol_hold_requested(void);   /* '!' given and not yet resumed */
 uint8_t protocol_planner_blocks(void);   /* free slots of an empty planner ($I) */
 extern volatile uint8_t protocol_events;
 

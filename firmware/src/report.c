@@ -125,6 +125,8 @@ const char *report_state_name(void) {
   case PROTO_JOG: return "Jog";
   default: break;
   }
+  if (protocol_hold_requested() && st_state() == ST_IDLE)
+    return "Hold:0";
   switch (st_state()) {
   case ST_HOLDING: return "Hold:1";
   case ST_HELD: return "Hold:0";

@@ -56,7 +56,7 @@ void shell_advance_ms(uint32_t ms) { now_ms += ms; }
 /* The step timer of the recording hal ticks here (nothing without it). */
 void hal_poll(void) {
 #ifdef HAVE_REC
-  for (int i = 0; i < 512 && rec.running; i++)
+  for (int i = 0; i < 128 && rec.running; i++)   /* less than the prepared ticks: no starving */
     st_tick();
 #endif
 }

@@ -6,6 +6,8 @@
 #include <string.h>
 
 #include "gcode.h"
+#include "laser.h"
+#include "stepper.h"
 #include "protocol.h"
 #include "report.h"
 #include "serial.h"
@@ -169,6 +171,35 @@ int main(int argc, char **argv) {
   CHECK_HAS(o, "ALARM:3");
   o = run("$X\n");
   CHECK_HAS(o, "ok");
+
+  /* feed hold mid-move: decelerates, beam off, Hold:0; resume finishes the move */
+  {
+    const char *line = "G90 G1 X5 F600 S500 M3\n";
+    shell_out_clear();
+    for (const char *p = line; *p; p++)
+      serial_rx_isr((uint8_t)*p);
+    for (int i = 0; i < 20; i++) protocol_poll();
+    shell_advance_ms(100);                    /* quiet: the look-ahead is flushed */
+    for (int i = 0; i < 24; i++) protocol_poll();
+    CHECK(st_state() == ST_RUN);
+    CHECK(laser_current_duty() > 0);
+    serial_rx_isr('!');
+    for (int i = 0; i < 100000 && st_state() != ST_HELD; i++) protocol_poll();
+    CHECK(st_state() == ST_HELD || (st_state() == ST_IDLE && protocol_hold_requested()));
+    CHECK(laser_current_duty() == 0);
+    float mm[3];
+    st_get_position_mm(mm);
+    CHECK(mm[0] > 0.1f && mm[0] < 4.9f);
+    o = run("?");
+    CHECK_HAS(o, "<Hold:0|");
+    o = run("~");
+    st_get_position_mm(mm);
+    CHECK(mm[0] > 4.9995f && mm[0] < 5.0005f);
+    CHECK(st_is_idle());
+    CHECK(laser_current_duty() == 0);
+    o = run("?");
+    CHECK_HAS(o, "<Idle|MPos:5.000,");
+  }
 
   /* $RST=* restores the defaults (dialect included) */
   o = run("$RST=*\n");

@@ -1,7 +1,7 @@
 /*
   fuzz_util.c - the shell's hal for the fuzzers: output discarded, storage
-  in RAM, a clock that moves 1 ms per poll, and a step timer that runs a
-  few ticks per poll. When the planner is nearly full the machine is reset
+  in RAM, a clock that moves 1 ms per poll; the step timer of hal_null.c
+  never ticks. When the planner is nearly full the machine is reset
   (st_reset + plan_reset), so that no input can make the loop wait for
   motion the fuzzer never finishes.
 */
@@ -17,7 +17,6 @@
 static uint8_t storage[4096];
 static uint32_t storage_len;
 static uint32_t now_ms;
-int fuzz_timer_on;
 
 void hal_serial_tx_kick(void) {
   while (serial_tx_pop() >= 0) {
