@@ -98,10 +98,12 @@
 #define APB_UART_HZ 84000000u
 #define TIM_HW_PSC 20u             /* QEMU timers count at 1 GHz: 1e9 / 21 = 47.6 MHz */
 #define TRACE_UART USART2
-/* QEMU 7.2's STM32 timer model loses its update interrupt after the first
-   period (its counter never wraps), so in QEMU the step ticks come from
-   SysTick (168 MHz CPU clock, a 24-bit reload): same st_tick(), same
-   periods, converted from the 48 MHz step clock to CPU cycles. */
+/* Under QEMU 7.2 the TIM2 update interrupt was taken only when another
+   interrupt (a UART byte) arrived, so motion crawled; its timer model
+   re-arms from a counter that never wraps. In QEMU the step ticks
+   therefore come from SysTick (168 MHz CPU clock, a 24-bit reload): same
+   st_tick(), same periods, converted from the 48 MHz step clock to CPU
+   cycles. */
 #define QEMU_SYSTICK_STEPPER 1
 #else
 #define HOST_UART USART2

@@ -200,12 +200,13 @@ void report_gcode_modes(void) {
   serial_write(g->air & 2u ? " M8" : "");
   serial_write(g->air ? "" : " M9");
   serial_write(" T0 F");
+  uint8_t labkit = gc_get_dialect() == GC_DIALECT_LABKIT;
   double f = g->feed_mm_min;
-  if (gc_get_dialect() == GC_DIALECT_LABKIT)
-    f /= 60.0;
-  report_float(f, 0);
+  if (labkit)
+    f /= 60.0;                    /* labkit-fw: F in mm/s */
+  report_float(f, labkit ? 3 : 0);
   serial_write(" S");
-  report_float(g->power_s, 0);
+  report_float(g->power_s, labkit ? 1 : 0);
   serial_write("]\r\n");
 }
 

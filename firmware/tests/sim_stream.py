@@ -1,7 +1,7 @@
 """Stream a real job to the host simulator over a pty in GRBL mode.
 
     PYTHONPATH=<repo> /work/main/.venv/bin/python firmware/tests/sim_stream.py \
-        [SIM] [JOB.gcode]
+        [SIM] [JOB.gcode] [--labkit-fw]
 
 Starts ``labkit-fw-sim --pty --dialect grbl --stats`` (default
 firmware/build/host/labkit-fw-sim), connects with labkit's GRBL client
@@ -14,6 +14,10 @@ streams the job with GRBL character counting (128-byte RX budget, from
 * the laser ended off (``FS`` power 0, ``$G`` says M5).
 
 Prints the simulator's statistics (blocks per second of host time).
+With ``--labkit-fw`` the job is first written in the labkit-fw dialect by
+``labkit.gcode.emit`` (F mm/s, S 0-255, G4 P ms) and streamed to the
+simulator in that dialect with :class:`labkit.machine.labkitfw.LabkitFirmware`
+(replies ``ok`` / ``er:N``).
 Exit status 0 when everything holds.
 """
 from __future__ import annotations
@@ -28,15 +32,17 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
 sys.path.insert(0, str(ROOT))
 
+from labkit.gcode import emit, parse  # noqa: E402
 from labkit.machine.grbl import Grbl  # noqa: E402
+from labkit.machine.labkitfw import LabkitFirmware  # noqa: E402
 from labkit.machine.link import open_link  # noqa: E402
 from labkit.machine.stream import Job, run_job  # noqa: E402
 
 STEPS_PER_MM = 6400.0 / 3.0   # defaults.h (CBR-40)
 
 
-def start_sim(sim: str):
-    proc = subprocess.Popen([sim, "--pty", "--dialect", "grbl", "--stats"],
+def start_sim(sim: str, dialect: str = "grbl"):
+    proc = subprocess.Popen([sim, "--pty", "--dialect", dialect, "--stats"],
                             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE, text=True)
     line = proc.stderr.readline()
@@ -47,15 +53,20 @@ def start_sim(sim: str):
 
 
 def main(argv):
+    native = "--labkit-fw" in argv
+    argv = [a for a in argv if a != "--labkit-fw"]
+    dialect = "labkit-fw" if native else "grbl"
     sim = argv[1] if len(argv) > 1 else str(ROOT / "firmware/build/host/labkit-fw-sim")
     job_path = Path(argv[2]) if len(argv) > 2 else ROOT / "data/gcode/cncjs/jsdc-laser.gcode"
     # a last rapid away from the origin, so that '?' has a position worth checking
     text = job_path.read_text("utf-8").rstrip("\n") + "\nG90 G0 X12.3456 Y7.891\n"
-    job = Job.from_text(text, filename=str(job_path), dialect="grbl")
-    proc, pty = start_sim(sim)
+    if native:
+        text = emit(parse(text, dialect="grbl", filename=str(job_path)), dialect="labkit-fw")
+    job = Job.from_text(text, filename=str(job_path), dialect=dialect)
+    proc, pty = start_sim(sim, dialect)
     failures = []
     try:
-        g = Grbl(open_link(pty))
+        g = (LabkitFirmware if native else Grbl)(open_link(pty))
         g.realtime("soft_reset")            # the banner went out before we opened the pty
         info = g.connect(timeout_s=5.0)
         print(f"connected: {info.banner!r}; RX {info.rx_bytes} bytes, planner {info.planner_blocks} blocks")
@@ -103,7 +114,7 @@ def main(argv):
     if failures:
         print("FAILED:\n  " + "\n  ".join(failures))
         return 1
-    print("sim_stream: PASS")
+    print(f"sim_stream ({dialect}): PASS")
     return 0
 
 
