@@ -19,7 +19,8 @@
   Trace (--trace FILE): one CSV row per tick, the columns of
   `labkit steps` (labkit.motion.timer.StepTrace.to_dataframe):
     time_s,cycle,block,line,x,y,z,dir,period,power_mw
-  x y z are -1/0/+1 steps, time_s the step pulse at the end of the tick.
+  x y z are -1/0/+1 steps, time_s the step pulse at the end of the tick;
+  dwell ticks are left out (labkit's trace has none).
 
   Control panel (menu.c) and e-stop as bytes in the input (serial.h):
     0xB0 encoder clockwise, 0xB1 counter-clockwise, 0xB2 OK, 0xB8 e-stop.
@@ -69,6 +70,7 @@ static uint32_t blocks_seen;
 static FILE *trace;
 static uint32_t tick_block, tick_line;
 static double tick_power_mw;
+static uint8_t tick_dwell;
 
 /* storage */
 static const char *eeprom_path;
@@ -88,7 +90,7 @@ void hal_step_pulse(uint8_t step_bits) {
       pos_steps[i] += s[i];
     }
   }
-  if (trace) {
+  if (trace && !tick_dwell) {    /* a dwell has no ticks in labkit's step trace */
     const lk_machine_t *m = plan_machine();
     fprintf(trace, "%.9f,%llu,%u,%u,%d,%d,%d,%u,%u,%.6f\n",
             (double)cycles / (double)m->timer_clock_hz, (unsigned long long)cycles, tick_block,
@@ -103,6 +105,7 @@ void hal_timer_set_period(uint32_t p) {
   tick_block = b ? b->seq - 1u : 0u;
   tick_line = b ? b->line : 0u;
   tick_power_mw = st_current_power_mw();
+  tick_dwell = b && b->kind == PLAN_BLOCK_DWELL;
   if (b && b->seq > blocks_seen)
     blocks_seen = b->seq;
 }

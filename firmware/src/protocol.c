@@ -369,7 +369,9 @@ static uint8_t needs_idle(const char *line) {
 void protocol_execute_line(char *line) {
   uint8_t st;
   if (line[0] == 0) {
-    st = STATUS_OK;
+    /* blank or comment-only: the parser still counts it, so that block
+       line numbers are source line numbers (Ln:, traces) */
+    st = state == PROTO_ALARM ? STATUS_OK : gc_execute_line(line);
   } else if (line[0] == '$') {
     st = system_command(line);
     if (st == 0xFF)
