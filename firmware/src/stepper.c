@@ -71,6 +71,8 @@ static struct {
   uint8_t dir_out;
   uint8_t pending_bits, pending_neg;
   uint8_t pending;
+  uint32_t extra_counts;   /* timer counts of the tick still to run after this period */
+  uint32_t max_counts;     /* 2^timer_bits, capped */
   volatile int32_t pos[3];
   volatile uint32_t rate;
 } sti;
@@ -165,7 +167,16 @@ static int load_tick(void)
   }
   laser_output(t->duty);
   sti.rate = t->rate;
-  hal_timer_set_period(t->period);
+  /* a tick longer than the period register runs as several periods; its
+     step pulse comes at the end of the last */
+  uint32_t counts = t->period + 1u;
+  if (counts == 0u || counts > sti.max_counts) {
+    sti.extra_counts = t->period - (sti.max_counts - 1u);
+    hal_timer_set_period(sti.max_counts - 1u);
+  } else {
+    sti.extra_counts = 0;
+    hal_timer_set_period(t->period);
+  }
   sti.pending_bits = bits;
   sti.pending_neg = neg;
   sti.pending = 1;
@@ -176,6 +187,12 @@ static int load_tick(void)
 void st_tick(void)
 {
   if (!sti.running) return;
+  if (sti.extra_counts) {
+    uint32_t c = sti.extra_counts < sti.max_counts ? sti.extra_counts : sti.max_counts;
+    sti.extra_counts -= c;
+    hal_timer_set_period(c - 1u);
+    return;
+  }
   if (sti.pending) {
     uint8_t bits = sti.pending_bits;
     hal_step_pulse(bits);
@@ -200,6 +217,10 @@ void st_tick(void)
 static void wake_up(void)
 {
   if (sti.running || tick_tail == tick_head) return;
+  {
+    uint32_t bits = plan_machine()->timer_bits;
+    sti.max_counts = bits >= 32 ? 0x80000000u : (1u << bits);
+  }
   if (sti.state == ST_HELD || sti.state == ST_HOLDING) return;
   sti.running = 1;
   sti.state = ST_RUN;
@@ -358,6 +379,7 @@ void st_reset(void)
   prep.ramp = 0;
   sti.running = 0;
   sti.pending = 0;
+  sti.extra_counts = 0;
   sti.have_block = 0;
   sti.loaded_any = 0;
   sti.rate = 0;

@@ -55,9 +55,23 @@ void hal_step_pulse(uint8_t step_bits)
     t->step[a] = (int8_t)((step_bits & (1u << a)) ? ((rec.dir & (1u << a)) ? -1 : 1) : 0);
 }
 
-void hal_timer_set_period(uint32_t period_reg) { add_tick(period_reg); }
+void hal_timer_set_period(uint32_t period_reg)
+{
+  rec.hal_periods++;
+  if (period_reg > rec.max_hal_period) rec.max_hal_period = period_reg;
+  if (rec.n_ticks > 0 && !rec.ticks[rec.n_ticks - 1].pulsed && !rec.after_stop) {
+    /* the rest of a tick longer than the register */
+    rec_tick_t *t = &rec.ticks[rec.n_ticks - 1];
+    t->period += period_reg + 1u;
+    rec.cycles += ((uint64_t)period_reg + 1) * ((uint64_t)plan_machine()->prescaler + 1);
+    t->cycles_end = rec.cycles;
+    return;
+  }
+  rec.after_stop = 0;
+  add_tick(period_reg);
+}
 void hal_timer_start(void) { rec.running = 1; rec.starts++; }
-void hal_timer_stop(void) { rec.running = 0; rec.stops++; }
+void hal_timer_stop(void) { rec.running = 0; rec.stops++; rec.after_stop = 1; }
 void hal_laser_set(uint16_t duty) { rec.duty = duty; }
 void hal_laser_gate(uint32_t pwm_hz, uint16_t on_permille) { rec.gate_hz = pwm_hz; (void)on_permille; }
 void hal_air_set(uint8_t bits) { rec.air = bits; }

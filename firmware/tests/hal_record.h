@@ -35,6 +35,9 @@ typedef struct {
   uint8_t air;
   uint32_t gate_hz;
   uint32_t starts, stops, double_pulses, stray_pulses;
+  uint8_t after_stop;        /* the next period starts a new tick */
+  uint32_t max_hal_period;   /* largest value written to the period register */
+  uint32_t hal_periods;      /* periods written (a long tick takes several) */
 } rec_t;
 
 extern rec_t rec;

@@ -338,6 +338,25 @@ int main(int argc, char **argv)
     jobs++;
   }
 
+  /* slow feeds: ticks longer than the 16-bit period register run as several periods */
+  ctx = "slow feed";
+  {
+    reset(PLAN_MODE_HQ, PLAN_LAW_LINEAR, 16);
+    CHECK(run("M3 S100 G1 X0.05 Y0.02 F0.03") == STATUS_OK, "slow job");   /* 64 Hz: 750000 counts */
+    double end[3] = {0.05, 0.02, 0.0};
+    finish();
+    check_job(PLAN_LAW_LINEAR, end);
+    CHECK(rec.n_ticks == 107 && rec.ticks[0].period > 65535u, "%u ticks, first period %u", rec.n_ticks,
+          rec.ticks[0].period);
+    CHECK(rec.max_hal_period <= 65535u && rec.hal_periods > rec.n_ticks, "period register got %u",
+          rec.max_hal_period);
+    uint64_t c = 0;
+    for (uint32_t k = 0; k < rec.n_ticks; k++) c += (uint64_t)rec.ticks[k].period + 1;
+    CHECK(c == rec.cycles, "cycles %llu vs %llu", (unsigned long long)c, (unsigned long long)rec.cycles);
+    ticks += rec.n_ticks;
+    jobs++;
+  }
+
   /* pulsed laser mode reaches the gate */
   ctx = "laser modes";
   laser_set_mode(LASER_MODE_PULSED, 20000, 500);
