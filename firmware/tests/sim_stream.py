@@ -18,7 +18,8 @@ With ``--labkit-fw`` the job is first written in the labkit-fw dialect by
 ``labkit.gcode.emit`` (F mm/s, S 0-255, G4 P ms) and streamed to the
 simulator in that dialect with :class:`labkit.machine.labkitfw.LabkitFirmware`
 (replies ``ok`` / ``er:N``).
-Exit status 0 when everything holds.
+Exit status 0 when everything holds. ``SIM_TRACE=FILE`` also writes the
+simulator's step trace (compare it with ``labkit steps``, see sim_trace.py).
 """
 from __future__ import annotations
 
@@ -42,7 +43,8 @@ STEPS_PER_MM = 6400.0 / 3.0   # defaults.h (CBR-40)
 
 
 def start_sim(sim: str, dialect: str = "grbl"):
-    proc = subprocess.Popen([sim, "--pty", "--dialect", dialect, "--stats"],
+    extra = ["--trace", os.environ["SIM_TRACE"]] if os.environ.get("SIM_TRACE") else []
+    proc = subprocess.Popen([sim, "--pty", "--dialect", dialect, "--stats"] + extra,
                             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE, text=True)
     line = proc.stderr.readline()
