@@ -22,6 +22,13 @@
 #define ST_TICK_BUFFER_SIZE 256
 #endif
 
+/* How far ahead of the motors the main loop prepares ticks, in ms of motion:
+   a feed hold starts decelerating at most this late. The main loop must call
+   st_prep_buffer() more often than this. */
+#ifndef ST_PREP_LEAD_MS
+#define ST_PREP_LEAD_MS 8u
+#endif
+
 /* Blocks known to the stepper (the running one and the ones being prepared). */
 #ifndef ST_BLOCK_BUFFER_SIZE
 #define ST_BLOCK_BUFFER_SIZE 4

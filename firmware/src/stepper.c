@@ -52,6 +52,7 @@ static struct {
   uint32_t last_rate;
   uint8_t ramp;            /* resuming: rate limited to ramp_rate */
   uint32_t ramp_rate;
+  uint32_t cycles;         /* clock cycles of the ticks prepared (mod 2^32) */
 } prep;
 
 /* interrupt state */
@@ -73,6 +74,8 @@ static struct {
   uint8_t pending;
   uint32_t extra_counts;   /* timer counts of the tick still to run after this period */
   uint32_t max_counts;     /* 2^timer_bits, capped */
+  uint32_t pre1;           /* prescaler + 1 */
+  volatile uint32_t done_cycles;   /* clock cycles of the ticks loaded (mod 2^32) */
   volatile int32_t pos[3];
   volatile uint32_t rate;
 } sti;
@@ -167,6 +170,7 @@ static int load_tick(void)
   }
   laser_output(t->duty);
   sti.rate = t->rate;
+  sti.done_cycles += (t->period + 1u) * sti.pre1;
   /* a tick longer than the period register runs as several periods; its
      step pulse comes at the end of the last */
   uint32_t counts = t->period + 1u;
@@ -220,6 +224,7 @@ static void wake_up(void)
   {
     uint32_t bits = plan_machine()->timer_bits;
     sti.max_counts = bits >= 32 ? 0x80000000u : (1u << bits);
+    sti.pre1 = plan_machine()->prescaler + 1u;
   }
   if (sti.state == ST_HELD || sti.state == ST_HOLDING) return;
   sti.running = 1;
@@ -293,9 +298,12 @@ static void end_block(void)
 void st_prep_buffer(void)
 {
   const lk_machine_t *m = plan_machine();
+  const uint32_t lead_max = m->timer_clock_hz / 1000u * ST_PREP_LEAD_MS;
+  if (tick_head == tick_tail) prep.cycles = sti.done_cycles;   /* nothing queued */
   for (;;) {
     if (sti.state == ST_HELD) break;
     if (tick_head - tick_tail >= ST_TICK_BUFFER_SIZE) break;
+    if (prep.cycles - sti.done_cycles > lead_max) break;
     if (!prep.b && !start_block()) break;
     plan_block_t *b = prep.b;
     st_tick_t t;
@@ -340,6 +348,7 @@ void st_prep_buffer(void)
       prep.k++;
     }
     tick_buf[tick_head % ST_TICK_BUFFER_SIZE] = t;
+    prep.cycles += (t.period + 1u) * (m->prescaler + 1u);
     tick_head++;
     if (b->kind != PLAN_BLOCK_DWELL && prep.k >= b->ticks) end_block();
     else if (b->kind == PLAN_BLOCK_DWELL && prep.dwell_left == 0) end_block();
@@ -377,6 +386,7 @@ void st_reset(void)
   blk_head = blk_tail = 0;
   prep.b = NULL;
   prep.ramp = 0;
+  prep.cycles = sti.done_cycles;
   sti.running = 0;
   sti.pending = 0;
   sti.extra_counts = 0;
