@@ -328,11 +328,20 @@ void st_prep_buffer(void)
     } else {
       uint32_t f = plan_tick_rate(b, prep.k, prep.law);
       if (sti.state == ST_HOLDING) {
-        uint32_t lim = prep.last_rate > b->down ? prep.last_rate - b->down : 0;
+        /* one tick of the block's deceleration below the last rate */
+        uint32_t lim;
+        if (prep.law == PLAN_LAW_LINEAR) {
+          lim = prep.last_rate > b->down ? prep.last_rate - b->down : 0;
+        } else {
+          uint64_t sq = (uint64_t)prep.last_rate * prep.last_rate;
+          lim = sq > 2ull * b->down ? plan_isqrt(sq - 2ull * b->down) : 0;
+        }
         if (lim <= b->f_min) break;   /* stopped: keep the rest for the resume */
         if (f > lim) f = lim;
       } else if (prep.ramp) {
-        uint32_t lim = prep.ramp_rate + b->up;
+        uint32_t lim = prep.law == PLAN_LAW_LINEAR
+                           ? prep.ramp_rate + b->up
+                           : plan_isqrt((uint64_t)prep.ramp_rate * prep.ramp_rate + 2ull * b->up);
         if (f > lim) {
           f = lim;
           prep.ramp_rate = lim;
@@ -368,11 +377,10 @@ void st_feed_hold(void)
 void st_resume(void)
 {
   if (sti.state != ST_HELD && sti.state != ST_HOLDING) return;
-  uint8_t was_held = sti.state == ST_HELD;
   sti.state = ST_RUN;
-  if (was_held && prep.b && prep.b->kind != PLAN_BLOCK_DWELL) {
+  if (prep.b && prep.b->kind != PLAN_BLOCK_DWELL) {   /* ramp up from where the hold left */
     prep.ramp = 1;
-    prep.ramp_rate = prep.b->f_min;
+    prep.ramp_rate = prep.last_rate > prep.b->f_min ? prep.last_rate : prep.b->f_min;
   }
   st_prep_buffer();
 }

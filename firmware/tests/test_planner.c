@@ -23,6 +23,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "config.h"
 #include "gcode.h"
 #include "hal_record.h"
 #include "laser.h"
@@ -277,10 +278,10 @@ int main(int argc, char **argv)
     jobs++;
   }
 
-  /* feed hold mid-job: decelerate, stop with the beam off, resume to the end */
-  ctx = "feed hold";
-  {
-    reset(PLAN_MODE_HQ, PLAN_LAW_LINEAR, 16);
+  /* feed hold mid-job, both laws: decelerate, stop with the beam off, resume to the end */
+  for (int law = 0; law < 2; law++) {
+    ctx = law ? "feed hold (accel)" : "feed hold (linear)";
+    reset(law ? PLAN_MODE_JUNCTION : PLAN_MODE_HQ, (uint8_t)law, 16);
     CHECK(run("M3 S255 G1 X2 F20") == STATUS_OK && run("G1 X0 Y1") == STATUS_OK, "job");
     plan_flush();
     st_prep_buffer();
@@ -289,27 +290,46 @@ int main(int argc, char **argv)
       st_prep_buffer();
     }
     uint32_t before = rec.n_ticks;
+    uint32_t rate_at_hold = rec.ticks[before - 1].rate;
     st_feed_hold();
-    for (int g = 0; g < 100000 && rec.running; g++) {
+    for (int g = 0; g < 1000000 && rec.running; g++) {
       st_tick();
       st_prep_buffer();
     }
     CHECK(st_state() == ST_HELD, "state %u after the hold", st_state());
     CHECK(rec.duty == 0, "laser duty %u while held", rec.duty);
-    uint32_t rises = 0;
-    for (uint32_t k = before + ST_TICK_BUFFER_SIZE + 1; k < rec.n_ticks; k++)
+    uint32_t rises = 0, jumps = 0, prepared = 0;
+    uint64_t prepared_end = 0;
+    for (uint32_t k = before + 1; k < rec.n_ticks; k++) {
       if (rec.ticks[k].rate > rec.ticks[k - 1].rate && rec.ticks[k].seq == rec.ticks[k - 1].seq) rises++;
+      if (rec.ticks[k].rate == rate_at_hold && !prepared_end) prepared++;
+      else if (!prepared_end) prepared_end = rec.ticks[k - 1].cycles_end;
+      /* never a drop faster than the slope allows */
+      uint64_t a = rec.ticks[k - 1].rate, c = rec.ticks[k].rate;
+      uint64_t down = 0;
+      for (uint32_t q = 0; q < rec.n_blocks; q++)
+        if (rec.blocks[q].seq == rec.ticks[k].seq) down = rec.blocks[q].down;
+      uint64_t d = law ? (a * a - c * c) : (a - c);
+      /* isqrt rounds down: allow one Hz of it on the accel law */
+      if (c < a && d > (law ? 2ull * down + 2ull * a : down)) jumps++;
+    }
     CHECK(rises == 0, "%u rate rises while holding", rises);
-    CHECK((int64_t)rec.ticks[rec.n_ticks - 1].rate <= plan_machine()->start_rate_hz + plan_machine()->decel_hz_per_step,
-          "held at %u Hz", rec.ticks[rec.n_ticks - 1].rate);
+    CHECK(jumps == 0, "%u drops steeper than the slope", jumps);
+    uint64_t late = prepared_end - rec.ticks[before - 1].cycles_end;
+    CHECK(rec.n_ticks - before > 10 && late <= (uint64_t)plan_machine()->timer_clock_hz / 1000u * ST_PREP_LEAD_MS,
+          "hold ran %u ticks; it slowed down after %u ticks (%.2f ms)", rec.n_ticks - before, prepared,
+          (double)late / plan_machine()->timer_clock_hz * 1e3);
     int32_t held[3];
     st_get_position(held);
     CHECK(held[0] != 4267 || held[1] != 0, "the hold came too late to test");
+    uint32_t at_resume = rec.n_ticks;
     st_resume();
     hal_record_pump();
     int32_t pos[3];
     st_get_position(pos);
     CHECK(pos[0] == 0 && pos[1] == 2133 && plan_is_empty(), "after resume at %d %d", pos[0], pos[1]);
+    CHECK(at_resume < rec.n_ticks && rec.ticks[at_resume].rate <= rec.ticks[at_resume - 1].rate + 2000u,
+          "resume jumped from %u to %u Hz", rec.ticks[at_resume - 1].rate, rec.ticks[at_resume].rate);
     jobs++;
   }
 
