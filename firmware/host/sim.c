@@ -269,6 +269,10 @@ void hal_poll(void) {
     cycles += ((uint64_t)period_reg + 1u) * ((uint64_t)m->prescaler + 1u);
     ticks++;
     st_tick();
+    /* the main loop keeps up with the interrupt (it must refill within
+       ST_PREP_LEAD_MS): top the ticks up while the stepper runs */
+    if ((i & 3) == 3 && timer_on)
+      st_prep_buffer();
   }
   if (serial_tx_count() || txlen)
     tx_flush(0);

@@ -163,8 +163,9 @@ void protocol_alarm(uint8_t alarm) {
 }
 
 void protocol_estop(void) {
-  /* Any context: cut motion and beam first, report from the main loop. */
-  st_reset();
+  /* Any context: step timer and beam off now; the main loop then resets
+     the stepper and planner (st_reset is main-loop only) and reports. */
+  hal_timer_stop();
   laser_off();
   serial_rt_flags |= RT_ESTOP;
   protocol_events |= EV_SYSTEM;
@@ -340,6 +341,8 @@ static uint8_t system_command(char *line) {
       return REPLY_LOCKED;
     if (state == PROTO_CHECK)
       return STATUS_OK;
+    if (state != PROTO_JOG && (!plan_is_empty() || !st_is_idle()))
+      return REPLY_NOT_IDLE;
     return jog(p + 2);
   }
   if (!strncmp(p, "RST=", 4) && p[4] && !p[5]) {

@@ -30,6 +30,9 @@
    be wrong about, the lock is a machine state. It is answered with GRBL's
    own number, which labkit.machine.grbl (grbl_codes.csv) names. */
 #define REPLY_LOCKED 9
+/* GRBL's error 8 ('$' command only allowed while idle): a jog asked for
+   while a job runs is refused, never queued behind the job. */
+#define REPLY_NOT_IDLE 8
 
 void report_status_message(uint8_t status);   /* ok / er:N / error:N */
 void report_alarm(uint8_t alarm);             /* ALARM:N */

@@ -56,8 +56,11 @@ void shell_advance_ms(uint32_t ms) { now_ms += ms; }
 /* The step timer of the recording hal ticks here (nothing without it). */
 void hal_poll(void) {
 #ifdef HAVE_REC
-  for (int i = 0; i < 128 && rec.running; i++)   /* less than the prepared ticks: no starving */
+  for (int i = 0; i < 128 && rec.running; i++) {
     st_tick();
+    if ((i & 3) == 3 && rec.running)   /* the main loop keeps up: no starving */
+      st_prep_buffer();
+  }
 #endif
 }
 

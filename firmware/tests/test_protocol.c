@@ -186,6 +186,8 @@ int main(int argc, char **argv) {
     serial_rx_isr('!');
     for (int i = 0; i < 100000 && st_state() != ST_HELD; i++) protocol_poll();
     CHECK(st_state() == ST_HELD || (st_state() == ST_IDLE && protocol_hold_requested()));
+    o = run("$J=G91 X1 F100\n");            /* no jog while a job is held or running */
+    CHECK(!strcmp(o, "error:8\r\n"));
     CHECK(laser_current_duty() == 0);
     float mm[3];
     st_get_position_mm(mm);
