@@ -8,19 +8,24 @@
 #include "planner.h"
 
 rec_t rec;
+static uint32_t rec_cap;
 
 void hal_record_reset(void)
 {
   free(rec.ticks);
   free(rec.blocks);
   memset(&rec, 0, sizeof rec);
+  rec_cap = 0;
 }
 
 static void add_tick(uint32_t period)
 {
   const lk_machine_t *m = plan_machine();
-  if ((rec.n_ticks & 1023u) == 0)
-    rec.ticks = realloc(rec.ticks, (rec.n_ticks + 1024u) * sizeof *rec.ticks);
+  if (rec.n_ticks == rec_cap) {   /* grow geometrically: jobs reach millions of ticks */
+    rec_cap = rec_cap ? 2u * rec_cap : 4096u;
+    rec.ticks = realloc(rec.ticks, rec_cap * sizeof *rec.ticks);
+    if (!rec.ticks) abort();
+  }
   rec_tick_t *t = &rec.ticks[rec.n_ticks++];
   memset(t, 0, sizeof *t);
   const st_block_info_t *b = st_running_block();
