@@ -18,7 +18,7 @@
 
 #define LK_PI 3.141592653589793
 /* largest |position| in steps: int32 counters with room for the arithmetic */
-#define PLAN_MAX_STEPS 1073741824.0
+#define PLAN_MAX_STEPS 536870912.0   /* 2^29: 2N of a line stays in int32 */
 
 /* ------------------------------------------------------------------ machine */
 
