@@ -15,6 +15,7 @@
 
 #include "defaults.h"
 #include "status_codes.h"
+#include "stepper.h"
 
 #define LK_PI 3.141592653589793
 /* largest |position| in steps: int32 counters with room for the arithmetic */
@@ -515,7 +516,10 @@ uint8_t plan_prepare_move(const plan_move_t *mv, plan_block_t *b)
     plan_arc_t walk = b->arc;
     int32_t x, y, st;
     uint32_t n_ticks = 0;
-    while ((st = plan_arc_next(&walk, &x, &y)) == 1) n_ticks++;
+    while ((st = plan_arc_next(&walk, &x, &y)) == 1) {
+      /* a big arc takes a while to count: keep the motors fed meanwhile */
+      if ((++n_ticks & 4095u) == 0) st_prep_buffer();
+    }
     if (st < 0) return STATUS_INVALID_ARC;
     int32_t h = b->end_steps[lin] - b->start_steps[lin];
     if ((uint32_t)(h < 0 ? -h : h) > n_ticks) return STATUS_INVALID_ARC;
