@@ -99,7 +99,12 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[1])
     ap.add_argument("--binary", default=str(HERE.parent / "build" / "tests" / "test_vectors"))
+    ap.add_argument("--dialect", default="grbl", choices=["grbl", "labkit-fw"],
+                    help="dialect the jobs are read in (the same text: F, S and P mean other units)")
     args = ap.parse_args(argv)
+    if args.dialect != "grbl":   # the vector writer reads grbl; read the jobs in the other dialect
+        from labkit.gcode import parse as _parse
+        G.parse = lambda text, dialect="grbl": _parse(text, dialect=args.dialect)
     bad = skipped = written = 0
     for seed in args.seeds:
         rng = random.Random(seed)
@@ -126,6 +131,7 @@ def main(argv=None) -> int:
                     skipped += 1
                     print(f"seed {seed}: {name} skipped: {type(exc).__name__}: {str(exc)[:100]}")
                     continue
+                v["dialect"] = args.dialect
                 (folder / f"{name}.json").write_text(G.dumps(v) + "\n")
                 written += 1
             res = subprocess.run([args.binary, tmp], capture_output=True, text=True)
