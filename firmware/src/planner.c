@@ -714,7 +714,8 @@ plan_block_t *plan_get_current_block(void)
   plan_block_t *b = slot(0);
   if (pl.current_planned) return b;
   if (b->kind == PLAN_BLOCK_DWELL) {
-    b->dwell_cycles = (uint32_t)floor(b->dwell_s * (double)pl.m.timer_clock_hz + 0.5);
+    double c = floor(b->dwell_s * (double)pl.m.timer_clock_hz + 0.5);
+    b->dwell_cycles = c < 1.8e19 ? (uint64_t)c : (uint64_t)1.8e19;   /* beyond: centuries */
     pl.current_planned = 1;
     return b;
   }

@@ -98,7 +98,7 @@ typedef struct {
   double entry_mm_s, peak_mm_s, exit_mm_s, plan_cap_mm_s;
   int32_t super_block;
   uint32_t f_entry, f_peak, f_exit, f_min, up, down, f_feed;
-  uint32_t dwell_cycles;
+  uint64_t dwell_cycles;
 } plan_block_t;
 
 void plan_init(void);                        /* defaults machine, empty buffer, position 0 */

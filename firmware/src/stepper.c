@@ -47,7 +47,7 @@ static struct {
   plan_block_t *b;
   uint32_t k;
   uint32_t slot;
-  uint32_t dwell_left;     /* timer clock cycles */
+  uint64_t dwell_left;     /* timer clock cycles */
   uint8_t law;
   uint32_t last_rate;
   uint8_t ramp;            /* resuming: rate limited to ramp_rate */
@@ -323,7 +323,7 @@ void st_prep_buffer(void)
       t.duty = 0;
       t.flags |= TICK_DWELL;
       uint64_t used = counts * per;
-      prep.dwell_left = used >= prep.dwell_left ? 0 : prep.dwell_left - (uint32_t)used;
+      prep.dwell_left = used >= prep.dwell_left ? 0 : prep.dwell_left - used;
       prep.k++;
     } else {
       uint32_t f = plan_tick_rate(b, prep.k, prep.law);

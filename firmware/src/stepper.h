@@ -36,7 +36,7 @@ typedef struct {
   uint32_t f_entry, f_peak, f_exit, f_min, up, down, f_feed;
   double power_mw;
   double length_mm, entry_mm_s, peak_mm_s, exit_mm_s;
-  uint32_t dwell_cycles;
+  uint64_t dwell_cycles;
 } st_block_info_t;
 
 void st_init(void);

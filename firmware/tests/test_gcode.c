@@ -260,7 +260,7 @@ static void semantic_cases(void)
   CHECK(run("G4 P250") == 0, "G4 P250");
   b = first_block();
   CHECK(b && b->kind == PLAN_BLOCK_DWELL && b->dwell_s == 0.25 && b->dwell_cycles == 12000000u,
-        "labkit G4 P250: %g s %u cycles", b ? b->dwell_s : -1, b ? b->dwell_cycles : 0);
+        "labkit G4 P250: %g s %llu cycles", b ? b->dwell_s : -1, b ? (unsigned long long)b->dwell_cycles : 0ull);
   reset(GC_DIALECT_GRBL);
   CHECK(run("G4 P0.5") == 0, "G4 P0.5");
   b = first_block();
