@@ -720,7 +720,7 @@ plan_block_t *plan_get_current_block(void)
     return b;
   }
   /* the window: this block and up to depth more motion blocks of its stream */
-  const uint32_t W = pl.depth;
+  uint32_t W = pl.depth;
   plan_block_t *win[PLAN_BUFFER_SIZE];
   uint32_t cnt = 0;
   int seq_end = 0;
@@ -734,8 +734,18 @@ plan_block_t *plan_get_current_block(void)
     win[cnt++] = o;
   }
   if (cnt < W + 1 && !seq_end) {
-    if (!pl.flushed) return NULL;   /* wait for more blocks or the end of the stream */
-    seq_end = 1;
+    if (pl.flushed) {
+      seq_end = 1;
+    } else if (plan_is_full()) {
+      /* dwells fill the ring before the window is complete: plan with the
+         blocks there are (a shorter window), or stop at the only one */
+      if (cnt >= 2)
+        W = cnt - 1;
+      else
+        seq_end = 1;
+    } else {
+      return NULL;   /* wait for more blocks or the end of the stream */
+    }
   }
   if (pl.mode == PLAN_MODE_FAST && !seq_end) {
     /* fast MBLA: the caps in the window are the tops of their super blocks, so

@@ -278,6 +278,24 @@ int main(int argc, char **argv)
     jobs++;
   }
 
+  /* a ring full of dwells cannot hold the look-ahead window: the job still runs */
+  ctx = "dwells fill the ring";
+  {
+    reset(PLAN_MODE_JUNCTION, PLAN_LAW_ACCEL, PLAN_MAX_DEPTH);
+    char l[64];
+    int ok = 1;
+    for (int i = 1; i <= 3 * PLAN_BUFFER_SIZE && ok; i++) {
+      snprintf(l, sizeof l, i % 2 ? "G1 X%d F20" : "G4 P1", i);
+      ok = run(l) == STATUS_OK;
+    }
+    CHECK(ok, "lines rejected");
+    finish();
+    int32_t p[3];
+    st_get_position(p);
+    CHECK(plan_is_empty() && p[0] == plan_to_steps(3 * PLAN_BUFFER_SIZE - 1, 6400.0 / 3.0), "ended at %d", p[0]);
+    jobs++;
+  }
+
   /* feed hold mid-job, both laws: decelerate, stop with the beam off, resume to the end */
   for (int law = 0; law < 2; law++) {
     ctx = law ? "feed hold (accel)" : "feed hold (linear)";
