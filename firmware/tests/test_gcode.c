@@ -334,6 +334,17 @@ static void semantic_cases(void)
   CHECK(b && b->ticks == ticks_short && ticks_short > 4267, "half circle ticks %u vs %u", ticks_short,
         b ? b->ticks : 0);
 
+  /* the machine refuses what it cannot walk: nothing changes (labkit.motion refuses it too) */
+  reset(GC_DIALECT_LABKIT);
+  {
+    gc_state_t before = *gc_state();
+    CHECK(run("G2 X1 Z5 I0.5 F10") == STATUS_INVALID_ARC, "helix steeper than its arc accepted");
+    CHECK(!memcmp(&before, gc_state(), sizeof before) && plan_is_empty(), "refused helix changed the state");
+    plan_machine()->steps_per_mm[1] = 100.0;
+    CHECK(run("G2 X1 I0.5 F10") == STATUS_INVALID_ARC, "arc on axes of unequal steps/mm accepted");
+    CHECK(run("G1 X1 F10") == STATUS_OK, "a line on them");
+  }
+
   /* full circle without an end point (labkit-fw) walks back to its start */
   reset(GC_DIALECT_LABKIT);
   CHECK(run("G2 I1 F10") == 0, "G2 I1");
