@@ -28,7 +28,7 @@ uint8_t laser_get_mode(void);
 /* Power (mW) of one tick at driver rate f_k: labkit.motion.timer.tick_power_mw. */
 double laser_tick_power_mw(uint8_t laser, double power_mw, uint32_t f_feed, uint32_t f_k,
                            double max_power_mw);
-/* mW -> duty 0 .. LK_LASER_PWM_TOP (rounded). */
+/* mW -> duty 0 .. LK_LASER_PWM_TOP, rounded to nearest; a burning tick gets at least 1. */
 uint16_t laser_duty_from_mw(double power_mw, double max_power_mw);
 
 /* Step interrupt: set the output to a prepared duty (no floating point). */
