@@ -25,6 +25,13 @@ int LLVMFuzzerInitialize(int *argc, char ***argv) {
   st_init();
   laser_init();
   gc_init();
+  /* 100 steps/mm: arcs are walked once in the parser; coarse steps keep a
+     fuzzed 4 m circle from costing seconds (same code paths) */
+  lk_machine_t *m = plan_machine();
+  for (int i = 0; i < 3; i++)
+    m->steps_per_mm[i] = 100.0;
+  if (plan_apply_machine() != STATUS_OK)
+    abort();
   return 0;
 }
 
