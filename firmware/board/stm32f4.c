@@ -10,9 +10,9 @@
                          go nowhere. QEMU clocks its timers at 1 GHz; the
                          prescaler below makes that the seed's 48 MHz.
     BOARD_nucleo_f446    Nucleo-F446RE: HSI 16 MHz -> PLL 48 MHz SYSCLK
-                         (bounded waits on the ready bits), host serial on
-                         USART2 (PA2/PA3, the ST-LINK virtual COM port),
-                         TIM2 at 48 MHz.
+                         (bounded waits on the ready bits), APB1 24 MHz,
+                         host serial on USART2 (PA2/PA3, the ST-LINK
+                         virtual COM port), TIM2 at 2 x APB1 = 48 MHz.
 
   Pins (both): steps PB0 PB1 PB2, directions PB3 PB4 PB5, laser gate PB6,
   laser PWM TIM3 CH1 (PA6, AF2, LK_LASER_PWM_TOP steps), e-stop input PC13
@@ -109,8 +109,8 @@
 #define HOST_UART USART2
 #define HOST_IRQ 38
 #define CPU_HZ 48000000u
-#define APB_UART_HZ 48000000u
-#define TIM_HW_PSC 0u              /* TIM2 clock 48 MHz */
+#define APB_UART_HZ 24000000u      /* USART2 on APB1 */
+#define TIM_HW_PSC 0u              /* TIM2 clock 2 x APB1 = 48 MHz */
 #endif
 #define BAUD 115200u
 
@@ -134,7 +134,9 @@ static void clocks_init(void) {
   RCC_CR |= 1u << 24;                            /* PLL on */
   for (uint32_t i = 0; i < 100000u && !(RCC_CR & (1u << 25)); i++) {
   }
-  RCC_CFGR = (RCC_CFGR & ~3u) | 2u;              /* SYSCLK = PLL, AHB APB1 APB2 / 1 */
+  /* SYSCLK = PLL; APB1 / 2 = 24 MHz (its limit is 45 MHz), so TIM2 runs at
+     2 x 24 = 48 MHz; AHB and APB2 / 1 */
+  RCC_CFGR = (RCC_CFGR & ~(3u | (7u << 10) | (7u << 13) | (0xFu << 4))) | 2u | (4u << 10);
   for (uint32_t i = 0; i < 100000u && (RCC_CFGR & 0xCu) != 0x8u; i++) {
   }
 #endif
