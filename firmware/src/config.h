@@ -48,6 +48,15 @@
 /* Largest (radius + 4) * scale of an exact arc walk in int64 (_MAX_FIXED_RADIUS). */
 #define LK_ARC_MAX_FIXED_RADIUS 3000000000.0
 
+/* Longest arc walk the parser accepts, by the walk's bound on its ticks
+   (1.05 x radius x sweep in steps, labkit.motion.bresenham.arc_points): the
+   walk is counted once in the main loop before the line is answered. 4
+   million allow a full circle of 280 mm radius at 2133 steps/mm (3.6 million
+   points, about 60 ms on a PC). Longer arcs are error 33. */
+#ifndef LK_ARC_MAX_TICKS
+#define LK_ARC_MAX_TICKS 4000000
+#endif
+
 /* G-code: largest N line number (GRBL), largest magnitude of a number (2^53). */
 #define GC_MAX_LINE_NUMBER 9999999.0
 #define GC_MAX_ABS_VALUE 9007199254740992.0

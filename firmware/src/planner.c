@@ -199,6 +199,14 @@ uint32_t plan_timer_period(uint32_t f_hz)
   return (uint32_t)((pl.m.timer_clock_hz + q - 1) / q - 1);
 }
 
+/* double -> uint32, saturating (absurd feeds must not be undefined behaviour) */
+static uint32_t sat_u32(double x)
+{
+  if (!(x > 0.0)) return 0;
+  if (x >= 4294967295.0) return UINT32_MAX;
+  return (uint32_t)x;
+}
+
 static double reach(double v0, double d, double slope, uint8_t law)
 {
   if (law == PLAN_LAW_LINEAR) return v0 + slope * d;
@@ -439,6 +447,7 @@ static int arc_init(plan_arc_t *a, const int32_t s[2], const int32_t e[2], const
   double lim2 = 1.05 * r * sweep + 8 * ((a->n_cross < 0 ? -a->n_cross : a->n_cross) + 3);
   double lim = lim1 < lim2 ? lim1 : lim2;
   if (lim > 2.0e9) return -1;
+  if (lim > (double)LK_ARC_MAX_TICKS) return -1;   /* too long to count in the main loop */
   a->max_ticks = (int32_t)lim + 16;
   a->octant = (int8_t)o_s;
   if (rq < 2 * q) return -1;
@@ -690,8 +699,8 @@ static void set_step_program(plan_block_t *b)
   double v[3] = {b->entry_mm_s, b->peak_mm_s, b->exit_mm_s};
   uint32_t f[3];
   for (int i = 0; i < 3; i++) {
-    double r = floor(v[i] * scale + 1e-9);
-    f[i] = r > (double)f_min ? (uint32_t)r : f_min;
+    uint32_t r = sat_u32(floor(v[i] * scale + 1e-9));
+    f[i] = r > f_min ? r : f_min;
   }
   b->f_entry = f[0];
   b->f_peak = f[1];
@@ -701,11 +710,11 @@ static void set_step_program(plan_block_t *b)
     b->up = (uint32_t)m->accel_hz_per_step;
     b->down = (uint32_t)m->decel_hz_per_step;
   } else {
-    double u = floor(b->accel_mm_s2 * scale);
-    b->up = b->down = u < 1 ? 1u : (uint32_t)u;
+    uint32_t u = sat_u32(floor(b->accel_mm_s2 * scale));
+    b->up = b->down = u < 1 ? 1u : u;
   }
   double feed = isfinite(b->feed_mm_s) ? b->feed_mm_s : 0.0;
-  b->f_feed = (uint32_t)floor(feed * scale + 1e-9);
+  b->f_feed = sat_u32(floor(feed * scale + 1e-9));
 }
 
 plan_block_t *plan_get_current_block(void)

@@ -368,6 +368,8 @@ void st_prep_buffer(void)
 void st_feed_hold(void)
 {
   if (sti.state == ST_RUN) sti.state = ST_HOLDING;
+  /* momentarily idle with work queued: hold it before it starts */
+  if (sti.state == ST_IDLE && (!plan_is_empty() || tick_head != tick_tail)) sti.state = ST_HOLDING;
   if (!sti.running && sti.state == ST_HOLDING) {
     sti.state = ST_HELD;
     laser_off();

@@ -345,6 +345,18 @@ static void semantic_cases(void)
     CHECK(run("G1 X1 F10") == STATUS_OK, "a line on them");
   }
 
+  /* arcs longer than the walk budget (config.h) are refused before they block the main loop */
+  reset(GC_DIALECT_LABKIT);
+  CHECK(run("G2 I290 F10") == STATUS_INVALID_ARC && plan_is_empty(), "a 290 mm circle accepted");
+  CHECK(run("G2 I280 F10") == STATUS_OK, "a 280 mm circle refused");
+
+  /* an absurd feed saturates the programmed rate instead of overflowing it */
+  reset(GC_DIALECT_GRBL);
+  CHECK(run("M4 S500 G1 X1 F6152222222222") == STATUS_OK, "huge feed");
+  b = first_block();
+  CHECK(b && b->f_feed == UINT32_MAX && b->f_peak <= 54972u, "f_feed %u f_peak %u", b ? b->f_feed : 0,
+        b ? b->f_peak : 0);
+
   /* full circle without an end point (labkit-fw) walks back to its start */
   reset(GC_DIALECT_LABKIT);
   CHECK(run("G2 I1 F10") == 0, "G2 I1");

@@ -351,6 +351,26 @@ int main(int argc, char **argv)
     jobs++;
   }
 
+  /* a hold while the stepper waits for look-ahead keeps the queued work from starting */
+  ctx = "hold while idle";
+  {
+    reset(PLAN_MODE_JUNCTION, PLAN_LAW_ACCEL, 16);
+    CHECK(run("G1 X1 F10") == STATUS_OK, "job");
+    st_prep_buffer();
+    CHECK(!rec.running && st_is_idle(), "a lone block started before the window filled");
+    st_feed_hold();
+    CHECK(st_state() == ST_HELD, "state %u", st_state());
+    plan_flush();
+    st_prep_buffer();
+    CHECK(!rec.running, "held work started");
+    st_resume();
+    hal_record_pump();
+    int32_t p[3];
+    st_get_position(p);
+    CHECK(p[0] == 2133 && st_is_idle(), "after resume at %d", p[0]);
+    jobs++;
+  }
+
   /* reset drops the job, keeps the position, and a new job starts from there */
   ctx = "reset";
   {
