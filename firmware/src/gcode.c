@@ -243,9 +243,10 @@ uint8_t gc_execute_line(char *line)
   uint8_t arc_absolute_new = gc.arc_absolute, laser_new = gc.laser;
   for (int k = 0; k < ng; k++) {
     double v = g_val[k];
+    if (v < 0 || v >= 100000.0) return STATUS_UNSUPPORTED_COMMAND;   /* no such G (and no overflow) */
     int t10 = (int)lrint(v * 10.0);
     int grp;
-    if (v < 0 || fabs(v * 10.0 - t10) > 1e-6) return STATUS_UNSUPPORTED_COMMAND;
+    if (fabs(v * 10.0 - t10) > 1e-6) return STATUS_UNSUPPORTED_COMMAND;
     if (!in_list16(d->g_codes, t10)) {
       int base = t10 - t10 % 10;
       if (t10 % 10 != 0 && in_list16(d->g_codes, base) && !(base == 900 || base == 910 ||
@@ -293,9 +294,10 @@ uint8_t gc_execute_line(char *line)
   }
   for (int k = 0; k < nm; k++) {
     double v = m_val[k];
+    if (v < 0 || fabs(v - nearbyint(v)) > 1e-9) return STATUS_NON_INTEGER_COMMAND;
+    if (v >= 100000.0) return STATUS_UNSUPPORTED_COMMAND;   /* no such M (and no overflow) */
     long code = lrint(v);
     int grp;
-    if (v < 0 || fabs(v - (double)code) > 1e-9) return STATUS_NON_INTEGER_COMMAND;
     if (code == 0 || code == 1 || code == 2 || code == 30) {
       grp = M_STOP;
       stop = (int)code;
@@ -484,9 +486,10 @@ uint8_t gc_execute_line(char *line)
     plan_push_dwell(dwell_s, gc.line);
   }
   if (lookahead) {
-    gc.lookahead = (uint32_t)lookahead_p;
-    plan_set_depth(lookahead_p < 1.0 ? 1u : lookahead_p > PLAN_MAX_DEPTH ? PLAN_MAX_DEPTH
-                                                                         : (uint32_t)lookahead_p);
+    uint32_t depth = lookahead_p < 1.0 ? 1u : lookahead_p > PLAN_MAX_DEPTH ? PLAN_MAX_DEPTH
+                                                                          : (uint32_t)lookahead_p;
+    gc.lookahead = depth;
+    plan_set_depth(depth);
   }
   gc.plane = plane_new;
   gc.inches = inches_new;
