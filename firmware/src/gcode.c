@@ -1,0 +1,519 @@
+/*
+  gcode.c - parse, check and execute one line of G-code.
+
+  Three phases, as in labkit/gcode/_kernel.py: scan the words, check every
+  command and value and compute the move, then (only when nothing failed)
+  commit the modal state and hand the move to the planner. The numbers of
+  the errors follow labkit/status_codes.csv.
+*/
+#include "gcode.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "config.h"
+#include "defaults.h"
+#include "planner.h"
+#include "stepper.h"
+#include "laser.h"
+#include "hal.h"
+#include "status_codes.h"
+
+#define MAX_COMMANDS 16
+
+/* letter indices */
+enum { L_F = 5, L_G = 6, L_I = 8, L_J = 9, L_K = 10, L_L = 11, L_M = 12, L_N = 13, L_P = 15,
+       L_R = 17, L_S = 18, L_T = 19, L_X = 23, L_Y = 24, L_Z = 25 };
+
+/* modal groups */
+enum { G_MOTION, G_NONMODAL, G_PLANE, G_UNITS, G_DISTANCE, G_ARCDIST, G_FEEDMODE, G_CUTTER,
+       G_TOOLLEN, G_COORD, G_PATH, M_STOP, M_LASER, M_COOLANT };
+
+static const uint8_t plane_axes[3][3] = {{0, 1, 2}, {2, 0, 1}, {1, 2, 0}};
+
+typedef struct {
+  double feed_scale;     /* F word -> mm/min */
+  double dwell_scale;    /* P word -> s */
+  double arc_r_tol;      /* R shortfall taken as a half circle, mm */
+  uint8_t full_circle_ok;
+  uint8_t require_axis_words;
+  const char *letters;   /* value letters besides G and M */
+  const int16_t *g_codes;/* 10 x G number, -1 terminated */
+  const uint8_t *coolant;/* 0 terminated */
+  double max_tool;
+} dialect_t;
+
+static const int16_t g_labkit[] = {0, 10, 20, 30, 40, 50, 170, 180, 190, 200, 210, 400, 490, 540,
+                                   610, 900, 910, 901, 911, 940, -1};
+static const int16_t g_grbl[] = {0, 10, 20, 30, 40, 170, 180, 190, 200, 210, 400, 490, 540, 610,
+                                 800, 900, 910, 911, 940, -1};
+static const uint8_t cool_labkit[] = {7, 8, 9, 0};
+static const uint8_t cool_grbl[] = {8, 9, 0};
+
+static const dialect_t dialects[2] = {
+  {60.0, 0.001, 0.0005, 1, 1, "FIJKNPRSXYZ", g_labkit, cool_labkit, 2147483647.0},
+  {1.0, 1.0, 0.0, 0, 0, "FIJKLNPRSTXYZ", g_grbl, cool_grbl, 255.0},
+};
+
+static gc_state_t gc;
+static uint8_t gc_dialect;
+static double gc_s_max_grbl = DEFAULT_GRBL_S_MAX;
+static uint32_t gc_line_count;
+static void (*gc_wait_hook)(void);
+static plan_block_t gc_block;   /* the move of the line being executed */
+
+void gc_init(void)
+{
+  memset(&gc, 0, sizeof gc);
+  gc.absolute = 1;
+  gc_dialect = GC_DIALECT_LABKIT;
+  gc_line_count = 0;
+  gc_sync_position();
+}
+
+void gc_set_dialect(uint8_t dialect) { gc_dialect = dialect == GC_DIALECT_GRBL ? GC_DIALECT_GRBL : GC_DIALECT_LABKIT; }
+uint8_t gc_get_dialect(void) { return gc_dialect; }
+void gc_set_s_max(double s_max) { if (s_max > 0) gc_s_max_grbl = s_max; }
+double gc_get_s_max(void) { return gc_dialect == GC_DIALECT_GRBL ? gc_s_max_grbl : DEFAULT_LABKIT_S_MAX; }
+const gc_state_t *gc_state(void) { return &gc; }
+uint32_t gc_current_line(void) { return st_current_line(); }
+void gc_set_wait_hook(void (*hook)(void)) { gc_wait_hook = hook; }
+
+void gc_sync_position(void)
+{
+  int32_t steps[3];
+  const lk_machine_t *m = plan_machine();
+  st_get_position(steps);
+  plan_sync_position(steps);
+  for (int a = 0; a < 3; a++)
+    gc.pos_mm[a] = (double)steps[a] / m->steps_per_mm[a];
+}
+
+static int is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
+
+/* [+-]digits[.digits], the way labkit.gcode reads it (18 significant digits,
+   one exact division by a power of ten), so both sides get the same double.
+   Returns 0 ok, 1 no digits, 2 bad character after it, 3 too large. */
+static int read_number(const char *s, int *i, double *out)
+{
+  static const double pow10[23] = {1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11,
+                                   1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21,
+                                   1e22};
+  int k = *i, neg = 0, ndigits = 0, nsig = 0, dot = 0, frac = 0, extra = 0;
+  int64_t mant = 0;
+  if (s[k] == '-' || s[k] == '+') {
+    neg = s[k] == '-';
+    k++;
+  }
+  for (;; k++) {
+    char c = s[k];
+    if (c >= '0' && c <= '9') {
+      ndigits++;
+      if (mant == 0 && c == '0') {
+        if (dot) frac++;
+      } else if (nsig < 18) {
+        mant = mant * 10 + (c - '0');
+        nsig++;
+        if (dot) frac++;
+      } else if (!dot) {
+        extra++;
+      }
+    } else if (c == '.' && !dot) {
+      dot = 1;
+    } else {
+      break;
+    }
+  }
+  *i = k;
+  if (ndigits == 0) return 1;
+  char c = s[k];
+  if (c != 0) {
+    int ok = is_space(c) || c == '\n' || c == '(' || c == ';' || c == '*' ||
+             (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z');
+    if (!ok) return 2;
+  }
+  if (extra > 0) return 3;
+  double v = (double)mant;
+  while (frac > 22) {
+    v = v / 1e22;
+    frac -= 22;
+  }
+  if (frac > 0) v = v / pow10[frac];
+  if (v >= GC_MAX_ABS_VALUE) return 3;
+  *out = neg ? -v : v;
+  return 0;
+}
+
+static int in_list16(const int16_t *list, int v)
+{
+  for (; *list >= 0; list++)
+    if (*list == v) return 1;
+  return 0;
+}
+
+static int in_range(double v) { return fabs(v) < GC_MAX_ABS_VALUE; }
+
+/* Wait for a free planner slot, preparing ticks meanwhile. 0 when a reset
+   cut the wait short. */
+static int wait_for_slot(void)
+{
+  while (plan_is_full()) {
+    st_prep_buffer();
+    if (!plan_is_full()) break;
+    if (gc_wait_hook) gc_wait_hook();
+    if (st_take_abort()) return 0;
+  }
+  return 1;
+}
+
+uint8_t gc_execute_line(char *line)
+{
+  const dialect_t *d = &dialects[gc_dialect];
+  uint8_t present[26] = {0};
+  double val[26] = {0};
+  double g_val[MAX_COMMANDS], m_val[MAX_COMMANDS];
+  int ng = 0, nm = 0, checksum_seen = 0, first = 1;
+  int i = 0;
+
+  /* ---- phase 1: scan ---- */
+  while (line[i] != 0 && line[i] != '\n') {
+    char c = line[i];
+    if (is_space(c)) {
+      i++;
+      continue;
+    }
+    if (c == '(') {
+      int j = i + 1;
+      while (line[j] != 0 && line[j] != '\n' && line[j] != ')') j++;
+      if (line[j] != ')') return STATUS_BAD_DELIMITER;
+      i = j + 1;
+      continue;
+    }
+    if (c == ';') break;
+    if (c == '*') {
+      uint8_t x = 0;
+      for (int k = 0; k < i; k++) x ^= (uint8_t)line[k];
+      int j = i + 1, nd = 0;
+      uint32_t cs = 0;
+      while (line[j] >= '0' && line[j] <= '9') {
+        cs = cs * 10 + (uint32_t)(line[j] - '0');
+        nd++;
+        j++;
+      }
+      if (nd == 0 || nd > 3) return STATUS_BAD_NUMBER;
+      if (cs != x) return STATUS_BAD_CHECKSUM;
+      checksum_seen = 1;
+      i = j;
+      continue;
+    }
+    if (first && c == '$') return STATUS_UNSUPPORTED_COMMAND;   /* system lines: the shell's */
+    if (first && c == '%') {
+      int j = i + 1;
+      while (is_space(line[j])) j++;
+      if (line[j] != 0 && line[j] != '\n') return STATUS_EXPECTED_LETTER;
+      break;
+    }
+    first = 0;
+    if (checksum_seen) return STATUS_BAD_DELIMITER;
+    char u = (c >= 'a' && c <= 'z') ? (char)(c - 32) : c;
+    if (!(u >= 'A' && u <= 'Z')) return STATUS_EXPECTED_LETTER;
+    int letter = u - 'A';
+    i++;
+    while (is_space(line[i])) i++;
+    double v = 0;
+    if (read_number(line, &i, &v) != 0) return STATUS_BAD_NUMBER;
+    if (letter == L_G) {
+      if (ng == MAX_COMMANDS) return STATUS_MODAL_GROUP_VIOLATION;
+      g_val[ng++] = v;
+    } else if (letter == L_M) {
+      if (nm == MAX_COMMANDS) return STATUS_MODAL_GROUP_VIOLATION;
+      m_val[nm++] = v;
+    } else {
+      if (!strchr(d->letters, u)) return STATUS_UNSUPPORTED_COMMAND;
+      if (present[letter]) return STATUS_REPEATED_WORD;
+      present[letter] = 1;
+      val[letter] = v;
+    }
+  }
+
+  /* ---- phase 2: check and compute ---- */
+  uint32_t groups = 0;
+  int motion_new = -1, dwell = 0, lookahead = 0, stop = -1, coolant = -1;
+  uint8_t plane_new = gc.plane, inches_new = gc.inches, absolute_new = gc.absolute;
+  uint8_t arc_absolute_new = gc.arc_absolute, laser_new = gc.laser;
+  for (int k = 0; k < ng; k++) {
+    double v = g_val[k];
+    if (v < 0 || v >= 100000.0) return STATUS_UNSUPPORTED_COMMAND;   /* no such G (and no overflow) */
+    int t10 = (int)lrint(v * 10.0);
+    int grp;
+    if (fabs(v * 10.0 - t10) > 1e-6) return STATUS_UNSUPPORTED_COMMAND;
+    if (!in_list16(d->g_codes, t10)) {
+      int base = t10 - t10 % 10;
+      if (t10 % 10 != 0 && in_list16(d->g_codes, base) && !(base == 900 || base == 910 ||
+          base == 280 || base == 300 || base == 920 || base == 610))
+        return STATUS_NON_INTEGER_COMMAND;
+      return STATUS_UNSUPPORTED_COMMAND;
+    }
+    int code = t10 / 10;
+    if (code <= 3 || code == 80) {
+      grp = G_MOTION;
+      motion_new = code;
+    } else if (code == 4) {
+      grp = G_NONMODAL;
+      dwell = 1;
+    } else if (code == 5) {
+      grp = G_NONMODAL;
+      lookahead = 1;
+    } else if (code >= 17 && code <= 19) {
+      grp = G_PLANE;
+      plane_new = (uint8_t)(code - 17);
+    } else if (code == 20 || code == 21) {
+      grp = G_UNITS;
+      inches_new = code == 20;
+    } else if (t10 == 900 || t10 == 910) {
+      grp = G_DISTANCE;
+      absolute_new = code == 90;
+    } else if (t10 == 901 || t10 == 911) {
+      grp = G_ARCDIST;
+      arc_absolute_new = t10 == 901;
+    } else if (code == 94) {
+      grp = G_FEEDMODE;
+    } else if (code == 40) {
+      grp = G_CUTTER;
+    } else if (code == 49) {
+      grp = G_TOOLLEN;
+    } else if (code == 54) {
+      grp = G_COORD;
+    } else if (code == 61) {
+      grp = G_PATH;
+    } else {
+      return STATUS_UNSUPPORTED_COMMAND;
+    }
+    if (groups & (1u << grp)) return STATUS_MODAL_GROUP_VIOLATION;
+    groups |= 1u << grp;
+  }
+  for (int k = 0; k < nm; k++) {
+    double v = m_val[k];
+    if (v < 0 || fabs(v - nearbyint(v)) > 1e-9) return STATUS_NON_INTEGER_COMMAND;
+    if (v >= 100000.0) return STATUS_UNSUPPORTED_COMMAND;   /* no such M (and no overflow) */
+    long code = lrint(v);
+    int grp;
+    if (code == 0 || code == 1 || code == 2 || code == 30) {
+      grp = M_STOP;
+      stop = (int)code;
+    } else if (code == 3 || code == 4) {
+      grp = M_LASER;
+      laser_new = (uint8_t)code;
+    } else if (code == 5) {
+      grp = M_LASER;
+      laser_new = 0;
+    } else if (code < 256 && strchr((const char *)d->coolant, (int)code) && code != 0) {
+      grp = M_COOLANT;
+      coolant = (int)code;
+    } else {
+      return STATUS_UNSUPPORTED_COMMAND;
+    }
+    if (groups & (1u << grp)) return STATUS_MODAL_GROUP_VIOLATION;
+    groups |= 1u << grp;
+  }
+
+  double scale = inches_new ? 25.4 : 1.0;
+  double feed_new = gc.feed_mm_min;
+  float power_new = gc.power_s;
+  double dwell_s = 0.0, lookahead_p = 0.0;
+  int axis_words = present[L_X] || present[L_Y] || present[L_Z];
+  int motion_mode = motion_new >= 0 ? motion_new : gc.motion;
+  int moving = 0, move_kind = PLAN_MOVE_RAPID;
+  double target[3], ctr[3] = {0, 0, 0};
+
+  if (present[L_N]) {
+    double nv = val[L_N];
+    if (nv < 0 || nv > GC_MAX_LINE_NUMBER || nv != floor(nv)) return STATUS_BAD_LINE_NUMBER;
+  }
+  if (present[L_F]) {
+    if (val[L_F] < 0) return STATUS_NEGATIVE_VALUE;
+    feed_new = val[L_F] * scale * d->feed_scale;
+  }
+  int feed_ok = feed_new > 0;
+  if (present[L_T]) {
+    if (val[L_T] < 0) return STATUS_NEGATIVE_VALUE;
+    if (val[L_T] > d->max_tool) return STATUS_MAX_VALUE_EXCEEDED;
+  }
+  if (present[L_S]) {
+    if (val[L_S] < 0) return STATUS_NEGATIVE_VALUE;
+    power_new = (float)val[L_S];
+  }
+  if (dwell || lookahead) {
+    if (!present[L_P]) return STATUS_MISSING_VALUE_WORD;
+    if (val[L_P] < 0) return STATUS_NEGATIVE_VALUE;
+    if (dwell)
+      dwell_s = val[L_P] * d->dwell_scale;
+    else
+      lookahead_p = val[L_P];
+  }
+  if (motion_new >= 0 || axis_words) {
+    for (int a = 0; a < 3; a++) {
+      if (present[L_X + a]) {
+        double v = val[L_X + a] * scale;
+        target[a] = absolute_new ? v + 0.0 : gc.pos_mm[a] + v;
+      } else {
+        target[a] = gc.pos_mm[a];
+      }
+    }
+    if (motion_mode == 80) {
+      if (axis_words) return STATUS_AXIS_WORDS_EXIST;
+    } else if (motion_mode == 0 || motion_mode == 1) {
+      if (!axis_words) {
+        if (d->require_axis_words && motion_new >= 0) return STATUS_MISSING_AXIS_WORDS;
+      } else if (motion_mode == 1 && !feed_ok) {
+        return STATUS_UNDEFINED_FEED;
+      } else {
+        moving = 1;
+        move_kind = motion_mode == 0 ? PLAN_MOVE_RAPID : PLAN_MOVE_LINE;
+      }
+    } else {
+      int a0 = plane_axes[plane_new][0], a1 = plane_axes[plane_new][1];
+      int lin = plane_axes[plane_new][2];
+      int in_plane = present[L_X + a0] || present[L_X + a1];
+      const double *pos = gc.pos_mm;
+      if (!feed_ok) return STATUS_UNDEFINED_FEED;
+      if (present[L_R]) {
+        double r = val[L_R] * scale;
+        double dx = target[a0] - pos[a0];
+        double dy = target[a1] - pos[a1];
+        double q = sqrt(dx * dx + dy * dy);
+        if (!in_plane) return STATUS_MISSING_PLANE_AXIS;
+        if (q <= 1e-9) return STATUS_INVALID_ARC;
+        double h2 = r * r - 0.25 * q * q;
+        if (h2 < 0.0) {
+          if (0.5 * q - fabs(r) <= d->arc_r_tol)
+            h2 = 0.0;
+          else
+            return STATUS_INVALID_ARC;
+        }
+        double h = sqrt(h2);
+        int left = (motion_mode == 3) != (r < 0);
+        double sgn = left ? 1.0 : -1.0;
+        ctr[a0] = 0.5 * (pos[a0] + target[a0]) - sgn * h * dy / q;
+        ctr[a1] = 0.5 * (pos[a1] + target[a1]) + sgn * h * dx / q;
+        ctr[lin] = pos[lin];
+        moving = 1;
+      } else {
+        int io0 = L_I + a0, io1 = L_I + a1;
+        if (!(present[io0] || present[io1])) return STATUS_MISSING_OFFSET_WORDS;
+        if (arc_absolute_new && !(present[io0] && present[io1])) return STATUS_MISSING_OFFSET_WORDS;
+        if (!in_plane && !d->full_circle_ok) return STATUS_MISSING_PLANE_AXIS;
+        double o0 = present[io0] ? val[io0] * scale : 0.0;
+        double o1 = present[io1] ? val[io1] * scale : 0.0;
+        if (arc_absolute_new) {
+          ctr[a0] = o0;
+          ctr[a1] = o1;
+        } else {
+          ctr[a0] = pos[a0] + o0;
+          ctr[a1] = pos[a1] + o1;
+        }
+        ctr[lin] = pos[lin];
+        double r0 = hypot(pos[a0] - ctr[a0], pos[a1] - ctr[a1]);
+        double r1 = hypot(target[a0] - ctr[a0], target[a1] - ctr[a1]);
+        double dr = fabs(r1 - r0);
+        if (r0 <= 1e-9) return STATUS_INVALID_ARC;
+        if (dr > 0.005 && dr > 0.001 * r0) return STATUS_INVALID_ARC;
+        moving = 1;
+      }
+      move_kind = motion_mode == 2 ? PLAN_MOVE_ARC_CW : PLAN_MOVE_ARC_CCW;
+    }
+  }
+  if (moving) {
+    for (int a = 0; a < 3; a++)
+      if (!(in_range(target[a]) && (move_kind < PLAN_MOVE_ARC_CW || in_range(ctr[a]))))
+        return STATUS_VALUE_OUT_OF_RANGE;
+  }
+  {
+    int arc_r = moving && move_kind >= PLAN_MOVE_ARC_CW && present[L_R];
+    int arc_ijk = moving && move_kind >= PLAN_MOVE_ARC_CW && !present[L_R];
+    static const uint8_t checked[] = {L_I, L_J, L_K, L_R, L_P, L_L};
+    for (unsigned k = 0; k < sizeof checked; k++) {
+      int letter = checked[k], used;
+      if (!present[letter]) continue;
+      if (letter == L_R)
+        used = arc_r;
+      else if (letter == L_P)
+        used = dwell || lookahead;
+      else if (letter == L_L)
+        used = 0;
+      else
+        used = arc_ijk;
+      if (!used) return STATUS_UNUSED_WORDS;
+    }
+  }
+
+  /* the block of the move: the machine may still refuse it (an arc it cannot walk) */
+  if (moving) {
+    plan_move_t mv;
+    int burning = move_kind != PLAN_MOVE_RAPID && laser_new != 0 && power_new > 0;
+    mv.kind = (uint8_t)move_kind;
+    mv.plane = plane_new;
+    mv.laser = burning ? laser_new : 0;
+    double frac = (double)power_new / gc_get_s_max();
+    if (frac < 0.0) frac = 0.0;
+    if (frac > 1.0) frac = 1.0;
+    mv.power_mw = burning ? frac * plan_machine()->laser_max_power_mw : 0.0;
+    mv.feed_mm_min = feed_new;
+    mv.line = present[L_N] ? (uint32_t)val[L_N] : gc_line_count + 1;
+    for (int a = 0; a < 3; a++) {
+      mv.start_mm[a] = gc.pos_mm[a];
+      mv.end_mm[a] = target[a];
+      mv.centre_mm[a] = move_kind >= PLAN_MOVE_ARC_CW ? ctr[a] : 0.0;
+    }
+    uint8_t st = plan_prepare_move(&mv, &gc_block);
+    if (st != STATUS_OK) return st;
+  }
+
+  /* ---- phase 3: commit ---- */
+  gc_line_count++;
+  gc.line = present[L_N] ? (uint32_t)val[L_N] : gc_line_count;
+  gc.feed_mm_min = feed_new;
+  gc.power_s = power_new;
+  gc.laser = laser_new;
+  if (coolant >= 0) {
+    if (coolant == 7) gc.air |= 1;
+    if (coolant == 8) gc.air |= 2;
+    if (coolant == 9) gc.air = 0;
+    hal_air_set(gc.air);
+  }
+  if (dwell) {
+    if (!wait_for_slot()) return STATUS_OK;
+    plan_push_dwell(dwell_s, gc.line);
+  }
+  if (lookahead) {
+    uint32_t depth = lookahead_p < 1.0 ? 1u : lookahead_p > PLAN_MAX_DEPTH ? PLAN_MAX_DEPTH
+                                                                          : (uint32_t)lookahead_p;
+    gc.lookahead = depth;
+    plan_set_depth(depth);
+  }
+  gc.plane = plane_new;
+  gc.inches = inches_new;
+  gc.absolute = absolute_new;
+  gc.arc_absolute = arc_absolute_new;
+  if (motion_new >= 0) gc.motion = (uint8_t)motion_new;
+  if (moving) {
+    if (!wait_for_slot()) return STATUS_OK;
+    plan_push_block(&gc_block);
+    for (int a = 0; a < 3; a++) gc.pos_mm[a] = target[a];
+  }
+  if (stop >= 0) {
+    gc.program_flow = stop == 0 ? GC_FLOW_PAUSED : stop == 1 ? GC_FLOW_OPTIONAL_PAUSE : GC_FLOW_END;
+    plan_flush();
+    if (stop == 2 || stop == 30) {
+      gc.motion = 1;
+      gc.plane = 0;
+      gc.absolute = 1;
+      gc.laser = 0;
+      gc.air = 0;
+      hal_air_set(0);
+    }
+  } else if (moving || dwell) {
+    gc.program_flow = GC_FLOW_RUNNING;
+  }
+  return STATUS_OK;
+}

@@ -1,0 +1,67 @@
+/*
+  gcode.h - G-code parser and executor of the labkit firmware.
+
+  gc_execute_line() reads one line (no line end), checks it completely and
+  only then executes it: a rejected line changes nothing. It returns
+  STATUS_OK or the status number of labkit/status_codes.csv, the same number
+  labkit.gcode (reader.py / _kernel.py) gives the same line in the same
+  dialect.
+
+  Dialects (gc_set_dialect):
+    GC_DIALECT_LABKIT  F mm/s, S 0..255, G4 P ms, G5 P look-ahead depth,
+                       G90.1 absolute arc centres, full circles without an
+                       end point, a bare G0/G1 is error 26, R arcs short of
+                       half the chord by <= 0.0005 mm become half circles.
+    GC_DIALECT_GRBL    F mm/min, S 0..$30 (gc_set_s_max), G4 P s, letters
+                       L and T, G80; G90.1, G5 and M7 are error 20.
+  Words the firmware runs: G0 G1 G2 G3 G4 (G5) G17 G18 G19 G20 G21 G40 G49
+  G54 G61 (G80) G90 G91 (G90.1) G91.1 G94, M0 M1 M2 M30 M3 M4 M5 (M7) M8 M9,
+  F S P I J K R N X Y Z (T L). GRBL's offset and probing commands (G10 G28
+  G30 G38.x G43.1 G53 G55-G59 G92 G93) are error 20 here.
+*/
+#ifndef LK_GCODE_H
+#define LK_GCODE_H
+
+#include <stdint.h>
+
+#define GC_DIALECT_LABKIT 0
+#define GC_DIALECT_GRBL   1
+
+/* Program flow after M0 M1 M2 M30 (gc_state()->program_flow). */
+#define GC_FLOW_RUNNING        0
+#define GC_FLOW_PAUSED         1   /* M0 */
+#define GC_FLOW_OPTIONAL_PAUSE 2   /* M1 */
+#define GC_FLOW_END            3   /* M2 / M30 */
+
+typedef struct {
+  uint8_t motion;        /* 0 1 2 3, or 80 (G80) */
+  uint8_t plane;         /* 0 G17 (XY), 1 G18 (ZX), 2 G19 (YZ) */
+  uint8_t inches;        /* G20 */
+  uint8_t absolute;      /* G90 */
+  uint8_t arc_absolute;  /* G90.1 */
+  uint8_t laser;         /* 0 M5, 3 M3, 4 M4 */
+  uint8_t air;           /* bit 0 M7, bit 1 M8 */
+  uint8_t program_flow;  /* GC_FLOW_* of the last M0 M1 M2 M30 */
+  double feed_mm_min;    /* 0 = no feed yet */
+  float power_s;         /* S word (float32, as labkit.gcode keeps it) */
+  double pos_mm[3];      /* where the last accepted move ends */
+  uint32_t line;         /* N number of the last line, else lines counted */
+  uint32_t lookahead;    /* last G5 P */
+} gc_state_t;
+
+void gc_init(void);                          /* power-on modal state, labkit dialect */
+uint8_t gc_execute_line(char *line);         /* STATUS_OK or an error status */
+void gc_set_dialect(uint8_t dialect);
+uint8_t gc_get_dialect(void);
+void gc_set_s_max(double s_max);             /* grbl $30 (> 0) */
+double gc_get_s_max(void);                   /* S of full power in the current dialect */
+void gc_sync_position(void);                 /* parser position := stepper position */
+const gc_state_t *gc_state(void);
+uint32_t gc_current_line(void);
+
+/* Called while gc_execute_line waits for room in the planner buffer (after
+   st_prep_buffer()). The shell runs its real-time work there; a host
+   simulator without a timer thread runs ticks there. NULL: just spin. */
+void gc_set_wait_hook(void (*hook)(void));
+
+#endif /* LK_GCODE_H */

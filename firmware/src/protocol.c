@@ -1,0 +1,571 @@
+/*
+  protocol.c - line assembly, `$` commands and the four state machines of
+  the main loop (see protocol.h).
+*/
+#include "protocol.h"
+
+#include <math.h>
+#include <stddef.h>
+#include <string.h>
+
+#include "gcode.h"
+#include "hal.h"
+#include "laser.h"
+#include "menu.h"
+#include "planner.h"
+#include "report.h"
+#include "serial.h"
+#include "settings.h"
+#include "status_codes.h"
+#include "stepper.h"
+
+/* Quiet time on the RX line after which the look-ahead is flushed (the
+   stream has ended or paused: the held-back blocks must run). */
+#define FLUSH_QUIET_MS 30u
+
+volatile uint8_t protocol_events;
+
+static line_asm_t rx_line;
+static char pending[LINE_BUFFER_SIZE];
+static uint8_t have_pending;
+static uint8_t state = PROTO_IDLE;
+static uint8_t jog_cancel;
+static uint8_t flushed = 1;
+static uint32_t last_rx_ms;
+static uint8_t empty_slots;
+/* A feed hold the host asked for. st_feed_hold() only acts on a running
+   stepper; when the stepper is momentarily idle with blocks queued (starved,
+   or waiting for look-ahead) the runner must not start it again until '~'. */
+static uint8_t hold_req;
+
+uint8_t protocol_hold_requested(void) { return hold_req; }
+
+uint8_t protocol_state(void) { return state; }
+uint8_t protocol_planner_blocks(void) { return empty_slots; }
+
+/* ---------------------------------------------------------------- lines */
+
+void line_asm_reset(line_asm_t *a) {
+  uint8_t crlf = a->crlf_one;
+  memset(a, 0, sizeof *a);
+  a->crlf_one = crlf;
+}
+
+static int line_end(line_asm_t *a) {
+  int st = STATUS_OK;
+  if (a->overflow)
+    st = STATUS_LINE_OVERFLOW;
+  else if (a->bad || a->paren)
+    st = STATUS_BAD_DELIMITER;
+  else if (a->star && (a->ck_digits == 0 || a->ck > 255 || a->ck != a->xor_raw))
+    st = STATUS_BAD_CHECKSUM;
+  a->buf[st == STATUS_OK ? a->len : 0] = 0;
+  uint8_t crlf = a->crlf_one;
+  a->len = a->raw = 0;
+  a->paren = a->semi = a->star = a->sys = a->overflow = a->bad = 0;
+  a->xor_raw = 0;
+  a->ck = 0;
+  a->ck_digits = 0;
+  a->crlf_one = crlf;
+  return st;
+}
+
+int line_asm_push(line_asm_t *a, uint8_t c) {
+  if (c == '\n' && a->after_cr) {
+    a->after_cr = 0;
+    if (a->crlf_one && a->raw == 0)
+      return -1;           /* the '\n' of "\r\n" */
+  }
+  if (c == '\r' || c == '\n') {
+    int st = line_end(a);
+    a->after_cr = c == '\r';
+    return st;
+  }
+  a->after_cr = 0;
+  if (a->raw < 0xFFFFu)
+    a->raw++;
+  if (a->semi)
+    return -1;
+  if (a->star) {           /* checksum digits; spaces allowed after them */
+    if (c >= '0' && c <= '9' && a->ck_digits < 4) {
+      a->ck = (uint16_t)(a->ck * 10u + (c - '0'));
+      a->ck_digits++;
+    } else if (c != ' ' && c != '\t') {
+      if (c == ';')
+        a->semi = 1;
+      else
+        a->bad = 1;        /* anything else after the checksum: reject */
+    }
+    return -1;
+  }
+  if (a->paren) {
+    if (c == ')')
+      a->paren = 0;
+    a->xor_raw ^= c;
+    return -1;
+  }
+  if (c == '*' && !a->sys) {
+    a->star = 1;
+    return -1;
+  }
+  a->xor_raw ^= c;
+  if (c == '(') {
+    a->paren = 1;
+    return -1;
+  }
+  if (c == ';') {
+    a->semi = 1;
+    return -1;
+  }
+  if (c == ' ' || c == '\t')
+    return -1;
+  if (c == ')' || c < 0x20 || c > 0x7E) {
+    a->bad = 1;
+    return -1;
+  }
+  if (c >= 'a' && c <= 'z')
+    c = (uint8_t)(c - 'a' + 'A');
+  if (a->len == 0 && c == '$')
+    a->sys = 1;
+  if (a->len >= LINE_BUFFER_SIZE - 1) {
+    a->overflow = 1;
+    return -1;
+  }
+  a->buf[a->len++] = (char)c;
+  return -1;
+}
+
+/* ------------------------------------------------------------- helpers */
+
+static void sync_positions(void) {
+  int32_t steps[3];
+  st_get_position(steps);
+  plan_sync_position(steps);
+  gc_sync_position();
+}
+
+/* Stop everything now: motion, laser, queued blocks. */
+static void stop_all(void) {
+  hold_req = 0;
+  st_reset();
+  laser_off();
+  plan_reset();
+  (void)st_take_abort();
+  sync_positions();
+}
+
+void protocol_alarm(uint8_t alarm) {
+  stop_all();
+  have_pending = 0;
+  jog_cancel = 0;
+  state = PROTO_ALARM;
+  report_alarm(alarm);
+}
+
+void protocol_estop(void) {
+  /* Any context: step timer and beam off now; the main loop then resets
+     the stepper and planner (st_reset is main-loop only) and reports. */
+  hal_timer_stop();
+  laser_off();
+  serial_rt_flags |= RT_ESTOP;
+  protocol_events |= EV_SYSTEM;
+}
+
+static uint8_t outside_envelope(const double mm[3]) {
+  const lk_machine_t *m = plan_machine();
+  for (int i = 0; i < 3; i++) {
+    if (mm[i] < -1e-6 || mm[i] > m->travel_mm[i] + 1e-6)
+      return 1;
+  }
+  return 0;
+}
+
+static void soft_reset(void) {
+  uint8_t was_moving = !st_is_idle() || !plan_is_empty();
+  stop_all();
+  serial_rx_flush();
+  line_asm_reset(&rx_line);
+  have_pending = 0;
+  jog_cancel = 0;
+  gc_init();
+  (void)settings_apply();
+  rx_line.crlf_one = settings.dialect == GC_DIALECT_LABKIT;
+  sync_positions();
+  if (was_moving || state == PROTO_ALARM) {
+    if (was_moving)
+      report_alarm(ALARM_ABORT_CYCLE);
+    state = PROTO_ALARM;
+  } else {
+    state = PROTO_IDLE;
+  }
+  flushed = 1;
+  report_banner();
+  if (state == PROTO_ALARM)
+    report_feedback("'$H'|'$X' to unlock");
+}
+
+/* ------------------------------------------------------- $ commands */
+
+uint8_t protocol_jog(const char *words);
+
+/* $J=...: a straight move with the beam off, planned directly; the parser's
+   modal state is not touched. Words: G20 G21 G90 G91 G53 X Y Z F. */
+static uint8_t jog(const char *p) {
+  const gc_state_t *g = gc_state();
+  uint8_t inches = g->inches, absolute = g->absolute, have_f = 0, have_axis = 0;
+  double target[3], f = 0, v;
+  uint8_t seen[3] = {0, 0, 0};
+  for (int i = 0; i < 3; i++)
+    target[i] = g->pos_mm[i];
+  double word[3] = {0, 0, 0};
+  while (*p) {
+    char letter = *p++;
+    uint8_t k = settings_read_number(p, &v);
+    if (!k)
+      return letter >= 'A' && letter <= 'Z' ? STATUS_BAD_NUMBER : STATUS_EXPECTED_LETTER;
+    p += k;
+    if (letter == 'G') {
+      if (v == 20) inches = 1;
+      else if (v == 21) inches = 0;
+      else if (v == 90) absolute = 1;
+      else if (v == 91) absolute = 0;
+      else if (v == 53) absolute = 1;
+      else return STATUS_INVALID_JOG;
+    } else if (letter == 'F') {
+      if (have_f) return STATUS_REPEATED_WORD;
+      if (v <= 0) return STATUS_NEGATIVE_VALUE;
+      f = v;
+      have_f = 1;
+    } else if (letter >= 'X' && letter <= 'Z') {
+      int ax = letter - 'X';
+      if (seen[ax]) return STATUS_REPEATED_WORD;
+      seen[ax] = 1;
+      word[ax] = v;
+      have_axis = 1;
+    } else {
+      return STATUS_INVALID_JOG;
+    }
+  }
+  if (!have_f)
+    return STATUS_UNDEFINED_FEED;
+  if (!have_axis)
+    return STATUS_MISSING_AXIS_WORDS;
+  double unit = inches ? 25.4 : 1.0;
+  for (int i = 0; i < 3; i++)
+    if (seen[i])
+      target[i] = absolute ? word[i] * unit : target[i] + word[i] * unit;
+  if (settings.soft_limits && outside_envelope(target))
+    return STATUS_OUT_OF_BOUNDS;
+  double feed_mm_min = f * unit * (gc_get_dialect() == GC_DIALECT_LABKIT ? 60.0 : 1.0);
+  plan_move_t mv;
+  plan_block_t b;
+  memset(&mv, 0, sizeof mv);
+  mv.kind = PLAN_MOVE_LINE;
+  for (int i = 0; i < 3; i++) {
+    mv.start_mm[i] = g->pos_mm[i];
+    mv.end_mm[i] = target[i];
+  }
+  mv.feed_mm_min = feed_mm_min;
+  mv.line = g->line;
+  uint8_t st = plan_prepare_move(&mv, &b);
+  if (st != STATUS_OK)
+    return st;
+  if (b.ticks) {
+    plan_push_block(&b);
+    plan_flush();
+    state = PROTO_JOG;
+  }
+  return STATUS_OK;
+}
+
+uint8_t protocol_jog(const char *words) {
+  if (state == PROTO_ALARM)
+    return REPLY_LOCKED;
+  if (state == PROTO_CHECK || !plan_is_empty() || (state != PROTO_JOG && !st_is_idle()))
+    return STATUS_UNSUPPORTED_COMMAND;   /* the panel jogs an idle machine only */
+  return jog(words);
+}
+
+static uint8_t system_command(char *line) {
+  char *p = line + 1;           /* after '$' */
+  if (*p == 0) {
+    report_help();
+    return STATUS_OK;
+  }
+  if (p[0] == '$' && p[1] == 0) {
+    settings_report();
+    return STATUS_OK;
+  }
+  if (p[0] == 'I' && p[1] == 0) {
+    report_build_info();
+    return STATUS_OK;
+  }
+  if (p[0] == 'G' && p[1] == 0) {
+    report_gcode_modes();
+    return STATUS_OK;
+  }
+  if (p[0] == '#' && p[1] == 0) {
+    report_offsets();
+    return STATUS_OK;
+  }
+  if (p[0] == 'N' && (p[1] == 0 || (p[1] >= '0' && p[1] <= '9')))
+    return STATUS_OK;           /* no start-up lines are kept */
+  if (!strcmp(p, "LCD")) {
+    menu_report_lcd();
+    return STATUS_OK;
+  }
+  if (p[0] == 'X' && p[1] == 0) {
+    if (state == PROTO_ALARM) {
+      report_feedback("Caution: Unlocked");
+      state = PROTO_IDLE;
+    }
+    return STATUS_OK;
+  }
+  if (p[0] == 'H' && p[1] == 0)
+    return STATUS_UNSUPPORTED_COMMAND;   /* no limit switches: no homing */
+  if (p[0] == 'C' && p[1] == 0) {
+    if (state == PROTO_CHECK) {
+      state = PROTO_IDLE;
+      report_feedback("Disabled");
+      soft_reset();              /* GRBL: leaving check mode resets */
+      return 0xFF;               /* the banner answered it */
+    }
+    if (state == PROTO_ALARM)
+      return REPLY_LOCKED;
+    state = PROTO_CHECK;
+    report_feedback("Enabled");
+    return STATUS_OK;
+  }
+  if (p[0] == 'J' && p[1] == '=') {
+    if (state == PROTO_ALARM)
+      return REPLY_LOCKED;
+    if (state == PROTO_CHECK)
+      return STATUS_OK;
+    if (state != PROTO_JOG && (!plan_is_empty() || !st_is_idle()))
+      return REPLY_NOT_IDLE;
+    return jog(p + 2);
+  }
+  if (!strncmp(p, "RST=", 4) && p[4] && !p[5]) {
+    uint8_t st = settings_restore(p[4]);
+    rx_line.crlf_one = settings.dialect == GC_DIALECT_LABKIT;
+    return st;
+  }
+  if (p[0] >= '0' && p[0] <= '9') {
+    uint8_t st = settings_store_setting(p);
+    rx_line.crlf_one = settings.dialect == GC_DIALECT_LABKIT;
+    return st;
+  }
+  return STATUS_UNSUPPORTED_COMMAND;
+}
+
+/* Does the line need an idle machine (empty planner, stopped stepper)? */
+static uint8_t needs_idle(const char *line) {
+  if (line[0] != '$')
+    return state == PROTO_JOG;   /* G-code waits for a jog to end */
+  const char *p = line + 1;
+  if (p[0] == 'J' && p[1] == '=')
+    return 0;                     /* jogs queue behind a running jog only */
+  return (p[0] >= '0' && p[0] <= '9') || !strncmp(p, "RST", 3) || (p[0] == 'C' && !p[1]) ||
+         (p[0] == 'X' && !p[1]);
+}
+
+void protocol_execute_line(char *line) {
+  uint8_t st;
+  if (line[0] == 0) {
+    /* blank or comment-only: the parser still counts it, so that block
+       line numbers are source line numbers (Ln:, traces) */
+    st = state == PROTO_ALARM ? STATUS_OK : gc_execute_line(line);
+  } else if (line[0] == '$') {
+    st = system_command(line);
+    if (st == 0xFF)
+      return;
+  } else if (state == PROTO_ALARM) {
+    st = REPLY_LOCKED;
+  } else if (state == PROTO_CHECK) {
+    st = gc_execute_line(line);
+    plan_reset();                 /* checked, never run */
+    (void)st_take_abort();
+  } else {
+    st = gc_execute_line(line);
+    if (st == STATUS_OK) {
+      const gc_state_t *g = gc_state();
+      if (settings.soft_limits && outside_envelope(g->pos_mm)) {
+        report_status_message(STATUS_OUT_OF_BOUNDS);
+        protocol_alarm(ALARM_SOFT_LIMIT);
+        return;
+      }
+      if (g->program_flow == GC_FLOW_END)
+        plan_flush();
+      protocol_events |= EV_RUNNER;
+    }
+  }
+  report_status_message(st);
+}
+
+/* ------------------------------------------------- the four machines */
+
+static void system_task(void) {
+  uint16_t f = serial_take_flags(RT_RESET | RT_ESTOP | RT_HOLD | RT_DOOR | RT_RESUME |
+                                 RT_JOG_CANCEL | RT_STATUS | RT_OVERRIDE);
+  if (f & RT_ESTOP) {
+    report_feedback("E-stop");
+    protocol_alarm(ALARM_ABORT_CYCLE);
+  }
+  if (f & RT_RESET) {
+    soft_reset();
+    f &= RT_STATUS;
+  }
+  if (f & (RT_HOLD | RT_DOOR)) {
+    if (!st_is_idle() || !plan_is_empty()) {
+      if (state == PROTO_JOG)
+        jog_cancel = 1;          /* GRBL: a hold during a jog cancels it */
+      else
+        hold_req = 1;
+      st_feed_hold();
+      laser_off();
+    }
+  }
+  if (f & RT_RESUME) {
+    uint8_t s = st_state();
+    hold_req = 0;
+    if (s == ST_HELD || s == ST_HOLDING)
+      st_resume();
+  }
+  if ((f & RT_JOG_CANCEL) && state == PROTO_JOG) {
+    st_feed_hold();
+    jog_cancel = 1;
+  }
+  if (jog_cancel && (st_state() == ST_HELD || st_is_idle())) {
+    stop_all();
+    jog_cancel = 0;
+    state = PROTO_IDLE;
+  }
+  if (state == PROTO_JOG && st_is_idle() && plan_is_empty()) {
+    gc_sync_position();
+    state = PROTO_IDLE;
+  }
+  if (state != PROTO_ALARM && settings.soft_limits && !st_is_idle()) {
+    float mm[3];
+    double d[3];
+    st_get_position_mm(mm);
+    for (int i = 0; i < 3; i++)
+      d[i] = mm[i];
+    if (outside_envelope(d))
+      protocol_alarm(ALARM_SOFT_LIMIT);
+  }
+  if (f & RT_STATUS)
+    report_status_report();
+  /* RT_OVERRIDE: overrides are reported as 100 % and otherwise ignored. */
+  serial_ovr_pending = 0;
+}
+
+static void parser_task(void) {
+  for (uint8_t n = 0; n < 8; n++) {     /* a few lines per pass, then let the others run */
+    if (have_pending) {
+      if (needs_idle(pending) && (!plan_is_empty() || !st_is_idle())) {
+        if (!flushed) {
+          plan_flush();
+          flushed = 1;
+        }
+        return;
+      }
+      if (pending[0] != '$' && state != PROTO_ALARM && plan_free_slots() < 1)
+        return;
+      have_pending = 0;
+      protocol_execute_line(pending);
+      continue;
+    }
+    int b = serial_read();
+    if (b < 0)
+      return;
+    last_rx_ms = hal_millis();
+    flushed = 0;
+    int st = line_asm_push(&rx_line, (uint8_t)b);
+    if (st < 0)
+      continue;
+    if (st != STATUS_OK) {
+      report_status_message((uint8_t)st);
+      continue;
+    }
+    memcpy(pending, rx_line.buf, LINE_BUFFER_SIZE);
+    have_pending = 1;
+  }
+}
+
+static void runner_task(void) {
+  if (hold_req && st_state() == ST_IDLE)
+    return;                       /* held before it could start: wait for '~' */
+  st_prep_buffer();
+  if (!flushed && !have_pending && rx_line.raw == 0 && serial_rx_count() == 0 &&
+      (uint32_t)(hal_millis() - last_rx_ms) >= FLUSH_QUIET_MS) {
+    plan_flush();                 /* the stream is quiet: run what look-ahead holds back */
+    flushed = 1;
+    st_prep_buffer();
+  }
+}
+
+static void wait_hook(void) {
+  hal_poll();
+  system_task();
+}
+
+void protocol_init(void) {
+  line_asm_reset(&rx_line);
+  rx_line.crlf_one = settings.dialect == GC_DIALECT_LABKIT;
+  have_pending = 0;
+  state = PROTO_IDLE;
+  jog_cancel = 0;
+  flushed = 1;
+  last_rx_ms = hal_millis();
+  empty_slots = plan_free_slots();
+  gc_set_wait_hook(wait_hook);
+  protocol_events = EV_SYSTEM | EV_PARSER | EV_RUNNER | EV_MENU;
+}
+
+void protocol_startup(void) {
+  serial_init();
+  plan_init();
+  st_init();
+  laser_init();
+  gc_init();
+  uint8_t good = settings_init();
+  if (settings_apply() != STATUS_OK) {       /* stored values the core refuses */
+    settings_defaults(&settings);
+    (void)settings_apply();
+    good = 0;
+  }
+  menu_init();
+  protocol_init();
+  report_banner();                           /* readiness: the host waits for it */
+  if (!good)
+    report_feedback("settings restored");
+}
+
+void protocol_poll(void) {
+  hal_poll();
+  if (serial_rt_flags & (RT_LINE | RT_MENU | RT_STATUS | RT_HOLD | RT_RESUME | RT_RESET |
+                         RT_ESTOP | RT_JOG_CANCEL | RT_DOOR | RT_OVERRIDE))
+    protocol_events |= EV_SYSTEM | EV_PARSER | EV_MENU;
+  if (serial_rx_count() || have_pending)
+    protocol_events |= EV_PARSER;
+  uint8_t ev = protocol_events;
+  protocol_events = 0;
+  /* system control runs every pass: it also watches the envelope while moving */
+  system_task();
+  if (ev & EV_PARSER) {
+    (void)serial_take_flags(RT_LINE);
+    parser_task();
+  }
+  runner_task();                 /* cheap when idle; must run while the stepper does */
+  static uint32_t last_lcd_ms;
+  if (serial_take_flags(RT_MENU) || (ev & EV_MENU) ||
+      (uint32_t)(hal_millis() - last_lcd_ms) >= 200u) {   /* the LCD follows the machine */
+    last_lcd_ms = hal_millis();
+    menu_task();
+  }
+}
+
+void protocol_main_loop(void) {
+  for (;;)
+    protocol_poll();
+}

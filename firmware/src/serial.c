@@ -1,0 +1,135 @@
+/*
+  serial.c - RX/TX rings; the RX handler stores bytes and sets flags only.
+*/
+#include "serial.h"
+
+#include "hal.h"
+
+volatile uint16_t serial_rt_flags;
+volatile uint16_t serial_ovr_pending;
+
+/* The ring is twice the budget so that it holds all SERIAL_RX_SIZE bytes. */
+#define RX_RING (2u * SERIAL_RX_SIZE)
+static volatile uint8_t rx_buf[RX_RING];
+static volatile uint16_t rx_head, rx_tail;   /* head: written by the ISR */
+static volatile uint32_t rx_overruns;
+static volatile uint8_t tx_buf[SERIAL_TX_SIZE];
+static volatile uint16_t tx_head, tx_tail;   /* tail: read by the hal */
+static volatile uint8_t panel[8];
+static volatile uint8_t panel_head, panel_tail;
+
+void serial_init(void) {
+  rx_head = rx_tail = 0;
+  tx_head = tx_tail = 0;
+  rx_overruns = 0;
+  panel_head = panel_tail = 0;
+  serial_rt_flags = 0;
+  serial_ovr_pending = 0;
+}
+
+void serial_rx_isr(uint8_t byte) {
+  switch (byte) {
+  case '?': serial_rt_flags |= RT_STATUS; return;
+  case '!': serial_rt_flags |= RT_HOLD; return;
+  case '~': serial_rt_flags |= RT_RESUME; return;
+  case 0x18: serial_rt_flags |= RT_RESET; return;
+  case 0x84: serial_rt_flags |= RT_DOOR; return;
+  case 0x85: serial_rt_flags |= RT_JOG_CANCEL; return;
+  default: break;
+  }
+  if (byte == PANEL_CW || byte == PANEL_CCW || byte == PANEL_OK) {
+    serial_panel_event(byte);
+    return;
+  }
+  if (byte == PANEL_ESTOP) {
+    serial_rt_flags |= RT_ESTOP;
+    return;
+  }
+  if (byte >= 0x90 && byte <= 0x9D) {
+    serial_ovr_pending |= (uint16_t)(1u << (byte - 0x90));
+    serial_rt_flags |= RT_OVERRIDE;
+    return;
+  }
+  uint16_t next = (uint16_t)((rx_head + 1u) & (RX_RING - 1u));
+  if (serial_rx_count() >= SERIAL_RX_SIZE) { /* full: the host broke its character count */
+    rx_overruns++;
+    return;
+  }
+  rx_buf[rx_head] = byte;
+  rx_head = next;
+  if (byte == '\n' || byte == '\r')
+    serial_rt_flags |= RT_LINE;
+}
+
+void serial_panel_event(uint8_t ev) {
+  uint8_t next = (uint8_t)((panel_head + 1u) & 7u);
+  if (next != panel_tail) {
+    panel[panel_head] = ev;
+    panel_head = next;
+  }
+  serial_rt_flags |= RT_MENU;
+}
+
+int serial_panel_pop(void) {
+  if (panel_tail == panel_head)
+    return -1;
+  uint8_t ev = panel[panel_tail];
+  panel_tail = (uint8_t)((panel_tail + 1u) & 7u);
+  return ev;
+}
+
+int serial_read(void) {
+  if (rx_tail == rx_head)
+    return -1;
+  uint8_t b = rx_buf[rx_tail];
+  rx_tail = (uint16_t)((rx_tail + 1u) & (RX_RING - 1u));
+  return b;
+}
+
+uint16_t serial_rx_count(void) {
+  return (uint16_t)((rx_head - rx_tail) & (RX_RING - 1u));
+}
+
+uint16_t serial_rx_free(void) { return (uint16_t)(SERIAL_RX_SIZE - serial_rx_count()); }
+
+uint32_t serial_rx_overruns(void) { return rx_overruns; }
+
+void serial_rx_flush(void) {
+  hal_irq_disable();
+  rx_tail = rx_head;
+  hal_irq_enable();
+}
+
+void serial_putc(char c) {
+  uint16_t next = (uint16_t)((tx_head + 1u) & (SERIAL_TX_SIZE - 1u));
+  while (next == tx_tail)
+    hal_serial_tx_wait();
+  tx_buf[tx_head] = (uint8_t)c;
+  tx_head = next;
+  hal_serial_tx_kick();
+}
+
+void serial_write(const char *s) {
+  while (*s)
+    serial_putc(*s++);
+}
+
+int serial_tx_pop(void) {
+  if (tx_tail == tx_head)
+    return -1;
+  uint8_t b = tx_buf[tx_tail];
+  tx_tail = (uint16_t)((tx_tail + 1u) & (SERIAL_TX_SIZE - 1u));
+  return b;
+}
+
+uint16_t serial_tx_count(void) {
+  return (uint16_t)((tx_head - tx_tail) & (SERIAL_TX_SIZE - 1u));
+}
+
+uint16_t serial_take_flags(uint16_t mask) {
+  hal_irq_disable();
+  uint16_t f = serial_rt_flags & mask;
+  serial_rt_flags = (uint16_t)(serial_rt_flags & ~mask);
+  hal_irq_enable();
+  return f;
+}

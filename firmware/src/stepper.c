@@ -1,0 +1,461 @@
+/*
+  stepper.c - ticks prepared in the main loop, pulses in the step interrupt.
+
+  st_prep_buffer() (main loop) evaluates each block's rate program tick by
+  tick (labkit.motion.timer: f_k, the period register, the laser power) and
+  queues {period, rate, duty}. st_tick() (interrupt) pulses the steps of the
+  tick that ended, pops the next tick and finds its steps with the block's
+  Bresenham line or octant arc walk: integer work only.
+*/
+#include "stepper.h"
+
+#include <string.h>
+
+#include "config.h"
+#include "hal.h"
+#include "laser.h"
+#include "planner.h"
+
+#define TICK_NEW_BLOCK 0x01u
+#define TICK_DWELL     0x02u
+
+typedef struct {
+  uint32_t period;
+  uint32_t rate;
+  uint16_t duty;
+  uint8_t flags;
+  uint8_t slot;
+} st_tick_t;
+
+typedef struct {
+  st_block_info_t info;
+  /* geometry for the interrupt */
+  int32_t delta[3];        /* |steps| per axis (lines) */
+  uint8_t a0, a1, lin;     /* arc plane axes */
+  int32_t helix;           /* |steps| of the helix axis */
+  int8_t helix_sign;
+  plan_arc_t arc;          /* initial walk */
+} st_block_t;
+
+static st_tick_t tick_buf[ST_TICK_BUFFER_SIZE];
+static volatile uint32_t tick_head, tick_tail;      /* head: main loop, tail: interrupt */
+static st_block_t blk_buf[ST_BLOCK_BUFFER_SIZE];
+static volatile uint32_t blk_head, blk_tail;        /* tail: the running block */
+
+/* main loop: the block being prepared */
+static struct {
+  plan_block_t *b;
+  uint32_t k;
+  uint32_t slot;
+  uint64_t dwell_left;     /* timer clock cycles */
+  uint8_t law;
+  uint32_t last_rate;
+  uint8_t ramp;            /* resuming: rate limited to ramp_rate */
+  uint32_t ramp_rate;
+  uint32_t cycles;         /* clock cycles of the ticks prepared (mod 2^32) */
+} prep;
+
+/* interrupt state */
+static struct {
+  volatile uint8_t running;
+  volatile uint8_t state;
+  volatile uint8_t abort;
+  uint8_t have_block, loaded_any;
+  uint32_t slot;
+  uint32_t seq;
+  uint8_t dwell;
+  int32_t err[3];
+  uint32_t n;
+  plan_arc_t arc;
+  int32_t ax, ay;          /* arc position in its plane (steps) */
+  int32_t herr;
+  uint8_t dir_out;
+  uint8_t pending_bits, pending_neg;
+  uint8_t pending;
+  uint32_t extra_counts;   /* timer counts of the tick still to run after this period */
+  uint32_t max_counts;     /* 2^timer_bits, capped */
+  uint32_t pre1;           /* prescaler + 1 */
+  volatile uint32_t done_cycles;   /* clock cycles of the ticks loaded (mod 2^32) */
+  volatile int32_t pos[3];
+  volatile uint32_t rate;
+} sti;
+
+static uint32_t block_seq;
+
+void st_init(void)
+{
+  memset(&prep, 0, sizeof prep);
+  memset(&sti, 0, sizeof sti);
+  tick_head = tick_tail = 0;
+  blk_head = blk_tail = 0;
+  block_seq = 0;
+  sti.state = ST_IDLE;
+  hal_timer_stop();
+  hal_set_dir(0);
+}
+
+/* ------------------------------------------------------------------ interrupt */
+
+static void load_block(uint32_t slot)
+{
+  st_block_t *sb = &blk_buf[slot % ST_BLOCK_BUFFER_SIZE];
+  if (sti.loaded_any) blk_tail++;   /* the previous block's slot is free now */
+  sti.loaded_any = 1;
+  sti.slot = slot;
+  sti.have_block = 1;
+  sti.dwell = sb->info.kind == PLAN_BLOCK_DWELL;
+  sti.n = sb->info.ticks;
+  if (sb->info.kind == PLAN_BLOCK_LINE) {
+    for (int a = 0; a < 3; a++) sti.err[a] = 2 * sb->delta[a] - (int32_t)sti.n;
+  } else if (sb->info.kind == PLAN_BLOCK_ARC) {
+    sti.arc = sb->arc;
+    sti.ax = sb->info.start_steps[sb->a0];
+    sti.ay = sb->info.start_steps[sb->a1];
+    sti.herr = 2 * sb->helix - (int32_t)sti.n;
+  }
+}
+
+/* steps (bits) and their negative directions (bits) of the next tick */
+static void next_steps(uint8_t *bits, uint8_t *neg)
+{
+  const st_block_t *sb = &blk_buf[sti.slot % ST_BLOCK_BUFFER_SIZE];
+  uint8_t b = 0, ng = 0;
+  if (sb->info.kind == PLAN_BLOCK_LINE) {
+    for (int a = 0; a < 3; a++) {
+      if (sti.err[a] >= 0) {
+        b |= (uint8_t)(1u << a);
+        sti.err[a] -= 2 * (int32_t)sti.n;
+      }
+      sti.err[a] += 2 * sb->delta[a];
+    }
+    ng = sb->info.dir_bits & b;
+  } else if (sb->info.kind == PLAN_BLOCK_ARC) {
+    int32_t x, y;
+    if (plan_arc_next(&sti.arc, &x, &y) == 1) {
+      int32_t dx = x - sti.ax, dy = y - sti.ay;
+      if (dx) {
+        b |= (uint8_t)(1u << sb->a0);
+        if (dx < 0) ng |= (uint8_t)(1u << sb->a0);
+      }
+      if (dy) {
+        b |= (uint8_t)(1u << sb->a1);
+        if (dy < 0) ng |= (uint8_t)(1u << sb->a1);
+      }
+      sti.ax = x;
+      sti.ay = y;
+    }
+    if (sti.herr >= 0) {
+      b |= (uint8_t)(1u << sb->lin);
+      if (sb->helix_sign < 0) ng |= (uint8_t)(1u << sb->lin);
+      sti.herr -= 2 * (int32_t)sti.n;
+    }
+    sti.herr += 2 * sb->helix;
+  }
+  *bits = b;
+  *neg = ng;
+}
+
+/* load the next prepared tick; 0 when there is none */
+static int load_tick(void)
+{
+  if (tick_tail == tick_head) return 0;
+  const st_tick_t *t = &tick_buf[tick_tail % ST_TICK_BUFFER_SIZE];
+  if (t->flags & TICK_NEW_BLOCK) load_block(t->slot);
+  uint8_t bits = 0, neg = 0;
+  if (!(t->flags & TICK_DWELL)) next_steps(&bits, &neg);
+  uint8_t dir = (uint8_t)((sti.dir_out & (uint8_t)~bits) | neg);
+  if (dir != sti.dir_out) {
+    sti.dir_out = dir;
+    hal_set_dir(dir);
+  }
+  laser_output(t->duty);
+  sti.rate = t->rate;
+  sti.done_cycles += (t->period + 1u) * sti.pre1;
+  /* a tick longer than the period register runs as several periods; its
+     step pulse comes at the end of the last */
+  uint32_t counts = t->period + 1u;
+  if (counts == 0u || counts > sti.max_counts) {
+    sti.extra_counts = t->period - (sti.max_counts - 1u);
+    hal_timer_set_period(sti.max_counts - 1u);
+  } else {
+    sti.extra_counts = 0;
+    hal_timer_set_period(t->period);
+  }
+  sti.pending_bits = bits;
+  sti.pending_neg = neg;
+  sti.pending = 1;
+  tick_tail++;
+  return 1;
+}
+
+void st_tick(void)
+{
+  if (!sti.running) return;
+  if (sti.extra_counts) {
+    uint32_t c = sti.extra_counts < sti.max_counts ? sti.extra_counts : sti.max_counts;
+    sti.extra_counts -= c;
+    hal_timer_set_period(c - 1u);
+    return;
+  }
+  if (sti.pending) {
+    uint8_t bits = sti.pending_bits;
+    hal_step_pulse(bits);
+    for (int a = 0; a < 3; a++)
+      if (bits & (1u << a)) sti.pos[a] += (sti.pending_neg & (1u << a)) ? -1 : 1;
+    sti.pending = 0;
+  }
+  if (!load_tick()) {
+    hal_timer_stop();
+    laser_output(0);
+    sti.running = 0;
+    sti.rate = 0;
+    if (sti.state == ST_HOLDING) {
+      sti.state = ST_HELD;
+      laser_off();
+    } else if (sti.state != ST_HELD) {
+      sti.state = ST_IDLE;
+    }
+  }
+}
+
+static void wake_up(void)
+{
+  if (sti.running || tick_tail == tick_head) return;
+  {
+    uint32_t bits = plan_machine()->timer_bits;
+    sti.max_counts = bits >= 32 ? 0x80000000u : (1u << bits);
+    sti.pre1 = plan_machine()->prescaler + 1u;
+  }
+  if (sti.state == ST_HELD || sti.state == ST_HOLDING) return;
+  sti.running = 1;
+  sti.state = ST_RUN;
+  load_tick();
+  hal_timer_start();
+}
+
+/* ------------------------------------------------------------------ main loop */
+
+static int start_block(void)
+{
+  plan_block_t *b = plan_get_current_block();
+  if (!b) return 0;
+  if (blk_head - blk_tail >= ST_BLOCK_BUFFER_SIZE) return 0;
+  st_block_t *sb = &blk_buf[blk_head % ST_BLOCK_BUFFER_SIZE];
+  memset(sb, 0, sizeof *sb);
+  st_block_info_t *in = &sb->info;
+  in->seq = ++block_seq;
+  in->kind = b->kind;
+  in->rapid = b->rapid;
+  in->laser = b->laser;
+  in->dir_bits = b->dir_bits;
+  in->line = b->line;
+  in->super_block = b->super_block;
+  memcpy(in->start_steps, b->start_steps, sizeof in->start_steps);
+  memcpy(in->end_steps, b->end_steps, sizeof in->end_steps);
+  in->ticks = b->ticks;
+  in->f_entry = b->f_entry;
+  in->f_peak = b->f_peak;
+  in->f_exit = b->f_exit;
+  in->f_min = b->f_min;
+  in->up = b->up;
+  in->down = b->down;
+  in->f_feed = b->f_feed;
+  in->power_mw = b->power_mw;
+  in->length_mm = b->length_mm;
+  in->entry_mm_s = b->entry_mm_s;
+  in->peak_mm_s = b->peak_mm_s;
+  in->exit_mm_s = b->exit_mm_s;
+  in->dwell_cycles = b->dwell_cycles;
+  for (int a = 0; a < 3; a++) {
+    int32_t d = b->end_steps[a] - b->start_steps[a];
+    sb->delta[a] = d < 0 ? -d : d;
+  }
+  if (b->kind == PLAN_BLOCK_ARC) {
+    static const uint8_t axes[3][3] = {{0, 1, 2}, {2, 0, 1}, {1, 2, 0}};
+    sb->a0 = axes[b->plane][0];
+    sb->a1 = axes[b->plane][1];
+    sb->lin = axes[b->plane][2];
+    int32_t h = b->end_steps[sb->lin] - b->start_steps[sb->lin];
+    sb->helix = h < 0 ? -h : h;
+    sb->helix_sign = h < 0 ? -1 : 1;
+    sb->arc = b->arc;
+  }
+  prep.b = b;
+  prep.k = 0;
+  prep.slot = blk_head;
+  prep.law = plan_get_law();
+  prep.dwell_left = b->kind == PLAN_BLOCK_DWELL ? b->dwell_cycles : 0;
+  blk_head++;
+  return 1;
+}
+
+static void end_block(void)
+{
+  plan_discard_current_block();
+  prep.b = NULL;
+}
+
+void st_prep_buffer(void)
+{
+  const lk_machine_t *m = plan_machine();
+  const uint32_t lead_max = m->timer_clock_hz / 1000u * ST_PREP_LEAD_MS;
+  if (tick_head == tick_tail) prep.cycles = sti.done_cycles;   /* nothing queued */
+  for (;;) {
+    if (sti.state == ST_HELD) break;
+    if (tick_head - tick_tail >= ST_TICK_BUFFER_SIZE) break;
+    if (prep.cycles - sti.done_cycles > lead_max) break;
+    if (!prep.b && !start_block()) break;
+    plan_block_t *b = prep.b;
+    st_tick_t t;
+    t.slot = (uint8_t)(prep.slot % ST_BLOCK_BUFFER_SIZE);
+    t.flags = prep.k == 0 ? TICK_NEW_BLOCK : 0;
+    if (b->kind == PLAN_BLOCK_DWELL) {
+      if (prep.dwell_left == 0) {
+        end_block();
+        continue;
+      }
+      uint32_t per = m->prescaler + 1;
+      uint64_t counts = (prep.dwell_left + per - 1) / per;
+      uint64_t top = 1ull << m->timer_bits;
+      if (counts > top) counts = top;
+      t.period = (uint32_t)(counts - 1);
+      t.rate = 0;
+      t.duty = 0;
+      t.flags |= TICK_DWELL;
+      uint64_t used = counts * per;
+      prep.dwell_left = used >= prep.dwell_left ? 0 : prep.dwell_left - used;
+      prep.k++;
+    } else {
+      uint32_t f = plan_tick_rate(b, prep.k, prep.law);
+      if (sti.state == ST_HOLDING) {
+        /* one tick of the block's deceleration below the last rate */
+        uint32_t lim;
+        if (prep.law == PLAN_LAW_LINEAR) {
+          lim = prep.last_rate > b->down ? prep.last_rate - b->down : 0;
+        } else {
+          uint64_t sq = (uint64_t)prep.last_rate * prep.last_rate;
+          lim = sq > 2ull * b->down ? plan_isqrt(sq - 2ull * b->down) : 0;
+        }
+        if (lim <= b->f_min) break;   /* stopped: keep the rest for the resume */
+        if (f > lim) f = lim;
+      } else if (prep.ramp) {
+        uint32_t lim = prep.law == PLAN_LAW_LINEAR
+                           ? prep.ramp_rate + b->up
+                           : plan_isqrt((uint64_t)prep.ramp_rate * prep.ramp_rate + 2ull * b->up);
+        if (f > lim) {
+          f = lim;
+          prep.ramp_rate = lim;
+        } else {
+          prep.ramp = 0;
+        }
+      }
+      prep.last_rate = f;
+      t.rate = f;
+      t.period = plan_timer_period(f);
+      double p = laser_tick_power_mw(b->laser, b->power_mw, b->f_feed, f, m->laser_max_power_mw);
+      t.duty = laser_duty_from_mw(p, m->laser_max_power_mw);
+      prep.k++;
+    }
+    tick_buf[tick_head % ST_TICK_BUFFER_SIZE] = t;
+    prep.cycles += (t.period + 1u) * (m->prescaler + 1u);
+    tick_head++;
+    if (b->kind != PLAN_BLOCK_DWELL && prep.k >= b->ticks) end_block();
+    else if (b->kind == PLAN_BLOCK_DWELL && prep.dwell_left == 0) end_block();
+  }
+  if (sti.state != ST_HOLDING) wake_up();
+}
+
+void st_feed_hold(void)
+{
+  if (sti.state == ST_RUN) sti.state = ST_HOLDING;
+  /* momentarily idle with work queued: hold it before it starts */
+  if (sti.state == ST_IDLE && (!plan_is_empty() || tick_head != tick_tail)) sti.state = ST_HOLDING;
+  if (!sti.running && sti.state == ST_HOLDING) {
+    sti.state = ST_HELD;
+    laser_off();
+  }
+}
+
+void st_resume(void)
+{
+  if (sti.state != ST_HELD && sti.state != ST_HOLDING) return;
+  sti.state = ST_RUN;
+  if (prep.b && prep.b->kind != PLAN_BLOCK_DWELL) {   /* ramp up from where the hold left */
+    prep.ramp = 1;
+    prep.ramp_rate = prep.last_rate > prep.b->f_min ? prep.last_rate : prep.b->f_min;
+  }
+  st_prep_buffer();
+}
+
+void st_reset(void)
+{
+  hal_irq_disable();
+  hal_timer_stop();
+  laser_off();
+  tick_head = tick_tail = 0;
+  blk_head = blk_tail = 0;
+  prep.b = NULL;
+  prep.ramp = 0;
+  prep.cycles = sti.done_cycles;
+  sti.running = 0;
+  sti.pending = 0;
+  sti.extra_counts = 0;
+  sti.have_block = 0;
+  sti.loaded_any = 0;
+  sti.rate = 0;
+  sti.state = ST_IDLE;
+  sti.abort = 1;
+  block_seq = 0;
+  plan_reset();
+  int32_t p[3] = {sti.pos[0], sti.pos[1], sti.pos[2]};
+  plan_sync_position(p);
+  hal_irq_enable();
+}
+
+uint8_t st_take_abort(void)
+{
+  uint8_t a = sti.abort;
+  sti.abort = 0;
+  return a;
+}
+
+uint8_t st_state(void)
+{
+  if (sti.state == ST_RUN && sti.have_block && sti.dwell) return ST_DWELL;
+  return sti.state;
+}
+
+uint8_t st_is_idle(void) { return !sti.running && sti.state == ST_IDLE; }
+
+void st_get_position(int32_t steps[3])
+{
+  for (int a = 0; a < 3; a++) steps[a] = sti.pos[a];
+}
+
+void st_get_position_mm(float mm[3])
+{
+  const lk_machine_t *m = plan_machine();
+  for (int a = 0; a < 3; a++) mm[a] = (float)((double)sti.pos[a] / m->steps_per_mm[a]);
+}
+
+uint32_t st_current_rate_hz(void) { return sti.running ? sti.rate : 0; }
+
+const st_block_info_t *st_running_block(void)
+{
+  if (!sti.have_block) return NULL;
+  return &blk_buf[sti.slot % ST_BLOCK_BUFFER_SIZE].info;
+}
+
+uint32_t st_current_line(void)
+{
+  const st_block_info_t *b = st_running_block();
+  return b ? b->line : 0;
+}
+
+double st_current_power_mw(void)
+{
+  const st_block_info_t *b = st_running_block();
+  if (!b || b->kind == PLAN_BLOCK_DWELL) return 0.0;
+  return laser_tick_power_mw(b->laser, b->power_mw, b->f_feed, sti.rate,
+                             plan_machine()->laser_max_power_mw);
+}

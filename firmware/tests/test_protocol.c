@@ -1,0 +1,212 @@
+/*
+  test_protocol.c - line assembly, replies in both dialects, real-time
+  bytes, $ commands, check mode, alarms, reset.
+*/
+#include <stdint.h>
+#include <string.h>
+
+#include "gcode.h"
+#include "laser.h"
+#include "stepper.h"
+#include "protocol.h"
+#include "report.h"
+#include "serial.h"
+#include "settings.h"
+#include "shell_test.h"
+#include "shell_util.h"
+#include "status_codes.h"
+
+static const char *run(const char *bytes) {
+  shell_out_clear();
+  shell_send(bytes);
+  return shell_out();
+}
+
+static void test_line_asm(void) {
+  line_asm_t a;
+  memset(&a, 0, sizeof a);
+  const char *s = "g1 x1.5 (comment) y2 ; tail\n";
+  int st = -1;
+  for (const char *p = s; *p; p++)
+    st = line_asm_push(&a, (uint8_t)*p);
+  CHECK(st == STATUS_OK);
+  CHECK(!strcmp(a.buf, "G1X1.5Y2"));
+  /* checksum: XOR of every byte before '*' */
+  const char *body = "N7 G0 X1";
+  uint8_t x = 0;
+  for (const char *p = body; *p; p++) x ^= (uint8_t)*p;
+  char line[64];
+  snprintf(line, sizeof line, "%s*%u\n", body, x);
+  for (const char *p = line; *p; p++) st = line_asm_push(&a, (uint8_t)*p);
+  CHECK(st == STATUS_OK);
+  CHECK(!strcmp(a.buf, "N7G0X1"));
+  snprintf(line, sizeof line, "%s*%u\n", body, (x + 1u) & 255u);
+  for (const char *p = line; *p; p++) st = line_asm_push(&a, (uint8_t)*p);
+  CHECK(st == STATUS_BAD_CHECKSUM);
+  /* '*' in a $ line is a character */
+  for (const char *p = "$RST=*\n"; *p; p++) st = line_asm_push(&a, (uint8_t)*p);
+  CHECK(st == STATUS_OK && !strcmp(a.buf, "$RST=*"));
+  /* unbalanced comment */
+  for (const char *p = "G0 (X1\n"; *p; p++) st = line_asm_push(&a, (uint8_t)*p);
+  CHECK(st == STATUS_BAD_DELIMITER);
+  /* over-long: rejected, not cut; the next line is whole */
+  for (int i = 0; i < 300; i++) st = line_asm_push(&a, (uint8_t)(i ? '1' : 'X'));
+  st = line_asm_push(&a, '\n');
+  CHECK(st == STATUS_LINE_OVERFLOW);
+  for (const char *p = "G0X2\n"; *p; p++) st = line_asm_push(&a, (uint8_t)*p);
+  CHECK(st == STATUS_OK && !strcmp(a.buf, "G0X2"));
+  /* exactly LINE_BUFFER_SIZE - 1 characters fit */
+  for (int i = 0; i < LINE_BUFFER_SIZE - 1; i++) st = line_asm_push(&a, (uint8_t)(i ? '0' : 'N'));
+  st = line_asm_push(&a, '\n');
+  CHECK(st == STATUS_OK && strlen(a.buf) == LINE_BUFFER_SIZE - 1);
+}
+
+int main(int argc, char **argv) {
+  (void)argc; (void)argv;
+  test_line_asm();
+
+  shell_storage_clear();
+  shell_out_clear();
+  protocol_startup();
+  const char *o = shell_out();
+  CHECK_HAS(o, "Grbl 1.1h ['$' for help] [labkit-fw " LK_FW_VERSION " dialect:labkit-fw]");
+  CHECK_HAS(o, "[MSG:settings restored]");        /* empty storage */
+
+  /* labkit-fw replies */
+  o = run("\n");
+  CHECK(!strcmp(o, "ok\r\n"));
+  o = run("G21 G90\n");
+  CHECK(!strcmp(o, "ok\r\n"));
+  o = run("G1 X1 F10 S100 M3\n");
+  CHECK(!strcmp(o, "ok\r\n"));
+  o = run("G1 Q5\n");
+  CHECK_HAS(o, "er:");
+  CHECK_NOT(o, "error:");
+  o = run("G1 X2\r\n");                     /* "\r\n" is one line end in labkit-fw */
+  CHECK(count_of(o, "ok") == 1);
+
+  /* real-time bytes never enter a line */
+  o = run("G0 X?3\n");
+  CHECK_HAS(o, "<");
+  CHECK_HAS(o, "|MPos:");
+  CHECK_HAS(o, "|Bf:");
+  CHECK_HAS(o, "|Ov:100,100,100>");
+  CHECK_HAS(o, "ok\r\n");
+  CHECK(serial_rx_count() == 0);
+
+  /* over-long line: one error, nothing executed */
+  char longline[400];
+  memset(longline, 0, sizeof longline);
+  strcpy(longline, "G0 X");
+  memset(longline + 4, '1', 250);
+  strcat(longline, "\n");
+  o = run(longline);
+  CHECK(!strcmp(o, "er:11\r\n"));
+
+  /* $ commands */
+  o = run("$I\n");
+  CHECK_HAS(o, "[VER:1.1h");
+  CHECK_HAS(o, ",128]");
+  CHECK_HAS(o, "[OPT:VL,");
+  o = run("$$\n");
+  CHECK_HAS(o, "$32=1\r\n");
+  CHECK_HAS(o, "$100=2133.333\r\n");
+  CHECK_HAS(o, "$208=0\r\n");
+  CHECK_HAS(o, "ok\r\n");
+  o = run("$G\n");
+  CHECK_HAS(o, "[GC:G");
+  o = run("$\n");
+  CHECK_HAS(o, "[HLP:");
+  o = run("$FOO\n");
+  CHECK(!strcmp(o, "er:20\r\n"));
+
+  /* GRBL dialect */
+  o = run("$208=1\n");
+  CHECK(!strcmp(o, "ok\r\n"));
+  CHECK(gc_get_dialect() == GC_DIALECT_GRBL);
+  o = run("G1 Q5\n");
+  CHECK_HAS(o, "error:");
+  o = run("G1 X3\r\n");                     /* GRBL: '\r' and '\n' each end a line */
+  CHECK(count_of(o, "ok") == 2);
+  o = run("\x18");
+  CHECK_HAS(o, "dialect:grbl]");
+
+  /* soft limit: a move out of the envelope raises ALARM:2 and locks */
+  o = run("$X\n$20=1\nG90 G0 X-5\n");
+  CHECK_HAS(o, "ALARM:2");
+  CHECK(protocol_state() == PROTO_ALARM);
+  o = run("G0 X1\n");
+  CHECK(!strcmp(o, "error:9\r\n"));
+  o = run("?");
+  CHECK_HAS(o, "<Alarm|");
+  o = run("$X\n");
+  CHECK_HAS(o, "[MSG:Caution: Unlocked]");
+  CHECK_HAS(o, "ok");
+  CHECK(protocol_state() == PROTO_IDLE);
+
+  /* check mode: lines are checked, nothing is queued */
+  o = run("$C\n");
+  CHECK_HAS(o, "[MSG:Enabled]");
+  o = run("G1 X10 F600\nG1 Q1\n");
+  CHECK_HAS(o, "ok\r\n");
+  CHECK_HAS(o, "error:20");
+  o = run("?");
+  CHECK_HAS(o, "<Check|");
+  o = run("$C\n");
+  CHECK_HAS(o, "[MSG:Disabled]");
+  CHECK_HAS(o, "Grbl 1.1h");
+  CHECK(protocol_state() == PROTO_IDLE);
+
+  /* jog: errors by name */
+  o = run("$J=G91 X1\n");
+  CHECK(!strcmp(o, "error:22\r\n"));
+  o = run("$J=G91 M3 X1 F100\n");
+  CHECK(!strcmp(o, "error:16\r\n"));
+  o = run("$J=G90 X-1 F100\n");
+  CHECK(!strcmp(o, "error:102\r\n"));
+
+  /* emergency stop input */
+  o = run("\xB8");
+  CHECK_HAS(o, "[MSG:E-stop]");
+  CHECK_HAS(o, "ALARM:3");
+  o = run("$X\n");
+  CHECK_HAS(o, "ok");
+
+  /* feed hold mid-move: decelerates, beam off, Hold:0; resume finishes the move */
+  {
+    const char *line = "G90 G1 X5 F600 S500 M3\n";
+    shell_out_clear();
+    for (const char *p = line; *p; p++)
+      serial_rx_isr((uint8_t)*p);
+    for (int i = 0; i < 20; i++) protocol_poll();
+    shell_advance_ms(100);                    /* quiet: the look-ahead is flushed */
+    for (int i = 0; i < 24; i++) protocol_poll();
+    CHECK(st_state() == ST_RUN);
+    CHECK(laser_current_duty() > 0);
+    serial_rx_isr('!');
+    for (int i = 0; i < 100000 && st_state() != ST_HELD; i++) protocol_poll();
+    CHECK(st_state() == ST_HELD || (st_state() == ST_IDLE && protocol_hold_requested()));
+    o = run("$J=G91 X1 F100\n");            /* no jog while a job is held or running */
+    CHECK(!strcmp(o, "error:8\r\n"));
+    CHECK(laser_current_duty() == 0);
+    float mm[3];
+    st_get_position_mm(mm);
+    CHECK(mm[0] > 0.1f && mm[0] < 4.9f);
+    o = run("?");
+    CHECK_HAS(o, "<Hold:0|");
+    o = run("~");
+    st_get_position_mm(mm);
+    CHECK(mm[0] > 4.9995f && mm[0] < 5.0005f);
+    CHECK(st_is_idle());
+    CHECK(laser_current_duty() == 0);
+    o = run("?");
+    CHECK_HAS(o, "<Idle|MPos:5.000,");
+  }
+
+  /* $RST=* restores the defaults (dialect included) */
+  o = run("$RST=*\n");
+  CHECK_HAS(o, "ok");
+  CHECK(gc_get_dialect() == GC_DIALECT_LABKIT);
+
+  TEST_DONE("test_protocol");
+}
