@@ -8,7 +8,7 @@ STAMP := $(VENV)/.installed
 LAB_ARGS ?=
 PYTEST_ARGS ?=
 
-.PHONY: lab test test-fast bench firmware clean browser-deps
+.PHONY: lab test test-fast bench firmware firmware-all clean browser-deps
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; assert sys.version_info >= (3, 11), "labkit needs Python >= 3.11, found " + sys.version.split()[0]'
@@ -23,9 +23,16 @@ lab: $(STAMP)
 	$(VENV)/bin/jupyter lab --ServerApp.root_dir="$(CURDIR)" \
 		--LabApp.default_url=/lab/tree/notebooks/00-index.ipynb $(ROOT_ARGS) $(LAB_ARGS)
 
-## make test: set up (first time), then unit tests, doctests, notebooks (nbval) and the browser test.
+## make test: set up (first time), the firmware's host tests (C), then unit tests, doctests,
+## notebooks (nbval) and the browser test.
 test: $(STAMP) browser-deps
+	$(MAKE) -C firmware test
 	$(PY) -m pytest $(PYTEST_ARGS)
+
+## make firmware-all: what CI adds to make test: the ARM images (sizes printed), the job
+## streamed to the image in QEMU, and a bounded libFuzzer run (FUZZ_SECONDS per target).
+firmware-all:
+	$(MAKE) -C firmware arm qemu fuzz
 
 ## make test-fast: everything but the notebooks and the browser.
 test-fast: $(STAMP)

@@ -32,7 +32,7 @@ HOSTILE_TEXT = ["nan", "NaN", "inf", "-inf", "Infinity", "1e400", "-1e400", "1e3
 numbers = st.one_of(st.sampled_from(HOSTILE_TEXT),
                     st.floats(allow_nan=True, allow_infinity=True).map(repr),
                     st.integers(-10**30, 10**30).map(str))
-FUZZ = settings(max_examples=60, deadline=None, derandomize=True,
+FUZZ = settings(max_examples=40, deadline=None, derandomize=True,
                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 
 
@@ -175,7 +175,7 @@ def test_every_numeric_option_is_fuzzed():
 def test_numeric_option(inputs, tmp_path, command, option):
     src, out_flag = COMMANDS[command]
 
-    @settings(max_examples=12, deadline=None, derandomize=True,
+    @settings(max_examples=8, deadline=None, derandomize=True,
               suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
     @given(st.one_of(st.sampled_from(HOSTILE_TEXT + ["1e9", "1e-9", "3", "0.5"]),
                      st.floats(allow_nan=False, allow_infinity=False, width=32).map(repr)))
