@@ -207,6 +207,20 @@ def _run(args, drawing) -> int:
     return 0
 
 
+def _refuse_empty(drawing, kind: str) -> None:
+    """A drawing with nothing to cut is an error that says what was found, never an empty job."""
+    from labkit.errors import InputError
+
+    if drawing.paths:
+        return
+    if drawing.skipped:
+        kinds = sorted({s.split("#")[0].split("[")[0] for s in drawing.skipped})
+        raise InputError(f"{drawing.source}: nothing to cut: the {kind} holds only "
+                         f"{', '.join(kinds)} ({len(drawing.skipped)} element(s)); convert text to "
+                         f"paths in the drawing program, and engrave bitmaps with labkit img2gcode")
+    raise InputError(f"{drawing.source}: nothing to cut: the {kind} has no visible shapes")
+
+
 def run_svg2gcode(args) -> int:
     """Read the SVG, build the job, write G-code (and a preview), print the summary."""
     from labkit._files import check_input_file
@@ -218,6 +232,7 @@ def run_svg2gcode(args) -> int:
         drawing = read_svg(args.input, tol_mm=args.tol, arcs=args.arcs, fit=args.fit, flip_y=not args.no_flip)
     for w in caught:
         print(f"warning: {w.message}", file=sys.stderr)
+    _refuse_empty(drawing, "SVG")
     return _run(args, drawing)
 
 
@@ -233,4 +248,5 @@ def run_dxf2gcode(args) -> int:
                            units=args.units)
     for w in caught:
         print(f"warning: {w.message}", file=sys.stderr)
+    _refuse_empty(drawing, "DXF")
     return _run(args, drawing)

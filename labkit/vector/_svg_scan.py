@@ -48,6 +48,7 @@ class SvgScan:
     expanded_elements: int
     max_depth: int
     uses: int
+    unrendered: int = 0        # containers a renderer never draws directly (see render_only)
 
 
 def _local(tag: str) -> str:
@@ -100,7 +101,7 @@ def scan_svg(data: bytes, name: str) -> SvgScan:
     subtree: dict[str, tuple[int, Counter]] = {}   # id → (elements in its subtree, use targets)
     use_at: dict[str, tuple[int, int]] = {}        # a use target → place of its first use
     root_targets: Counter = Counter()
-    state = {"n": 0, "depth": 0, "uses": 0, "root": None}
+    state = {"n": 0, "depth": 0, "uses": 0, "root": None, "unrendered": 0}
     counts: list[int] = []            # running element count per open element (to size subtrees)
 
     def where() -> str:
@@ -138,6 +139,8 @@ def scan_svg(data: bytes, name: str) -> SvgScan:
                             f"{where()}: <{local}> viewBox={value!r} has a width or height that is "
                             f"not positive; SVG disables rendering of such an element (a renderer "
                             f"draws nothing), so labkit will not cut it")
+        if local in _UNRENDERED or local == "switch":
+            state["unrendered"] += 1
         stack.append([ident, Counter()])
         counts.append(state["n"])
         if local == "use":
@@ -206,4 +209,65 @@ def scan_svg(data: bytes, name: str) -> SvgScan:
                              cause=f"<use> copies of #{node} in {name}")
     expanded = state["n"] + sum(k * size.get(t, 0) for t, k in root_targets.items())
     check_budget("elements", expanded, cause=f"<use> copies in {name}")
-    return SvgScan(state["n"], expanded, state["depth"], state["uses"])
+    return SvgScan(state["n"], expanded, state["depth"], state["uses"], state["unrendered"])
+
+
+#: Elements whose content a renderer draws only through a reference (symbol, marker, mask,
+#: pattern) or never (metadata, Inkscape 0.92's flowRoot text frames, whose flowRegion
+#: rectangle is a text box, not a shape).
+_UNRENDERED = frozenset(("symbol", "marker", "mask", "pattern", "metadata", "flowRoot", "title",
+                         "desc"))
+_REFERENCED_ONLY = frozenset(("symbol", "marker", "mask", "pattern"))
+
+
+def render_only(data: bytes) -> tuple[bytes, list[str]]:
+    """The document with only what a renderer draws directly: ``symbol``, ``marker``,
+    ``mask`` and ``pattern`` moved into ``<defs>`` (still usable by ``<use>``, never drawn
+    where they stand), ``metadata``/``title``/``desc`` and ``flowRoot`` text frames removed,
+    and each ``<switch>`` reduced to its first child (the one a renderer without optional
+    features picks).
+
+    Returns
+    -------
+    (bytes, list of str)
+        The rewritten document and the labels of removed text frames (``flowRoot#id``).
+
+    Examples
+    --------
+    >>> doc, dropped = render_only(b'<svg xmlns="http://www.w3.org/2000/svg"><symbol id="s">'
+    ...     b'<rect width="1" height="1"/></symbol><flowRoot id="f"><flowRegion><rect/>'
+    ...     b'</flowRegion></flowRoot></svg>')
+    >>> doc.decode(), dropped
+    ('<svg xmlns="http://www.w3.org/2000/svg"><defs><symbol id="s"><rect width="1" height="1" /></symbol></defs></svg>', ['flowRoot#f'])
+    """
+    import xml.etree.ElementTree as ET
+
+    svg_ns = "http://www.w3.org/2000/svg"
+    ET.register_namespace("", svg_ns)
+    ET.register_namespace("xlink", _XLINK)
+    root = ET.fromstring(data)
+    dropped: list[str] = []
+    todo = [root]
+    while todo:                               # iterative: depth is bounded, but recursion is not needed
+        parent = todo.pop()
+        in_defs = _local(parent.tag) == "defs"
+        for i, child in enumerate(list(parent)):
+            tag = _local(child.tag) if isinstance(child.tag, str) else ""
+            if tag in ("metadata", "title", "desc"):
+                parent.remove(child)
+            elif tag == "flowRoot":
+                dropped.append(f"flowRoot#{child.get('id')}" if child.get("id") else "flowRoot")
+                parent.remove(child)
+            elif tag in _REFERENCED_ONLY and not in_defs:
+                defs = ET.Element(f"{{{svg_ns}}}defs")
+                defs.append(child)
+                parent.remove(child)
+                parent.insert(i, defs)
+            else:
+                if tag == "switch":
+                    kids = [k for k in child if isinstance(k.tag, str)]
+                    for k in kids[1:]:
+                        child.remove(k)
+                todo.append(child)
+    return ET.tostring(root, encoding="unicode").encode("utf-8"), dropped
+

@@ -18,8 +18,16 @@ folds the viewBox into each shape's matrix; labkit scales px → mm
 (25.4/96; svgelements itself takes 1 mm as 3.7795296 px, 0.55 ppm more) and by default flips y so the drawing is upright on a machine
 whose y axis points away from the operator (``flip_y``).
 
+Only what a renderer draws is cut (checked against resvg in the tests):
+``defs``, ``clipPath``, and, moved out of the way before svgelements sees them,
+``symbol``/``marker``/``mask``/``pattern`` outside a reference, ``metadata`` and
+Inkscape's ``flowRoot`` text frames; ``display:none`` and ``visibility:hidden``
+(with CSS and inheritance, as svgelements resolves them); shapes with neither fill
+nor stroke, or opacity 0; every ``switch`` child but the first. ``clip-path`` is not
+applied: the shapes it clips are named in a warning.
+
 Text and images cannot be cut as vectors; they are skipped with a warning
-naming each one (convert text to paths in the drawing program first).
+naming each one once (convert text to paths in the drawing program first).
 """
 
 from __future__ import annotations
@@ -39,7 +47,7 @@ from labkit.geometry.arcfit import FLATTEN_SHARE, coordinate_limit_mm, cubics_to
 from labkit.geometry.bezier import flatten_cubics, quad_to_cubic
 from labkit.geometry.ellipse import ellipse_arc_arrays
 from labkit.geometry.path import Path
-from labkit.vector._svg_scan import scan_svg
+from labkit.vector._svg_scan import render_only, scan_svg
 
 __all__ = ["Drawing", "read_svg", "svg_reference_samples", "PX_PER_INCH", "MM_PER_PX"]
 
@@ -87,9 +95,12 @@ def _load(source):
     else:
         name = os.fspath(source)
         data = check_input_file(name, what="SVG file").read_bytes()
-    scan_svg(data, name)            # structure, cycles, depth, fan-out, non-finite numbers
+    scan = scan_svg(data, name)     # structure, cycles, depth, fan-out, non-finite numbers
+    dropped: list[str] = []
+    if scan.unrendered:             # svgelements draws symbols, markers, masks, text frames
+        data, dropped = render_only(data)
     try:
-        return se.SVG.parse(io.BytesIO(data), reify=False, ppi=PX_PER_INCH), name
+        return se.SVG.parse(io.BytesIO(data), reify=False, ppi=PX_PER_INCH), name, dropped
     except (ValueError, SyntaxError) as exc:       # svgelements: unresolvable units, bad XML
         raise GeometryError(f"{name}: cannot read this SVG ({exc})") from None
     except ArithmeticError as exc:                 # svgelements on degenerate numbers (an arc
@@ -118,6 +129,13 @@ def _colour(value):
         return value.hex[:7]
     except AttributeError:
         return None
+
+
+def _opacity(el) -> float:
+    try:
+        return float(el.values.get("opacity", 1.0))
+    except (TypeError, ValueError):
+        return 1.0
 
 
 def _name(el, index):
@@ -376,16 +394,23 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
     """
     if not tol_mm > 0:
         raise GeometryError(f"tol_mm must be > 0 mm, got {tol_mm!r}")
-    doc, name = _load(source)
+    doc, name, dropped = _load(source)
     page = _page_matrix(doc, flip_y)
     paths: list[Path] = []
-    skipped: list[str] = []
+    skipped: list[str] = list(dropped)
+    invisible: list[str] = []
+    clipped: list[str] = []
     for index, el, kind in _iter_shapes(doc):
         label = _name(el, index)
         if kind != "shape":
             skipped.append(label)
             continue
         stroke, fill = _colour(el.stroke), _colour(el.fill)
+        if (stroke is None and fill is None) or _opacity(el) == 0:
+            invisible.append(label)               # a renderer paints nothing here
+            continue
+        if el.values.get("clip-path") not in (None, "", "none"):
+            clipped.append(label)
         rule = str(el.values.get("fill-rule", "nonzero")).strip().lower()
         meta = dict(layer=stroke or fill or "none", stroke=stroke, fill=fill,
                     fill_rule="evenodd" if rule == "evenodd" else "nonzero", source=label)
@@ -406,7 +431,17 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
         paths += new
     if skipped and warn:
         warnings.warn(f"{name}: skipped {len(skipped)} element(s) that are not vector shapes "
-                      f"(convert text to paths first): {', '.join(skipped)}", stacklevel=2)
+                      f"(convert text to paths first; engrave bitmaps with img2gcode): "
+                      f"{', '.join(skipped)}", stacklevel=2)
+    if invisible and warn:
+        warnings.warn(f"{name}: skipped {len(invisible)} shape(s) a renderer paints nothing for "
+                      f"(no fill and no stroke, or opacity 0): {', '.join(invisible[:10])}"
+                      f"{' …' if len(invisible) > 10 else ''}", stacklevel=2)
+    if clipped and warn:
+        warnings.warn(f"{name}: clip-path is not applied; {len(clipped)} shape(s) are cut whole "
+                      f"where a renderer shows only their clipped part: {', '.join(clipped[:10])}"
+                      f"{' …' if len(clipped) > 10 else ''} — clip them in the drawing program "
+                      f"(Inkscape: Path › Intersection)", stacklevel=2)
     width = float(doc.width) * MM_PER_PX if doc.width is not None else math.nan
     height = float(doc.height) * MM_PER_PX if doc.height is not None else math.nan
     return Drawing(paths, width, height, skipped, name)
@@ -427,7 +462,7 @@ def svg_reference_samples(source, *, per_segment=2000, flip_y=True) -> dict[str,
     """
     import svgelements as se
 
-    doc, _ = _load(source)
+    doc, _, _ = _load(source)
     page = _page_matrix(doc, flip_y)
     out: dict[str, list[np.ndarray]] = {}
     t = np.linspace(0.0, 1.0, per_segment)

@@ -1,0 +1,125 @@
+"""Draw what a renderer draws, nothing else (issue 10 §2): each visibility rule as a
+hand-made file, rendered by resvg (an independent renderer) and read by labkit. Every cut
+lies on ink, and every stroke the renderer inks is cut."""
+
+from __future__ import annotations
+
+import io
+import warnings
+
+import numpy as np
+import pytest
+import resvg_py
+from PIL import Image
+from scipy import ndimage
+
+from labkit.vector.svg import MM_PER_PX, read_svg
+
+PX_PER_UNIT = 10           # the documents are 400 px wide over a 40-unit viewBox
+STROKE = 'stroke="#000" stroke-width="0.5" fill="none"'
+DOC = ('<svg xmlns="http://www.w3.org/2000/svg" xmlns:xlink="http://www.w3.org/1999/xlink" '
+       'width="400" height="400" viewBox="0 0 40 40">{}'
+       f'<rect id="keep" x="2" y="30" width="6" height="6" {STROKE}/></svg>')
+HIDDEN = f'x="10" y="10" width="12" height="12" {STROKE}'
+
+RULES = {
+    "flowRoot text frame": f'<flowRoot><flowRegion><rect id="frame" {HIDDEN}/></flowRegion>'
+                           f'<flowPara>text</flowPara></flowRoot>',
+    "defs": f'<defs><rect id="d" {HIDDEN}/></defs>',
+    "clipPath contents": f'<clipPath id="c"><rect id="cp" {HIDDEN}/></clipPath>',
+    "mask contents": f'<mask id="m"><rect id="mk" {HIDDEN}/></mask>',
+    "symbol outside a use": f'<symbol id="s"><rect id="sy" {HIDDEN}/></symbol>',
+    "symbol through a use": f'<symbol id="s"><rect id="sy" {HIDDEN}/></symbol><use xlink:href="#s"/>',
+    "marker definition": f'<marker id="mm"><rect id="mr" {HIDDEN}/></marker>',
+    "metadata": f'<metadata><rect id="md" {HIDDEN}/></metadata>',
+    "display:none group": f'<g style="display:none"><rect id="dn" {HIDDEN}/></g>',
+    "display attribute": f'<g display="none"><rect id="dn2" {HIDDEN}/></g>',
+    "display:none by CSS class": f'<style>.off {{ display: none }}</style><rect class="off" {HIDDEN}/>',
+    "visibility hidden, inherited": f'<g visibility="hidden"><rect id="vh" {HIDDEN}/></g>',
+    "visibility visible overrides": f'<g visibility="hidden"><rect id="vv" visibility="visible" {HIDDEN}/></g>',
+    "no fill and no stroke": '<rect id="np" x="10" y="10" width="12" height="12" fill="none" stroke="none"/>',
+    "opacity 0": f'<rect id="op" opacity="0" {HIDDEN}/>',
+    "switch draws its first child": f'<switch><rect id="sw1" {HIDDEN}/>'
+                                    f'<rect id="sw2" x="25" y="5" width="5" height="5" {STROKE}/></switch>',
+}
+
+
+def ink(svg_text):
+    png = resvg_py.svg_to_bytes(svg_string=svg_text)
+    return np.asarray(Image.open(io.BytesIO(bytes(png))))[:, :, 3] > 0
+
+
+def cut_pixels(drawing):
+    """(row, col) pixel of every sample of every cut, in the render's frame."""
+    dense = []
+    for p in drawing.paths:
+        uv = p.sample(0.01) / MM_PER_PX                 # mm → px (the render's pixels)
+        for a, b in zip(uv[:-1], uv[1:]):               # every half pixel along each chord
+            k = max(2, int(np.ceil(np.hypot(*(b - a)) / 0.5)) + 1)
+            dense.append(a + np.linspace(0.0, 1.0, k)[:, None] * (b - a))
+    return np.round(np.vstack(dense)[:, ::-1]).astype(int)
+
+
+@pytest.mark.parametrize("rule", RULES)
+def test_cuts_match_the_render(rule):
+    text = DOC.format(RULES[rule])
+    drawn = ink(text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        d = read_svg(text, flip_y=False)
+    rc = np.clip(cut_pixels(d), 0, drawn.shape[0] - 1)
+    near_ink = ndimage.binary_dilation(drawn, iterations=2)
+    off = ~near_ink[rc[:, 0], rc[:, 1]]
+    assert not off.any(), f"{rule}: {off.sum()} cut samples where the renderer draws nothing ({[p.source for p in d.paths]})"
+    cut_mask = np.zeros_like(drawn)
+    cut_mask[rc[:, 0], rc[:, 1]] = True
+    distance = ndimage.distance_transform_edt(~cut_mask)
+    assert distance[drawn].max() <= 2.5 + 2, f"{rule}: the renderer inks a stroke labkit does not cut"
+
+
+def test_hidden_content_is_really_in_the_files():
+    """The rules are not vacuous: the same rectangle, left visible, is inked and cut."""
+    text = DOC.format(f'<rect id="shown" {HIDDEN}/>')
+    assert ink(text)[100:220, 100:220].any()
+    assert [p.source for p in read_svg(text).paths] == ["rect#shown", "rect#keep"]
+
+
+def test_clip_path_is_named_when_not_applied():
+    text = DOC.format(f'<clipPath id="c"><rect width="5" height="5"/></clipPath>'
+                      f'<rect id="clipped" clip-path="url(#c)" {HIDDEN}/>')
+    with pytest.warns(UserWarning, match=r"clip-path is not applied; 1 shape\(s\) .*rect#clipped"):
+        read_svg(text)
+
+
+def test_text_and_bitmap_only_file_is_an_error_not_an_empty_job(tmp_path, run_labkit_cli):
+    path = tmp_path / "text.svg"
+    path.write_text('<svg xmlns="http://www.w3.org/2000/svg" width="40mm" height="40mm">'
+                    '<text id="t" x="5" y="5">Hello</text><image id="i" width="5" height="5" '
+                    'href="data:image/png;base64,iVBORw0KGgo="/></svg>')
+    code, err = run_labkit_cli(["svg2gcode", str(path), "-o", str(tmp_path / "o.gcode")])
+    assert code == 1
+    assert "nothing to cut: the SVG holds only image, text (2 element(s)); convert text to paths" in err
+    assert not (tmp_path / "o.gcode").exists()
+
+
+def test_skipped_elements_are_reported_once():
+    text = DOC.format('<text id="t1" x="5" y="5">a</text><flowRoot id="f"><flowRegion><rect/>'
+                      '</flowRegion></flowRoot>')
+    with pytest.warns(UserWarning) as caught:
+        d = read_svg(text)
+    assert sorted(d.skipped) == ["flowRoot#f", "text#t1"]
+    assert sum("text#t1" in str(w.message) for w in caught) == 1
+
+
+@pytest.fixture
+def run_labkit_cli():
+    import contextlib
+
+    from labkit import cli
+
+    def run(argv):
+        err = io.StringIO()
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+            code = cli.main(argv)
+        return code, err.getvalue()
+    return run
