@@ -83,3 +83,23 @@ def integer(lo: int | None = None, hi: int | None = None):
 #: Feeds and travel speeds, mm/min: below 1 mm/min a program's F rounds away and no laser
 #: machine moves above a million (GRBL's own rates stay far below).
 FEED = number(1, 1_000_000)
+
+
+def add_machine_options(parser) -> None:
+    """``--machine`` and ``--force``: the job is checked against the machine's travel."""
+    parser.add_argument("--machine", default=None, metavar="NAME|TOML",
+                        help="the machine the job is for; a job larger than its travel is "
+                             "refused (default: cbr40-laser; names in labkit/motion/machines/)")
+    parser.add_argument("--force", action="store_true",
+                        help="write a job larger than the machine's travel anyway")
+
+
+def check_fits(args, size_mm, what: str = "the job") -> None:
+    """Refuse (or, with ``--force``, warn about) a job larger than ``--machine``'s travel."""
+    import sys
+
+    from labkit.motion.machine import check_job_fits
+
+    msg = check_job_fits(size_mm, args.machine, force=args.force, what=what)
+    if msg:
+        print(f"warning: {msg} (written anyway: --force)", file=sys.stderr)

@@ -10,7 +10,7 @@ __all__ = ["add_img2gcode_arguments", "run_img2gcode"]
 
 def add_img2gcode_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``labkit img2gcode``."""
-    from labkit.commands._args import FEED, number
+    from labkit.commands._args import FEED, add_machine_options, number
     from labkit.raster.dither import DIFFUSION
     from labkit.raster.engrave import MODES
 
@@ -59,6 +59,7 @@ def add_img2gcode_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--skip-white", type=non_negative, default=5.0, metavar="MM",
                         help="gray/dither: rapid over white gaps longer than this, mm")
     parser.add_argument("--dialect", default="grbl", help="G-code dialect (grbl, labkit-fw, marlin)")
+    add_machine_options(parser)
     parser.add_argument("--travel-beam-off", action="store_true",
                         help="switch the beam off (M5) for every rapid, for controllers that "
                              "burn on G0 (GRBL with $32=0)")
@@ -74,6 +75,7 @@ def run_img2gcode(args) -> int:
 
     from labkit._files import check_output_file
     from labkit.budget import check_budget
+    from labkit.commands._args import check_fits
     from labkit.errors import InputError
 
     output = check_output_file(args.output, args.input)
@@ -99,6 +101,7 @@ def run_img2gcode(args) -> int:
                   else "no resolution in the file: 96 dpi assumed") + f" ({dpi:g} dpi)"
     height_mm = width_mm * rows / cols
     print(f"job size {width_mm:.1f} × {height_mm:.1f} mm from {source}")
+    check_fits(args, (width_mm, height_mm), what="the engraving")
     # Estimate the resampled size before resampling: one pixel per beam diameter.
     check_budget("pixels", (width_mm / args.beam) * (height_mm / args.beam),
                  cause=f"a {width_mm:.0f} × {height_mm:.0f} mm job at a {args.beam:g} mm beam",

@@ -78,7 +78,7 @@ def parse_layer_option(text: str):
 
 
 def _common_arguments(parser: argparse.ArgumentParser, kind: str) -> None:
-    from labkit.commands._args import FEED, integer, number
+    from labkit.commands._args import FEED, add_machine_options, integer, number
 
     positive = number(0, lo_open=True)
     non_negative = number(0)
@@ -117,6 +117,7 @@ def _common_arguments(parser: argparse.ArgumentParser, kind: str) -> None:
                         help="switch the beam off (M5) for every rapid, for controllers that "
                              "burn on G0 (GRBL with $32=0)")
     parser.add_argument("--preview", default=None, metavar="PNG", help="also draw the job to this PNG")
+    add_machine_options(parser)
 
 
 def add_svg2gcode_arguments(parser: argparse.ArgumentParser) -> None:
@@ -147,6 +148,7 @@ def _run(args, drawing) -> int:
 
     from labkit._files import check_output_file
     from labkit.budget import check_budget
+    from labkit.commands._args import check_fits
     from labkit.errors import InputError
 
     output = check_output_file(args.output, args.input)
@@ -182,6 +184,10 @@ def _run(args, drawing) -> int:
     check_budget("moves", float(segments) * most_passes,
                  cause=f"{segments:,} segments × {most_passes:,} passes", option="--passes")
     moves = build_moves(paths, per_layer, default=default, s_max=args.s_max)
+    if len(moves):
+        ends = np.vstack([moves.start, moves.end])
+        extent = np.ptp(ends, axis=0)
+        check_fits(args, extent if extent[2] > 0 else extent[:2])
     text = emit(moves, dialect=args.dialect, tol_mm=min(args.tol / 10, 0.001),
                 travel_beam_off=args.travel_beam_off or None,
                 comment=f"{FilePath(args.input).name}: tol {args.tol:g} mm, "

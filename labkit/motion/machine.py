@@ -28,7 +28,7 @@ import numpy as np
 
 from labkit.errors import MotionError
 
-__all__ = ["Machine", "CBR40", "AXES", "load_machine", "machine_files", "MACHINES_DIR"]
+__all__ = ["Machine", "CBR40", "AXES", "load_machine", "machine_files", "MACHINES_DIR", "check_job_fits"]
 
 #: Axis names in column order.
 AXES = ("x", "y", "z")
@@ -287,3 +287,54 @@ def load_machine(source: str | Path | Machine | None = None) -> Machine:
         raise MotionError(f"{path}: {exc}") from None
     except (TypeError, ValueError) as exc:
         raise MotionError(f"{path}: bad value ({exc})") from None
+
+
+def check_job_fits(size_mm, machine: "Machine | str | None" = None, *, force: bool = False,
+                   what: str = "the job") -> str | None:
+    """Refuse a job larger than the machine's travel.
+
+    A drawing at the wrong scale (a 72 dpi photo read as a 1.4 m job, a DXF in inches
+    read as mm) is the usual cause; the job cannot fit wherever its origin is set.
+
+    Parameters
+    ----------
+    size_mm : sequence of 2 or 3 floats
+        The job's extent along X, Y (and Z), mm.
+    machine : Machine, str or None
+        As :func:`load_machine` takes it (None: [CBR40]'s machine).
+    force : bool
+        Return the message instead of raising (the job is written anyway).
+    what : str
+        How to call the job in the message.
+
+    Returns
+    -------
+    str or None
+        None when the job fits; the message when it does not and ``force`` is set.
+
+    Raises
+    ------
+    MotionError
+        The job is larger than the travel along some axis and ``force`` is not set.
+
+    Examples
+    --------
+    >>> check_job_fits((250, 380), "cbr40-laser") is None
+    True
+    >>> check_job_fits((1400, 900), "cbr40-laser")
+    Traceback (most recent call last):
+    ...
+    labkit.errors.MotionError: the job is 1400.0 × 900.0 mm, larger than the travel of cbr40-laser (300 × 400 mm) along X, Y; scale it down, or force it (--force)
+    """
+    m = load_machine(machine)
+    size = np.asarray(size_mm, dtype=float).ravel()
+    travel = np.asarray(m.travel_mm, dtype=float)[: len(size)]
+    over = ~(size <= travel * (1 + 1e-9))          # NaN counts as over
+    if not over.any():
+        return None
+    msg = (f"{what} is {' × '.join(f'{v:.1f}' for v in size)} mm, larger than the travel of "
+           f"{m.name} ({' × '.join(f'{t:g}' for t in travel)} mm) along "
+           f"{', '.join(a for a, o in zip('XYZ', over) if o)}")
+    if force:
+        return msg
+    raise MotionError(msg + "; scale it down, or force it (--force)")

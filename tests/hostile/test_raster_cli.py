@@ -46,10 +46,30 @@ def test_power_above_s_max_is_refused(square, tmp_path, run_labkit):
 
 def test_a_450_megapixel_job_is_refused_before_resampling(square, tmp_path, run_labkit):
     r = run_labkit(["img2gcode", square, "-o", tmp_path / "o.gcode", "--width", "3000",
-                    "--beam", "0.1"], time_s=60, memory_mb=300)
+                    "--beam", "0.1", "--force"], time_s=60, memory_mb=300)
     assert r.code == 1
     assert "too much work: 900,000,000 pixels (budget 200,000,000)" in r.stderr
     assert "--width/--height/--dpi" in r.stderr
+
+
+def test_a_job_larger_than_the_machine_is_refused_unless_forced(square, tmp_path, run_labkit):
+    """3 m wide on a 300 × 400 mm machine: refused before any work; --machine names another
+    machine; --force writes it with a warning."""
+    out = tmp_path / "o.gcode"
+    r = run_labkit(["img2gcode", square, "-o", out, "--width", "3000", "--beam", "2"], time_s=60)
+    assert r.code == 1 and not out.exists()
+    assert ("the engraving is 3000.0 × 3000.0 mm, larger than the travel of cbr40-laser "
+            "(300 × 400 mm) along X, Y; scale it down, or force it (--force)") in r.stderr
+    r = run_labkit(["img2gcode", square, "-o", out, "--width", "350", "--beam", "2"], time_s=60)
+    assert r.code == 1 and "350.0 × 350.0 mm, larger than the travel of cbr40-laser (300 × 400 mm) along X;" in r.stderr
+    r = run_labkit(["img2gcode", square, "-o", out, "--width", "350", "--beam", "2",
+                    "--machine", "grbl-diode"], time_s=60)           # 400 × 400 mm: it fits
+    assert r.code == 0 and out.exists() and "warning" not in r.stderr
+    out.unlink()
+    r = run_labkit(["img2gcode", square, "-o", out, "--width", "3000", "--beam", "2", "--force"],
+                   time_s=60)
+    assert r.code == 0 and out.exists()
+    assert "warning: the engraving is 3000.0 × 3000.0 mm" in r.stderr and "(written anyway: --force)" in r.stderr
 
 
 def test_output_never_overwrites_the_image(square, run_labkit):

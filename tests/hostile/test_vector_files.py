@@ -273,3 +273,16 @@ def test_unitless_drawing_warns_and_units_override(tmp_path):
 def test_fuzzed_budget_failure_is_a_budget_error():
     with pytest.raises(BudgetError):
         read_svg(fan_out(11))
+
+
+def test_drawing_larger_than_the_machine_is_refused_unless_forced(tmp_path, run_labkit):
+    """A DXF drawn in inches but saying nothing (read as mm) fits; the same in metres does not."""
+    path = tmp_path / "plate.dxf"
+    path.write_text(dxf_text([[(0, "CIRCLE"), (8, "0"), (10, 0), (20, 0), (40, 0.2)]], units=6))
+    out = tmp_path / "o.gcode"
+    r = run_labkit(["dxf2gcode", path, "-o", out], time_s=60)
+    assert r.code == 1 and not out.exists()
+    assert "the job is 400.0 × 400.0 mm, larger than the travel of cbr40-laser (300 × 400 mm) along X" in r.stderr
+    assert run_labkit(["dxf2gcode", path, "-o", out, "--machine", "grbl-diode"], time_s=60).code == 0
+    r = run_labkit(["dxf2gcode", path, "-o", out, "--units", "mm"], time_s=60)
+    assert r.code == 0
