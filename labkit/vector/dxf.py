@@ -357,13 +357,15 @@ def _expanded_count(doc, name) -> int:
     return total
 
 
-def _unit_scale(doc, units, name, warn) -> float:
+def _unit_scale(doc, units, name, warn, written_units=True) -> float:
     if units is not None:
         try:
             return UNIT_NAMES[str(units).lower()]
         except KeyError:
             raise GeometryError(f"units {units!r}: expected one of {', '.join(UNIT_NAMES)}") from None
-    code = doc.header.get("$INSUNITS", 0)
+    # ezdxf fills a header the file lacks from its template ($INSUNITS = 6, metres):
+    # only a $INSUNITS written in the file itself says anything about its units.
+    code = doc.header.get("$INSUNITS", 0) if written_units else 0
     try:
         code = int(code)
     except (TypeError, ValueError):
@@ -407,6 +409,9 @@ def read_dxf(source, *, tol_mm=0.01, units=None, warn=True) -> Drawing:
         raise GeometryError(f"tol_mm must be a finite number > 0 mm, got {tol_mm!r}")
     path = check_input_file(source, what="DXF file")
     name = str(path)
+    import logging
+
+    logging.getLogger("ezdxf").setLevel(logging.ERROR)    # its notes on handles go to stderr
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -424,7 +429,10 @@ def read_dxf(source, *, tol_mm=0.01, units=None, warn=True) -> Drawing:
     if recovered and warn:
         warnings.warn(f"{name}: the file breaks the DXF structure; read with ezdxf's recover "
                       f"mode — check the result", stacklevel=2)
-    k = _unit_scale(doc, units, name, warn)
+    with open(path, "rb") as f:                      # the header comes first; stop at entities
+        head = f.read(1 << 20)
+    head = head.split(b"ENTITIES", 1)[0]
+    k = _unit_scale(doc, units, name, warn, written_units=b"$INSUNITS" in head)
     _expanded_count(doc, name)
     paths: list[Path] = []
     skipped: list[str] = []
