@@ -38,6 +38,7 @@ __all__ = [
     "flatten_cubic",
     "flatten_cubics",
     "flatten_adaptive_t",
+    "cubic_samples",
 ]
 
 
@@ -312,3 +313,32 @@ def flatten_adaptive_t(ctrl, error_cap, *, increment_growth=1.1, error_floor=Non
     if counter is not None:
         counter["trials"] = counter.get("trials", 0) + trials
     return np.array(pts)
+
+
+def cubic_samples(ctrls, per_curve) -> np.ndarray:
+    """Points of many cubics at evenly spaced parameters, curve after curve.
+
+    Parameters
+    ----------
+    ctrls : array_like, shape (m, 4, 2)
+        Control points, mm.
+    per_curve : int or array_like of int, shape (m,)
+        Samples of each curve (≥ 2), its end points included.
+
+    Returns
+    -------
+    ndarray, shape (sum(per_curve), 2)
+
+    Examples
+    --------
+    >>> cubic_samples([[[0, 0], [1, 2], [2, 2], [3, 0]]], 3).tolist()
+    [[0.0, 0.0], [1.5, 1.5], [3.0, 0.0]]
+    """
+    c = np.asarray(ctrls, dtype=float).reshape(-1, 4, 2)
+    n = np.broadcast_to(np.maximum(np.asarray(per_curve, dtype=np.int64), 2), (len(c),))
+    idx = np.repeat(np.arange(len(c)), n)
+    first = np.repeat(np.cumsum(n) - n, n)
+    t = ((np.arange(len(idx)) - first) / (n[idx] - 1))[:, None]
+    u = 1.0 - t
+    q = c[idx]
+    return u**3 * q[:, 0] + 3 * u * u * t * q[:, 1] + 3 * u * t * t * q[:, 2] + t**3 * q[:, 3]

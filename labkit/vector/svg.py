@@ -44,7 +44,8 @@ from labkit.errors import GeometryError
 from labkit.geometry import transform as tf
 from labkit.budget import check_budget
 from labkit.geometry.arcfit import FLATTEN_SHARE, coordinate_limit_mm, cubics_to_arcs
-from labkit.geometry.bezier import flatten_cubics, quad_to_cubic
+from labkit.geometry.bezier import cubic_samples, flatten_cubics, quad_to_cubic
+from labkit.geometry.measure import path_distance
 from labkit.geometry.ellipse import ellipse_arc_arrays
 from labkit.geometry.path import Path
 from labkit.vector._svg_scan import render_only, scan_svg
@@ -180,11 +181,14 @@ class _Builder:
             p = cubics_to_arcs(ctrl, self.tol, start=start, method=self.fit)
             self._append(p)
         else:
-            pts, _ = flatten_cubics(ctrl, self.tol)
+            pts, counts = flatten_cubics(ctrl, self.tol)
             pts[-1] = ctrl[-1, 3]
+            chords = Path(np.vstack([start[None], pts]))
+            # measured, not assumed: eight samples per chord against the polyline
+            dev = float(path_distance(chords, cubic_samples(ctrl, 8 * counts + 1)).max())
             for q in pts:
                 self.line(q)
-            self.dev = max(self.dev, 0.0)
+            self.dev = max(self.dev, dev)
 
     def _append(self, p: Path):
         self.v.extend(p.vertices[1:])

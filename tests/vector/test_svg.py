@@ -154,3 +154,18 @@ def test_greedy_fit_merges_collinear_sides_including_the_closing_one():
     corners = {tuple(np.round(q, 3)) for q in p.vertices}      # svgelements: 1 mm = 3.7795296 px
     assert corners == {(0.0, 20.0), (10.0, 20.0), (10.0, 10.0), (0.0, 10.0)}
     assert read_svg(svg, tol_mm=0.01, fit="biarc").paths[0].n_segments == 6
+
+
+def test_lines_only_deviation_is_measured_not_zero():
+    """arcs=False reported 0.0000 mm: the flattened chords' deviation was never measured.
+    It must be positive, within the tolerance, and match an independent measurement
+    (svgelements' own dense samples against the output path)."""
+    from labkit.geometry.measure import path_distance
+    from labkit.vector.svg import svg_reference_samples
+
+    svg = ('<svg xmlns="http://www.w3.org/2000/svg" width="40mm" height="40mm" viewBox="0 0 40 40">'
+           '<path id="s" d="M 2 2 C 10 40 30 -10 38 30" stroke="#000" fill="none"/></svg>')
+    p = read_svg(svg, tol_mm=0.05, arcs=False).paths[0]
+    truth = path_distance(p, svg_reference_samples(svg, per_segment=20000)["path#s"][0]).max()
+    assert 0 < p.deviation_mm <= 0.05
+    assert abs(p.deviation_mm - truth) < 0.005
