@@ -48,7 +48,8 @@ class SvgScan:
     expanded_elements: int
     max_depth: int
     uses: int
-    unrendered: int = 0        # containers a renderer never draws directly (see render_only)
+    unrendered: int = 0        # elements render_only rewrites (containers never drawn directly,
+                               # switch, transform-origin)
 
 
 def _local(tag: str) -> str:
@@ -139,7 +140,7 @@ def scan_svg(data: bytes, name: str) -> SvgScan:
                             f"{where()}: <{local}> viewBox={value!r} has a width or height that is "
                             f"not positive; SVG disables rendering of such an element (a renderer "
                             f"draws nothing), so labkit will not cut it")
-        if local in _UNRENDERED or local == "switch":
+        if local in _UNRENDERED or local == "switch" or "transform-origin" in attrs:
             state["unrendered"] += 1
         stack.append([ident, Counter()])
         counts.append(state["n"])
@@ -224,8 +225,9 @@ def render_only(data: bytes) -> tuple[bytes, list[str]]:
     """The document with only what a renderer draws directly: ``symbol``, ``marker``,
     ``mask`` and ``pattern`` moved into ``<defs>`` (still usable by ``<use>``, never drawn
     where they stand), ``metadata``/``title``/``desc`` and ``flowRoot`` text frames removed,
-    and each ``<switch>`` reduced to its first child (the one a renderer without optional
-    features picks).
+    each ``<switch>`` reduced to its first child (the one a renderer without optional
+    features picks), and ``transform-origin`` (SVG 2, which svgelements ignores) folded
+    into the ``transform`` as translate(o) · T · translate(−o).
 
     Returns
     -------
@@ -264,6 +266,10 @@ def render_only(data: bytes) -> tuple[bytes, list[str]]:
                 parent.remove(child)
                 parent.insert(i, defs)
             else:
+                origin = child.get("transform-origin")
+                if origin is not None:
+                    child.set("transform", _with_origin(child.get("transform", ""), origin))
+                    del child.attrib["transform-origin"]
                 if tag == "switch":
                     kids = [k for k in child if isinstance(k.tag, str)]
                     for k in kids[1:]:
@@ -271,3 +277,15 @@ def render_only(data: bytes) -> tuple[bytes, list[str]]:
                 todo.append(child)
     return ET.tostring(root, encoding="unicode").encode("utf-8"), dropped
 
+
+
+def _with_origin(transform: str, origin: str) -> str:
+    """``transform`` about ``origin`` ("x y" in user units; keywords and percentages, which
+    need the element's box, are refused)."""
+    nums = _NUMBER.findall(origin)
+    rest = _NUMBER.sub("", origin).replace(",", "").replace("px", "").strip()
+    if rest or not 1 <= len(nums) <= 2:
+        raise GeometryError(f"transform-origin={origin!r}: labkit reads it only as one or two "
+                            f"numbers in user units; expected e.g. transform-origin=\"5 5\"")
+    ox, oy = (float(nums[0]), float(nums[-1] if len(nums) == 2 else 0.0))
+    return f"translate({ox!r} {oy!r}) {transform} translate({-ox!r} {-oy!r})"

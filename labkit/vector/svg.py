@@ -68,6 +68,9 @@ class Drawing:
         Page size (NaN when the file gives none).
     skipped : list of str
         Elements that could not be converted (text, images, …), named.
+    invisible : list of str
+        Shapes a renderer paints nothing for (no fill and no stroke, opacity 0, a fill
+        of zero area), named; never cut.
     source : str
         File name or ``"<string>"``.
     """
@@ -77,6 +80,7 @@ class Drawing:
     height_mm: float = math.nan
     skipped: list[str] = field(default_factory=list)
     source: str = "<string>"
+    invisible: list[str] = field(default_factory=list)
 
     @property
     def layers(self) -> list[str]:
@@ -130,6 +134,23 @@ def _colour(value):
         return value.hex[:7]
     except AttributeError:
         return None
+
+
+def _paints_area(p: Path, tol_mm: float) -> bool:
+    """Whether a fill-only subpath covers any area: False when all of it lies within
+    ``tol_mm`` of one straight line (a renderer fills nothing there)."""
+    pts = p.sample(tol_mm)
+    centred = pts - pts.mean(axis=0)
+    if len(pts) < 3 or not centred.any():
+        return False
+    minor = np.linalg.svd(centred, full_matrices=False)[2][-1]      # normal of the best line
+    return float(np.abs(centred @ minor).max()) > tol_mm
+
+
+def _closed(p: Path) -> Path:
+    """``p`` with the straight closing side a renderer fills to."""
+    return p.with_geometry(np.vstack([p.vertices, p.vertices[:1]]),
+                           np.vstack([p.centres, [[np.nan, np.nan]]]), np.r_[p.sweeps, 0.0], closed=True)
 
 
 def _opacity(el) -> float:
@@ -428,6 +449,11 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
         except ArithmeticError as exc:
             raise GeometryError(f"{name}: {label} has degenerate numbers "
                                 f"({type(exc).__name__}: {exc})") from None
+        if stroke is None:              # fill only: a zero-area subpath paints nothing, and
+            kept = [p for p in new if _paints_area(p, tol_mm)]   # the outline of what it paints
+            if len(kept) < len(new):                              # is closed (SVG fills an open
+                invisible.append(label)                           # subpath as if closed)
+            new = [p if p.closed else _closed(p) for p in kept]
         for p in new:
             if not (np.isfinite(p.vertices).all() and np.isfinite(p.sweeps).all()):
                 raise GeometryError(f"{name}: {label} maps to coordinates that are not finite "
@@ -439,7 +465,7 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
                       f"{', '.join(skipped)}", stacklevel=2)
     if invisible and warn:
         warnings.warn(f"{name}: skipped {len(invisible)} shape(s) a renderer paints nothing for "
-                      f"(no fill and no stroke, or opacity 0): {', '.join(invisible[:10])}"
+                      f"(no fill and no stroke, opacity 0, or a fill of zero area): {', '.join(invisible[:10])}"
                       f"{' …' if len(invisible) > 10 else ''}", stacklevel=2)
     if clipped and warn:
         warnings.warn(f"{name}: clip-path is not applied; {len(clipped)} shape(s) are cut whole "
@@ -448,14 +474,15 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
                       f"(Inkscape: Path › Intersection)", stacklevel=2)
     width = float(doc.width) * MM_PER_PX if doc.width is not None else math.nan
     height = float(doc.height) * MM_PER_PX if doc.height is not None else math.nan
-    return Drawing(paths, width, height, skipped, name)
+    return Drawing(paths, width, height, skipped, name, invisible)
 
 
 def svg_reference_samples(source, *, per_segment=2000, flip_y=True) -> dict[str, list[np.ndarray]]:
     """Dense true samples of every shape, for checking conversions.
 
     Each segment is sampled by svgelements (``npoint``) in the element's own
-    frame and mapped to mm by the element's exact matrix — the independent
+    frame and mapped to mm by the element's exact matrix (a fill-only subpath is
+    closed, as a renderer fills it) — the independent
     reference the tests and the benchmark measure Hausdorff distances against.
 
     Returns
@@ -492,6 +519,8 @@ def svg_reference_samples(source, *, per_segment=2000, flip_y=True) -> dict[str,
             cur.append(tf.apply(m, pts))
         if len(cur) > 1:
             polys.append(np.vstack(cur))
+        if _colour(el.stroke) is None and _colour(el.fill) is not None:   # filled as if closed
+            polys = [q if np.array_equal(q[0], q[-1]) else np.vstack([q, q[:1]]) for q in polys]
         if polys:
             out[_name(el, index)] = polys
     return out

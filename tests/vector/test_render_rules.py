@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import io
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -39,6 +40,10 @@ RULES = {
     "visibility visible overrides": f'<g visibility="hidden"><rect id="vv" visibility="visible" {HIDDEN}/></g>',
     "no fill and no stroke": '<rect id="np" x="10" y="10" width="12" height="12" fill="none" stroke="none"/>',
     "opacity 0": f'<rect id="op" opacity="0" {HIDDEN}/>',
+    "transform-origin": f'<g transform="rotate(90)" transform-origin="20 20"><rect id="to" x="10" y="5" '
+                        f'width="12" height="4" {STROKE}/></g>',
+    "fill-only line (zero area)": '<path id="zl" d="M 10 10 L 30 20"/>',
+    "fill-only curve (an area)": '<path id="fc" d="M 10 10 C 20 30 30 0 30 20"/>',
     "switch draws its first child": f'<switch><rect id="sw1" {HIDDEN}/>'
                                     f'<rect id="sw2" x="25" y="5" width="5" height="5" {STROKE}/></switch>',
 }
@@ -73,8 +78,9 @@ def test_cuts_match_the_render(rule):
     assert not off.any(), f"{rule}: {off.sum()} cut samples where the renderer draws nothing ({[p.source for p in d.paths]})"
     cut_mask = np.zeros_like(drawn)
     cut_mask[rc[:, 0], rc[:, 1]] = True
+    edge = drawn & ~ndimage.binary_erosion(drawn)           # a stroke's sides, a fill's outline
     distance = ndimage.distance_transform_edt(~cut_mask)
-    assert distance[drawn].max() <= 2.5 + 2, f"{rule}: the renderer inks a stroke labkit does not cut"
+    assert distance[edge].max() <= 2.5 + 2, f"{rule}: the renderer inks an edge labkit does not cut"
 
 
 def test_hidden_content_is_really_in_the_files():
@@ -123,3 +129,33 @@ def run_labkit_cli():
             code = cli.main(argv)
         return code, err.getvalue()
     return run
+
+
+CORPUS = sorted((Path(__file__).resolve().parents[2] / "data" / "svg").glob("*/*.svg"))
+
+
+@pytest.mark.parametrize("path", CORPUS, ids=[f"{p.parent.name}/{p.name}" for p in CORPUS])
+def test_corpus_cuts_lie_on_what_resvg_draws(path):
+    """Every file of the SVG corpus (resvg's, svg2gcode's, cncjs's and labkit's own): each
+    cut sample lies on resvg's ink (within one CSS px, rendered at 4 px per CSS px). A file labkit refuses
+    is a refusal, not a cut."""
+    from labkit.errors import LabkitError
+
+    zoom = 4
+    png = resvg_py.svg_to_bytes(svg_path=str(path), dpi=96.0, zoom=zoom)
+    drawn = np.asarray(Image.open(io.BytesIO(bytes(png))))[:, :, 3] > 0
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            d = read_svg(path, flip_y=False)
+    except LabkitError:
+        return
+    if not d.paths:
+        assert not drawn.any() or d.skipped, f"{path.name}: resvg draws, labkit reads nothing"
+        return
+    rc = np.round(cut_pixels(d) * zoom).astype(int)
+    inside = (rc >= 0).all(1) & (rc[:, 0] < drawn.shape[0]) & (rc[:, 1] < drawn.shape[1])
+    # within one CSS px (0.26 mm) of ink: a fill's edge is where its last pixel is covered
+    distance = ndimage.distance_transform_edt(~drawn)[rc[inside, 0], rc[inside, 1]]
+    assert distance.max() <= zoom + 1, (f"{path.name}: a cut sample {distance.max() / zoom:.1f} px "
+                                        f"from resvg's ink")

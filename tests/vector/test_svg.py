@@ -30,6 +30,8 @@ def _worst(path, tol, arcs=True):
         polys = [q for q in polys if np.ptp(q, axis=0).max() > 1e-9]
         if not polys:
             continue                                  # a zero-length path: nothing to cut
+        if label in d.invisible:
+            continue                                  # a renderer paints nothing: never cut
         assert label in by, f"{os.path.basename(path)}: element {label} was dropped"
         h = hausdorff(by[label], [Path.polyline(q) for q in polys])
         worst = max(worst, h)
