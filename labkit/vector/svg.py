@@ -139,7 +139,10 @@ def _colour(value):
 def _paints_area(p: Path, tol_mm: float) -> bool:
     """Whether a fill-only subpath covers any area: False when all of it lies within
     ``tol_mm`` of one straight line (a renderer fills nothing there)."""
-    pts = p.sample(tol_mm)
+    return _spans_area(p.sample(tol_mm), tol_mm)
+
+
+def _spans_area(pts: np.ndarray, tol_mm: float) -> bool:
     centred = pts - pts.mean(axis=0)
     if len(pts) < 3 or not centred.any():
         return False
@@ -477,12 +480,14 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
     return Drawing(paths, width, height, skipped, name, invisible)
 
 
-def svg_reference_samples(source, *, per_segment=2000, flip_y=True) -> dict[str, list[np.ndarray]]:
+def svg_reference_samples(source, *, per_segment=2000, flip_y=True,
+                          tol_mm=0.01) -> dict[str, list[np.ndarray]]:
     """Dense true samples of every shape, for checking conversions.
 
     Each segment is sampled by svgelements (``npoint``) in the element's own
     frame and mapped to mm by the element's exact matrix (a fill-only subpath is
-    closed, as a renderer fills it) — the independent
+    closed, as a renderer fills it, and one within ``tol_mm`` of a straight line — zero
+    area, as :func:`read_svg` judges it at the same tolerance — left out) — the independent
     reference the tests and the benchmark measure Hausdorff distances against.
 
     Returns
@@ -519,8 +524,9 @@ def svg_reference_samples(source, *, per_segment=2000, flip_y=True) -> dict[str,
             cur.append(tf.apply(m, pts))
         if len(cur) > 1:
             polys.append(np.vstack(cur))
-        if _colour(el.stroke) is None and _colour(el.fill) is not None:   # filled as if closed
-            polys = [q if np.array_equal(q[0], q[-1]) else np.vstack([q, q[:1]]) for q in polys]
+        if _colour(el.stroke) is None and _colour(el.fill) is not None:   # filled as if closed;
+            polys = [q if np.array_equal(q[0], q[-1]) else np.vstack([q, q[:1]])  # zero area:
+                     for q in polys if _spans_area(q, tol_mm)]                     # nothing drawn
         if polys:
             out[_name(el, index)] = polys
     return out

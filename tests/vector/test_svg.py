@@ -21,7 +21,7 @@ def _worst(path, tol, arcs=True):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         d = read_svg(path, tol_mm=tol, arcs=arcs)
-    ref = svg_reference_samples(path)
+    ref = svg_reference_samples(path, tol_mm=tol)
     by = {}
     for p in d.paths:
         by.setdefault(p.source, []).append(p)
