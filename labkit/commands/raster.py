@@ -79,6 +79,12 @@ def run_img2gcode(args) -> int:
     from labkit.errors import InputError
 
     output = check_output_file(args.output, args.input)
+    preview = None
+    if (args.preview or "").lower() != "none":      # checked before any work, like the output
+        preview = args.preview or str(Path(args.output).with_suffix(".png"))
+        if not args.preview and Path(preview).resolve() == Path(args.input).resolve():
+            preview = str(Path(args.output).with_suffix(".preview.png"))   # never the image itself
+        check_output_file(preview, args.input)
     if args.power > args.s_max:
         raise InputError(f"--power {args.power:g} is above --s-max {args.s_max:g}; "
                          f"expected a power within 0…{args.s_max:g}")
@@ -133,10 +139,9 @@ def run_img2gcode(args) -> int:
     report = job.report.with_gcode(text)
     print(report.format())
     print(f"{'G-code':<{_label_width(report)}}  {args.output}")
-    if (args.preview or "").lower() != "none":
+    if preview is not None:
         from labkit.viz.raster import save_job_preview
 
-        preview = args.preview or str(Path(args.output).with_suffix(".png"))
         save_job_preview(job, preview)
         print(f"{'preview':<{_label_width(report)}}  {preview}")
     return 0

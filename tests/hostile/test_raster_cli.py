@@ -123,3 +123,18 @@ def test_travel_beam_off_keeps_every_rapid_dark(square, tmp_path, run_labkit):
     rapids = moves.kind == MoveKind.RAPID
     assert rapids.any() and (moves.laser[rapids] == 0).all()
     assert "job size 20.0 × 20.0 mm from the file's resolution (25.4 dpi)" in r.stdout
+
+
+def test_default_preview_never_overwrites_the_image(tmp_path, run_labkit):
+    """img2gcode photo.png -o photo.gcode: the default preview (OUTPUT with .png) would be
+    the image itself; it goes to photo.preview.png and the image is untouched."""
+    from PIL import Image
+
+    image = tmp_path / "photo.png"
+    Image.fromarray(np.tile(np.arange(0, 256, 16, dtype=np.uint8), (16, 1))).save(image, dpi=(254, 254))
+    before = image.read_bytes()
+    r = run_labkit(["img2gcode", image, "-o", tmp_path / "photo.gcode"], time_s=60)
+    assert r.code == 0, r.stderr
+    assert image.read_bytes() == before and (tmp_path / "photo.preview.png").exists()
+    r = run_labkit(["img2gcode", image, "-o", tmp_path / "other.gcode", "--preview", image], time_s=60)
+    assert r.code == 1 and image.read_bytes() == before and not (tmp_path / "other.gcode").exists()
