@@ -1,0 +1,61 @@
+"""Measurement on synthetic scans rendered from the layout with known widths, rotation and noise."""
+
+import numpy as np
+import pytest
+
+from labkit.errors import InputError
+from labkit.laser.measure import measure_lines, render_scan
+from labkit.laser.models import dose_width
+from labkit.laser.patterns import grid_pattern
+
+
+@pytest.fixture(scope="module")
+def grid():
+    g = grid_pattern([500, 1000, 1500, 2000, 2500], [300, 700, 1500])
+    lines = g.layout["lines"]
+    p = np.array([d["power_mw"] for d in lines])
+    v = np.array([d["speed_mm_min"] for d in lines])
+    return g.layout, dose_width(p, v, 0.12, 200.0)
+
+
+@pytest.mark.parametrize("dpi, rot, noise, blur", [(600, 0.0, 0.0, 0.0), (600, 3.0, 0.03, 1.0),
+                                                   (400, -4.0, 0.05, 0.7), (1200, 1.5, 0.02, 2.0)])
+def test_widths_within_a_pixel_and_unburned_lines_flagged(grid, dpi, rot, noise, blur):
+    layout, truth = grid
+    assert (truth == 0).any() and (truth > 0).any()
+    img = render_scan(layout, truth, dpi=dpi, rotation_deg=rot, noise=noise, blur_px=blur, seed=3)
+    df = measure_lines(img, layout, dpi=dpi)
+    px = 25.4 / dpi
+    assert np.abs(df.width_mm.to_numpy() - truth).max() < px       # stated tolerance: one pixel
+    assert (df.burned.to_numpy() == (truth > 0)).all()
+    assert (df.loc[df.burned, "burned_fraction"] == 1.0).all()
+
+
+def test_a_line_burned_over_part_of_its_length_reports_the_fraction(grid):
+    layout, truth = grid
+    img = render_scan(layout, truth, dpi=600)
+    # paint over the right 60 % of the widest line with paper
+    k = int(np.argmax(truth))
+    d = layout["lines"][k]
+    row_mm = d["y_mm"]
+    g2 = render_scan(layout, np.where(np.arange(len(truth)) == k, 0.0, truth), dpi=600)
+    cols = np.arange(img.shape[1])
+    x_lo, _, x_hi, _ = layout["bounds_mm"]
+    half = (img.shape[1] * 25.4 / 600) / 2
+    x_mm = (x_lo + x_hi) / 2 + (cols + 0.5) * 25.4 / 600 - half
+    cut = x_mm > d["x0_mm"] + 0.4 * (d["x1_mm"] - d["x0_mm"])
+    mixed = img.copy()
+    mixed[:, cut] = g2[:, cut]
+    df = measure_lines(mixed, layout, dpi=600)
+    assert df.burned_fraction[k] == pytest.approx(0.4 / 0.8 - 0.1 / 0.8, abs=0.05)
+    assert row_mm == df.y_mm[k]
+
+
+def test_a_scan_without_the_grid_is_a_named_error(grid):
+    layout, _ = grid
+    with pytest.raises(InputError, match="grid"):
+        measure_lines(np.full((300, 300), 0.9), layout, dpi=600)
+    blobs = np.full((300, 300), 0.9)
+    blobs[10:20, 10:20] = 0.1
+    with pytest.raises(InputError, match="corner crosses"):
+        measure_lines(blobs, layout, dpi=600)
