@@ -35,6 +35,13 @@ def _centre(p, z_name="--z"):
                        help=f"{name[2:]} of the centre/start, -10000…10000 mm (default 0)")
 
 
+def _sub(sub, name, help_text):
+    p = sub.add_parser(name, help=help_text)
+    _common(p)
+    _centre(p)
+    return p
+
+
 def _size(help_text, default):
     from labkit.commands._args import number
 
@@ -47,36 +54,28 @@ def add_pattern_arguments(parser):
     tol = dict(type=number(0.0001, 10), default=0.005, metavar="MM",
                help="largest distance between the arcs and the curve, 0.0001…10 mm (default 0.005)")
     sub = parser.add_subparsers(dest="pattern", required=True, metavar="PATTERN")
-    h = sub.add_parser("helix", help="helical G2/G3 descent for a hole, then a full circle")
-    _common(h)
-    _centre(h)
+    h = _sub(sub, "helix", "helical G2/G3 descent for a hole, then a full circle")
     h.add_argument("--radius", **_size("helix radius (beam centre)", 1.0))
     h.add_argument("--pitch", **_size("Z per turn", 0.5))
     h.add_argument("--turns", type=number(0, 100_000, lo_open=True), default=2.0, metavar="N",
                    help="number of turns, > 0 and <= 100000 (default 2)")
     h.add_argument("--cw", action="store_true", help="clockwise (G2) instead of G3")
 
-    s = sub.add_parser("spiral", help="Archimedean spiral r = a + b·θ closed by a full circle")
-    _common(s)
-    _centre(s)
+    s = _sub(sub, "spiral", "Archimedean spiral r = a + b·θ closed by a full circle")
     s.add_argument("--radius", **_size("outer radius (closing circle)", 5.0))
     s.add_argument("--inner", type=number(0, 10_000), default=0.0, metavar="MM",
                    help="inner radius a, 0…10000 mm, below --radius (default 0)")
     s.add_argument("--step", **_size("radial step per turn", 0.2))
     s.add_argument("--tol", **tol)
 
-    q = sub.add_parser("square-spiral", help="square spiral at a constant step with corner loops")
-    _common(q)
-    _centre(q)
+    q = _sub(sub, "square-spiral", "square spiral at a constant step with corner loops")
     q.add_argument("--size", **_size("side of the square", 10.0))
     q.add_argument("--step", **_size("step between passes", 0.5))
     q.add_argument("--accel", type=number(1, 1_000_000), default=500.0, metavar="MM_S2",
                    help="machine acceleration for the loops, 1…1e6 mm/s² (default 500)")
     q.add_argument("--no-loops", action="store_true", help="no corner loops or leads")
 
-    z = sub.add_parser("zigzag", help="zig-zag face machining in XY or XZ")
-    _common(z)
-    _centre(z)
+    z = _sub(sub, "zigzag", "zig-zag face machining in XY or XZ")
     z.add_argument("--width", **_size("extent along the plane's first axis (X)", 10.0))
     z.add_argument("--height", **_size("extent along the plane's second axis (Y or Z)", 5.0))
     z.add_argument("--step", **_size("step-over", 0.5))
@@ -86,9 +85,7 @@ def add_pattern_arguments(parser):
                    help="laser-off lead-in/out per pass, 0…10000 mm (default 0)")
     z.add_argument("--reverse", action="store_true", help="step-over towards the origin")
 
-    c = sub.add_parser("cone", help="cone as stacked spirals ([MicroCAM] eqs. 6.4-6.6)")
-    _common(c)
-    _centre(c)
+    c = _sub(sub, "cone", "cone as stacked spirals ([MicroCAM] eqs. 6.4-6.6)")
     c.add_argument("--d1", **_size("diameter at the start Z", 10.0))
     c.add_argument("--d2", **_size("diameter at depth H", 4.0))
     c.add_argument("--height", **_size("cone height H", 2.0))
