@@ -33,6 +33,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "svg2gcode": ("vector", "convert SVG artwork to laser G-code"),
     "dxf2gcode": ("vector", "convert DXF drawings to laser G-code"),
     "img2gcode": ("raster", "engrave a raster image: zig-zag, spiral, edges, gray, dither"),
+    "pattern": ("pattern", "write a parametric toolpath: helix, spiral, square-spiral, zigzag, cone"),
     "plan": ("motion", "plan a G-code job: blocks, speed profiles, look-ahead, job time"),
     "steps": ("motion", "write the Bresenham step sequence of a G-code job"),
     "ports": ("machine", "list serial ports and what each looks like (CH340, FTDI, CP210x, …)"),
