@@ -20,6 +20,8 @@ budget                 default      what it bounds
                                     shapes at a 0.1 mm spacing)
 ``elements``           2,000,000    SVG/DXF elements after expanding ``use``/``INSERT``
 ``diagnostics``        10,000       diagnostics kept in lenient mode (the rest counted)
+``preview_lines``      2,000,000    lines of a G-code file drawn by ``labkit preview`` (it holds
+                                    every move: ~400 bytes per line at its peak)
 =====================  ===========  ===================================================
 """
 
@@ -41,6 +43,7 @@ BUDGETS: dict[str, float] = {
     "hatch_lines": 1_000_000,
     "elements": 2_000_000,
     "diagnostics": 10_000,
+    "preview_lines": 2_000_000,
 }
 
 
