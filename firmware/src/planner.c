@@ -249,10 +249,18 @@ static int octant_ccw(int64_t X, int64_t Y)
   return 7;
 }
 
+/* |X² + Y² − r2| in int64, saturated. Near the circle the set-up keeps it exact
+ * (LK_ARC_MAX_FIXED_RADIUS); a lattice point far off it (an arc whose start lies far
+ * from its circle) must not overflow: the squares are summed unsigned (each ≤ 2⁶³ when
+ * |X|, |Y| ≤ 3037000499) and a larger error saturates at INT64_MAX. */
 static int64_t err_abs(int64_t X, int64_t Y, int64_t r2)
 {
-  int64_t e = X * X + Y * Y - r2;
-  return e >= 0 ? e : -e;
+  const int64_t lim = 3037000499LL;                   /* floor(sqrt(2^63)) */
+  if (X > lim || X < -lim || Y > lim || Y < -lim) return INT64_MAX;
+  uint64_t sum = (uint64_t)(X * X) + (uint64_t)(Y * Y);
+  uint64_t r = (uint64_t)r2;
+  uint64_t e = sum >= r ? sum - r : r - sum;
+  return e > (uint64_t)INT64_MAX ? INT64_MAX : (int64_t)e;
 }
 
 static int64_t fixed_round(double value, int64_t scale)
