@@ -7,6 +7,13 @@ from hypothesis import HealthCheck, settings
 
 matplotlib.use("Agg")
 
+# In-process tests exercise the compiled kernels, as big jobs run them; small inputs run
+# as Python only in commands started as subprocesses (fast to start) and in the tests
+# that compare the two paths (tests/test_jit.py).
+from labkit import _jit  # noqa: E402
+
+_jit.DEFAULT_MODE = "compiled"
+
 # Seeded, repeatable property tests: the same examples on every machine and every run.
 settings.register_profile(
     "labkit",

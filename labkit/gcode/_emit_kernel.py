@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
 import numpy as np
 
+from labkit._jit import jit
 from labkit.toolpath.moves import MoveKind
 
 RAPID, LINE, ARC_CW, ARC_CCW, DWELL = (int(MoveKind.RAPID), int(MoveKind.LINE), int(MoveKind.ARC_CW),
@@ -21,7 +21,7 @@ _AXIS_LETTER = np.array([88, 89, 90], dtype=np.uint8)      # X Y Z
 _OFFSET_LETTER = np.array([73, 74, 75], dtype=np.uint8)    # I J K
 
 
-@nb.njit(cache=True)
+@jit
 def _ensure(out, used, extra):
     if used + extra <= out.shape[0]:
         return out
@@ -30,13 +30,13 @@ def _ensure(out, used, extra):
     return bigger
 
 
-@nb.njit(cache=True)
+@jit
 def _put(out, used, c):
     out[used] = c
     return used + 1
 
 
-@nb.njit(cache=True)
+@jit(python_below=4096)  # format_number: one number at a time, as Python
 def _put_scaled(out, used, value, decimals):
     """Write value / 10**decimals without trailing zeros (``-0`` written as ``0``)."""
     if value < 0:
@@ -77,14 +77,14 @@ def _put_scaled(out, used, value, decimals):
     return used
 
 
-@nb.njit(cache=True)
+@jit
 def _put_word(out, used, letter, value, decimals):
     out[used] = 32
     out[used + 1] = letter
     return _put_scaled(out, used + 2, value, decimals)
 
 
-@nb.njit(cache=True)
+@jit
 def _end_line(out, used, line_start, numbered, checksums, number):
     """Finish a line: drop the leading space, prefix ``N`` and add ``*checksum`` when asked."""
     if used > line_start and out[line_start] == 32:
@@ -115,7 +115,7 @@ def _end_line(out, used, line_start, numbered, checksums, number):
     return used + 1
 
 
-@nb.njit(cache=True)
+@jit(python_below=150_000)  # column elements (~15 a move): ~10,000 moves as Python
 def write_moves(kind, end_i, centre, plane, feed_i, power_i, laser, dwell_i, r_mode_rows,
                 start_i, decimals, value_decimals, inline_power, rapid_laser_off,
                 numbered, checksums, first_number, rec_row, rec_text, rec_span, rec_reset):

@@ -29,9 +29,9 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
 import numpy as np
 
+from labkit._jit import jit
 from labkit.errors import status_code
 from labkit.toolpath.moves import MoveKind, Moves
 
@@ -130,26 +130,26 @@ _POW10 = np.array([10.0 ** k for k in range(23)])
 _PLANE_AXES = np.array([[0, 1, 2], [2, 0, 1], [1, 2, 0]], dtype=np.int64)
 
 
-@nb.njit(cache=True)
+@jit
 def _grow_f2(a, cap):
     b = np.empty((cap, a.shape[1]), a.dtype)
     b[: a.shape[0]] = a
     return b
 
 
-@nb.njit(cache=True)
+@jit
 def _grow(a, cap):
     b = np.empty(cap, a.dtype)
     b[: a.shape[0]] = a
     return b
 
 
-@nb.njit(cache=True)
+@jit
 def _is_space(c):
     return c == 32 or c == 9 or c == 13 or c == 11 or c == 12
 
 
-@nb.njit(cache=True)
+@jit
 def _read_number(buf, i, end):
     """Read ``[+-]digits[.digits]`` at ``buf[i]``.
 
@@ -207,7 +207,7 @@ def _read_number(buf, i, end):
     return (-value if neg else value), i, 0
 
 
-@nb.njit(cache=True)
+@jit
 def _contains(arr, v):
     for k in range(arr.shape[0]):
         if arr[k] == v:
@@ -215,12 +215,12 @@ def _contains(arr, v):
     return False
 
 
-@nb.njit(cache=True)
+@jit
 def _in_range(v):
     return abs(v) < MAX_ABS_VALUE      # False for inf and NaN too
 
 
-@nb.njit(cache=True)
+@jit
 def _put_row(kind, start, endp, centre, plane_col, feed_col, power_col, laser_col, dwell_col,
              line_col, offset_col, i, k, p0, p1, c, plane, feed, power, laser, dwell, line, offs):
     """Write move row ``i``; returns ``i + 1``."""
@@ -239,7 +239,7 @@ def _put_row(kind, start, endp, centre, plane_col, feed_col, power_col, laser_co
     return i + 1
 
 
-@nb.njit(cache=True)
+@jit
 def _put_record(r_line, r_kind, r_span, r_value, r_index, j, line, k, s0, s1, value, row):
     """Write record ``j``; returns ``j + 1``."""
     r_line[j] = line
@@ -258,7 +258,7 @@ OUTPUTS = MOVES_COLUMNS + (
            "t_state", "t_pos")
 
 
-@nb.njit(cache=True)
+@jit(python_below=150_000)  # bytes of text: ~3 µs each as Python vs ~0.6 s to load compiled
 def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, coolant_codes,
               record_m_codes, feed_scale, dwell_scale, arc_r_tol, arc_tol_abs, arc_tol_rel,
               full_circle_ok, require_axis_words, home_is_origin, max_tool, line_limit,

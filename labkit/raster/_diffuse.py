@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
+from labkit._jit import jit
 
-@numba.njit(cache=True)
+
+@jit
 def diffuse(gray, level, dr, dc, w, serpentine):
     """Threshold each pixel in raster order and push its error to the neighbours ahead.
 

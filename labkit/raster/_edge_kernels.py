@@ -10,11 +10,12 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
+from labkit._jit import jit
 
-@numba.njit(cache=True)
+
+@jit
 def magnitude3x3(p, a, pseudo, out):
     """Sobel (a = 2) or Prewitt (a = 1) magnitude on the window P1 … P9 (row-major).
 
@@ -41,7 +42,7 @@ def magnitude3x3(p, a, pseudo, out):
                 out[i, j] = math.sqrt(gx * gx + gy * gy)
 
 
-@numba.njit(cache=True)
+@jit
 def magnitude2x2(p, pseudo, out):
     """Roberts cross on the window P1 P2 / P3 P4: Gx = P1 − P4, Gy = P2 − P3.
 

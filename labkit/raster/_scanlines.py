@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
+from labkit._jit import jit
 
-@numba.njit(cache=True)
+
+@jit
 def _spans(row, skip_px, starts, stops):
     """Burn spans of one row: runs of S > 0 joined across white gaps shorter than ``skip_px``."""
     cols = row.shape[0]
@@ -27,7 +28,7 @@ def _spans(row, skip_px, starts, stops):
     return n
 
 
-@numba.njit(cache=True)
+@jit
 def scan_lines(power, bidirectional, skip_px, overscan_px, fill, out_x0, out_x1, out_row, out_s):
     """Cuts along rows, bottom row first, in pixel units (x at pixel edges).
 

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-import numba
 import numpy as np
+
+from labkit._jit import jit
 
 # Headings in clockwise order as seen with y up (image rows grow downwards):
 # up, right, down, left. Turning right = +1, left = +3 (mod 4).
@@ -11,7 +12,7 @@ _DR = np.array([-1, 0, 1, 0], dtype=np.int64)
 _DC = np.array([0, 1, 0, -1], dtype=np.int64)
 
 
-@numba.njit(cache=True)
+@jit
 def spiral_walk(mask):
     """Walk every marked pixel once; return the polylines' corner pixels.
 
@@ -92,7 +93,7 @@ def spiral_walk(mask):
     return vr[:nv], vc[:nv], offsets[:ns + 1]
 
 
-@numba.njit(cache=True)
+@jit
 def row_runs(mask, fill, line, first, stop):
     """Runs of marked pixels along each row, row by row, left to right.
 
@@ -118,7 +119,7 @@ def row_runs(mask, fill, line, first, stop):
     return k
 
 
-@numba.njit(cache=True)
+@jit
 def column_runs(mask, fill, line, first, stop):
     """Runs along each column, found in one row-major pass (cache friendly).
 

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from labkit.errors import RasterError
-from labkit.raster import _connect, _walk
+from labkit.raster import _walk
 from labkit.raster._border import check_mask
 
 __all__ = ["Segments", "Connection", "zigzag_segments", "spiral_segments", "connect", "scan_order",
@@ -329,6 +329,8 @@ def connect(segments: Segments, *, method: str = "indexed", origin=(0, 0)) -> Co
     s, e = segments.starts, segments.ends
     args = (s[:, 0].copy(), s[:, 1].copy(), e[:, 0].copy(), e[:, 1].copy(), bool(segments.reversible),
             ox, oy)
+    from labkit.raster import _connect   # compiled with numba: loaded only when connecting
+
     if method == "reference":
         order, flipped, examined = _connect.greedy_reference(*args)
     else:

@@ -1,0 +1,80 @@
+"""Small jobs from the command line: ``labkit check``, ``info`` and ``svg2gcode`` on a
+file of a few thousand lines, against starting Python and parsing the same file with a
+pure-Python G-code parser (gcodeparser), measured in the same run and printed as ratios.
+
+Each command runs as a fresh process (what a student or a script pays), best of
+``--repeat`` after one warm-up run that fills the bytecode and numba caches. The
+reference is ``python -c pass`` plus gcodeparser's ``parse_gcode_lines`` over the file
+(import included), also as one process; the target is a ratio ≤ 2. A big file
+(898 KB, 32,000 lines) is timed too: above the size where kernels run as Python it
+loads the compiled kernel, so its time shows what the small-file path saves.
+
+Run:  .venv/bin/python benchmarks/bench_startup.py [--repeat K]
+(``make bench`` installs gcodeparser first: ``pip install -e '.[bench]'``.)
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+SMALL = ROOT / "data" / "gcode" / "cncjs" / "jsdc-laser.gcode"
+BIG = ROOT / "data" / "gcode" / "cncjs" / "tball-pocket-laser.gcode"
+SVG = ROOT / "data" / "gcode" / "cncjs" / "jsdc.svg"
+TARGET_RATIO = 2.0
+
+
+def run_time(argv: list[str], repeat: int) -> float:
+    """Best wall time of ``argv`` as a fresh process, after one warm-up run."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    best = float("inf")
+    for k in range(repeat + 1):
+        t = time.perf_counter()
+        done = subprocess.run(argv, env=env, cwd=ROOT, capture_output=True, text=True)
+        elapsed = time.perf_counter() - t
+        if done.returncode != 0:
+            raise SystemExit(f"{' '.join(argv)} failed:\n{done.stderr}")
+        if k:
+            best = min(best, elapsed)
+    return best
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=5)
+    args = ap.parse_args()
+    py = sys.executable
+    lines = SMALL.read_bytes().count(b"\n")
+    t_pass = run_time([py, "-c", "pass"], args.repeat)
+    reference = run_time([py, "-c", "import sys; from gcodeparser import parse_gcode_lines; "
+                          "list(parse_gcode_lines(open(sys.argv[1]).read()))", str(SMALL)],
+                         args.repeat)
+    print(f"python -c pass                              {t_pass * 1e3:7.0f} ms")
+    print(f"python + gcodeparser on {SMALL.name} ({lines} lines)"
+          f" {reference * 1e3:5.0f} ms   (the reference)")
+    worst = 0.0
+    with tempfile.TemporaryDirectory() as tmp:
+        out = str(Path(tmp) / "out.gcode")
+        cases = [("check", [str(SMALL)]), ("info", [str(SMALL)]),
+                 ("svg2gcode", [str(SVG), "-o", out])]
+        for name, rest in cases:
+            t = run_time([py, "-m", "labkit", name, *rest], args.repeat)
+            ratio = t / reference
+            worst = max(worst, ratio)
+            print(f"labkit {name:<10} {Path(rest[0]).name:<26}      {t * 1e3:7.0f} ms   "
+                  f"ratio {ratio:4.2f} (target ≤ {TARGET_RATIO:g})")
+        t_big = run_time([py, "-m", "labkit", "check", str(BIG)], args.repeat)
+        big_lines = BIG.read_bytes().count(b"\n")
+        print(f"labkit check      {BIG.name} ({big_lines} lines, compiled) {t_big * 1e3:7.0f} ms")
+    print(f"worst ratio {worst:.2f}: {'met' if worst <= TARGET_RATIO else 'NOT met'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,211 @@
+"""Compiled kernels on demand: numba is imported, and a module's kernels compiled or
+loaded from the cache, only when a kernel of that module first needs the speed.
+
+Every kernel is written once, as plain Python over numpy arrays, and decorated with
+:func:`jit` instead of ``numba.njit``. The decorator returns a :class:`Kernel`:
+
+- Until a kernel of its module runs compiled, nothing of numba is imported. Importing
+  numba and loading a module's cached machine code costs 0.5–1 s, which dominates a
+  command on a small file (``labkit check`` on a 2,400-line job parses in 3 ms once
+  compiled).
+- A kernel declared with ``python_below=N`` runs as plain Python (its ``py_func``, the
+  same function numba compiles) when its array arguments hold fewer than ``N``
+  elements in all and its module is not compiled yet. ``N`` is set where the kernel is
+  declared, from its measured cost per element against the cost of loading compiled
+  code. One-dimensional ``uint8`` arguments are handed to Python as ``memoryview``
+  objects: indexing them gives Python ints, which is both faster than numpy scalars and
+  keeps numba's integer arithmetic (numpy 2 keeps ``uint8 - 48`` a wrapping ``uint8``,
+  numba widens it to ``int64``).
+- Otherwise the first call makes the numba dispatcher, which compiles (or loads from
+  numba's cache) on that call. Kernels name each other as usual: numba is taught that a
+  :class:`Kernel` it meets in compiled code is its dispatcher, so callees compile (or
+  come with the caller's cached code) exactly as with ``numba.njit``.
+
+``LABKIT_JIT=python`` runs every kernel as Python (stepping through with a debugger),
+``LABKIT_JIT=compiled`` compiles every kernel on first use (what the tests of the
+compiled path set), ``NUMBA_DISABLE_JIT=1`` is honoured as numba defines it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import os
+import sys
+import threading
+import types
+
+__all__ = ["Kernel", "jit", "compile_all", "mode", "forced"]
+
+# Depth of kernels running as Python. Shared by threads on purpose (a plain list is the
+# cheapest check on the hot path of nested calls): a thread that starts a kernel while
+# another runs one as Python runs as Python too — the same results, only slower.
+_python_depth = [0]
+_lock = threading.RLock()
+_registry: dict[str, list["Kernel"]] = {}
+_hooks_installed = False
+
+
+#: The mode when ``LABKIT_JIT`` is not set (the test suite sets ``"compiled"``, so the
+#: kernels it exercises in-process are the compiled ones, as users' big jobs run them).
+DEFAULT_MODE = "auto"
+_forced: list = [None]              # set by forced(): overrides everything
+
+
+def mode() -> str:
+    """``"auto"``, ``"python"`` or ``"compiled"``: :func:`forced`, ``LABKIT_JIT``, then
+    :data:`DEFAULT_MODE`."""
+    if _forced[0] is not None:
+        return _forced[0]
+    if os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0"):
+        return "python"
+    value = os.environ.get("LABKIT_JIT", "").strip().lower() or DEFAULT_MODE
+    if value not in ("auto", "python", "compiled"):
+        raise ValueError(f"LABKIT_JIT={value!r}: expected auto, python or compiled")
+    return value
+
+
+def _elements(args) -> int:
+    total = 0
+    for a in args:
+        size = getattr(a, "size", None)
+        if isinstance(size, int):
+            total += size
+        elif isinstance(a, (bytes, bytearray, memoryview)):
+            total += len(a)
+    return total
+
+
+def _as_python(a):
+    # One-dimensional uint8 arrays (text, masks): Python ints on indexing; see above.
+    if getattr(a, "ndim", None) == 1 and getattr(a, "dtype", None) is not None \
+            and a.dtype.char == "B" and a.flags.c_contiguous:
+        return memoryview(a)
+    return a
+
+
+class Kernel:
+    """A numba kernel compiled on first need; see the module docstring.
+
+    Attributes
+    ----------
+    py_func : callable
+        The plain Python function (as on a numba dispatcher).
+    python_below : int
+        Below this many array elements in all, an uncompiled module runs ``py_func``.
+    """
+
+    def __init__(self, func, options: dict, python_below: int):
+        self.py_func = func
+        self.options = options
+        self.python_below = int(python_below)
+        self.dispatcher = None
+        functools.update_wrapper(self, func)
+
+    def __repr__(self):
+        state = "compiled" if self.dispatcher is not None else "not compiled"
+        return f"<labkit kernel {self.py_func.__module__}.{self.py_func.__qualname__} ({state})>"
+
+    def __get__(self, obj, objtype=None):      # behave as a plain function in classes
+        return self if obj is None else types.MethodType(self, obj)
+
+    def __call__(self, *args):
+        if _python_depth[0]:                       # called from a kernel running as Python
+            return self.py_func(*args)
+        dispatcher = self.dispatcher
+        if dispatcher is not None and _forced[0] is None:
+            return dispatcher(*args)
+        how = mode()
+        if how == "python" or (how == "auto" and _elements(args) < self.python_below):
+            return self.run_python(*args)
+        return self.compiled()(*args)
+
+    def run_python(self, *args):
+        """Run as plain Python (kernels it calls too), whatever the size."""
+        _python_depth[0] += 1
+        try:
+            return self.py_func(*(_as_python(a) for a in args))
+        finally:
+            _python_depth[0] -= 1
+
+    def compiled(self):
+        """The numba dispatcher (it compiles, or loads from numba's cache, on first call)."""
+        if self.dispatcher is None:
+            with _lock:
+                if self.dispatcher is None:
+                    global _hooks_installed
+                    if not _hooks_installed:
+                        _install_numba_hooks()
+                        _hooks_installed = True
+                    import numba
+
+                    self.dispatcher = numba.njit(**self.options)(self.py_func)
+        return self.dispatcher
+
+
+@contextlib.contextmanager
+def forced(how: str):
+    """Run every kernel called inside the block as ``"python"`` or ``"compiled"``.
+
+    For tests that compare the two and for stepping through a kernel in a debugger.
+    """
+    if how not in ("python", "compiled"):
+        raise ValueError(f"forced({how!r}): expected 'python' or 'compiled'")
+    previous, _forced[0] = _forced[0], how
+    try:
+        yield
+    finally:
+        _forced[0] = previous
+
+
+def jit(func=None, *, python_below: int = 0, **options):
+    """Declare a kernel: ``@jit`` or ``@jit(python_below=N, **numba_options)``.
+
+    ``cache=True`` is the default (numba's cache folder is set by :mod:`labkit`).
+
+    >>> @jit(python_below=1000, cache=False)   # cache=False: a doctest has no file
+    ... def total(a):
+    ...     s = 0.0
+    ...     for v in a:
+    ...         s += v
+    ...     return s
+    >>> import numpy as np
+    >>> float(total(np.arange(4.0)))
+    6.0
+    >>> with forced("python"):
+    ...     float(total(np.arange(10_000.0)))
+    49995000.0
+    """
+    options.setdefault("cache", True)
+
+    def wrap(f):
+        kernel = Kernel(f, options, python_below)
+        _registry.setdefault(f.__module__, []).append(kernel)
+        return kernel
+
+    return wrap if func is None else wrap(func)
+
+
+def _install_numba_hooks() -> None:
+    """Teach numba that a :class:`Kernel` named in compiled code is its dispatcher."""
+    from numba.core import types
+    from numba.core.typing.typeof import typeof_impl
+
+    @typeof_impl.register(Kernel)
+    def _typeof_kernel(value, context):
+        return types.Dispatcher(value.compiled())
+
+
+def compile_all(module: str | None = None) -> int:
+    """Compile (or load from cache) every declared kernel, or those of ``module``.
+
+    Returns how many kernels it compiled; used to warm numba's cache once before
+    parallel test workers start.
+    """
+    count = 0
+    for name, kernels in list(_registry.items()):
+        if module is None or name == module:
+            for k in kernels:
+                k.compiled()
+                count += 1
+    return count
