@@ -7,8 +7,9 @@ check arguments.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
+
+from labkit._jit import jit
 
 # Per CCW octant k (angles [45k°, 45(k+1)°)): driver axis, driver direction,
 # driven axis, driven direction. Axis 0 = x, 1 = y (of the arc plane).
@@ -24,7 +25,7 @@ OCTANT_MOVES = np.array([
 ], dtype=np.int64)
 
 
-@numba.njit(cache=True)
+@jit
 def line_walk(start, end):
     """Bresenham line through the lattice: points (N + 1, d), start and end included.
 
@@ -57,7 +58,7 @@ def line_walk(start, end):
     return out
 
 
-@numba.njit(cache=True)
+@jit
 def lines_walk(starts, ends, offsets, out):
     """Many Bresenham lines into one preallocated array: line j fills
     ``out[offsets[j]:offsets[j + 1]]`` by the same integer-error walk as :func:`line_walk`."""
@@ -87,7 +88,7 @@ def lines_walk(starts, ends, offsets, out):
                 out[row + k, i] = pos[i]
 
 
-@numba.njit(cache=True)
+@jit
 def octant_ccw(X, Y):
     """CCW octant 0…7 of the relative point (X, Y): angle in [45k°, 45(k+1)°)."""
     if Y >= 0 and X > 0 and Y < X:
@@ -107,13 +108,13 @@ def octant_ccw(X, Y):
     return 7
 
 
-@numba.njit(cache=True)
+@jit
 def _err(X, Y, r2):
     e = X * X + Y * Y - r2
     return e if e >= 0 else -e
 
 
-@numba.njit(cache=True)
+@jit
 def arc_walk_ccw(sx, sy, ex, ey, cxq, cyq, rq, q, n_cross, max_ticks):
     """Counter-clockwise octant walk from (sx, sy) to (ex, ey); returns (points, ok).
 

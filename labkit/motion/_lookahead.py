@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-import numba
 import numpy as np
+
+from labkit._jit import jit
 
 from labkit.motion._ramp import reach_nb
 
 
-@numba.njit(cache=True)
+@jit
 def windowed_passes(length, up, down, jcap, jrest, window, law):
     """Junction speeds (n + 1) of n blocks planned through a buffer of ``window`` blocks.
 
@@ -30,7 +31,7 @@ def windowed_passes(length, up, down, jcap, jrest, window, law):
     return v
 
 
-@numba.njit(cache=True)
+@jit
 def group_blocks(breaks, same_dir, max_size, need_same_dir):
     """Super block id of each block: a new group starts at a break, when the group is
     full, or (high quality) when the direction changes. ``breaks[k]`` / ``same_dir[k]``

@@ -9,8 +9,9 @@ linearly with distance, slope in Hz per step = 1/s) or :data:`ACCEL`
 
 from __future__ import annotations
 
-import numba
 import numpy as np
+
+from labkit._jit import jit
 
 LINEAR = 0
 ACCEL = 1
@@ -51,4 +52,4 @@ def meet(v_entry, v_exit, length, up, down, law):
     return s, np.sqrt(np.maximum(v_entry * v_entry + 2.0 * up * s, 0.0))
 
 
-reach_nb = numba.njit(cache=True)(reach)
+reach_nb = jit(reach)

@@ -27,7 +27,7 @@ from labkit.raster.edges import detect_edges
 from labkit.raster.filters import blur as _blur, sharpen as _sharpen
 from labkit.raster.islands import label_islands
 from labkit.raster.pathing import Connection, Segments, connect, spiral_segments, zigzag_segments
-from labkit.raster.resample import resample_to_beam
+from labkit.raster.resample import beam_shape, resample_to_beam
 from labkit.toolpath.moves import LaserMode, MoveKind, Moves
 
 __all__ = ["MODES", "RasterReport", "RasterJob", "segments_to_moves", "mask_job", "gray_job",
@@ -392,6 +392,21 @@ def _empty_cut_arrays(n):
             np.zeros(n, np.int64))
 
 
+#: Pixels per band when an image is thresholded band by band (8 MB of float64 gray).
+BAND_PIXELS = 1 << 20
+
+
+def _mask_in_bands(image: np.ndarray, weights, invert: bool, level: float) -> np.ndarray:
+    """``threshold(to_gray(image))`` (inverted first if asked), computed in bands of rows."""
+    rows, cols = image.shape[:2]
+    mask = np.empty((rows, cols), bool)
+    step = max(1, BAND_PIXELS // max(cols, 1))
+    for r0 in range(0, rows, step):
+        gray = to_gray(image[r0:r0 + step], weights)
+        mask[r0:r0 + step] = threshold(_invert(gray) if invert else gray, level)
+    return mask
+
+
 def image_to_job(image, *, mode: str = "zigzag", beam_mm: float = 0.1, width_mm=None, height_mm=None,
                  pixel_mm=None, dpi=None, resample: str = "bicubic", weights="seed",
                  level: float = 128, invert: bool = False, blur: bool = False,
@@ -442,8 +457,15 @@ def image_to_job(image, *, mode: str = "zigzag", beam_mm: float = 0.1, width_mm=
     if is_mask and (mode in ("gray", "dither", "edges") or blur or sharpen):
         arr = np.where(arr, 0, 255).astype(np.uint8)     # a mask means True = burn = black
         is_mask = False
+    size = dict(width_mm=width_mm, height_mm=height_mm, pixel_mm=pixel_mm, dpi=dpi)
     if is_mask:
         arr = ~arr if invert else arr
+    elif (mode in ("zigzag", "spiral") and not (blur or sharpen) and arr.dtype.kind == "u"
+          and arr.ndim in (2, 3) and arr.size and beam_mm > 0 and math.isfinite(beam_mm)
+          and beam_shape(arr.shape, beam_mm, **size) == arr.shape[:2]):
+        # One pixel per beam already and every step is per pixel: threshold band by band,
+        # so the whole image is never held as float64 gray (8 bytes a pixel), only the mask.
+        arr, is_mask = _mask_in_bands(arr, weights, invert, level), True
     else:
         arr = to_gray(arr, weights)
         if invert:
@@ -452,8 +474,7 @@ def image_to_job(image, *, mode: str = "zigzag", beam_mm: float = 0.1, width_mm=
             arr = _sharpen(arr)
         if blur:
             arr = _blur(arr)
-    res = resample_to_beam(arr, beam_mm=beam_mm, width_mm=width_mm, height_mm=height_mm,
-                           pixel_mm=pixel_mm, dpi=dpi, method=resample, level=level)
+    res = resample_to_beam(arr, beam_mm=beam_mm, **size, method=resample, level=level)
     img = res.image
     common = dict(pixel_mm=beam_mm, size_error_mm=res.error_mm)
     if mode in ("gray", "dither"):

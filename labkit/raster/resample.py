@@ -95,6 +95,27 @@ def _nearest(image: np.ndarray, rows: int, cols: int) -> np.ndarray:
     return image[r[:, None], c[None, :]]
 
 
+def _beam_shape(target_mm, beam_mm: float) -> tuple[int, int]:
+    return max(1, int(round(target_mm[1] / beam_mm))), max(1, int(round(target_mm[0] / beam_mm)))
+
+
+def beam_shape(shape, beam_mm: float, *, width_mm=None, height_mm=None, pixel_mm=None,
+               dpi=None) -> tuple[int, int]:
+    """(rows, columns) of the image once resampled to one pixel per beam diameter.
+
+    What :func:`resample_to_beam` makes, known before any pixel is touched (for memory
+    estimates and to skip the resampling when it would give the pixels back).
+
+    >>> beam_shape((10, 20), 0.3, width_mm=10.0)
+    (17, 33)
+    """
+    if not (beam_mm > 0 and math.isfinite(beam_mm)):
+        raise RasterError(f"beam_mm must be a finite number > 0, got {beam_mm!r}")
+    target = physical_size_mm(tuple(shape)[:2], width_mm=width_mm, height_mm=height_mm,
+                              pixel_mm=pixel_mm, dpi=dpi)
+    return _beam_shape(target, beam_mm)
+
+
 def resample_to_beam(image, *, beam_mm: float, width_mm=None, height_mm=None, pixel_mm=None,
                      dpi=None, method: str = "bicubic", level: float = 128) -> Resampled:
     """Resample so that one pixel is one beam diameter.
@@ -138,9 +159,13 @@ def resample_to_beam(image, *, beam_mm: float, width_mm=None, height_mm=None, pi
         raise RasterError(f"method must be one of {_METHODS}, got {method!r}")
     target = physical_size_mm(arr.shape, width_mm=width_mm, height_mm=height_mm,
                               pixel_mm=pixel_mm, dpi=dpi)
-    cols = max(1, int(round(target[0] / beam_mm)))
-    rows = max(1, int(round(target[1] / beam_mm)))
-    if method == "nearest":
+    rows, cols = _beam_shape(target, beam_mm)
+    if (rows, cols) == arr.shape:
+        # Already one pixel per beam: both methods give the pixels back (cubic splines
+        # interpolate, so at the pixel centres they are the data) — skip the work and
+        # scikit-image's import (~1 s).
+        out = arr if arr.dtype in (bool, np.float64) else arr.astype(np.float64)
+    elif method == "nearest":
         out = _nearest(arr, rows, cols)
         if arr.dtype != bool:
             out = out.astype(np.float64)

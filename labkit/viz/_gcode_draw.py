@@ -8,11 +8,12 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
 import numpy as np
 
+from labkit._jit import jit
 
-@nb.njit(cache=True)
+
+@jit
 def draw_pieces(x0, y0, x1, y1, value, burning, power, travel):
     """Draw pieces (in pixel units) into ``power`` (max of ``value``) or ``travel`` (True)."""
     rows, cols = power.shape

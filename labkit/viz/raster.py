@@ -150,20 +150,45 @@ def gray_explorer(gray, *, pixel_mm: float = 0.2, feed_mm_min: float = 3000.0):
                                                    description="overscan mm"))
 
 
+#: Above this many image pixels the preview's left panel draws the moves on a grid of
+#: :data:`labkit.viz.gcode.IMAGE_PIXELS` instead of rasterising them back pixel for pixel:
+#: the figure shows ~800 pixels across anyway, and the full map costs 16 bytes a pixel
+#: (1.9 GB for a 10,837² job) and seconds to hand to matplotlib.
+FULL_BURN_MAP_PIXELS = 4_000_000
+
+
 def save_job_preview(job, path, *, dpi: int = 110, max_path_moves: int = 200_000) -> None:
-    """PNG with what the moves burn (rasterised back) and, for jobs not too large, the path drawing."""
+    """PNG with what the moves burn (rasterised back) and, for jobs not too large, the path drawing.
+
+    Jobs of more than :data:`FULL_BURN_MAP_PIXELS` pixels are rasterised on a coarser
+    grid (:func:`labkit.viz.gcode.rasterize_moves`), so the preview takes a bounded time
+    and memory whatever the image size.
+    """
     import matplotlib
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
+    from labkit.viz.gcode import IMAGE_PIXELS, rasterize_moves
+
     draw_path = len(job.moves) <= max_path_moves
     fig, axes = plt.subplots(1, 2 if draw_path else 1, figsize=(13 if draw_path else 7, 6), squeeze=False)
     r = job.report
     w, h = r.size_mm
-    axes[0, 0].imshow(burned_image(job), cmap="gray_r", vmin=0, vmax=job.moves.s_max,
-                      extent=(0, w, 0, h), interpolation="nearest")
-    axes[0, 0].set_title(f"burned pixels ({r.mode}), rasterised back from the moves")
+    rows, cols = r.shape
+    if rows * cols <= FULL_BURN_MAP_PIXELS:
+        axes[0, 0].imshow(burned_image(job), cmap="gray_r", vmin=0, vmax=job.moves.s_max,
+                          extent=(0, w, 0, h), interpolation="nearest")
+        axes[0, 0].set_title(f"burned pixels ({r.mode}), rasterised back from the moves")
+    else:
+        # Never finer than the beam pixels, or the scan lines would show as stripes.
+        power, _, extent = rasterize_moves(job.moves, pixels=min(IMAGE_PIXELS, max(rows, cols)))
+        axes[0, 0].imshow(np.nan_to_num(power, nan=0.0), cmap="gray_r", vmin=0, vmax=100.0,
+                          origin="lower", extent=extent, interpolation="nearest")
+        axes[0, 0].set_xlim(0, w)
+        axes[0, 0].set_ylim(0, h)
+        axes[0, 0].set_title(f"burned ({r.mode}), the moves drawn on a "
+                             f"{power.shape[1]} × {power.shape[0]} grid")
     axes[0, 0].set_xlabel("X (mm)")
     axes[0, 0].set_ylabel("Y (mm)")
     if draw_path:

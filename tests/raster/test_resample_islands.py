@@ -79,3 +79,43 @@ def test_diagonal_pixels_are_separate_islands():
     assert label_islands(m)[1] == 4
     with pytest.raises(RasterError, match="boolean array"):
         label_islands(np.eye(3))
+
+
+@pytest.mark.parametrize("method", ["bicubic", "nearest"])
+def test_one_pixel_per_beam_gives_the_pixels_back_as_scikit_image_does(method):
+    from skimage.transform import resize
+
+    rng = np.random.default_rng(11)
+    gray = rng.integers(0, 256, (37, 53)).astype(np.float64)
+    mask = gray > 128
+    for img in (gray, mask):
+        r = resample_to_beam(img, beam_mm=0.1, pixel_mm=0.1, method=method)
+        ref = resize(img.astype(np.float64) * (255.0 if img.dtype == bool else 1.0), img.shape,
+                     order=3 if method == "bicubic" else 0, mode="edge", preserve_range=True)
+        if img.dtype == bool:
+            assert r.image.dtype == bool and np.array_equal(r.image, ref >= 128)
+        else:
+            assert np.allclose(r.image, ref, atol=1e-9)
+        assert r.shape == img.shape and np.allclose(r.error_mm, 0.0)
+
+
+def test_zigzag_at_one_pixel_per_beam_neither_imports_scikit_image_nor_compiles_edge_kernels(tmp_path):
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from PIL import Image
+
+    root = Path(__file__).resolve().parents[2]
+    img = np.full((40, 60), 255, np.uint8)
+    img[10:30, 5:50] = 0
+    Image.fromarray(img).save(tmp_path / "a.png", dpi=(254, 254))
+    code = ("import sys\nfrom labkit.cli import main\n"
+            f"status = main(['img2gcode', {str(tmp_path / 'a.png')!r}, '-o', "
+            f"{str(tmp_path / 'a.gcode')!r}, '--beam', '0.1', '--preview', 'none'])\n"
+            "from labkit.raster import _edge_kernels as k\n"
+            "print(status, 'skimage' in sys.modules, [f.__name__ for f in (k.magnitude3x3,"
+            " k.magnitude2x2) if f.dispatcher is not None])")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=root,
+                         env={**__import__("os").environ, "PYTHONPATH": str(root)}, timeout=300)
+    assert out.stdout.strip().splitlines()[-1] == "0 False []", out.stdout + out.stderr

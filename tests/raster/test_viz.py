@@ -49,3 +49,26 @@ def test_widgets_build():
     for w in (vr.edge_explorer({"camera": g}), vr.path_explorer({"horse": mask}), vr.gray_explorer(g)):
         assert len(w.children) >= 4   # controls + output
         assert any("image/png" in o.get("data", {}) for o in w.children[-1].outputs)
+
+
+def test_a_big_job_is_previewed_on_a_coarse_grid_that_shows_the_burn(tmp_path, monkeypatch):
+    mask = ~data.horse()[::4, ::4]
+    job = mask_job(mask, pixel_mm=0.5, mode="zigzag")
+    monkeypatch.setattr(vr, "FULL_BURN_MAP_PIXELS", 0)
+    monkeypatch.setattr(vr, "burned_image", lambda job: pytest.fail("full burn map drawn"))
+    captured = {}
+    real_imshow = matplotlib.axes.Axes.imshow
+
+    def imshow(ax, img, *args, **kwargs):
+        captured.setdefault("img", np.asarray(img))
+        return real_imshow(ax, img, *args, **kwargs)
+
+    monkeypatch.setattr(matplotlib.axes.Axes, "imshow", imshow)
+    out = tmp_path / "big.png"
+    vr.save_job_preview(job, out)
+    assert out.stat().st_size > 5_000
+    # The coarse grid burns where the mask is dark: compare the fraction of burned area
+    # with the mask's (the grid's pixels are not the image's, so only to a few %).
+    img = captured["img"]
+    assert max(img.shape) <= max(mask.shape) + 1 and img.max() == 100.0
+    assert abs((img > 0).mean() - mask.mean()) < 0.05 * max(mask.mean(), 0.1) + 0.02
