@@ -7,6 +7,10 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 LAB_ARGS ?=
 PYTEST_ARGS ?=
+# Test workers (pytest-xdist): one per core. Whole files go to one worker (--dist loadfile),
+# so a notebook's cells run in order in one kernel and the browser test starts one JupyterLab.
+TEST_JOBS ?= $(shell nproc 2>/dev/null || echo 2)
+XDIST := -n $(TEST_JOBS) --dist loadfile
 
 .PHONY: lab test test-fast bench firmware firmware-all clean browser-deps
 
@@ -27,7 +31,7 @@ lab: $(STAMP)
 ## notebooks (nbval) and the browser test.
 test: $(STAMP) browser-deps
 	$(MAKE) -C firmware test
-	$(PY) -m pytest $(PYTEST_ARGS)
+	$(PY) -m pytest $(XDIST) $(PYTEST_ARGS)
 
 ## make firmware-all: what CI adds to make test: the ARM images (sizes printed), the job
 ## streamed to the image in QEMU, and a bounded libFuzzer run (FUZZ_SECONDS per target).
@@ -36,7 +40,7 @@ firmware-all:
 
 ## make test-fast: everything but the notebooks and the browser.
 test-fast: $(STAMP)
-	$(PY) -m pytest -o addopts="--doctest-modules --strict-markers -p no:cacheprovider" -m "not browser" tests labkit $(PYTEST_ARGS)
+	$(PY) -m pytest -o addopts="--doctest-modules --strict-markers -p no:cacheprovider" -m "not browser" $(XDIST) tests labkit $(PYTEST_ARGS)
 
 ## make bench: install the peer libraries and run every benchmark, printing ratios.
 bench: $(STAMP)

@@ -22,6 +22,8 @@ budget                 default      what it bounds
 ``diagnostics``        10,000       diagnostics kept in lenient mode (the rest counted)
 ``preview_lines``      2,000,000    lines of a G-code file drawn by ``labkit preview`` (it holds
                                     every move: ~400 bytes per line at its peak)
+``raster_bytes``       4,000,000,000 estimated working memory of one image → moves conversion
+                                    (:func:`labkit.raster.engrave.working_bytes`)
 =====================  ===========  ===================================================
 """
 
@@ -44,6 +46,7 @@ BUDGETS: dict[str, float] = {
     "elements": 2_000_000,
     "diagnostics": 10_000,
     "preview_lines": 2_000_000,
+    "raster_bytes": 4_000_000_000,
 }
 
 

@@ -23,3 +23,20 @@ settings.register_profile(
     suppress_health_check=[HealthCheck.too_slow],
 )
 settings.load_profile("labkit")
+
+
+def pytest_configure(config):
+    # With parallel workers (pytest -n, see the Makefile), compile the kernels once in
+    # the controller before the workers start, instead of once per worker
+    # (tests/_warm_kernels.py). Without xdist, or on a worker, nothing to do.
+    if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):
+        return
+    from pathlib import Path
+
+    cache = os.environ.get("NUMBA_CACHE_DIR")      # set by `import labkit` (above)
+    if cache and any(Path(cache).rglob("*.nbi")):
+        return                                     # compiled already for these sources
+    from tests._warm_kernels import warm_all
+
+    for note in warm_all():
+        print(f"note: kernel warm-up: {note}")

@@ -121,10 +121,20 @@ def run_img2gcode(args) -> int:
     else:
         opts = dict(power_s=args.power, order=args.order, axis=args.axis,
                     direction="unidirectional" if args.unidirectional else "bidirectional")
-    job = image_to_job(img.pixels, mode=args.mode, beam_mm=args.beam, resample=args.resample,
-                       level=args.threshold, invert=args.invert, blur=args.blur, sharpen=args.sharpen,
-                       edge_operator=args.edge_operator, edge_threshold=args.edge_threshold,
-                       edge_path=args.edge_path, **size, **common, **opts)
+    try:
+        job = image_to_job(img.pixels, mode=args.mode, beam_mm=args.beam, resample=args.resample,
+                           level=args.threshold, invert=args.invert, blur=args.blur,
+                           sharpen=args.sharpen, edge_operator=args.edge_operator,
+                           edge_threshold=args.edge_threshold, edge_path=args.edge_path,
+                           **size, **common, **opts)
+    except MemoryError:
+        # image_to_job estimates its memory first (budget raster_bytes); a machine with
+        # less free memory than the budget still gets a sentence, not a traceback.
+        from labkit.errors import BudgetError
+
+        raise BudgetError(f"out of memory converting the {cols:,} × {rows:,} px image "
+                          f"({width_mm:.0f} × {height_mm:.0f} mm at a {args.beam:g} mm beam); "
+                          f"reduce --width/--height/--dpi or raise --beam") from None
     if not len(job.moves):
         from labkit.errors import RasterError
 

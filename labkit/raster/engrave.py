@@ -18,6 +18,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from labkit.budget import check_budget
 from labkit.errors import RasterError
 from labkit.raster import _scanlines
 from labkit.raster._border import check_image_2d, check_mask
@@ -396,6 +397,30 @@ def _empty_cut_arrays(n):
 BAND_PIXELS = 1 << 20
 
 
+#: Working memory of :func:`image_to_job`, bytes per pixel, measured (peak RSS of
+#: ``labkit img2gcode`` at 2048² and 4096², the slope, rounded up): per source pixel when
+#: the whole image is resampled (float64 gray and scikit-image's copies) and per beam
+#: pixel for each mode; zig-zag and spiral at one pixel per beam hold only the mask.
+BYTES_PER_SOURCE_PIXEL = 48
+BYTES_PER_BEAM_PIXEL = {"zigzag": 4, "spiral": 8, "edges": 32, "gray": 40, "dither": 32}
+BYTES_PER_BEAM_PIXEL_BANDED = 2
+
+
+def working_bytes(source_shape, beam_shape, mode: str, *, banded: bool = False) -> float:
+    """Estimated peak working memory of :func:`image_to_job`, bytes (see the constants).
+
+    >>> f"{working_bytes((10_837, 10_837), (10_837, 10_837), 'zigzag', banded=True) / 1e9:.2f} GB"
+    '0.23 GB'
+    >>> f"{working_bytes((10_837, 10_837), (10_837, 10_837), 'gray') / 1e9:.1f} GB"
+    '10.3 GB'
+    """
+    source = float(source_shape[0]) * float(source_shape[1])
+    beam = float(beam_shape[0]) * float(beam_shape[1])
+    if banded:
+        return BYTES_PER_BEAM_PIXEL_BANDED * beam
+    return BYTES_PER_SOURCE_PIXEL * source + BYTES_PER_BEAM_PIXEL.get(mode, 40) * beam
+
+
 def _mask_in_bands(image: np.ndarray, weights, invert: bool, level: float) -> np.ndarray:
     """``threshold(to_gray(image))`` (inverted first if asked), computed in bands of rows."""
     rows, cols = image.shape[:2]
@@ -458,11 +483,20 @@ def image_to_job(image, *, mode: str = "zigzag", beam_mm: float = 0.1, width_mm=
         arr = np.where(arr, 0, 255).astype(np.uint8)     # a mask means True = burn = black
         is_mask = False
     size = dict(width_mm=width_mm, height_mm=height_mm, pixel_mm=pixel_mm, dpi=dpi)
+    if arr.ndim in (2, 3) and arr.size and beam_mm > 0 and math.isfinite(beam_mm):
+        out_shape = beam_shape(arr.shape, beam_mm, **size)
+        banded = (mode in ("zigzag", "spiral") and not (blur or sharpen) and arr.dtype.kind == "u"
+                  and out_shape == arr.shape[:2])
+        need = working_bytes(arr.shape[:2], out_shape, mode, banded=banded or is_mask)
+        check_budget("raster_bytes", need,
+                     cause=f"a {arr.shape[1]:,} × {arr.shape[0]:,} px image engraved as "
+                           f"{out_shape[1]:,} × {out_shape[0]:,} beam pixels ({mode})",
+                     option="the size (width, height, dpi) or raise the beam diameter")
+    else:
+        banded = False
     if is_mask:
         arr = ~arr if invert else arr
-    elif (mode in ("zigzag", "spiral") and not (blur or sharpen) and arr.dtype.kind == "u"
-          and arr.ndim in (2, 3) and arr.size and beam_mm > 0 and math.isfinite(beam_mm)
-          and beam_shape(arr.shape, beam_mm, **size) == arr.shape[:2]):
+    elif banded:
         # One pixel per beam already and every step is per pixel: threshold band by band,
         # so the whole image is never held as float64 gray (8 bytes a pixel), only the mask.
         arr, is_mask = _mask_in_bands(arr, weights, invert, level), True

@@ -1,0 +1,62 @@
+"""Big raster jobs (issue 11): a few bytes per pixel at one pixel per beam, and a job whose
+working memory would exceed the raster_bytes budget is refused by name before the work."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from labkit.budget import BUDGETS
+from labkit.errors import BudgetError
+from labkit.raster import engrave, image_to_job
+
+SIDE = 6000          # 36 Mpx: 74 bytes a pixel (the old peak) would be 2.7 GB
+
+
+@pytest.fixture(scope="module")
+def big_png(tmp_path_factory):
+    """A 6000 × 6000 px page at 254 dpi (one pixel per 0.1 mm beam): a disc and stripes."""
+    yy, xx = np.mgrid[:SIDE, :SIDE]
+    dark = ((xx - SIDE / 2) ** 2 + (yy - SIDE / 2) ** 2 < (SIDE / 3) ** 2) | ((xx // 400) % 3 == 0)
+    path = tmp_path_factory.mktemp("big") / "page.png"
+    Image.fromarray(np.where(dark, 0, 255).astype(np.uint8)).save(path, dpi=(254, 254))
+    return path
+
+
+def test_a_36_megapixel_zigzag_job_stays_within_a_few_bytes_a_pixel(big_png, tmp_path, run_labkit):
+    # 36 Mpx at 8 bytes a pixel is 288 MB: the ceiling (above the interpreter's base) is
+    # 300 MB, far below what float64 gray alone (8 B/px) plus any full-size copy needs.
+    out = tmp_path / "page.gcode"
+    r = run_labkit(["img2gcode", big_png, "-o", out, "--beam", "0.1", "--mode", "zigzag",
+                    "--preview", "none", "--force"], time_s=300, memory_mb=300)
+    assert r.code == 0, r.stderr
+    dark = int((np.asarray(Image.open(big_png)) < 128).sum())
+    marked = next(line for line in r.stdout.splitlines() if line.startswith("marked pixels"))
+    assert int(marked.split()[-1]) == dark and out.read_text().count("\nG1 ") > 1000
+
+
+def test_a_job_beyond_the_memory_budget_is_refused_by_name(big_png, tmp_path, run_labkit):
+    # gray mode resamples and holds float64 per pixel: 36 Mpx × 88 B > 2 GB (scale 0.5).
+    r = run_labkit(["img2gcode", big_png, "-o", tmp_path / "g.gcode", "--beam", "0.1",
+                    "--mode", "gray", "--preview", "none", "--force"], time_s=120, memory_mb=400,
+                   env={"LABKIT_BUDGET_SCALE": "0.5"})
+    assert r.code == 1 and not (tmp_path / "g.gcode").exists()
+    assert "raster bytes (budget 2,000,000,000) from a 6,000 × 6,000 px image engraved as " \
+           "6,000 × 6,000 beam pixels (gray)" in r.stderr
+    assert "reduce the size (width, height, dpi) or raise the beam diameter" in r.stderr
+
+
+def test_the_estimate_is_checked_before_any_pixel_work(monkeypatch):
+    monkeypatch.setattr(engrave, "to_gray", lambda *a, **k: pytest.fail("worked before checking"))
+    monkeypatch.delenv("LABKIT_BUDGET_SCALE", raising=False)
+    img = np.zeros((2000, 3000), np.uint8)
+    need = engrave.working_bytes(img.shape, img.shape, "gray")
+    monkeypatch.setitem(BUDGETS, "raster_bytes", 0.99 * need)
+    with pytest.raises(BudgetError, match=r"raster bytes .* 3,000 × 2,000 px image"):
+        image_to_job(img, mode="gray", beam_mm=0.1, pixel_mm=0.1)
+    monkeypatch.setitem(BUDGETS, "raster_bytes", 1.01 * need)
+    monkeypatch.setattr(engrave, "to_gray", lambda *a, **k: "reached")
+    with pytest.raises(Exception) as caught:
+        image_to_job(img, mode="gray", beam_mm=0.1, pixel_mm=0.1)
+    assert not isinstance(caught.value, BudgetError)      # past the check: the work began
