@@ -12,7 +12,8 @@ Every kernel is written once, as plain Python over numpy arrays, and decorated w
   same function numba compiles) when its array arguments hold fewer than ``N``
   elements in all and its module is not compiled yet. ``N`` is set where the kernel is
   declared, from its measured cost per element against the cost of loading compiled
-  code. One-dimensional ``uint8`` arguments are handed to Python as ``memoryview``
+  code. Once any kernel of the process runs compiled (numba's ~0.7 s start is paid),
+  only inputs below :data:`PYTHON_ALWAYS_BELOW` elements still run as Python. One-dimensional ``uint8`` arguments are handed to Python as ``memoryview``
   objects: indexing them gives Python ints, which is both faster than numpy scalars and
   keeps numba's integer arithmetic (numpy 2 keeps ``uint8 - 48`` a wrapping ``uint8``,
   numba widens it to ``int64``).
@@ -43,6 +44,10 @@ __all__ = ["Kernel", "jit", "compile_all", "mode", "forced"]
 _python_depth = [0]
 _lock = threading.RLock()
 _registry: dict[str, list["Kernel"]] = {}
+_numba_loaded = [False]             # a kernel of this process went compiled
+#: Below this many elements a ``python_below`` kernel runs as Python even when numba is
+#: loaded already (a few ms as Python against ~15 ms to load its cached machine code).
+PYTHON_ALWAYS_BELOW = 4096
 _hooks_installed = False
 
 
@@ -116,8 +121,14 @@ class Kernel:
         if dispatcher is not None and _forced[0] is None:
             return dispatcher(*args)
         how = mode()
-        if how == "python" or (how == "auto" and _elements(args) < self.python_below):
+        if how == "python":
             return self.run_python(*args)
+        if how == "auto":
+            n = _elements(args)
+            # Python pays off while numba is not loaded; once it is (another kernel ran
+            # compiled), loading a cached kernel takes ~15 ms, less than all but tiny inputs.
+            if n < self.python_below and (n < PYTHON_ALWAYS_BELOW or not _numba_loaded[0]):
+                return self.run_python(*args)
         return self.compiled()(*args)
 
     def run_python(self, *args):
@@ -140,6 +151,7 @@ class Kernel:
                     import numba
 
                     self.dispatcher = numba.njit(**self.options)(self.py_func)
+                    _numba_loaded[0] = True
         return self.dispatcher
 
 

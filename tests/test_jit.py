@@ -101,6 +101,20 @@ def test_auto_mode_runs_small_inputs_as_python_and_large_ones_compiled(monkeypat
     assert calls == [10] and total.dispatcher is not None
 
 
+def test_once_numba_is_loaded_only_tiny_inputs_run_as_python(monkeypatch):
+    @_jit.jit(python_below=100_000)
+    def count(a):
+        return a.shape[0]
+
+    monkeypatch.setattr(_jit, "DEFAULT_MODE", "auto")
+    monkeypatch.delenv("LABKIT_JIT", raising=False)
+    monkeypatch.setattr(_jit, "_numba_loaded", [False])
+    assert count(np.zeros(50_000)) == 50_000 and count.dispatcher is None
+    monkeypatch.setattr(_jit, "_numba_loaded", [True])
+    assert count(np.zeros(10)) == 10 and count.dispatcher is None
+    assert count(np.zeros(50_000)) == 50_000 and count.dispatcher is not None
+
+
 def test_kernels_call_kernels_in_both_modes():
     @_jit.jit
     def twice(x):
