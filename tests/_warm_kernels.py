@@ -29,8 +29,11 @@ GROUPS = {
         ["preview", DATA / "tball-engrave-laser.gcode", "-o", "{tmp}/p.png"],
         ["plan", DATA / "Circle_Diamond_Square_Calibration.gcode", "--lenient"],
         ["steps", DATA / "jsdc-laser.gcode", "-o", "{tmp}/s.txt"],
+    ],
+    "vector": [
         ["svg2gcode", DATA / "jsdc.svg", "-o", "{tmp}/a.gcode"],
         ["svg2gcode", DATA / "jsdc.svg", "-o", "{tmp}/b.gcode", "--fit", "biarc"],
+        ["dxf2gcode", ROOT / "data" / "dxf" / "parts_mm.dxf", "-o", "{tmp}/c.gcode", "--force"],
     ],
     "raster": [
         ["img2gcode", DATA / "jsdc.png", "-o", "{tmp}/" + mode + ".gcode", "--mode", mode,
@@ -54,7 +57,7 @@ def warm(group: str) -> list[str]:
 
 
 def warm_all(timeout_s: float = 900) -> list[str]:
-    """Both groups side by side (two processes: one per core)."""
+    """All groups side by side (one process each)."""
     procs = [subprocess.Popen([sys.executable, __file__, g], cwd=ROOT, stdout=subprocess.PIPE,
                               stderr=subprocess.STDOUT, text=True) for g in GROUPS]
     notes = []
