@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from labkit.errors import RasterError
+from labkit.errors import LabkitError, RasterError
 
 __all__ = ["RasterImage", "read_image"]
 
@@ -92,17 +92,29 @@ def read_image(path) -> RasterImage:
 
     from labkit._files import check_input_file
 
+    from labkit.budget import check_budget
+
     path = check_input_file(path, what="image file")
+    # labkit's pixels budget decides how big an image may be, before it is decoded;
+    # Pillow's own guard (a warning above 89 Mpx, an exception above 179 Mpx) is off here.
+    guard, Image.MAX_IMAGE_PIXELS = Image.MAX_IMAGE_PIXELS, None
     try:
         with Image.open(path) as im:
+            w, h = im.size
+            check_budget("pixels", float(w) * float(h), cause=f"reading the {w:,} × {h:,} px image {path}",
+                         option="the image (scale it down first)")
             dpi = im.info.get("dpi")
             pixels = _pixels(im)
     except UnidentifiedImageError as exc:
         raise RasterError(f"{path}: not an image file Pillow can read "
                           "(expected PNG, BMP, JPEG, TIFF, GIF, …)") from exc
     except (OSError, SyntaxError, ValueError) as exc:     # truncated or corrupt data
+        if isinstance(exc, LabkitError):
+            raise
         raise RasterError(f"{path}: the image data cannot be decoded ({exc}); "
                           "expected a complete image file") from exc
+    finally:
+        Image.MAX_IMAGE_PIXELS = guard
     value = None
     if dpi:
         value = float(dpi[0]) if isinstance(dpi, tuple) else float(dpi)

@@ -60,3 +60,23 @@ def test_the_estimate_is_checked_before_any_pixel_work(monkeypatch):
     with pytest.raises(Exception) as caught:
         image_to_job(img, mode="gray", beam_mm=0.1, pixel_mm=0.1)
     assert not isinstance(caught.value, BudgetError)      # past the check: the work began
+
+
+def test_image_size_is_checked_by_the_pixels_budget_before_decoding(tmp_path, monkeypatch):
+    import warnings
+
+    from PIL import Image as PILImage
+
+    from labkit.raster import read_image
+
+    path = tmp_path / "page.png"
+    PILImage.fromarray(np.full((100, 120), 200, np.uint8)).save(path)
+    monkeypatch.delenv("LABKIT_BUDGET_SCALE", raising=False)
+    monkeypatch.setattr(PILImage, "MAX_IMAGE_PIXELS", 1000)   # Pillow would refuse 12,000 px
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert read_image(path).pixels.shape == (100, 120)
+    assert PILImage.MAX_IMAGE_PIXELS == 1000                   # Pillow's setting restored
+    monkeypatch.setitem(BUDGETS, "pixels", 11_999)
+    with pytest.raises(BudgetError, match=r"12,000 pixels .* reading the 120 × 100 px image"):
+        read_image(path)
