@@ -25,12 +25,16 @@ def test_every_data_folder_records_source_and_licence():
 
 
 def _links(nb_path):
-    cells = json.loads(nb_path.read_text())["cells"]
-    text = "\n".join("".join(c["source"]) for c in cells if c["cell_type"] == "markdown")
-    return re.findall(r"\]\(([^)#\s]+\.ipynb)\)", text)
+    if nb_path.suffix == ".md":
+        text = nb_path.read_text()
+    else:
+        cells = json.loads(nb_path.read_text())["cells"]
+        text = "\n".join("".join(c["source"]) for c in cells if c["cell_type"] == "markdown")
+    return re.findall(r"\]\(([^)#\s]+\.(?:ipynb|md))\)", text)
 
 
-@pytest.mark.parametrize("nb", sorted((ROOT / "notebooks").glob("*.ipynb")), ids=lambda p: p.name)
+@pytest.mark.parametrize("nb", sorted([*(ROOT / "notebooks").glob("*.ipynb"), *(ROOT / "notebooks").glob("*.md")]),
+                         ids=lambda p: p.name)
 def test_notebook_links_resolve(nb):
     for link in _links(nb):
         assert (nb.parent / link).exists(), f"{nb.name} links to missing {link}"

@@ -191,8 +191,9 @@ def prepare_paths(paths: Sequence[Path], *, join_tol_mm=0.01, kerf_mm=0.0, tol_m
     join_tol_mm : float
         Ends closer than this are joined into chains (seed 001 §6.1.2).
     kerf_mm : float
-        Beam kerf width; closed shapes of each layer are offset by kerf/2
-        outwards (holes inwards) so parts come out to size. 0: no offset.
+        Beam kerf width; closed shapes are offset by kerf/2 outwards (holes
+        inwards, nesting judged over all layers) so parts come out to size.
+        0: no offset.
     tol_mm : float
         Tolerance of the offset geometry, mm.
     arcs : bool
@@ -212,7 +213,9 @@ def prepare_paths(paths: Sequence[Path], *, join_tol_mm=0.01, kerf_mm=0.0, tol_m
     Returns
     -------
     list of Path
-        Per layer (in first-seen order): fill lines, then contours.
+        Per layer: fill lines, then contours. Layers run in first-seen order,
+        except that a layer with work inside another layer's closed paths
+        runs before it.
 
     Examples
     --------
@@ -227,13 +230,19 @@ def prepare_paths(paths: Sequence[Path], *, join_tol_mm=0.01, kerf_mm=0.0, tol_m
     layers: dict[str, list[Path]] = {}
     for p in chains:
         layers.setdefault(p.layer, []).append(p)
+    closed_all = [p for p in chains if p.closed]
+    if kerf_mm > 0 and closed_all:
+        # One offset over every layer's closed paths: a hole drawn on its own layer (a CAD habit)
+        # is still a hole of the part around it, so its path moves inwards, not outwards.
+        offsets = _offset_by_source(closed_all, kerf_mm / 2, tol_mm=tol_mm, arcs=arcs)
+        for name, group in layers.items():
+            layers[name] = offsets.get(name, []) + [p for p in group if not p.closed]
     out: list[Path] = []
     pos = tuple(origin)
-    for group in layers.values():
+    for name in _inner_layers_first(layers, tol_mm):
+        group = layers[name]
         closed = [p for p in group if p.closed]
         opened = [p for p in group if not p.closed]
-        if kerf_mm > 0 and closed:
-            closed = offset_paths(closed, kerf_mm / 2, tol_mm=tol_mm, arcs=arcs)
         fill_lines = hatch(closed, fill_spacing_mm, angle_rad=fill_angle_rad, fill_rule=fill_rule,
                            tol_mm=tol_mm) if fill else []
         contours = closed + opened
@@ -246,3 +255,52 @@ def prepare_paths(paths: Sequence[Path], *, join_tol_mm=0.01, kerf_mm=0.0, tol_m
         if out:
             pos = tuple(out[-1].end)
     return out
+
+
+def _offset_by_source(closed: list[Path], distance_mm: float, *, tol_mm: float, arcs: bool
+                      ) -> dict[str, list[Path]]:
+    """Offset the region of all closed paths; each result ring goes back to its source's layer.
+
+    A ring lies ``|distance_mm|`` from the ring it was offset from, so the nearest source ring
+    (by the distance from one of its points) is its source; rings merged from several sources
+    take the nearest one's layer and colours.
+    """
+    import shapely
+
+    sources = [shapely.LinearRing(p.sample(tol_mm)) for p in closed]
+    by_layer: dict[str, list[Path]] = {}
+    for ring in offset_paths(closed, distance_mm, tol_mm=tol_mm, arcs=arcs):
+        probe = shapely.Point(ring.start[:2])
+        k = int(np.argmin([src.distance(probe) for src in sources]))
+        p = closed[k].with_geometry(ring.vertices, ring.centres, ring.sweeps, closed=True,
+                                    deviation_mm=ring.deviation_mm)
+        by_layer.setdefault(p.layer, []).append(p)
+    return by_layer
+
+
+def _inner_layers_first(layers: Mapping[str, list[Path]], tol_mm: float) -> list[str]:
+    """Layer names in first-seen order, except that a layer with work inside another layer's
+    closed paths runs before it: whatever lies inside a part (holes, engraving) must be done
+    before the part's outline frees it from the sheet. Mutual nesting keeps first-seen order."""
+    import shapely
+
+    names = list(layers)
+    polys = {n: [shapely.Polygon(p.sample(tol_mm)) for p in layers[n] if p.closed] for n in names}
+    inside: dict[str, set[str]] = {n: set() for n in names}        # n has work inside these layers
+    for n in names:
+        for m in names:
+            if m == n or not polys[m]:
+                continue
+            outer = shapely.union_all([shapely.make_valid(q) for q in polys[m]])
+            if any(outer.contains(shapely.Point(p.start[:2])) for p in layers[n]):
+                inside[n].add(m)
+    order: list[str] = []
+    pending = names[:]
+    while pending:
+        # the first pending layer that no other pending layer must precede
+        ready = [n for n in pending if not any(n in inside[m] and m not in inside[n]
+                                               for m in pending if m != n)]
+        pick = ready[0] if ready else pending[0]
+        order.append(pick)
+        pending.remove(pick)
+    return order

@@ -241,6 +241,12 @@ def compare_planners(moves, machine=None, *, planners=("fast", "normal", "hq", "
 
 # -- widgets --------------------------------------------------------------------------------
 
+#: Slider labels are words with units; let them take the width they need.
+_WIDE = {"description_width": "initial"}
+#: The laser explorer's dose axis, mJ/mm: fixed, from a faint mark to far beyond any cut.
+_DOSE_RANGE_MJ_PER_MM = (1.0, 1.0e4)
+
+
 def bresenham_explorer():
     """Widget: a line to an end point and an arc of a radius, on the step grid."""
     import ipywidgets as w
@@ -270,11 +276,14 @@ def bresenham_explorer():
         fig.tight_layout()
         return fig
 
-    return interact_figure(show, x_end=w.IntSlider(value=11, min=-15, max=15),
-                         y_end=w.IntSlider(value=4, min=-15, max=15),
-                         radius=w.IntSlider(value=8, min=2, max=14),
-                         centre_dx=w.FloatSlider(value=0.0, min=-0.5, max=0.5, step=0.05),
-                         sweep_deg=w.IntSlider(value=270, min=10, max=360, step=5))
+    return interact_figure(show,
+                         x_end=w.IntSlider(value=11, min=-15, max=15, description="line end X (steps)", style=_WIDE),
+                         y_end=w.IntSlider(value=4, min=-15, max=15, description="line end Y (steps)", style=_WIDE),
+                         radius=w.IntSlider(value=8, min=2, max=14, description="arc radius (steps)", style=_WIDE),
+                         centre_dx=w.FloatSlider(value=0.0, min=-0.5, max=0.5, step=0.05,
+                                                 description="centre off grid (steps)", style=_WIDE),
+                         sweep_deg=w.IntSlider(value=270, min=10, max=360, step=5, description="arc sweep (°)",
+                                               style=_WIDE))
 
 
 def profile_explorer():
@@ -306,13 +315,17 @@ def profile_explorer():
         return fig, note
 
     return interact_figure(show,
-                         length_mm=w.FloatLogSlider(value=2.0, base=10, min=-2, max=1.5, step=0.05),
-                         cap_mm_s=w.FloatSlider(value=25.0, min=1, max=25.7, step=0.5),
-                         entry_mm_s=w.FloatSlider(value=0.5, min=0.05, max=25.0, step=0.25),
-                         exit_mm_s=w.FloatSlider(value=0.5, min=0.05, max=25.0, step=0.25),
-                         up=w.IntSlider(value=40, min=5, max=200, description="up (Hz/step)"),
-                         down=w.IntSlider(value=40, min=5, max=200, description="down (Hz/step)"),
-                         law=w.ToggleButtons(options=["linear", "accel"]))
+                         length_mm=w.FloatLogSlider(value=2.0, base=10, min=-2, max=1.5, step=0.05,
+                                                    description="block length (mm)", style=_WIDE),
+                         cap_mm_s=w.FloatSlider(value=25.0, min=1, max=25.7, step=0.5,
+                                                description="speed cap (mm/s)", style=_WIDE),
+                         entry_mm_s=w.FloatSlider(value=0.5, min=0.05, max=25.0, step=0.25,
+                                                  description="entry speed (mm/s)", style=_WIDE),
+                         exit_mm_s=w.FloatSlider(value=0.5, min=0.05, max=25.0, step=0.25,
+                                                 description="exit speed (mm/s)", style=_WIDE),
+                         up=w.IntSlider(value=40, min=5, max=200, description="ramp up (Hz/step)", style=_WIDE),
+                         down=w.IntSlider(value=40, min=5, max=200, description="ramp down (Hz/step)", style=_WIDE),
+                         law=w.ToggleButtons(options=["linear", "accel"], description="ramp law", style=_WIDE))
 
 
 def lookahead_explorer(make_moves, machine=None):
@@ -327,14 +340,17 @@ def lookahead_explorer(make_moves, machine=None):
         fig, ax = plt.subplots(figsize=(10, 3.6))
         for p in plans.values():
             plot_speed_time(p, ax)
-        ax.legend(fontsize="small", loc="upper right")
+        ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0))   # beside the data
         fig.tight_layout()
         return fig, table.to_string()
 
-    return interact_figure(show, rows=w.IntSlider(value=4, min=1, max=12),
-                         segments=w.IntSlider(value=4, min=1, max=12, description="segments/row"),
-                         buffer_blocks=w.IntSlider(value=16, min=1, max=64, description="buffer"),
-                         law=w.ToggleButtons(options=["each its own", "linear", "accel"]))
+    return interact_figure(show, rows=w.IntSlider(value=4, min=1, max=12, description="raster rows", style=_WIDE),
+                         segments=w.IntSlider(value=4, min=1, max=12, description="power steps per row",
+                                              style=_WIDE),
+                         buffer_blocks=w.IntSlider(value=16, min=1, max=64, description="planner buffer (blocks)",
+                                                   style=_WIDE),
+                         law=w.ToggleButtons(options=["each its own", "linear", "accel"], description="ramp law",
+                                             style=_WIDE))
 
 
 def laser_explorer(make_moves, machine=None):
@@ -358,14 +374,21 @@ def laser_explorer(make_moves, machine=None):
         plot_power_time(p, a1)
         a1.set_title(f"power against time ({p.job_time_s:.2f} s)")
         plot_burn(p, a2)
+        # A fixed logarithmic dose axis: moving a slider must show a 10x change as one, not rescale it away.
+        a2.set_yscale("log")
+        a2.set_ylim(*_DOSE_RANGE_MJ_PER_MM)
         bp = p.burn_profile(0.01)
         u = dose_uniformity(bp["dose_mj_per_mm"], bp["speed_mm_s"], bp["feed_mm_s"])
         a2.set_title(f"dose along the cut: CV {u['cv']:.3f}, max/mean {u['max_over_mean']:.2f}")
         fig.tight_layout()
         return fig
 
-    return interact_figure(show, power_s=w.IntSlider(value=500, min=50, max=1000, step=50),
-                         feed_mm_min=w.IntSlider(value=1200, min=120, max=1500, step=60),
-                         mode=w.ToggleButtons(options=["M3 constant", "M4 dynamic"]),
-                         planner=w.ToggleButtons(options=["junction", "normal", "fast", "hq"]),
+    return interact_figure(show, power_s=w.IntSlider(value=500, min=50, max=1000, step=50,
+                                                      description="power (S of 1000)", style=_WIDE),
+                         feed_mm_min=w.IntSlider(value=1200, min=120, max=1500, step=60,
+                                                 description="feed (mm/min)", style=_WIDE),
+                         mode=w.ToggleButtons(options=["M3 constant", "M4 dynamic"], description="laser mode",
+                                              style=_WIDE),
+                         planner=w.ToggleButtons(options=["junction", "normal", "fast", "hq"], description="planner",
+                                                 style=_WIDE),
                          loops=w.Checkbox(value=False, description="corner loops"))

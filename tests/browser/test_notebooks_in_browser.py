@@ -34,7 +34,7 @@ CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run
                   "--disable-background-networking", "--disable-component-update", "--disable-sync",
                   "--disable-dev-shm-usage", "--window-size=1400,1000"]
 # chapter → the least number of sliders its widget must show
-CHAPTERS = {"00-index.ipynb": 0, "02-arcs-ijk-vs-r.ipynb": 3}
+CHAPTERS = {"00-index.ipynb": 0, "02-arcs-ijk-vs-r.ipynb": 3, "22-machine-setup.ipynb": 4}
 RUN_TIMEOUT_S = 480            # generous: CI machines may be busy compiling kernels
 PANEL = ".jp-NotebookPanel:not(.lm-mod-hidden)"     # the notebook on show
 
@@ -146,6 +146,9 @@ def _run_all_and_wait(driver, name):
         d.find_elements(By.CSS_SELECTOR, ".jp-Notebook-ExecutionIndicator[data-status='idle']"),
         message=f"{name}: the notebook did not open with an idle kernel")
     n_code = len(driver.find_elements(By.CSS_SELECTOR, f"{PANEL} .jp-CodeCell"))
+    # cells whose input is collapsed (the exercises' solutions) show no prompt text
+    n_visible = sum(bool(p.text.strip()) for p in
+                    driver.find_elements(By.CSS_SELECTOR, f"{PANEL} .jp-CodeCell .jp-InputPrompt"))
 
     def started(d):
         prompts = [p.text.strip() for p in d.find_elements(By.CSS_SELECTOR, f"{PANEL} .jp-CodeCell .jp-InputPrompt")]
@@ -161,10 +164,14 @@ def _run_all_and_wait(driver, name):
                 raise
 
     def done(d):
-        # A finished cell's prompt reads "[7]:", a running or queued one "[*]:".
+        # A finished cell's prompt reads "[7]:", a running or queued one "[*]:"; cells whose input is
+        # collapsed (the exercises' solutions) show no prompt, so the kernel's idle state decides.
         prompts = [p.text.strip() for p in d.find_elements(By.CSS_SELECTOR, f"{PANEL} .jp-CodeCell .jp-InputPrompt")]
+        if any("*" in p for p in prompts):
+            return False
         finished = [p for p in prompts if re.fullmatch(r"\[\d+\]:?", p)]
-        return len(finished) == n_code
+        idle = d.find_elements(By.CSS_SELECTOR, ".jp-Notebook-ExecutionIndicator[data-status='idle']")
+        return bool(idle) and (len(finished) == n_code or len(finished) >= n_visible)
 
     WebDriverWait(driver, RUN_TIMEOUT_S, poll_frequency=1).until(
         done, message=f"{name}: cells did not all finish within {RUN_TIMEOUT_S} s")
@@ -200,3 +207,31 @@ def test_chapter_runs_in_chromium_without_errors(lab, browser, name, sliders):
     if sliders:
         widget_images = browser.find_elements(By.CSS_SELECTOR, f"{PANEL} .widget-output img")
         assert widget_images, f"{name}: the widget's plot did not render"
+
+
+def test_a_widget_responds_to_input(lab, browser):
+    """Move a slider with the keyboard, as a student would: the widget's plot must be redrawn."""
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.common.keys import Keys
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    base, token = lab
+    name = "22-machine-setup.ipynb"
+    browser.get(f"{base}/lab/workspaces/respond/tree/notebooks/{name}?token={token}")
+    _run_all_and_wait(browser, name)
+    WebDriverWait(browser, 60).until(
+        lambda d: d.find_elements(By.CSS_SELECTOR, f"{PANEL} .widget-output img"),
+        message=f"{name}: no widget plot to watch")
+    before = browser.find_elements(By.CSS_SELECTOR, f"{PANEL} .widget-output img")[0].get_attribute("src")
+    handle = browser.find_elements(By.CSS_SELECTOR, f"{PANEL} .widget-slider .noUi-handle")[0]
+    browser.execute_script("arguments[0].scrollIntoView({block: 'center'});", handle)
+    handle.click()
+    for key in (Keys.ARROW_LEFT, Keys.ARROW_LEFT):        # microsteps 32 -> 16 -> 8
+        handle.send_keys(key)
+        time.sleep(0.5)
+    WebDriverWait(browser, 60, poll_frequency=0.5).until(
+        lambda d: d.find_elements(By.CSS_SELECTOR, f"{PANEL} .widget-output img")[0].get_attribute("src") != before,
+        message=f"{name}: moving the slider did not redraw the widget's plot")
+    out_dir = ROOT / "build"
+    out_dir.mkdir(exist_ok=True)
+    browser.save_screenshot(str(out_dir / "browser-widget-responds.png"))

@@ -82,3 +82,7 @@ def test_widgets_build_with_their_controls(factory, controls):
     assert set(widget.controls) == controls
     shown = widget.children[-1].outputs
     assert any("image/png" in o.get("data", {}) for o in shown)      # drawn on creation
+    # labels are words for students (with units), not Python names such as power_s
+    for name, control in widget.controls.items():
+        label = control.description
+        assert label and "_" not in label, f"{name}: label {label!r}"

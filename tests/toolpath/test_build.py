@@ -116,3 +116,27 @@ def test_a_circle_is_one_full_circle_move_and_co_circular_arcs_merge():
     # arcs of different circles stay apart
     two = Path([[5, 0], [0, 5], [-5, 0]], [[0, 0], [0, 0.5]], [math.pi / 2, math.pi / 2])
     assert len(build_moves([two], LayerSettings(), origin=(5, 0, 0))) == 2
+
+
+def test_kerf_and_order_judge_holes_across_layers():
+    """A hole drawn on its own layer (a CAD habit) is still a hole: its path moves inwards by
+    kerf/2, and its layer is cut before the outline that would free the part from the sheet."""
+    outline = Path.rectangle(0, 0, 40, 30, layer="cut")
+    hole = Path.circle((20, 15), 5, layer="holes")
+    mark = Path.polyline([(5, 5), (10, 5)], layer="engrave")          # work inside the part too
+    out = prepare_paths([outline, hole, mark], kerf_mm=0.4)
+    by_layer = {p.layer: p for p in out}
+    assert np.allclose(np.ptp(by_layer["cut"].bounds(), axis=0), [40.4, 30.4], atol=1e-3)
+    assert np.allclose(np.ptp(by_layer["holes"].bounds(), axis=0), [9.6, 9.6], atol=1e-3)
+    assert [p.layer for p in out][-1] == "cut"          # the outline last, after hole and engraving
+    # same answer as offsetting the part as one region on one layer (the reference)
+    one = prepare_paths([outline, Path.circle((20, 15), 5, layer="cut")], kerf_mm=0.4)
+    assert sorted(round(float(np.ptp(p.bounds()[:, 0])), 6) for p in one) == sorted(
+        round(float(np.ptp(p.bounds()[:, 0])), 6) for p in out if p.closed)
+
+
+def test_unrelated_layers_keep_first_seen_order():
+    a = Path.rectangle(0, 0, 10, 10, layer="a")
+    b = Path.rectangle(20, 0, 10, 10, layer="b")
+    assert [p.layer for p in prepare_paths([a, b], kerf_mm=0.2)] == ["a", "b"]
+    assert [p.layer for p in prepare_paths([b, a], kerf_mm=0.2)] == ["b", "a"]
