@@ -31,16 +31,7 @@ def pytest_configure(config):
     # (tests/_warm_kernels.py). Without xdist, or on a worker, nothing to do.
     if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):
         return
-    from pathlib import Path
+    from tests._warm_kernels import warm_once
 
-    cache = os.environ.get("NUMBA_CACHE_DIR")      # set by `import labkit` (above)
-    marker = Path(cache) / "warmed" if cache else None
-    if marker is not None and marker.exists():
-        return                                     # warmed already for these sources
-    from tests._warm_kernels import warm_all
-
-    notes = warm_all()
-    for note in notes:
+    for note in warm_once():
         print(f"note: kernel warm-up: {note}")
-    if marker is not None and not notes:
-        marker.write_text("tests/_warm_kernels.py ran here\n")
