@@ -24,6 +24,7 @@ line runs exactly once.
 
 from __future__ import annotations
 
+import bisect
 import math
 import re
 import time
@@ -193,9 +194,12 @@ class JobReport:
     max_rx_used: int = 0
     safe_actions: list = field(default_factory=list)
     warnings: list = field(default_factory=list)
+    answers_lost: int = 0                  #: ok/error answers the link lost (re-synchronised)
 
     def summary(self) -> str:
-        lines = [f"{'completed' if self.ok else 'STOPPED'}: {self.lines_acknowledged}/"
+        state = "completed" if self.ok else ("completed over a faulty link" if self.answers_lost
+                                             and not self.fault and not self.errors else "STOPPED")
+        lines = [f"{state}: {self.lines_acknowledged}/"
                  f"{self.lines_total} lines acknowledged in {self.elapsed_s:.1f} s "
                  f"(planned {self.planned_s:.1f} s)"]
         for ln, code, msg in self.errors:
@@ -296,6 +300,35 @@ def run_job(grbl: Grbl, job: Job, *, mode: str = "counting", on_error: str = "st
     acked: list[tuple[int, int]] = []  # (source line, blocks) of acknowledged motion lines
     paused = False
     grbl.drain_events()
+    # Re-synchronisation after a lost answer (character counting): the bytes sent before each '?'
+    # are in the controller (one ordered link), so bytes sent − its RX fill is a lower bound on what
+    # it has consumed; every consumed line but the one it may be blocked on has been answered.
+    answers_base = grbl.answer_count
+    answers_start = answers_base
+    events_taken = 0                   # ok/error events taken from the queue
+    line_ends: list[int] = []          # cumulative bytes at the end of each line sent
+    sent_texts: list[str] = []
+    sent_bytes = 0
+    q_marks: deque = deque()           # sent_bytes when each '?' went out
+
+    def _drop_lost(lost: int, *, ran: bool = True) -> int:
+        """Count the oldest ``lost`` lines in flight as answered (``ran``: as executed too);
+        returns their bytes."""
+        freed = 0
+        for _ in range(min(lost, len(inflight))):
+            ln, n = inflight.popleft()
+            freed += abs(n)
+            report.lines_acknowledged += 1
+            report.last_acknowledged_line = max(report.last_acknowledged_line, ln)
+            if ran and ln in job.blocks_per_line:
+                acked.append((ln, job.blocks_per_line[ln]))
+            report.answers_lost += 1
+            report.warnings.append(
+                f"an answer (or a line end) was lost on the link near line {ln}: re-synchronised "
+                f"from the controller's buffer report, so later errors name the right line; check "
+                f"the work there (a lost line end merges two lines)")
+        return freed
+
     try:
         while i < len(send) or inflight:
             now = time.monotonic()
@@ -308,11 +341,24 @@ def run_job(grbl: Grbl, job: Job, *, mode: str = "counting", on_error: str = "st
                 grbl.resume()
                 paused = False
             if now - last_poll >= status_interval_s:
+                q_marks.append(sent_bytes)
                 grbl.realtime("status")
                 last_poll = now
             if grbl.status_count != last_status_seen:
+                fresh = grbl.status_count - last_status_seen
                 last_status_seen = grbl.status_count
                 last_status_t = now
+                snap = None
+                for _ in range(min(fresh, len(q_marks))):
+                    snap = q_marks.popleft()
+                st = grbl.status
+                # only once every answer before this report has been taken: an error among them
+                # must first be named (below), not skipped over
+                if (mode == "counting" and st is not None
+                        and st.answers_before - answers_start == events_taken):
+                    lost = _answers_lost(grbl, snap, line_ends, sent_texts, answers_base)
+                    used -= _drop_lost(lost)
+                    answers_base -= lost
             elif now - last_status_t > watchdog_s:
                 raise _Fault(f"watchdog: no status report for {watchdog_s:g} s; stopped sending",
                              reset=True)
@@ -327,6 +373,9 @@ def run_job(grbl: Grbl, job: Job, *, mode: str = "counting", on_error: str = "st
                     break
                 grbl.send_line(text)
                 inflight.append((ln, -n if settings_line else n))
+                sent_bytes += n
+                line_ends.append(sent_bytes)
+                sent_texts.append(text)
                 used += n
                 report.max_rx_used = max(report.max_rx_used, used)
                 report.lines_sent += 1
@@ -351,12 +400,53 @@ def run_job(grbl: Grbl, job: Job, *, mode: str = "counting", on_error: str = "st
                 if not inflight:
                     report.warnings.append(f"unexpected '{ev.text}' with no line in flight")
                     continue
+                if ev.kind == "error" and mode == "counting":
+                    # before naming the line: ask for a report after this error, in case an
+                    # earlier answer was lost and the oldest line in flight is not this one
+                    # (a full planner leaves one line possibly unanswered for a while: wait for a
+                    # free block so that the report tells a blocked line from a lost answer)
+                    snap = None
+                    deadline = time.monotonic() + 1.0
+                    while True:
+                        q_marks.append(sent_bytes)
+                        grbl.realtime("status")
+                        wanted = last_status_seen + len(q_marks)      # every '?' in flight answered
+                        while grbl.status_count < wanted and time.monotonic() < deadline:
+                            time.sleep(0.005)
+                        for _ in range(min(grbl.status_count - last_status_seen, len(q_marks))):
+                            snap = q_marks.popleft()
+                        last_status_seen = grbl.status_count
+                        st = grbl.status
+                        if (time.monotonic() >= deadline or st is None or not st.planner_free == 0
+                                or st.state not in ("Run", "Jog")):
+                            break
+                    lost = min(_answers_lost(grbl, snap, line_ends, sent_texts, answers_base),
+                                len(inflight) - 1)
+                else:
+                    lost = 0
+                events_taken += 1
+                if lost:
+                    # An answer was lost just before this error: the error belongs to one of the
+                    # oldest lost + 1 lines in flight (a lost 'ok': the later one; a lost line
+                    # end merging two lines: the earlier). Name the earliest, so that a resume
+                    # from it runs every line at least once, and say so.
+                    first, last = inflight[0][0], inflight[lost][0]
+                    report.warnings.append(
+                        f"an answer was lost on the link just before this error: it rejected one "
+                        f"of lines {first}…{last}; reported on line {first}, the earliest, so a "
+                        f"resume from it runs every line at least once — check the work near "
+                        f"lines {first}…{last} before resuming")
                 ln, n = inflight.popleft()
                 used -= abs(n)
                 report.lines_acknowledged += 1
                 report.last_acknowledged_line = ln
                 if ev.kind == "ok" and ln in job.blocks_per_line:   # a rejected line plans nothing
                     acked.append((ln, job.blocks_per_line[ln]))
+                if lost:
+                    # the later candidates: answered, but not known to have run (a resume from
+                    # the named line runs them again rather than skip one)
+                    used -= _drop_lost(lost, ran=False)
+                    answers_base -= lost
                 if ev.kind == "error":
                     report.errors.append((ln, ev.code, error_message(ev.code)))
                     if on_error == "stop":
@@ -399,7 +489,8 @@ def run_job(grbl: Grbl, job: Job, *, mode: str = "counting", on_error: str = "st
             elif not controls.pause_requested and st.state == "Hold":
                 grbl.resume()
             time.sleep(min(0.05, status_interval_s))
-        report.ok = not report.errors
+        # A link that lost bytes is not a clean run, even when every line was answered.
+        report.ok = not report.errors and not report.answers_lost
         report.last_executed_line = report.last_acknowledged_line
         if progress is not None:
             progress(report.last_executed_line, report.last_acknowledged_line,
@@ -413,6 +504,34 @@ def run_job(grbl: Grbl, job: Job, *, mode: str = "counting", on_error: str = "st
         _make_safe(grbl, _Fault(str(exc), reset=False, hold=False), report, acked, inflight, job)
     report.elapsed_s = time.monotonic() - t0
     return report
+
+
+#: Lines GRBL may still be executing, unanswered, after taking them from its RX buffer: it waits for
+#: the planner to empty first (dwell, offsets, homing positions, program end, spindle/coolant sync).
+_SYNCING = re.compile(r"G0*4(?![.\d])|G10|G28|G30|G92|M0*[0-2](?!\d)|M30|M0*[3-9](?!\d)", re.IGNORECASE)
+
+
+def _answers_lost(grbl: Grbl, sent_at_query, line_ends: list, sent_texts: list, answers_base: int) -> int:
+    """How many ok/error answers the link lost, from the status report just received.
+
+    ``sent_at_query`` bytes had been sent when the report's ``?`` went out, so they had reached
+    the controller; minus its RX fill (``Bf``) that bounds from below what it has consumed.
+    Every wholly consumed line has been answered before the report — except the one the
+    controller may still be working on: blocked on a full planner, or a line that waits for the
+    planner to empty. More unanswered lines than that: answers were lost.
+    """
+    st = grbl.status
+    if sent_at_query is None or st is None or st.rx_free is None:
+        return 0
+    rx_used = max(0, grbl.info.rx_bytes - 1 - st.rx_free)
+    consumed = sent_at_query - rx_used
+    whole_lines = bisect.bisect_right(line_ends, consumed)
+    answered = st.answers_before - answers_base
+    if whole_lines <= answered:
+        return 0
+    busy = (st.planner_free is None or st.planner_free == 0
+            or bool(_SYNCING.search(sent_texts[answered])))
+    return max(0, whole_lines - answered - (1 if busy else 0))
 
 
 def _executed_line(grbl: Grbl, acked: list, last_ack: int) -> int:
