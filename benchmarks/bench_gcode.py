@@ -16,7 +16,8 @@ and M3/M4/M5 switching. Each parser reads the same text from memory:
 The peers do less work than labkit, so the ratios are conservative. Each
 parser is timed best-of-``repeat`` after one warm-up on a small file (which
 also loads labkit's cached compiled kernel). Printed: lines/s for each, the
-ratios, and the bytes per line of the Moves result.
+ratios, the bytes per line of the Moves result, and labkit's emit rate
+(``labkit.gcode.emit`` of the parsed Moves back to text, moves/s; no peer).
 """
 
 from __future__ import annotations
@@ -98,7 +99,7 @@ def main(argv=None):
     from gcodeparser import parse_gcode_lines
     from pygcode import Line
 
-    from labkit.gcode import parse
+    from labkit.gcode import emit, parse
 
     text = make_job(args.lines)
     data = text.encode()
@@ -115,9 +116,14 @@ def main(argv=None):
     t_gp, gp = best_of(lambda: list(parse_gcode_lines(text)), args.repeat)
     t_py, _ = best_of(lambda: [Line(s) for s in lines], args.pygcode_repeat)
 
+    emit(parse(warm))
+    t_emit, emitted = best_of(lambda: emit(moves), args.repeat)
+
     rate = {name: n / t for name, t in (("labkit", t_lab), ("gcodeparser", t_gp), ("pygcode", t_py))}
     for name, r in rate.items():
         print(f"{name:<12} {r:>14,.0f} lines/s")
+    print(f"{'labkit emit':<12} {len(moves) / t_emit:>14,.0f} moves/s "
+          f"({len(emitted) / 1e6 / t_emit:.0f} MB/s of text)")
     vs_py = rate["labkit"] / rate["pygcode"]
     vs_gp = rate["labkit"] / rate["gcodeparser"]
     bytes_per_line = moves.nbytes / n

@@ -7,7 +7,7 @@
    G1 per power change) — repeated row-block by row-block until it holds
    ``--blocks`` moves (default 1 000 000), then planned from Moves to profiles
    (blocks, look-ahead, profiles) with GRBL's junction-deviation planner and
-   each of seed 004's MBLA modes. Prints blocks per second.
+   each of [CBR40]'s MBLA modes. Prints blocks per second.
 2. Bresenham: ``--lines`` random lines (default 1 000 000, end points in a
    64 × 64 grid) drawn by ``skimage.draw.line`` one call per line (its API),
    by labkit's batch ``lines_points`` and by its numpy closed form, all in this

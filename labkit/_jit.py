@@ -73,6 +73,9 @@ def mode() -> str:
 def _elements(args) -> int:
     total = 0
     for a in args:
+        if isinstance(a, tuple):                   # a record of arrays (a NamedTuple of columns)
+            total += _elements(a)
+            continue
         size = getattr(a, "size", None)
         if isinstance(size, int):
             total += size
@@ -83,6 +86,8 @@ def _elements(args) -> int:
 
 def _as_python(a):
     # One-dimensional uint8 arrays (text, masks): Python ints on indexing; see above.
+    if isinstance(a, tuple) and hasattr(a, "_fields"):     # a NamedTuple of columns
+        return type(a)(*(_as_python(x) for x in a))
     if getattr(a, "ndim", None) == 1 and getattr(a, "dtype", None) is not None \
             and a.dtype.char == "B" and a.flags.c_contiguous:
         return memoryview(a)

@@ -2,6 +2,9 @@
 
 Lengths are millimetres inside labkit, feeds mm/min, times seconds, laser
 power either the controller's S value, milliwatts or a duty fraction 0…1.
+This module is the one home of the S ↔ duty ↔ mW conversions; the laser's power at
+full duty is stated once, in the machine description
+(``laser_max_power_mw`` of :mod:`labkit.motion.machine` and its TOML files), and passed in.
 
 >>> inch_to_mm(1.0)
 25.4
@@ -86,15 +89,15 @@ def s_to_percent(s, *, s_max=1000.0):
     return s_to_duty(s, s_max=s_max) * 100.0
 
 
-def s_to_mw(s, *, s_max=1000.0, max_power_mw=2500.0):
+def s_to_mw(s, *, s_max=1000.0, max_power_mw):
     """Power word S → optical power in mW, linear up to ``max_power_mw``.
 
-    [CBR40]'s diode laser delivers at most 2500 mW.
+    ``max_power_mw`` is the machine description's ``laser_max_power_mw`` (mW at full duty).
     """
     return s_to_duty(s, s_max=s_max) * max_power_mw
 
 
-def mw_to_s(power_mw, *, s_max=1000.0, max_power_mw=2500.0):
+def mw_to_s(power_mw, *, s_max=1000.0, max_power_mw):
     """Optical power in mW → power word S (clipped)."""
     if not max_power_mw > 0:
         raise ValueError(f"max_power_mw must be > 0, got {max_power_mw!r}")

@@ -34,8 +34,9 @@ def test_unit_conversions():
     assert units.mm_s_to_mm_min(units.mm_min_to_mm_s(1234.0)) == pytest.approx(1234.0)
     assert units.s_to_percent(255, s_max=255) == 100.0           # seed 003: S' = S·100/255
     assert units.s_to_percent(51, s_max=255) == pytest.approx(20.0)
-    np.testing.assert_allclose(units.s_to_mw(np.array([0, 500, 2000])), [0, 1250, 2500])
-    assert units.mw_to_s(1250.0) == pytest.approx(500.0)
+    np.testing.assert_allclose(units.s_to_mw(np.array([0, 500, 2000]), max_power_mw=2500),
+                               [0, 1250, 2500])
+    assert units.mw_to_s(1250.0, max_power_mw=2500) == pytest.approx(500.0)
     with pytest.raises(ValueError, match="s_max must be > 0"):
         units.s_to_duty(1, s_max=0)
     with pytest.raises(ValueError, match="max_power_mw must be > 0"):

@@ -8,14 +8,44 @@ is printed by integer arithmetic, without trailing zeros.
 from __future__ import annotations
 
 import math
-
-import numpy as np
+from collections import namedtuple
 
 from labkit._jit import jit
-from labkit.toolpath.moves import MoveKind
+import numpy as np
+
+from labkit.toolpath.moves import LaserMode, MoveKind
 
 RAPID, LINE, ARC_CW, ARC_CCW, DWELL = (int(MoveKind.RAPID), int(MoveKind.LINE), int(MoveKind.ARC_CW),
                                        int(MoveKind.ARC_CCW), int(MoveKind.DWELL))
+LASER_OFF = int(LaserMode.OFF)
+#: The G word of each move kind and the M word of each laser mode, as ASCII digits.
+_G_DIGIT = np.zeros(max(MoveKind) + 1, np.uint8)
+for _kind, _g in ((MoveKind.RAPID, "0"), (MoveKind.LINE, "1"), (MoveKind.ARC_CW, "2"),
+                  (MoveKind.ARC_CCW, "3"), (MoveKind.DWELL, "4")):
+    _G_DIGIT[_kind] = ord(_g)
+_M_DIGIT = np.zeros(max(LaserMode) + 1, np.uint8)
+for _mode, _m in ((LaserMode.OFF, "5"), (LaserMode.CONSTANT, "3"), (LaserMode.DYNAMIC, "4")):
+    _M_DIGIT[_mode] = ord(_m)
+del _kind, _g, _mode, _m
+
+#: The program's rows as :func:`write_moves` takes them. Integers scaled by 10**decimals:
+#: ``end`` (n×3 positions); by 10**value_decimals in the dialect's units: ``feed``,
+#: ``power``, ``dwell``. ``centre`` stays float mm (offsets are computed from the *written*
+#: previous point). ``kind``, ``plane`` (17/18/19) and ``laser`` as in Moves; ``r_mode`` per
+#: row: 0 write I J K, +1 / −1 write R (negative R for sweeps over 180°).
+EmitRows = namedtuple("EmitRows", ["kind", "end", "centre", "plane", "feed", "power", "laser",
+                                   "dwell", "r_mode"])
+
+#: How numbers and lines are written: coordinate ``decimals``, ``value_decimals`` (F S P),
+#: ``inline_power`` (S on the motion line), ``rapid_laser_off`` (the controller switches the
+#: beam off on G0 itself), ``numbered`` (N words) and ``checksums`` (``*`` checksums).
+EmitFormat = namedtuple("EmitFormat", ["decimals", "value_decimals", "inline_power",
+                                       "rapid_laser_off", "numbered", "checksums"])
+
+#: Lines kept from the source (system lines, pauses, program ends): ``row[j]`` the row before
+#: which line j goes (n = after the last), its text ``text[span[j, 0]:span[j, 1]]``,
+#: ``reset[j]`` a program end (the controller is back in its default modes after it).
+EmitRecords = namedtuple("EmitRecords", ["row", "text", "span", "reset"])
 _PLANE_AXES = np.array([[0, 1, 2], [2, 0, 1], [1, 2, 0]], dtype=np.int64)
 _AXIS_LETTER = np.array([88, 89, 90], dtype=np.uint8)      # X Y Z
 _OFFSET_LETTER = np.array([73, 74, 75], dtype=np.uint8)    # I J K
@@ -116,19 +146,18 @@ def _end_line(out, used, line_start, numbered, checksums, number):
 
 
 @jit(python_below=150_000)  # column elements (~15 a move): ~10,000 moves as Python
-def write_moves(kind, end_i, centre, plane, feed_i, power_i, laser, dwell_i, r_mode_rows,
-                start_i, decimals, value_decimals, inline_power, rapid_laser_off,
-                numbered, checksums, first_number, rec_row, rec_text, rec_span, rec_reset):
-    """Write the program body. Integer inputs are already scaled:
-
-    end_i, start_i : positions × 10**decimals; feed_i, power_i, dwell_i : values
-    × 10**value_decimals in the dialect's units (-1 = undefined feed).
-    centre : float mm (offsets are computed from the *written* previous point).
-    rec_row[j] : the row before which record line j goes (n = after the last);
-    its text is rec_text[rec_span[j, 0]:rec_span[j, 1]]; rec_reset[j] marks a
-    program end, after which the controller is back in its default modes.
-    Returns (bytes, next line number).
+def write_moves(rows, start, fmt, first_number, records):
+    """Write the program body: ``rows`` an :data:`EmitRows`, ``start`` the position before
+    the first move (scaled like ``rows.end``), ``fmt`` an :data:`EmitFormat`, ``records`` an
+    :data:`EmitRecords`. Returns (bytes, next line number).
     """
+    kind, end_i, centre, plane = rows.kind, rows.end, rows.centre, rows.plane
+    feed_i, power_i, laser, dwell_i, r_mode_rows = (rows.feed, rows.power, rows.laser,
+                                                    rows.dwell, rows.r_mode)
+    decimals, value_decimals = fmt.decimals, fmt.value_decimals
+    numbered, checksums = fmt.numbered, fmt.checksums
+    rec_row, rec_text, rec_span, rec_reset = (records.row, records.text, records.span,
+                                              records.reset)
     n = kind.shape[0]
     out = np.empty(64 + 48 * n, np.uint8)
     used = 0
@@ -138,12 +167,12 @@ def write_moves(kind, end_i, centre, plane, feed_i, power_i, laser, dwell_i, r_m
         scale *= 10.0
     cur = np.empty(3, np.int64)
     for a in range(3):
-        cur[a] = start_i[a]
+        cur[a] = start[a]
     cur_motion = -1
     cur_plane = 17
     cur_feed = np.int64(-2)
     cur_power = np.int64(-1)
-    cur_laser = 0
+    cur_laser = LASER_OFF
     beam_parked = False     # laser switched off for a rapid on a dialect that needs it
     j = 0
     nrec = rec_row.shape[0]
@@ -162,7 +191,7 @@ def write_moves(kind, end_i, centre, plane, feed_i, power_i, laser, dwell_i, r_m
             if rec_reset[j]:
                 cur_motion = -1
                 cur_plane = 17
-                cur_laser = 0
+                cur_laser = LASER_OFF
                 beam_parked = False
             j += 1
         if i == n:
@@ -172,32 +201,31 @@ def write_moves(kind, end_i, centre, plane, feed_i, power_i, laser, dwell_i, r_m
         feed_row = k == LINE or k == ARC_CW or k == ARC_CCW
         want_laser = laser[i]
         # Laser mode first (GRBL order: spindle words before motion).
-        if k == RAPID and rapid_laser_off == 0 and cur_laser != 0:
+        if k == RAPID and not fmt.rapid_laser_off and cur_laser != LASER_OFF:
             ls = used
             used = _put(out, used, 77)
-            used = _put(out, used, 53)        # M5
+            used = _put(out, used, _M_DIGIT[LASER_OFF])
             used = _end_line(out, used, ls, numbered, checksums, number)
             number += 1
-            cur_laser = 0
+            cur_laser = LASER_OFF
             beam_parked = True
-        elif k != RAPID or rapid_laser_off == 1:
-            if want_laser != cur_laser or (beam_parked and want_laser != 0):
+        elif k != RAPID or fmt.rapid_laser_off:
+            if want_laser != cur_laser or (beam_parked and want_laser != LASER_OFF):
                 ls = used
                 used = _put(out, used, 77)
-                if want_laser == 0:
-                    used = _put(out, used, 53)
-                else:
-                    used = _put(out, used, 48 + want_laser)
+                used = _put(out, used, _M_DIGIT[want_laser])
+                if want_laser != LASER_OFF:
                     used = _put_word(out, used, 83, power_i[i], value_decimals)
                     cur_power = power_i[i]
                 used = _end_line(out, used, ls, numbered, checksums, number)
                 number += 1
                 cur_laser = want_laser
                 beam_parked = False
-            elif feed_row and inline_power == 0 and want_laser != 0 and power_i[i] != cur_power:
+            elif (feed_row and not fmt.inline_power and want_laser != LASER_OFF
+                  and power_i[i] != cur_power):
                 ls = used
                 used = _put(out, used, 77)
-                used = _put(out, used, 48 + want_laser)
+                used = _put(out, used, _M_DIGIT[want_laser])
                 used = _put_word(out, used, 83, power_i[i], value_decimals)
                 cur_power = power_i[i]
                 used = _end_line(out, used, ls, numbered, checksums, number)
@@ -205,7 +233,7 @@ def write_moves(kind, end_i, centre, plane, feed_i, power_i, laser, dwell_i, r_m
         if k == DWELL:
             ls = used
             used = _put(out, used, 71)
-            used = _put(out, used, 52)
+            used = _put(out, used, _G_DIGIT[DWELL])
             used = _put_word(out, used, 80, dwell_i[i], value_decimals)
             used = _end_line(out, used, ls, numbered, checksums, number)
             number += 1
@@ -216,14 +244,14 @@ def write_moves(kind, end_i, centre, plane, feed_i, power_i, laser, dwell_i, r_m
             ls = used
             used = _put(out, used, 71)
             used = _put(out, used, 49)
-            used = _put(out, used, 48 + (pl - 10))
+            used = _put(out, used, 48 + (pl - 10))      # the 7, 8 or 9 of G17/G18/G19
             used = _end_line(out, used, ls, numbered, checksums, number)
             number += 1
             cur_plane = pl
         ls = used
         if k != cur_motion:
             used = _put(out, used, 71)
-            used = _put(out, used, 48 + k)
+            used = _put(out, used, _G_DIGIT[k])
             cur_motion = k
         wrote_axis = False
         a0 = _PLANE_AXES[pl - 17, 0]
@@ -252,7 +280,7 @@ def write_moves(kind, end_i, centre, plane, feed_i, power_i, laser, dwell_i, r_m
         if feed_row and feed_i[i] != cur_feed:
             used = _put_word(out, used, 70, feed_i[i], value_decimals)
             cur_feed = feed_i[i]
-        if feed_row and inline_power != 0 and power_i[i] != cur_power:
+        if feed_row and fmt.inline_power and power_i[i] != cur_power:
             used = _put_word(out, used, 83, power_i[i], value_decimals)
             cur_power = power_i[i]
         used = _end_line(out, used, ls, numbered, checksums, number)

@@ -28,12 +28,13 @@ wraps it. Run with ``NUMBA_DISABLE_JIT=1`` to step through it as Python.
 from __future__ import annotations
 
 import math
-
-import numpy as np
+from collections import namedtuple
 
 from labkit._jit import jit
+import numpy as np
+
 from labkit.errors import status_code
-from labkit.toolpath.moves import MoveKind, Moves
+from labkit.toolpath.moves import BLANK_ROW, MOVE_ROW, LaserMode, MoveKind, Moves
 
 
 def _code(name: str) -> int:
@@ -44,8 +45,12 @@ def _code(name: str) -> int:
 RAPID, LINE, ARC_CW, ARC_CCW, DWELL = (int(MoveKind.RAPID), int(MoveKind.LINE), int(MoveKind.ARC_CW),
                                        int(MoveKind.ARC_CCW), int(MoveKind.DWELL))
 
-#: The Moves columns, in the one order of :mod:`labkit.toolpath.moves`; :func:`interpret`
-#: returns them first, in this order (a test checks the two agree).
+# Laser modes (labkit.toolpath.LaserMode, whose values are the M numbers M5→0, M3, M4).
+LASER_OFF, LASER_CONSTANT, LASER_DYNAMIC = (int(LaserMode.OFF), int(LaserMode.CONSTANT),
+                                            int(LaserMode.DYNAMIC))
+
+#: The Moves columns, in the one order of :mod:`labkit.toolpath.moves`; the kernel writes
+#: rows of :data:`labkit.toolpath.moves.MOVE_ROW`, the record type derived from them.
 MOVES_COLUMNS = Moves.column_names()
 
 # Record kinds.
@@ -55,6 +60,7 @@ REC_SYSTEM, REC_PAUSE, REC_OPTIONAL_PAUSE, REC_END, REC_LOOKAHEAD, REC_COOLANT, 
     REC_PROBE, REC_PRINTER = range(1, len(RECORD_NAMES))
 
 # Status codes: numbers from the one table, labkit/status_codes.csv (names are its rows).
+OK = _code("ok")
 E_EXPECTED_LETTER = _code("expected_letter")
 E_BAD_NUMBER = _code("bad_number")
 E_NEGATIVE = _code("negative_value")
@@ -128,13 +134,6 @@ _POW10 = np.array([10.0 ** k for k in range(23)])
 
 # Plane → (first axis, second axis, linear axis), as in labkit.toolpath.PLANE_AXES.
 _PLANE_AXES = np.array([[0, 1, 2], [2, 0, 1], [1, 2, 0]], dtype=np.int64)
-
-
-@jit
-def _grow_f2(a, cap):
-    b = np.empty((cap, a.shape[1]), a.dtype)
-    b[: a.shape[0]] = a
-    return b
 
 
 @jit
@@ -221,54 +220,73 @@ def _in_range(v):
 
 
 @jit
-def _put_row(kind, start, endp, centre, plane_col, feed_col, power_col, laser_col, dwell_col,
-             line_col, offset_col, i, k, p0, p1, c, plane, feed, power, laser, dwell, line, offs):
-    """Write move row ``i``; returns ``i + 1``."""
-    kind[i] = k
+def _put_row(rows, i, k, p0, p1, c, plane, feed, power, laser, dwell, line, offs):
+    """Write move row ``i`` (columns not named here keep their fill); returns ``i + 1``."""
+    rows[i] = BLANK_ROW[0]
+    r = rows[i]
+    r.kind = k
     for a in range(3):
-        start[i, a] = p0[a]
-        endp[i, a] = p1[a]
-        centre[i, a] = c[a]
-        offset_col[i, a] = offs[a]
-    plane_col[i] = plane
-    feed_col[i] = feed if feed > 0 else np.nan
-    power_col[i] = power
-    laser_col[i] = laser
-    dwell_col[i] = dwell
-    line_col[i] = line
+        r.start[a] = p0[a]
+        r.end[a] = p1[a]
+        r.centre[a] = c[a]
+        r.work_offset[a] = offs[a]
+    r.plane = plane
+    r.feed_mm_min = feed if feed > 0 else np.nan
+    r.power_s = power
+    r.laser = laser
+    r.dwell_s = dwell
+    r.line = line
     return i + 1
 
 
 @jit
-def _put_record(r_line, r_kind, r_span, r_value, r_index, j, line, k, s0, s1, value, row):
+def _put_record(recs, j, line, k, s0, s1, value, row):
     """Write record ``j``; returns ``j + 1``."""
-    r_line[j] = line
-    r_kind[j] = k
-    r_span[j, 0] = s0
-    r_span[j, 1] = s1
-    r_value[j] = value
-    r_index[j] = row
+    r = recs[j]
+    r.line = line
+    r.kind = k
+    r.span[0] = s0
+    r.span[1] = s1
+    r.value = value
+    r.index = row
     return j + 1
 
 
-#: The outputs of :func:`interpret`, in order (reader.py reads them by these names).
-OUTPUTS = MOVES_COLUMNS + (
-           "e_line", "e_pos", "e_end", "e_code", "e_detail", "e_aux", "e_total",
-           "r_line", "r_kind", "r_span", "r_value", "r_index",
-           "t_state", "t_pos")
+#: One rejected line: 1-based line, byte span of the culprit [pos, end), status code
+#: number, detail (``D_*``, selects the message) and two numbers for the message.
+ERROR_ROW = np.dtype([("line", np.int64), ("pos", np.int64), ("end", np.int64),
+                      ("code", np.int64), ("detail", np.int64), ("aux", np.float64, (2,))])
+
+#: One kept non-motion line: 1-based line, kind (index into :data:`RECORD_NAMES`), byte
+#: span of its text, numeric value (NaN when none) and the number of moves before it.
+RECORD_ROW = np.dtype([("line", np.int64), ("kind", np.int64), ("span", np.int64, (2,)),
+                       ("value", np.float64), ("index", np.int64)])
+
+#: The modal state after one line (for teaching, :func:`labkit.gcode.reader.modal_trace`):
+#: G numbers of the motion, plane, units, distance and arc-distance groups, the feed
+#: (mm/min, NaN while undefined), S, the laser mode and the position (mm, machine).
+TRACE_ROW = np.dtype([("motion", np.float64), ("plane", np.float64), ("units", np.float64),
+                      ("distance", np.float64), ("arc_distance", np.float64),
+                      ("feed_mm_min", np.float64), ("power_s", np.float64),
+                      ("laser", np.float64), ("position", np.float64, (3,))])
+
+#: What :func:`interpret` returns: ``moves`` (array of ``MOVE_ROW``), ``errors`` (of
+#: :data:`ERROR_ROW`, at most ``max_errors``), ``error_total`` (all rejected lines),
+#: ``records`` (of :data:`RECORD_ROW`) and ``trace`` (of :data:`TRACE_ROW`, one per line
+#: when asked, else empty).
+Interpretation = namedtuple("Interpretation", ["moves", "errors", "error_total", "records",
+                                               "trace"])
 
 
 @jit(python_below=150_000)  # bytes of text: ~3 µs each as Python vs ~0.6 s to load compiled
-def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, coolant_codes,
-              record_m_codes, feed_scale, dwell_scale, arc_r_tol, arc_tol_abs, arc_tol_rel,
-              full_circle_ok, require_axis_words, home_is_origin, max_tool, line_limit,
-              lenient, max_errors, trace):
-    """Interpret G-code bytes (parameters: :class:`labkit.gcode.reader.ParseOptions`, then
-    ``lenient``, ``max_errors``, ``trace``); returns the arrays named in :data:`OUTPUTS`.
+def interpret(buf, options, lenient, max_errors, trace):
+    """Interpret G-code bytes; returns an :class:`Interpretation`.
 
-    ``line_limit`` > 0 rejects a line with more significant characters (not spaces,
-    comments or ``/``) than a controller's line buffer holds (GRBL error 11).
-    At most ``max_errors`` diagnostics are kept; ``e_total`` counts them all.
+    ``options`` is a :class:`labkit.gcode.reader.ParseOptions` (the dialect's settings, read
+    by name). ``options.line_limit`` > 0 rejects a line with more significant characters
+    (not spaces, comments or ``/``) than a controller's line buffer holds (GRBL error 11).
+    ``lenient`` goes on after a rejected line; at most ``max_errors`` diagnostics are kept
+    (``error_total`` counts them all); ``trace`` records the modal state after every line.
     """
     n = buf.shape[0]
     nlines_est = 1
@@ -277,44 +295,16 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
             nlines_est += 1
     cap = min(nlines_est + 8, 4096)      # grows by doubling: no big reservation up front
 
-    # Output rows.
-    kind = np.empty(cap, np.int8)
-    start = np.empty((cap, 3), np.float64)
-    endp = np.empty((cap, 3), np.float64)
-    centre = np.empty((cap, 3), np.float64)
-    plane_col = np.empty(cap, np.int8)
-    feed_col = np.empty(cap, np.float64)
-    power_col = np.empty(cap, np.float32)
-    laser_col = np.empty(cap, np.int8)
-    dwell_col = np.empty(cap, np.float64)
-    line_col = np.empty(cap, np.int32)
-    offset_col = np.empty((cap, 3), np.float64)
+    rows = np.empty(cap, MOVE_ROW)
     nrows = 0
-
-    # Diagnostics: line, byte offset of the culprit, its end, code, detail, two numbers.
     ecap = 16
-    e_line = np.empty(ecap, np.int64)
-    e_pos = np.empty(ecap, np.int64)
-    e_end = np.empty(ecap, np.int64)
-    e_code = np.empty(ecap, np.int64)
-    e_detail = np.empty(ecap, np.int64)
-    e_aux = np.empty((ecap, 2), np.float64)
+    errs = np.empty(ecap, ERROR_ROW)
     nerr = 0
     nerr_total = 0
-
-    # Records: line, kind, text span, value, row index.
     rcap = 16
-    r_line = np.empty(rcap, np.int64)
-    r_kind = np.empty(rcap, np.int64)
-    r_span = np.empty((rcap, 2), np.int64)
-    r_value = np.empty(rcap, np.float64)
-    r_index = np.empty(rcap, np.int64)
+    recs = np.empty(rcap, RECORD_ROW)
     nrec = 0
-
-    # Per-line modal state trace (only when asked).
-    tcap = nlines_est if trace else 0
-    t_state = np.zeros((tcap, 8), np.float64)   # motion, plane, units, distance, arc dist, feed, S, laser
-    t_pos = np.zeros((tcap, 3), np.float64)
+    states = np.zeros(nlines_est if trace else 0, TRACE_ROW)
 
     # Modal state (GRBL's power-on defaults).
     pos = np.zeros(3)
@@ -325,7 +315,7 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
     arc_absolute = False  # G91.1
     feed = 0.0            # mm/min; 0 = undefined
     power = 0.0
-    laser = 0
+    laser = LASER_OFF
     inverse = False       # G94 (G93 inverse time when True)
     coord = 0             # G54
     wcs = np.zeros((6, 3))    # G54…G59 origins, machine mm (GRBL keeps them in EEPROM; here 0)
@@ -363,7 +353,7 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
             le += 1
         lineno += 1
 
-        err = 0
+        err = OK
         detail = D_NONE
         epos = ls
         eend = le
@@ -373,7 +363,7 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
         is_jog = False
 
         # ---- phase 0: the controller's line buffer (GRBL drops spaces and comments first)
-        if line_limit > 0:
+        if options.line_limit > 0:
             count = 0
             in_paren = False
             k = ls
@@ -387,8 +377,8 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
                 elif c == 59:
                     break
                 elif c > 32 and c != 47:
-                    if count >= line_limit - 1:
-                        err, epos, eend, aux0 = E_OVERFLOW, k, k + 1, float(line_limit - 1)
+                    if count >= options.line_limit - 1:
+                        err, epos, eend, aux0 = E_OVERFLOW, k, k + 1, float(options.line_limit - 1)
                         break
                     count += 1
                 k += 1
@@ -401,7 +391,7 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
         checksum_seen = False
         first = True
         i = ls
-        while i < le and err == 0:
+        while i < le and err == OK:
             c = buf[i]
             if _is_space(c):
                 i += 1
@@ -495,7 +485,7 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
                 m_end[nm] = i
                 nm += 1
             else:
-                if not letters_ok[letter]:
+                if not options.letters_ok[letter]:
                     err, detail, epos, eend = E_UNSUPPORTED, D_UNKNOWN_LETTER, wp, i
                     break
                 if present[letter]:
@@ -530,7 +520,7 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
         tlo_cmd = 0           # 431 (G43.1) or 490 (G49)
         coord_new = coord
         inverse_new = inverse
-        if err == 0 and not is_system:
+        if err == OK and not is_system:
             for k in range(ng):
                 v = g_val[k]
                 t10 = int(round(v * 10.0))
@@ -542,9 +532,9 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
                 if v < 0 or abs(v * 10.0 - t10) > 1e-6:
                     err, detail, epos, eend = E_UNSUPPORTED, D_UNKNOWN_G, g_pos[k], g_end[k]
                     break
-                if not (is_jog or _contains(g_codes_ok, t10)):
+                if not (is_jog or _contains(options.g_codes_ok, t10)):
                     base = t10 - t10 % 10
-                    if t10 % 10 != 0 and _contains(g_codes_ok, base) and not (
+                    if t10 % 10 != 0 and _contains(options.g_codes_ok, base) and not (
                             base == 900 or base == 910 or base == 280 or base == 300
                             or base == 920 or base == 610):
                         err, epos, eend = E_NON_INTEGER, g_pos[k], g_end[k]
@@ -607,9 +597,9 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
                     err, epos, eend = E_MODAL_GROUP, g_pos[k], g_end[k]
                     break
                 groups |= 1 << grp
-        if err == 0 and is_jog and nm > 0:
+        if err == OK and is_jog and nm > 0:
             err, detail, epos, eend = E_INVALID_JOG, D_JOG_COMMAND, m_pos[0], m_end[0]
-        if err == 0 and not is_system:
+        if err == OK and not is_system:
             for k in range(nm):
                 v = m_val[k]
                 code = int(round(v))
@@ -620,16 +610,16 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
                 if code == 0 or code == 1 or code == 2 or code == 30:
                     grp = M_STOP
                     stop = code
-                elif _contains(laser_on_codes, code):
+                elif _contains(options.laser_on_codes, code):
                     grp = M_LASER
-                    laser_new = 4 if code == 4 else 3
-                elif _contains(laser_off_codes, code):
+                    laser_new = LASER_DYNAMIC if code == 4 else LASER_CONSTANT
+                elif _contains(options.laser_off_codes, code):
                     grp = M_LASER
-                    laser_new = 0
-                elif _contains(coolant_codes, code):
+                    laser_new = LASER_OFF
+                elif _contains(options.coolant_codes, code):
                     grp = M_COOLANT
                     coolant = code
-                elif _contains(record_m_codes, code):
+                elif _contains(options.record_m_codes, code):
                     grp = M_RECORD
                     m_record = code
                 else:
@@ -654,23 +644,23 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
         jog_feed = 0.0
         move_feed = feed
         feed_ok = feed > 0
-        if err == 0 and is_jog:
+        if err == OK and is_jog:
             # GRBL's jog: F and X Y Z only (N allowed); G20/G21, G90/G91 and G53 for this
             # line only; the parser's modal state is left as it was, but for the position.
             for letter in (L_I, L_J, L_K, L_P, L_R, L_S, L_T):
-                if present[letter] and (err == 0 or wpos[letter] < epos):
+                if present[letter] and (err == OK or wpos[letter] < epos):
                     err, detail, epos, eend = E_UNUSED, D_JOG_WORD, wpos[letter], wend[letter]
-            if err == 0 and present[L_N]:
+            if err == OK and present[L_N]:
                 nv = val[L_N]
                 if nv < 0 or nv > MAX_LINE_NUMBER or nv != math.floor(nv):
                     err, epos, eend = E_LINE_NUMBER, wpos[L_N], wend[L_N]
-            if err == 0:
+            if err == OK:
                 if not present[L_F]:
                     err, epos, eend = E_UNDEFINED_FEED, ls, le
                 elif val[L_F] < 0:
                     err, epos, eend = E_NEGATIVE, wpos[L_F], wend[L_F]
                 else:
-                    jog_feed = val[L_F] * scale * feed_scale
+                    jog_feed = val[L_F] * scale * options.feed_scale
                     for a in range(3):
                         if present[L_X + a]:
                             v = val[L_X + a] * scale
@@ -681,41 +671,41 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
                         moving = True
                         move_kind = LINE
                         for a in range(3):
-                            if err == 0 and not _in_range(target[a]):
+                            if err == OK and not _in_range(target[a]):
                                 err, epos, eend = E_OUT_OF_RANGE, wpos[L_X + a], wend[L_X + a]
-        if err == 0 and not is_system and not is_jog:
+        if err == OK and not is_system and not is_jog:
             if present[L_N]:
                 nv = val[L_N]
                 if nv < 0 or nv > MAX_LINE_NUMBER or nv != math.floor(nv):
                     err, epos, eend = E_LINE_NUMBER, wpos[L_N], wend[L_N]
-            if err == 0 and present[L_F]:
+            if err == OK and present[L_F]:
                 if val[L_F] < 0:
                     err, epos, eend = E_NEGATIVE, wpos[L_F], wend[L_F]
                 else:
-                    feed_new = val[L_F] * scale * feed_scale
+                    feed_new = val[L_F] * scale * options.feed_scale
             if inverse_new or (inverse and not present[L_F]):
                 # G93: F is 1/min of each feed move, not modal; back in G94 the feed is
                 # undefined until an F word (GRBL).
                 feed_new = 0.0
             feed_ok = (present[L_F] and val[L_F] > 0) if inverse_new else feed_new > 0
-            if err == 0 and present[L_T]:
+            if err == OK and present[L_T]:
                 if val[L_T] < 0:
                     err, epos, eend = E_NEGATIVE, wpos[L_T], wend[L_T]
-                elif val[L_T] > max_tool:
+                elif val[L_T] > options.max_tool:
                     err, epos, eend = E_MAX_VALUE, wpos[L_T], wend[L_T]
-            if err == 0 and present[L_S]:
+            if err == OK and present[L_S]:
                 if val[L_S] < 0:
                     err, epos, eend = E_NEGATIVE, wpos[L_S], wend[L_S]
                 elif m_record < 0:        # S of M104/M140/… is a temperature, not power
                     power_new = val[L_S]
-            if err == 0 and (dwell or lookahead):
+            if err == OK and (dwell or lookahead):
                 if not present[L_P]:
                     err, epos, eend = E_MISSING_VALUE, gcol_nonmodal, gend_nonmodal
                     detail = D_DWELL_P if dwell else D_LOOKAHEAD_P
                 elif val[L_P] < 0:
                     err, epos, eend = E_NEGATIVE, wpos[L_P], wend[L_P]
                 elif dwell:
-                    dwell_s = val[L_P] * dwell_scale
+                    dwell_s = val[L_P] * options.dwell_scale
                 else:
                     lookahead_p = val[L_P]
             # ---- offsets: G10, G92, G43.1 take the axis words as values, not a target
@@ -726,10 +716,10 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
             set_sys = -1
             homing = nonmodal == 280 or nonmodal == 300
             axis_taken = nonmodal == 100 or nonmodal == 920 or tlo_cmd == 431
-            if err == 0 and (axis_taken or homing or tlo_cmd != 0) and motion_new >= 0 \
+            if err == OK and (axis_taken or homing or tlo_cmd != 0) and motion_new >= 0 \
                     and motion_new != 80:
                 err, epos, eend = E_AXIS_CONFLICT, gcol_motion, gend_motion
-            if err == 0 and nonmodal == 100:                         # G10 L2 / L20
+            if err == OK and nonmodal == 100:                         # G10 L2 / L20
                 if not axis_words:
                     err, epos, eend = E_NO_AXIS_WORDS, gcol_nonmodal, gend_nonmodal
                 elif not (present[L_L] and present[L_P]):
@@ -752,31 +742,31 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
                                 new_sys[a] = v
                         if not _in_range(new_sys[a]):
                             err, epos, eend = E_OUT_OF_RANGE, gcol_nonmodal, gend_nonmodal
-            elif err == 0 and nonmodal == 920:                       # G92
+            elif err == OK and nonmodal == 920:                       # G92
                 if not axis_words and not present[L_E]:
                     err, epos, eend = E_NO_AXIS_WORDS, gcol_nonmodal, gend_nonmodal
                 for a in range(3):
                     if present[L_X + a]:
                         v = val[L_X + a] * scale
                         g92_new[a] = pos[a] - wcs[coord_new, a] - v - (tlo if a == 2 else 0.0)
-                        if err == 0 and not _in_range(g92_new[a]):
+                        if err == OK and not _in_range(g92_new[a]):
                             err, epos, eend = E_OUT_OF_RANGE, wpos[L_X + a], wend[L_X + a]
-            elif err == 0 and nonmodal == 921:                       # G92.1
+            elif err == OK and nonmodal == 921:                       # G92.1
                 for a in range(3):
                     g92_new[a] = 0.0
-            if err == 0 and tlo_cmd == 431:                          # G43.1 Z: dynamic TLO
+            if err == OK and tlo_cmd == 431:                          # G43.1 Z: dynamic TLO
                 if not present[L_Z] or present[L_X] or present[L_Y]:
                     err, epos, eend = E_G43_AXIS, gcol_tlo, gend_tlo
                 else:
                     tlo_new = val[L_Z] * scale
-            elif err == 0 and tlo_cmd == 490:                        # G49
+            elif err == OK and tlo_cmd == 490:                        # G49
                 tlo_new = 0.0
             for a in range(3):
                 offs[a] = wcs[coord_new, a] + g92_new[a]
             offs[2] += tlo_new
-            if err == 0 and machine_coords and not (motion_mode == 0 or motion_mode == 1):
+            if err == OK and machine_coords and not (motion_mode == 0 or motion_mode == 1):
                 err, epos, eend = E_G53_MOTION, gcol_nonmodal, gend_nonmodal
-            if err == 0 and not axis_taken and (motion_new >= 0 or axis_words or homing):
+            if err == OK and not axis_taken and (motion_new >= 0 or axis_words or homing):
                 for a in range(3):
                     if present[L_X + a]:
                         v = val[L_X + a] * scale
@@ -793,13 +783,13 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
                     # position on the named axes (all axes when none is named). Marlin's G28
                     # homes: the named axes (or all) end at machine 0.
                     nhome = 0
-                    if axis_words and not home_is_origin:
+                    if axis_words and not options.home_is_origin:
                         for a in range(3):
                             inter[a] = target[a]
                         nhome = 1
                     for a in range(3):
                         named = present[L_X + a] or not axis_words
-                        if home_is_origin:
+                        if options.home_is_origin:
                             final[a] = 0.0 if named else pos[a]
                         elif not named:
                             final[a] = pos[a]
@@ -807,9 +797,9 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
                             final[a] = home28[a] if nonmodal == 280 else home30[a]
                     nhome += 1
                     for a in range(3):
-                        if err == 0 and not (_in_range(inter[a]) and _in_range(final[a])):
+                        if err == OK and not (_in_range(inter[a]) and _in_range(final[a])):
                             err, epos, eend = E_OUT_OF_RANGE, gcol_nonmodal, gend_nonmodal
-                    if err != 0:
+                    if err != OK:
                         nhome = 0
                 elif motion_mode == 80:
                     if axis_words:
@@ -830,7 +820,7 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
                         move_kind = LINE
                 elif motion_mode == 0 or motion_mode == 1:
                     if not axis_words:
-                        if require_axis_words and motion_new >= 0:
+                        if options.require_axis_words and motion_new >= 0:
                             err, epos, eend = E_NO_AXIS_WORDS, gcol_motion, gend_motion
                     elif motion_mode == 1 and not feed_ok:
                         err, epos, eend = E_UNDEFINED_FEED, gcol_motion, gend_motion
@@ -856,12 +846,12 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
                         else:
                             h2 = r * r - 0.25 * q * q
                             if h2 < 0.0:
-                                if 0.5 * q - abs(r) <= arc_r_tol:
+                                if 0.5 * q - abs(r) <= options.arc_r_tol:
                                     h2 = 0.0
                                 else:
                                     err, detail, epos, eend = E_INVALID_ARC, D_R_TOO_SMALL, wpos[L_R], wend[L_R]
                                     aux0, aux1 = abs(r), 0.5 * q
-                            if err == 0:
+                            if err == OK:
                                 h = math.sqrt(h2)
                                 # Centre left of the chord for a short CCW arc; R < 0 or CW flips it.
                                 left = (motion_mode == 3) != (r < 0)
@@ -877,7 +867,7 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
                             err, epos, eend = E_NO_OFFSET, gcol_motion, gend_motion
                         elif arc_absolute_new and not (present[io0] and present[io1]):
                             err, detail, epos, eend = E_NO_OFFSET, D_ABS_CENTRE, gcol_motion, gend_motion
-                        elif not in_plane and not full_circle_ok:
+                        elif not in_plane and not options.full_circle_ok:
                             err, epos, eend = E_NO_PLANE_AXIS, gcol_motion, gend_motion
                         else:
                             o0 = val[io0] * scale if present[io0] else 0.0
@@ -894,7 +884,7 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
                             dr = abs(r1 - r0)
                             if r0 <= 1e-9:
                                 err, detail, epos, eend = E_INVALID_ARC, D_ZERO_RADIUS, gcol_motion, gend_motion
-                            elif dr > arc_tol_abs and dr > arc_tol_rel * r0:
+                            elif dr > options.arc_tol_abs and dr > options.arc_tol_rel * r0:
                                 err, detail, epos, eend = E_INVALID_ARC, D_RADIUS_MISMATCH, gcol_motion, gend_motion
                                 aux0, aux1 = r0, r1
                             else:
@@ -903,7 +893,7 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
                         move_kind = ARC_CW if motion_mode == 2 else ARC_CCW
             # The feed of this move: modal, or (G93) the move's length × F.
             move_feed = feed_new
-            if err == 0 and moving and inverse_new and move_kind != RAPID:
+            if err == OK and moving and inverse_new and move_kind != RAPID:
                 length = 0.0
                 if move_kind >= ARC_CW:
                     a0 = _PLANE_AXES[plane_new, 0]
@@ -922,15 +912,15 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
                     length = math.sqrt(length)
                 move_feed = val[L_F] * length
             # Positions beyond MAX_ABS_VALUE (e.g. accumulated by G91) or not finite.
-            if err == 0 and moving:
+            if err == OK and moving:
                 for a in range(3):
-                    if err == 0 and not (_in_range(target[a])
+                    if err == OK and not (_in_range(target[a])
                                          and (move_kind < ARC_CW or _in_range(ctr[a]))):
                         err, epos, eend = E_OUT_OF_RANGE, gcol_motion, gend_motion
                         if present[L_X + a]:
                             epos, eend = wpos[L_X + a], wend[L_X + a]
             # Value words no command used.
-            if err == 0:
+            if err == OK:
                 arc_r = moving and move_kind >= ARC_CW and present[L_R]
                 arc_ijk = moving and move_kind >= ARC_CW and not present[L_R]
                 for letter in (L_I, L_J, L_K, L_R, L_P, L_L):
@@ -945,29 +935,25 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
                         used = nonmodal == 100
                     else:
                         used = arc_ijk
-                    if not used and (err == 0 or wpos[letter] < epos):
+                    if not used and (err == OK or wpos[letter] < epos):
                         err, epos, eend = E_UNUSED, wpos[letter], wend[letter]
 
-        if err != 0:
+        if err != OK:
             nerr_total += 1
-        if err != 0 and nerr < max_errors:
+        if err != OK and nerr < max_errors:
             if nerr == ecap:
                 ecap *= 2
-                e_line = _grow(e_line, ecap)
-                e_pos = _grow(e_pos, ecap)
-                e_end = _grow(e_end, ecap)
-                e_code = _grow(e_code, ecap)
-                e_detail = _grow(e_detail, ecap)
-                e_aux = _grow_f2(e_aux, ecap)
-            e_line[nerr] = lineno
-            e_pos[nerr] = epos
-            e_end[nerr] = eend
-            e_code[nerr] = err
-            e_detail[nerr] = detail
-            e_aux[nerr, 0] = aux0
-            e_aux[nerr, 1] = aux1
+                errs = _grow(errs, ecap)
+            e = errs[nerr]
+            e.line = lineno
+            e.pos = epos
+            e.end = eend
+            e.code = err
+            e.detail = detail
+            e.aux[0] = aux0
+            e.aux[1] = aux1
             nerr += 1
-        if err != 0:
+        if err != OK:
             if not lenient:
                 break
         else:
@@ -975,27 +961,13 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
             nnew = (1 if dwell else 0) + (1 if moving else 0) + nhome
             if nrows + nnew > cap:
                 cap = 2 * cap + nnew
-                kind = _grow(kind, cap)
-                start = _grow_f2(start, cap)
-                endp = _grow_f2(endp, cap)
-                centre = _grow_f2(centre, cap)
-                plane_col = _grow(plane_col, cap)
-                feed_col = _grow(feed_col, cap)
-                power_col = _grow(power_col, cap)
-                laser_col = _grow(laser_col, cap)
-                dwell_col = _grow(dwell_col, cap)
-                line_col = _grow(line_col, cap)
-                offset_col = _grow_f2(offset_col, cap)
+                rows = _grow(rows, cap)
             nrec_new = (1 if is_system else 0) + (1 if is_jog else 0) + (1 if lookahead else 0) \
                 + (1 if coolant >= 0 else 0) + (1 if stop >= 0 else 0) + (1 if probing else 0) \
                 + (1 if m_record >= 0 else 0)
             if nrec + nrec_new > rcap:
                 rcap = 2 * rcap + nrec_new
-                r_line = _grow(r_line, rcap)
-                r_kind = _grow(r_kind, rcap)
-                r_span = _grow_f2(r_span, rcap)
-                r_value = _grow(r_value, rcap)
-                r_index = _grow(r_index, rcap)
+                recs = _grow(recs, rcap)
             if is_system:
                 s0 = ls
                 while _is_space(buf[s0]):
@@ -1003,17 +975,13 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
                 s1 = le
                 while s1 > s0 and _is_space(buf[s1 - 1]):
                     s1 -= 1
-                nrec = _put_record(r_line, r_kind, r_span, r_value, r_index, nrec, lineno,
-                                   REC_SYSTEM, s0, s1, np.nan, nrows)
+                nrec = _put_record(recs, nrec, lineno, REC_SYSTEM, s0, s1, np.nan, nrows)
             elif is_jog:
-                nrec = _put_record(r_line, r_kind, r_span, r_value, r_index, nrec, lineno,
-                                   REC_JOG, ls, le, jog_feed, nrows)
+                nrec = _put_record(recs, nrec, lineno, REC_JOG, ls, le, jog_feed, nrows)
                 if moving:
                     # A jog runs as a G1 with the spindle/laser state in effect (GRBL's jog).
-                    nrows = _put_row(kind, start, endp, centre, plane_col, feed_col, power_col,
-                                     laser_col, dwell_col, line_col, offset_col, nrows, LINE, pos,
-                                     target, nan3, 17 + plane, jog_feed, power, laser, 0.0,
-                                     lineno, offs)
+                    nrows = _put_row(rows, nrows, LINE, pos, target, nan3, 17 + plane, jog_feed,
+                                     power, laser, 0.0, lineno, offs)
                     for a in range(3):
                         pos[a] = target[a]
             else:
@@ -1032,20 +1000,17 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
                     elif nonmodal == 301:
                         home30[a] = pos[a]
                 if coolant >= 0:
-                    nrec = _put_record(r_line, r_kind, r_span, r_value, r_index, nrec, lineno,
-                                       REC_COOLANT, ls, le, float(coolant), nrows)
+                    nrec = _put_record(recs, nrec, lineno, REC_COOLANT, ls, le, float(coolant),
+                                       nrows)
                 if m_record >= 0:
-                    nrec = _put_record(r_line, r_kind, r_span, r_value, r_index, nrec, lineno,
-                                       REC_PRINTER, ls, le,
+                    nrec = _put_record(recs, nrec, lineno, REC_PRINTER, ls, le,
                                        val[L_S] if present[L_S] else np.nan, nrows)
                 if dwell:
-                    nrows = _put_row(kind, start, endp, centre, plane_col, feed_col, power_col,
-                                     laser_col, dwell_col, line_col, offset_col, nrows, DWELL, pos,
-                                     pos, nan3, 17 + plane, feed, power, laser, dwell_s, lineno,
-                                     offs)
+                    nrows = _put_row(rows, nrows, DWELL, pos, pos, nan3, 17 + plane, feed, power,
+                                     laser, dwell_s, lineno, offs)
                 if lookahead:
-                    nrec = _put_record(r_line, r_kind, r_span, r_value, r_index, nrec, lineno,
-                                       REC_LOOKAHEAD, ls, le, lookahead_p, nrows)
+                    nrec = _put_record(recs, nrec, lineno, REC_LOOKAHEAD, ls, le, lookahead_p,
+                                       nrows)
                 plane = plane_new
                 inches = inches_new
                 absolute = absolute_new
@@ -1053,61 +1018,51 @@ def interpret(buf, letters_ok, g_codes_ok, laser_on_codes, laser_off_codes, cool
                 if motion_new >= 0:
                     motion = motion_new
                 if nhome == 2:
-                    nrows = _put_row(kind, start, endp, centre, plane_col, feed_col, power_col,
-                                     laser_col, dwell_col, line_col, offset_col, nrows, RAPID, pos,
-                                     inter, nan3, 17 + plane, feed, power, laser, 0.0, lineno,
-                                     offs)
+                    nrows = _put_row(rows, nrows, RAPID, pos, inter, nan3, 17 + plane, feed, power,
+                                     laser, 0.0, lineno, offs)
                     for a in range(3):
                         pos[a] = inter[a]
                 if nhome >= 1:
-                    nrows = _put_row(kind, start, endp, centre, plane_col, feed_col, power_col,
-                                     laser_col, dwell_col, line_col, offset_col, nrows, RAPID, pos,
-                                     final, nan3, 17 + plane, feed, power, laser, 0.0, lineno,
-                                     offs)
+                    nrows = _put_row(rows, nrows, RAPID, pos, final, nan3, 17 + plane, feed, power,
+                                     laser, 0.0, lineno, offs)
                     for a in range(3):
                         pos[a] = final[a]
                 if moving:
                     if probing:
-                        nrec = _put_record(r_line, r_kind, r_span, r_value, r_index, nrec,
-                                           lineno, REC_PROBE, ls, le, motion_mode / 10.0, nrows)
-                    nrows = _put_row(kind, start, endp, centre, plane_col, feed_col, power_col,
-                                     laser_col, dwell_col, line_col, offset_col, nrows, move_kind,
+                        nrec = _put_record(recs, nrec, lineno, REC_PROBE, ls, le,
+                                           motion_mode / 10.0, nrows)
+                    nrows = _put_row(rows, nrows, move_kind,
                                      pos, target, ctr if move_kind >= ARC_CW else nan3,
                                      17 + plane, move_feed, power,
-                                     0 if probing else laser,   # GRBL: beam off unless G1/G2/G3
+                                     LASER_OFF if probing else laser,   # GRBL: beam off unless G1/G2/G3
                                      0.0, lineno, offs)
                     for a in range(3):
                         pos[a] = target[a]
                 if stop >= 0:
-                    nrec = _put_record(r_line, r_kind, r_span, r_value, r_index, nrec, lineno,
-                                       REC_PAUSE if stop == 0 else (
-                                           REC_OPTIONAL_PAUSE if stop == 1 else REC_END),
-                                       ls, le, float(stop), nrows)
+                    stop_kind = REC_PAUSE if stop == 0 else (
+                        REC_OPTIONAL_PAUSE if stop == 1 else REC_END)
+                    nrec = _put_record(recs, nrec, lineno, stop_kind, ls, le, float(stop), nrows)
                     if stop == 2 or stop == 30:
                         # GRBL's program-end reset: G1 G17 G90 G94 G54 M5 M9 (G92 stays).
                         motion = 1
                         plane = 0
                         absolute = True
-                        laser = 0
+                        laser = LASER_OFF
                         inverse = False
                         coord = 0
         if trace:
-            t_state[lineno - 1, 0] = motion
-            t_state[lineno - 1, 1] = 17 + plane
-            t_state[lineno - 1, 2] = 20 if inches else 21
-            t_state[lineno - 1, 3] = 90 if absolute else 91
-            t_state[lineno - 1, 4] = 90.1 if arc_absolute else 91.1
-            t_state[lineno - 1, 5] = feed if feed > 0 else np.nan
-            t_state[lineno - 1, 6] = power
-            t_state[lineno - 1, 7] = laser
+            t = states[lineno - 1]
+            t.motion = motion
+            t.plane = 17 + plane
+            t.units = 20 if inches else 21
+            t.distance = 90 if absolute else 91
+            t.arc_distance = 90.1 if arc_absolute else 91.1
+            t.feed_mm_min = feed if feed > 0 else np.nan
+            t.power_s = power
+            t.laser = laser
             for a in range(3):
-                t_pos[lineno - 1, a] = pos[a]
+                t.position[a] = pos[a]
         ls = le + 1
 
-    return (kind[:nrows], start[:nrows], endp[:nrows], centre[:nrows], plane_col[:nrows],
-            feed_col[:nrows], power_col[:nrows], laser_col[:nrows], dwell_col[:nrows],
-            line_col[:nrows], offset_col[:nrows],
-            e_line[:nerr], e_pos[:nerr], e_end[:nerr], e_code[:nerr], e_detail[:nerr], e_aux[:nerr],
-            nerr_total,
-            r_line[:nrec], r_kind[:nrec], r_span[:nrec], r_value[:nrec], r_index[:nrec],
-            t_state[:lineno], t_pos[:lineno])
+    return Interpretation(rows[:nrows], errs[:nerr], nerr_total, recs[:nrec],
+                          states[:lineno] if trace else states)

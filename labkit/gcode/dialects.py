@@ -11,7 +11,7 @@ them). Three are defined:
     (GRBL error 33), so is an I J K arc whose radius at start and end differs
     by more than 0.005 mm and by more than 0.1 %.
 ``labkit-fw``
-    The labkit firmware (``firmware/``), which follows seeds 000 and 004: F in
+    The labkit firmware (``firmware/``), which follows [LaserApp] and [CBR40]: F in
     mm/s, ``G4 P`` in milliseconds, S 0–255 (8-bit PWM duty; power in mW is
     S/255 × the laser's maximum), ``G5 P<n>`` sets the look-ahead depth in
     blocks, M3/M4/M5 laser words, and an answer ``ok`` or ``er`` per line.
@@ -170,7 +170,7 @@ DIALECTS: dict[str, Dialect] = {
         g_codes=Dialect.g_codes + (5,),
         arc_r_tol_mm=0.0005,
         require_axis_words=True,
-        description="labkit firmware (seeds 000/004): F mm/s, G4 P ms, S 0-255, G5 P look-ahead",
+        description="labkit firmware ([LaserApp]/[CBR40]): F mm/s, G4 P ms, S 0-255, G5 P look-ahead",
     ),
     "marlin": Dialect(
         name="marlin",

@@ -56,23 +56,26 @@ from __future__ import annotations
 
 import os
 import re
-from dataclasses import dataclass, fields
+from typing import NamedTuple
 
 import numpy as np
 
 from labkit.errors import GcodeError
 from labkit.gcode import _kernel as K
 from labkit.gcode.dialects import Dialect, get_dialect
-from labkit.toolpath.moves import MoveKind, Moves, Record
+from labkit.toolpath.moves import LaserMode, MoveKind, Moves, Record
 
 __all__ = ["parse", "parse_file", "check", "modal_trace", "ParseOptions"]
 
 _COMMON_LETTERS = "FGIJKMNPRSXYZ"
 
 
-@dataclass(frozen=True)
-class ParseOptions:
-    """Settings of the interpreter derived from a dialect (see :class:`~labkit.gcode.dialects.Dialect`)."""
+class ParseOptions(NamedTuple):
+    """Settings of the interpreter derived from a dialect (see :class:`~labkit.gcode.dialects.Dialect`).
+
+    A named tuple: the compiled :func:`labkit.gcode._kernel.interpret` takes it whole and
+    reads the fields by name, so a new setting is one field here and its use there.
+    """
 
     letters_ok: np.ndarray
     g_codes_ok: np.ndarray
@@ -90,10 +93,6 @@ class ParseOptions:
     home_is_origin: bool
     max_tool: int
     line_limit: int = 0
-
-    def kernel_args(self) -> tuple:
-        """The settings in the order :func:`labkit.gcode._kernel.interpret` takes them."""
-        return tuple(getattr(self, f.name) for f in fields(self))
 
     @classmethod
     def from_dialect(cls, dialect: Dialect, *, streaming: bool = False) -> "ParseOptions":
@@ -138,15 +137,15 @@ def _as_bytes(text) -> bytes:
 _LONE_CR = re.compile(rb"\r(?!\n)")
 
 
-def _run(data: bytes, dialect: Dialect, lenient: bool, trace: bool, streaming: bool = False):
-    """The kernel's outputs by name (:data:`labkit.gcode._kernel.OUTPUTS`)."""
+def _run(data: bytes, dialect: Dialect, lenient: bool, trace: bool,
+         streaming: bool = False) -> K.Interpretation:
+    """Run the compiled interpreter on ``data`` with the dialect's settings."""
     from labkit.budget import budget
 
     o = ParseOptions.from_dialect(dialect, streaming=streaming)
     buf = np.frombuffer(data, dtype=np.uint8)
     max_errors = int(budget("diagnostics")) if lenient else 1
-    out = K.interpret(buf, *o.kernel_args(), lenient, max_errors, trace)
-    return dict(zip(K.OUTPUTS, out))
+    return K.interpret(buf, o, lenient, max_errors, trace)
 
 
 def parse(text, *, dialect: str | Dialect = "grbl", filename: str | None = None,
@@ -199,18 +198,15 @@ def parse(text, *, dialect: str | Dialect = "grbl", filename: str | None = None,
     d = get_dialect(dialect)
     data = _as_bytes(text)
     out = _run(data, d, lenient, trace=False, streaming=streaming)
-    errors = [_make_error(data, filename, *row)
-              for row in zip(out["e_line"], out["e_pos"], out["e_end"], out["e_code"],
-                             out["e_detail"], out["e_aux"])]
+    errors = [_make_error(data, filename, e) for e in out.errors]
     if errors and not lenient:
         raise errors[0]
-    records = [Record(int(ln), int(ix), K.RECORD_NAMES[int(kd)],
-                      _clip(data[s0:s1].decode("utf-8", "replace").strip()), float(v))
-               for ln, kd, (s0, s1), v, ix in zip(out["r_line"], out["r_kind"], out["r_span"],
-                                                   out["r_value"], out["r_index"])]
-    columns = {name: out[name] for name in Moves.column_names()}
-    return Moves(source=filename, s_max=d.s_max, records=records, diagnostics=errors,
-                 dropped_diagnostics=int(out["e_total"]) - len(errors), **columns)
+    records = [Record(int(r["line"]), int(r["index"]), K.RECORD_NAMES[int(r["kind"])],
+                      _clip(data[r["span"][0]:r["span"][1]].decode("utf-8", "replace").strip()),
+                      float(r["value"]))
+               for r in out.records]
+    return Moves.from_rows(out.moves, source=filename, s_max=d.s_max, records=records,
+                           diagnostics=errors, dropped_diagnostics=out.error_total - len(errors))
 
 
 def parse_file(path, *, dialect: str | Dialect = "grbl", lenient: bool = False) -> Moves:
@@ -255,26 +251,27 @@ def modal_trace(text, *, dialect: str | Dialect = "grbl", filename: str | None =
     d = get_dialect(dialect)
     data = _as_bytes(text)
     out = _run(data, d, lenient=True, trace=True)
-    e_line, e_code = out["e_line"], out["e_code"]
-    state, pos = out["t_state"], out["t_pos"]
+    state = out.trace
     lines = data.decode("utf-8", "replace").split("\n")
     if lines and lines[-1] == "" and len(lines) > 1:
         lines = lines[:-1]
     n = len(lines)
-    errs = dict(zip(e_line.tolist(), e_code.tolist()))
-    laser_names = {0: "M5", 3: "M3", 4: "M4"}
+    errs = dict(zip(out.errors["line"].tolist(), out.errors["code"].tolist()))
+    laser_names = {int(LaserMode.OFF): "M5", int(LaserMode.CONSTANT): "M3",
+                   int(LaserMode.DYNAMIC): "M4"}
     return pd.DataFrame({
         "line": np.arange(1, n + 1),
         "text": [s.rstrip("\r") for s in lines],
-        "motion": [f"G{int(v)}" for v in state[:n, 0]],
-        "plane": [f"G{int(v)}" for v in state[:n, 1]],
-        "units": ["G20" if v == 20 else "G21" for v in state[:n, 2]],
-        "distance": [f"G{int(v)}" for v in state[:n, 3]],
-        "arc_centres": ["G90.1" if v == 90.1 else "G91.1" for v in state[:n, 4]],
-        "feed_mm_min": state[:n, 5],
-        "S": state[:n, 6],
-        "laser": [laser_names[int(v)] for v in state[:n, 7]],
-        "x": pos[:n, 0], "y": pos[:n, 1], "z": pos[:n, 2],
+        "motion": [f"G{int(v)}" for v in state["motion"][:n]],
+        "plane": [f"G{int(v)}" for v in state["plane"][:n]],
+        "units": [f"G{int(v)}" for v in state["units"][:n]],
+        "distance": [f"G{int(v)}" for v in state["distance"][:n]],
+        "arc_centres": ["G90.1" if v == 90.1 else "G91.1" for v in state["arc_distance"][:n]],
+        "feed_mm_min": state["feed_mm_min"][:n],
+        "S": state["power_s"][:n],
+        "laser": [laser_names[int(v)] for v in state["laser"][:n]],
+        "x": state["position"][:n, 0], "y": state["position"][:n, 1],
+        "z": state["position"][:n, 2],
         "error": [errs.get(i, 0) for i in range(1, n + 1)],
     })
 
@@ -391,16 +388,17 @@ def _clip(text: str) -> str:
     return text if len(text) <= _QUOTE_CHARS else text[:_QUOTE_CHARS] + "…"
 
 
-def _make_error(data: bytes, filename, line, pos, end, code, detail, aux) -> GcodeError:
-    line = int(line)
-    pos = int(pos)
+def _make_error(data: bytes, filename, row) -> GcodeError:
+    """The :class:`GcodeError` for one :data:`labkit.gcode._kernel.ERROR_ROW` of ``data``."""
+    line, pos, end = int(row["line"]), int(row["pos"]), int(row["end"])
+    code, detail, aux = int(row["code"]), int(row["detail"]), row["aux"]
     ls = data.rfind(b"\n", 0, pos) + 1
     le = data.find(b"\n", pos)
     le = len(data) if le < 0 else le
     source_line = _clip(data[ls:le].decode("utf-8", "replace").rstrip("\r"))
-    text = _clip(data[pos:int(end)].decode("utf-8", "replace").strip())
+    text = _clip(data[pos:end].decode("utf-8", "replace").strip())
     column = len(data[ls:pos].decode("utf-8", "replace")) + 1
-    name, message, expected = _MESSAGES.get((int(code), int(detail))) or _MESSAGES[(int(code), 0)]
+    name, message, expected = _MESSAGES.get((code, detail)) or _MESSAGES[(code, 0)]
     a0, a1 = float(aux[0]), float(aux[1])
     if code == K.E_CHECKSUM:
         message = f"checksum does not match the line (computed {a0:.0f}, written {a1:.0f})"

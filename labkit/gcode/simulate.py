@@ -132,6 +132,13 @@ class JobSummary:
         Non-motion records kept (``$`` lines, stops, …).
     diagnostics : int
         Errors found in lenient parsing.
+    cut_moves : int
+        Rows with the beam on.
+    idle_feed_length_mm : float
+        Length of feed moves (G1/G2/G3) with the beam off, mm (part of the travel length).
+
+    The one job summary of labkit: :func:`summarize` makes it for any program, and
+    :func:`labkit.raster.engrave.summarize` for raster jobs.
     """
 
     moves: int
@@ -147,6 +154,8 @@ class JobSummary:
     source_lines: int | None = None
     records: int = 0
     diagnostics: int = 0
+    cut_moves: int = 0
+    idle_feed_length_mm: float = 0.0
     extra: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
@@ -259,4 +268,6 @@ def summarize(moves: Moves, *, rapid_mm_min: float = DEFAULT_RAPID_MM_MIN,
         source_lines=source_lines,
         records=len(moves.records),
         diagnostics=len(moves.diagnostics) + moves.dropped_diagnostics,
+        cut_moves=int(cut.sum()),
+        idle_feed_length_mm=float(length[feed_rows & ~cut].sum()),
     )

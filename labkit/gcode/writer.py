@@ -205,12 +205,17 @@ def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001
         else np.zeros((0, 2), np.int64)
 
     pre, number = _header_lines(d, comment, beam_off_by_controller) if header else ([], 1)
-    body, number = EK.write_moves(
-        moves.kind.astype(np.int64), end_i, np.nan_to_num(moves.centre), moves.plane.astype(np.int64),
-        feed_i, power_i, moves.laser.astype(np.int64), dwell_i, r_mode, start_i, decimals,
-        VALUE_DECIMALS, int(d.inline_power), int(beam_off_by_controller), int(d.line_numbers),
-        int(d.checksums), number, np.asarray(rec_rows, np.int64), rec_text, rec_span,
-        np.asarray(rec_reset, np.bool_))
+    rows = EK.EmitRows(kind=moves.kind.astype(np.int64), end=end_i,
+                       centre=np.nan_to_num(moves.centre), plane=moves.plane.astype(np.int64),
+                       feed=feed_i, power=power_i, laser=moves.laser.astype(np.int64),
+                       dwell=dwell_i, r_mode=r_mode)
+    fmt = EK.EmitFormat(decimals=decimals, value_decimals=VALUE_DECIMALS,
+                        inline_power=bool(d.inline_power),
+                        rapid_laser_off=bool(beam_off_by_controller),
+                        numbered=bool(d.line_numbers), checksums=bool(d.checksums))
+    records = EK.EmitRecords(row=np.asarray(rec_rows, np.int64), text=rec_text, span=rec_span,
+                             reset=np.asarray(rec_reset, np.bool_))
+    body, number = EK.write_moves(rows, start_i, fmt, number, records)
     post = ["M5", "M2"] if footer else []
     return _number_lines(pre, d, 1) + body.tobytes().decode("ascii") + _number_lines(post, d, number)
 

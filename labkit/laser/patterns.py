@@ -145,7 +145,7 @@ def grid_pattern(powers_mw, speeds_mm_min, *, line_mm: float = 10.0, gap_mm: flo
                  pitch_mm: float = 2.0, overscan_mm: float = 3.0, repeats: int = 1,
                  passes: int = 1, label_mm: float = 2.0, label_power_mw: float | None = None,
                  label_speed_mm_min: float | None = None, fiducial_mm: float = 2.0,
-                 max_power_mw: float = 2500.0, s_max: float = 1000.0) -> GridPattern:
+                 max_power_mw: float | None = None, s_max: float = 1000.0) -> GridPattern:
     """A power × speed grid of straight lines, labelled, with overscan and corner fiducials.
 
     Rows are powers (one row per power and repeat, bottom to top), columns speeds
@@ -177,6 +177,7 @@ def grid_pattern(powers_mw, speeds_mm_min, *, line_mm: float = 10.0, gap_mm: flo
         Arm length of the corner crosses, mm (0: none).
     max_power_mw, s_max : float
         Power at full S and the S range, for the mW → S conversion (:func:`labkit.units.mw_to_s`).
+        ``max_power_mw`` None: the machine description's (``labkit.motion.CBR40``, [CBR40]).
 
     Returns
     -------
@@ -190,6 +191,10 @@ def grid_pattern(powers_mw, speeds_mm_min, *, line_mm: float = 10.0, gap_mm: flo
     """
     powers = _positive("powers_mw", powers_mw)
     speeds = _positive("speeds_mm_min", speeds_mm_min)
+    if max_power_mw is None:
+        from labkit.motion.machine import CBR40
+
+        max_power_mw = CBR40.laser_max_power_mw
     if np.any(powers > max_power_mw):
         raise InputError(f"powers_mw must be <= max_power_mw={max_power_mw:g}, got {powers.max():g}")
     for name, v, lo in (("line_mm", line_mm, 0), ("pitch_mm", pitch_mm, 0)):

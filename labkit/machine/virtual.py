@@ -463,13 +463,14 @@ class VirtualMachine:
                   f"M{self.laser_mode_word or 5}\n{motion}\n")
         data = (prefix + text + "\n").encode("ascii", "replace")
         out = _parse_run(data, get_dialect("grbl"), True, True)
-        kind, start, end, centre, plane = (out[k] for k in ("kind", "start", "end", "centre", "plane"))
-        feed_col, power, laser, dwell, line = (out[k] for k in ("feed_mm_min", "power_s", "laser",
-                                                                 "dwell_s", "line"))
-        e_code = out["e_code"]
+        rows = out.moves
+        kind, start, end, centre, plane = (rows[k] for k in ("kind", "start", "end", "centre", "plane"))
+        feed_col, power, laser, dwell, line = (rows[k] for k in ("feed_mm_min", "power_s", "laser",
+                                                                  "dwell_s", "line"))
+        e_code = out.errors["code"]
         if len(e_code):
             return int(e_code[0])
-        state, pos = out["t_state"], out["t_pos"]
+        state, pos = out.trace, out.trace["position"]
         row = 3
         new_pos = pos[row]
         lo = np.zeros(3)
@@ -486,10 +487,11 @@ class VirtualMachine:
             self._emit("[MSG:Reset to continue]")
             return _ALARMED
         (self.motion, self.plane, self.units, self.distance, self.arc_mode, self.feed_mm_min,
-         self.s_word, self.laser_mode_word) = (int(state[row, 0]), int(state[row, 1]),
-                                               int(state[row, 2]), int(state[row, 3]),
-                                               float(state[row, 4]), float(state[row, 5]),
-                                               float(state[row, 6]), int(state[row, 7]))
+         self.s_word, self.laser_mode_word) = (
+            int(state["motion"][row]), int(state["plane"][row]), int(state["units"][row]),
+            int(state["distance"][row]), float(state["arc_distance"][row]),
+            float(state["feed_mm_min"][row]), float(state["power_s"][row]),
+            int(state["laser"][row]))
         self.lines_accepted += 1
         if self.check_mode:
             self._check_pos = np.array(new_pos, float)

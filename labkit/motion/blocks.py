@@ -437,8 +437,7 @@ def build_blocks(moves: Moves, machine: Machine | str | None = None, *,
     with np.errstate(invalid="ignore", divide="ignore"):
         rest = np.where(ticks > 0, np.minimum(m.start_rate_hz * length / np.maximum(ticks, 1), cap), 0.0)
     burning = moves.laser_on
-    power = np.where(burning, np.clip(moves.power_s.astype(float) / moves.s_max, 0.0, 1.0)
-                     * m.laser_max_power_mw, 0.0)
+    power = moves.power_mw(m.laser_max_power_mw)
     keep = (ticks > 0) | (kind == BlockKind.DWELL)
     dwell = np.where(kind == BlockKind.DWELL, moves.dwell_s, 0.0)
     zero = kind == BlockKind.DWELL

@@ -25,7 +25,7 @@ Arcs ([CBR40] §J) walk the circle octant by octant: in each octant the axis
 along which the circle runs faster is the driver and steps every tick, the
 other is driven and steps only when that brings the point closer to the
 circle, comparing the integer error e = x² + y² − r² of the candidates
-(seed eq. 4: step x when |e(x−1, y+1)| < |e(x, y+1)|). Details in
+([CBR40] eq. 4: step x when |e(x−1, y+1)| < |e(x, y+1)|). Details in
 :func:`arc_points`.
 """
 
@@ -288,7 +288,7 @@ def arc_points(start, end, centre, *, clockwise: bool, radius: float | None = No
     driven axis' three options (stay, step forward along the circle, step
     back) the one with the smallest |e| wins, ties keeping the earlier of
     stay, forward, back. On the circle the backward option never wins, so
-    this is exactly the seed's comparison |e(x−1, y+1)| < |e(x, y+1)|.
+    this is exactly [CBR40]'s comparison |e(x−1, y+1)| < |e(x, y+1)|.
     Two rules handle the end points, which rounding may leave up to √2/2
     step off the circle: the first tick goes to the 8-neighbour of the start
     with the smallest |e| among those that do not go backwards along the arc

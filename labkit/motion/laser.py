@@ -5,12 +5,12 @@ more energy per millimetre where the head is slow: corners and line ends
 burn darker. [CBR40] keeps the cut uniform by holding the ratio of laser
 power to speed: the planner computes, per block, ratio = programmed power /
 programmed speed, and the runner sets the power to ratio × instantaneous
-speed — capped at the laser's maximum (2500 mW on the seed's diode), so the
+speed — capped at the laser's maximum (2500 mW on [CBR40]'s diode), so the
 ratio fails where the speed exceeds the one it was computed for.
 
 GRBL's laser mode (``$32=1``) offers both behaviours: ``M3`` keeps the
 programmed power whatever the speed, ``M4`` scales it by current speed /
-programmed speed — the seed's rule (GRBL never exceeds the programmed speed,
+programmed speed — [CBR40]'s rule (GRBL never exceeds the programmed speed,
 so its cap is the programmed power).
 """
 
@@ -34,11 +34,11 @@ def power_ratio(power_mw, speed):
         Programmed power, mW.
     speed : float or array
         Programmed speed in any unit (> 0): mm/s gives mW per mm/s, a step
-        rate in Hz gives mW per Hz as in the seed.
+        rate in Hz gives mW per Hz as in [CBR40].
 
     Examples
     --------
-    The seed's example: 1000 mW at a 1000 Hz step rate gives a ratio of 1.
+    [CBR40]'s example: 1000 mW at a 1000 Hz step rate gives a ratio of 1.
 
     >>> power_ratio(1000.0, 1000.0)
     1.0
@@ -49,7 +49,7 @@ def power_ratio(power_mw, speed):
     return scalar_or_array(np.asarray(power_mw, float) / speed)
 
 
-def laser_power_mw(speed_mm_s, *, mode, power_mw, feed_mm_s, max_power_mw=2500.0):
+def laser_power_mw(speed_mm_s, *, mode, power_mw, feed_mm_s, max_power_mw):
     """Instantaneous laser power at a speed, for M3, M4 or off.
 
     Parameters
@@ -73,9 +73,11 @@ def laser_power_mw(speed_mm_s, *, mode, power_mw, feed_mm_s, max_power_mw=2500.0
 
     Examples
     --------
-    >>> laser_power_mw([0.0, 5.0, 10.0, 40.0], mode=4, power_mw=1000, feed_mm_s=10).tolist()
+    >>> laser_power_mw([0.0, 5.0, 10.0, 40.0], mode=4, power_mw=1000, feed_mm_s=10,
+    ...                max_power_mw=2500).tolist()
     [0.0, 500.0, 1000.0, 2500.0]
-    >>> laser_power_mw([0.0, 5.0, 10.0], mode=LaserMode.CONSTANT, power_mw=1000, feed_mm_s=10).tolist()
+    >>> laser_power_mw([0.0, 5.0, 10.0], mode=LaserMode.CONSTANT, power_mw=1000, feed_mm_s=10,
+    ...                max_power_mw=2500).tolist()
     [0.0, 1000.0, 1000.0]
     """
     if not max_power_mw > 0:

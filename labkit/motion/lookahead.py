@@ -22,7 +22,7 @@ block = the entry of the next):
         acceleration and one deceleration for the whole set.
 
     Corners inside ``"normal"`` and ``"fast"`` super blocks are passed
-    without slowing — the seed's printing errors. :func:`junction_speed_caps`
+    without slowing — [CBR40]'s printing errors. :func:`junction_speed_caps`
     says how fast each corner could safely be taken; :class:`Lookahead`
     counts the junctions planned faster than that.
 

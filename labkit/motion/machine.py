@@ -1,7 +1,7 @@
 """Machine description: what the motion reference needs to know about a machine.
 
 A :class:`Machine` holds the mechanics (steps per mm, maximum rates,
-accelerations, travel), the controller settings the planners use (the seed's
+accelerations, travel), the controller settings the planners use ([CBR40]'s
 ramp slopes in Hz per step, GRBL's junction deviation, the look-ahead depth),
 the laser (maximum optical power, the S value of full power) and the step
 timer (clock, prescaler, width). It is frozen; :meth:`Machine.replace` makes a
@@ -12,7 +12,7 @@ The default, :data:`CBR40`, is [CBR40]'s machine: a Colinbus CBR-40 frame
 whose lead screws advance 3 mm per turn, driven at 1/32 microstep (6400 steps
 per turn: 0.46875 µm per step), 300 × 400 × 100 mm of travel, at most
 1546.0875 mm/min (54 972 steps/s), a 2500 mW diode laser and a 48 MHz step
-timer. The seed gives neither ramp slopes nor accelerations nor a prescaler;
+timer. [CBR40] gives neither ramp slopes nor accelerations nor a prescaler;
 the values here are chosen (and said so in ``labkit/motion/machines/README.md``).
 """
 
@@ -65,7 +65,7 @@ class Machine:
         this many Hz per step, ≥ 1.
     start_rate_hz : int
         Step rate the motors start and stop at without a ramp, Hz; the floor
-        of every step rate (and the rest speed of the seed's linear ramps).
+        of every step rate (and the rest speed of [CBR40]'s linear ramps).
     junction_deviation_mm : float
         GRBL ``$11``: how far the path may deviate at a corner, mm (> 0).
     arc_tolerance_mm : float

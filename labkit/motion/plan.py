@@ -268,7 +268,7 @@ def plan(moves: Moves | Blocks, machine: Machine | str | None = None, *, planner
 
     Examples
     --------
-    A 10 mm cut at 1200 mm/min (20 mm/s) on the CBR-40 with the seed's linear
+    A 10 mm cut at 1200 mm/min (20 mm/s) on the CBR-40 with [CBR40]'s linear
     ramps of 40 Hz per step from the 1 kHz start rate (0.46875 mm/s): each
     ramp takes ln(20/0.46875)/40 = 0.093835 s over (20 − 0.46875)/40 =
     0.488281 mm, the 9.023438 mm between at 20 mm/s take 0.451172 s.

@@ -10,9 +10,9 @@ decelerating. Per step of the driver axis, Hz per step is the same number as
     v(s) = min(v_e + A·s,  v_c,  v_x + D·(L − s))          (law ``"linear"``)
 
 with A, D the slopes (1/s). If the two ramps meet below the cap the peak
-drops to where they meet (seed fig. 13); when entry and exit differ enough
+drops to where they meet ([CBR40] fig. 13); when entry and exit differ enough
 the meeting point leaves the block and the profile is a single ramp up or
-down (seed fig. 14) — the min of three lines does all of this at once.
+down ([CBR40] fig. 14) — the min of three lines does all of this at once.
 GRBL and most modern controllers accelerate at a constant a (mm/s²) instead,
 v² linear in distance (law ``"accel"``):
 
@@ -64,7 +64,7 @@ def reach_speed(v0_mm_s, distance_mm, slope, law="linear"):
 
     Examples
     --------
-    >>> reach_speed(1.0, 0.5, 40)            # seed law: +40 mm/s per mm
+    >>> reach_speed(1.0, 0.5, 40)            # [CBR40]'s law: +40 mm/s per mm
     21.0
     >>> reach_speed(0.0, 0.5, 500, "accel")  # v² = 2·a·d
     22.360679774997898

@@ -137,7 +137,7 @@ class StepBlocks:
     dwell_cycles : int64
         Timer clock cycles of a dwell (0 for motion).
     f_feed : int64
-        Programmed driver rate, Hz (0 for rapids and dwells): the seed's
+        Programmed driver rate, Hz (0 for rapids and dwells): [CBR40]'s
         power/speed ratio is ``power_mw / f_feed``.
     laser : int64
         0 off, 3 M3, 4 M4.

@@ -134,31 +134,26 @@ class RasterJob:
     connection: Connection | None = None
 
 
-def summarize(moves: Moves, *, feed_mm_min: float, rapid_mm_min: float | None = None) -> dict:
-    """Cut, travel and laser-off feed distances (mm) and the constant-speed time (s).
+def summarize(moves: Moves, *, feed_mm_min: float, rapid_mm_min: float | None = None):
+    """The :class:`~labkit.gcode.simulate.JobSummary` of a raster job (lengths mm, times s).
 
     [LaserApp] §4.1 estimates time as distance / speed with no acceleration;
-    travel (G0) runs at ``rapid_mm_min`` (default: the feed, as the seed's
-    estimate assumes one speed for everything).
+    travel (G0) runs at ``rapid_mm_min`` (default: the engraving feed ``feed_mm_min``, as
+    that estimate assumes one speed for everything); feed moves run at their own feed.
 
     Examples
     --------
     >>> m = Moves.from_cuts([[0, 0], [5, 0]], [[3, 0], [9, 0]], feed_mm_min=600, power_s=800)
-    >>> summarize(m, feed_mm_min=600)
-    {'cut_mm': 7.0, 'travel_mm': 2.0, 'idle_feed_mm': 0.0, 'time_s': 0.9, 'tool_lines': 2, 'rapids': 1}
+    >>> s = summarize(m, feed_mm_min=600)
+    >>> s.cut_length_mm, s.travel_length_mm, s.estimated_time_s, s.cut_moves, s.counts["rapid"]
+    (7.0, 2.0, 0.9, 2, 1)
     """
+    from labkit.gcode.simulate import summarize as summarize_job
+
     rapid = feed_mm_min if rapid_mm_min is None else rapid_mm_min
     if not (feed_mm_min > 0 and rapid > 0):
         raise RasterError(f"feed_mm_min and rapid_mm_min must be > 0, got {feed_mm_min!r}, {rapid_mm_min!r}")
-    lengths = moves.lengths_mm()
-    on = moves.laser_on
-    rapid_rows = moves.kind == MoveKind.RAPID
-    cut = float(lengths[on].sum())
-    travel = float(lengths[rapid_rows].sum())
-    idle = float(lengths[moves.is_feed & ~on].sum())
-    time_s = (cut + idle) / feed_mm_min * 60.0 + travel / rapid * 60.0
-    return {"cut_mm": round(cut, 6), "travel_mm": round(travel, 6), "idle_feed_mm": round(idle, 6),
-            "time_s": round(time_s, 6), "tool_lines": int(on.sum()), "rapids": int(rapid_rows.sum())}
+    return summarize_job(moves, rapid_mm_min=rapid)
 
 
 def _check_positive(name, value):
@@ -193,8 +188,10 @@ def _report(mode, moves, *, shape, pixel_mm, marked, before, segments, feed_mm_m
     return RasterReport(
         mode=mode, shape=(int(shape[0]), int(shape[1])), pixel_mm=float(pixel_mm),
         marked_pixels=int(marked), segments_before=int(before), segments=int(segments),
-        tool_lines=s["tool_lines"], moves=len(moves), rapids=s["rapids"], cut_mm=s["cut_mm"],
-        travel_mm=s["travel_mm"], idle_feed_mm=s["idle_feed_mm"], time_s=s["time_s"],
+        tool_lines=s.cut_moves, moves=len(moves), rapids=s.counts["rapid"],
+        cut_mm=round(s.cut_length_mm, 6), idle_feed_mm=round(s.idle_feed_length_mm, 6),
+        travel_mm=round(s.travel_length_mm - s.idle_feed_length_mm, 6),
+        time_s=round(s.estimated_time_s, 6),
         feed_mm_min=float(feed_mm_min), rapid_mm_min=float(rapid_mm_min or feed_mm_min),
         distance_evaluations=int(evaluations), size_error_mm=tuple(float(e) for e in size_error_mm),
         extra=extra)

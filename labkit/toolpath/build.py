@@ -1,10 +1,10 @@
-"""Paths → Moves: the vector job (seed 003's operation settings, seed 001's contour toolpath).
+"""Paths → Moves: the vector job ([DobotLaser]'s operation settings, [MicroCAM]'s contour toolpath).
 
 :func:`prepare_paths` runs the geometry pipeline on imported artwork — join
 loose pieces into chains, compensate the kerf, hatch filled shapes, order
 everything for little travel with holes before parts — and
 :func:`build_moves` turns the ordered paths into a machine program: per
-layer its own feed, power and number of passes (seed 003 asks for speed,
+layer its own feed, power and number of passes ([DobotLaser] asks for speed,
 passes and pass depth), an optional Z step down after each pass, the beam
 off on every travel move (rapids; GRBL's laser mode also keeps the beam off
 on G0), arcs as G2/G3.
@@ -45,7 +45,7 @@ class LayerSettings:
     passes : int
         How many times the layer is cut.
     z_step_mm : float
-        Z lowered after each pass, mm (seed 003's pass depth; 0 for none).
+        Z lowered after each pass, mm ([DobotLaser]'s pass depth; 0 for none).
     laser : LaserMode
         M3 (constant) or M4 (dynamic: power follows speed).
     """
@@ -189,7 +189,7 @@ def prepare_paths(paths: Sequence[Path], *, join_tol_mm=0.01, kerf_mm=0.0, tol_m
     paths : sequence of Path
         Imported artwork (any order).
     join_tol_mm : float
-        Ends closer than this are joined into chains (seed 001 §6.1.2).
+        Ends closer than this are joined into chains ([MicroCAM] §6.1.2).
     kerf_mm : float
         Beam kerf width; closed shapes are offset by kerf/2 outwards (holes
         inwards, nesting judged over all layers) so parts come out to size.

@@ -42,7 +42,7 @@ __all__ = ["add_corner_loops", "turn_angles", "CornerLoopReport"]
 #: Slack on the enlarged r1 of a triangular loop, for the rounding of its short sides to steps.
 _MARGIN = 1.02
 
-_COLS = ("kind", "start", "end", "centre", "plane", "feed_mm_min", "power_s", "laser", "dwell_s", "line")
+_COLS = Moves.column_names()      # every column, so a new one is carried through
 
 
 class CornerLoopReport(dict):

@@ -21,8 +21,10 @@ work_offset     float64 n×3  work origin in machine mm for this move (G54-G59 +
                              + G43.1): work coordinates = machine − work_offset
 ==============  ===========  =====================================================
 
-This table is the one list of the columns (``_COLUMNS`` below holds the same); the
-parser's compiled kernel returns them in this order and the builders derive from it.
+This table is the one list of the columns (``_COLUMNS`` below holds the same): the
+constructor, :class:`MovesBuilder`, :meth:`Moves.from_rows` and the record type
+:data:`MOVE_ROW` (one row of every column, which the compiled parser fills) all derive
+from it, so adding a column is one edit there.
 
 The beam burns only on feed moves (lines and arcs) with the laser mode on
 and S > 0 — GRBL's laser mode keeps it off on rapids; see :attr:`Moves.laser_on`.
@@ -40,7 +42,8 @@ import numpy as np
 
 from labkit.geometry.circle import sweep_angle
 
-__all__ = ["MoveKind", "LaserMode", "Record", "Moves", "MovesBuilder", "PLANE_AXES"]
+__all__ = ["MoveKind", "LaserMode", "Record", "Moves", "MovesBuilder", "PLANE_AXES", "MOVE_ROW",
+           "BLANK_ROW"]
 
 
 class MoveKind(enum.IntEnum):
@@ -107,6 +110,17 @@ _COLUMNS = {
     "work_offset": (np.float64, (3,), 0.0),
 }
 
+#: One move as a record: every column of ``_COLUMNS`` by name, dtype and shape (the row
+#: type of the compiled parser's output; :meth:`Moves.from_rows` turns it into columns).
+MOVE_ROW = np.dtype([(name, dtype, shape) for name, (dtype, shape, _) in _COLUMNS.items()])
+
+#: A one-element array of :data:`MOVE_ROW` holding every column's fill value (a new row
+#: starts as a copy of it, so a column nobody writes keeps its default).
+BLANK_ROW = np.zeros(1, MOVE_ROW)
+for _name, (_dtype, _shape, _fill) in _COLUMNS.items():
+    BLANK_ROW[_name] = _fill
+del _name, _dtype, _shape, _fill
+
 
 class Moves:
     """A machine program as column arrays (see the module docstring for the columns).
@@ -170,6 +184,19 @@ class Moves:
         return tuple(_COLUMNS)
 
     # -- construction -----------------------------------------------------------------
+
+    @classmethod
+    def from_rows(cls, rows: np.ndarray, **kw) -> "Moves":
+        """Moves from an array of :data:`MOVE_ROW` records (each column copied contiguous).
+
+        >>> rows = np.repeat(BLANK_ROW, 2)
+        >>> rows["kind"] = MoveKind.LINE; rows["end"][1] = [3.0, 4.0, 0.0]
+        >>> Moves.from_rows(rows).lengths_mm().tolist()
+        [0.0, 5.0]
+        """
+        if rows.dtype != MOVE_ROW:
+            raise TypeError(f"rows must have dtype MOVE_ROW, got {rows.dtype}")
+        return cls(**{name: np.ascontiguousarray(rows[name]) for name in _COLUMNS}, **kw)
 
     @classmethod
     def empty(cls, **kw) -> "Moves":
@@ -352,9 +379,13 @@ class Moves:
         """Programmed power as a fraction 0…1 of full power (0 when the beam is off)."""
         return np.where(self.laser_on, np.clip(self.power_s / self.s_max, 0.0, 1.0), 0.0)
 
-    def power_mw(self, max_power_mw: float = 2500.0) -> np.ndarray:
-        """Programmed optical power per move, mW (linear in S; 0 when off)."""
-        return self.power_fraction() * max_power_mw
+    def power_mw(self, max_power_mw: float) -> np.ndarray:
+        """Programmed optical power per move, mW (linear in S; 0 when off); ``max_power_mw``
+        is the machine's power at full duty (its description's ``laser_max_power_mw``)."""
+        from labkit.units import s_to_mw
+
+        return np.where(self.laser_on, s_to_mw(self.power_s, s_max=self.s_max,
+                                               max_power_mw=max_power_mw), 0.0)
 
     def plane_coords(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Split 3-D points into (in-plane 2-D coords, linear coord) per row's plane."""
@@ -508,7 +539,7 @@ class MovesBuilder:
         self.plane = int(plane)
         self.s_max = s_max
         self.source = source
-        self._rows: list[tuple] = []
+        self._rows: list[np.ndarray] = []     # one-element MOVE_ROW arrays
         self.records: list[Record] = []
 
     def _target(self, x, y, z):
@@ -519,11 +550,18 @@ class MovesBuilder:
         return t
 
     def _add(self, kind, end, centre=(math.nan,) * 3, dwell_s=0.0, line=0):
-        self._rows.append({"kind": int(kind), "start": self.position.copy(),
-                           "end": np.asarray(end, float), "centre": np.asarray(centre, float),
-                           "plane": self.plane, "feed_mm_min": self.feed_mm_min,
-                           "power_s": self.power_s, "laser": int(self.laser),
-                           "dwell_s": dwell_s, "line": line})
+        row = BLANK_ROW.copy()       # columns not set here (e.g. work_offset) keep their fill
+        row["kind"] = int(kind)
+        row["start"] = self.position
+        row["end"] = end
+        row["centre"] = centre
+        row["plane"] = self.plane
+        row["feed_mm_min"] = self.feed_mm_min
+        row["power_s"] = self.power_s
+        row["laser"] = int(self.laser)
+        row["dwell_s"] = dwell_s
+        row["line"] = line
+        self._rows.append(row)
         self.position = np.asarray(end, float).copy()
 
     def set(self, *, feed_mm_min=None, power_s=None, laser=None, plane=None):
@@ -578,7 +616,5 @@ class MovesBuilder:
         """The moves so far as a :class:`Moves`."""
         if not self._rows:
             return Moves.empty(s_max=self.s_max, source=self.source, records=self.records)
-        # Columns the builder does not set (e.g. work_offset) take their defaults.
-        data = {n: np.array([row[n] for row in self._rows]) for n in _COLUMNS
-                if n in self._rows[0]}
-        return Moves(source=self.source, s_max=self.s_max, records=self.records, **data)
+        return Moves.from_rows(np.concatenate(self._rows), source=self.source, s_max=self.s_max,
+                               records=self.records)

@@ -14,7 +14,7 @@ from labkit.geometry.circle import chord_segments, grbl_segments, orientation, s
 pt = st.tuples(st.floats(-100, 100), st.floats(-100, 100))
 
 
-def test_seed_appendix_a_two_centres_by_hand():
+def test_laserapp_appendix_a_two_centres_by_hand():
     # P1 (0, 0), P2 (8, 0), R 5: Q = 8, P3 (4, 0), H = sqrt(25 - 16) = 3,
     # C = P3 ± 3·((0 − 0)/8, (8 − 0)/8) = (4, ±3).
     c = arcs.centres_from_radius([0, 0], [8, 0], 5)
@@ -40,7 +40,7 @@ def test_radius_rule_sweep_is_short_for_positive_r(p1, p2, factor, cw, negative)
 
 
 @given(pt, pt, st.floats(0.01, 3.0), st.booleans(), st.booleans())
-def test_parser_r_centres_match_the_seed_rule(p1, p2, factor, cw, negative):
+def test_parser_r_centres_match_the_laserapp_rule(p1, p2, factor, cw, negative):
     # The compiled parser decides by "left of the chord"; arcs.py by comparing sweeps.
     p1 = tuple(round(v, 6) for v in p1)
     p2 = tuple(round(v, 6) for v in p2)

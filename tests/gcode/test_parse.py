@@ -5,9 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from labkit.errors import GcodeError
+from labkit.errors import GcodeError, status_code
 from labkit.gcode import check, modal_trace, parse
-from labkit.gcode.dialects import Dialect
+from labkit.gcode.dialects import Dialect, get_dialect
 from labkit.toolpath import LaserMode, MoveKind
 
 
@@ -326,20 +326,48 @@ def test_bytes_input_bom_and_classic_mac_line_ends():
 
 # ---- the kernel's interface is derived, not restated ------------------------------------
 
-def test_kernel_parameters_are_the_parse_options_and_outputs_start_with_the_moves_columns():
+def test_kernel_takes_named_options_and_returns_named_rows_of_the_moves_columns():
     import inspect
-    from dataclasses import fields
 
     from labkit.gcode import _kernel as K
     from labkit.gcode.reader import ParseOptions
     from labkit.toolpath import Moves
+    from labkit.toolpath.moves import MOVE_ROW
 
+    # One argument for the dialect's settings, read by name; no positional settings list.
     params = list(inspect.signature(K.interpret.py_func).parameters)
-    assert params == ["buf"] + [f.name for f in fields(ParseOptions)] + ["lenient", "max_errors",
-                                                                          "trace"]
-    assert K.OUTPUTS[:len(Moves.column_names())] == Moves.column_names()
+    assert params == ["buf", "options", "lenient", "max_errors", "trace"]
+    assert "options" in inspect.getsource(K.interpret.py_func)
+    for field in ParseOptions._fields:
+        assert f"options.{field}" in inspect.getsource(K.interpret.py_func), field
+    # The kernel's move rows are the Moves columns, by name, dtype and shape.
+    assert MOVE_ROW.names == Moves.column_names()
+    out = K.interpret(np.frombuffer(b"G1 X1 F100\nG1 Y2 Y3\n$H", np.uint8),
+                      ParseOptions.from_dialect(get_dialect("grbl")), True, 10, True)
+    assert isinstance(out, K.Interpretation) and out.moves.dtype == MOVE_ROW
+    assert out.errors["line"].tolist() == [2] and out.error_total == 1
+    assert out.errors["code"].tolist() == [status_code("repeated_word").code]
+    assert [K.RECORD_NAMES[k] for k in out.records["kind"]] == ["system"]
+    assert out.trace["position"][:, 0].tolist() == [1.0, 1.0, 1.0]
     m = parse("G1 X1 F100")
     assert set(m.columns()) == set(Moves.column_names())
+
+
+def test_kernel_status_numbers_and_kinds_are_not_integer_literals():
+    """Status codes, move kinds and laser modes come from their one table by name."""
+    import inspect
+    import re
+
+    from labkit.gcode import _emit_kernel as EK
+    from labkit.gcode import _kernel as K
+
+    for module in (K, EK):
+        src = inspect.getsource(module)
+        assert not re.search(r"^E_\w+ = \d", src, re.M), module.__name__
+        assert not re.search(r"^(RAPID|LINE|ARC_CW|ARC_CCW|DWELL)\b.*= \d", src, re.M)
+        assert not re.search(r"\b(err|laser\w*|k|kind|move_kind) == \d\b", src), module.__name__
+    assert K.E_INVALID_ARC == status_code("invalid_arc").code
+    assert (K.RAPID, K.LINE, K.ARC_CW, K.ARC_CCW, K.DWELL) == tuple(int(k) for k in MoveKind)
 
 
 def test_module_names_do_not_shadow_the_functions():

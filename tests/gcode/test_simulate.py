@@ -95,3 +95,18 @@ def test_arc_bounds_contain_dense_samples_and_touch_them(r, a0, turn, cw):
     assert (pts.min(axis=0) >= box[0, :2] - 1e-6).all() and (pts.max(axis=0) <= box[1, :2] + 1e-6).all()
     np.testing.assert_allclose(pts.min(axis=0), box[0, :2], atol=1e-5 * r)
     np.testing.assert_allclose(pts.max(axis=0), box[1, :2], atol=1e-5 * r)
+
+
+def test_raster_and_gcode_summaries_are_one_type_and_agree():
+    from labkit.gcode.simulate import JobSummary
+    from labkit.raster.engrave import summarize as raster_summarize
+    from labkit.toolpath import Moves
+
+    m = Moves.from_cuts([[0, 0], [5, 0], [5, 3]], [[3, 0], [9, 0], [0, 3]], feed_mm_min=600,
+                        power_s=800)
+    r = raster_summarize(m, feed_mm_min=600, rapid_mm_min=3000)
+    g = summarize(m, rapid_mm_min=3000)
+    assert type(r) is JobSummary and r == g
+    # Hand count: cuts 3 + 4 + 5 mm at 600 mm/min, rapids 2 + 5 mm at 3000 mm/min.
+    assert r.cut_length_mm == 12.0 and r.cut_moves == 3 and r.counts["rapid"] == 2
+    assert r.estimated_time_s == pytest.approx(12 / 10 + 7 / 50)

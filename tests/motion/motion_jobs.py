@@ -7,7 +7,7 @@ from labkit.toolpath import LaserMode, MovesBuilder
 
 def zigzag_moves(rows=12, width_mm=20.0, pitch_mm=0.5, feed_mm_min=1200.0, power_s=500.0,
                  segments_per_row=1, laser=LaserMode.DYNAMIC):
-    """A bidirectional raster like seed 004's fig. 17 job: rows burned, step-overs dark."""
+    """A bidirectional raster like [CBR40]'s fig. 17 job: rows burned, step-overs dark."""
     b = MovesBuilder(feed_mm_min=feed_mm_min, power_s=power_s, laser=laser)
     b.rapid(x=0, y=0)
     x = 0.0

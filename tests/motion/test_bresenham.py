@@ -151,7 +151,7 @@ def test_random_arcs_stay_within_half_a_step_and_end_exactly(r_lo, r_hi):
 
 
 def test_quarter_arc_by_hand():
-    # Seed 004 eq. 4 worked by hand for r = 5, first octant from (5, 0): y drives;
+    # [CBR40] eq. 4 worked by hand for r = 5, first octant from (5, 0): y drives;
     # at y = 1, 2 x stays (|e(4, y)| > |e(5, y)|), at y = 3: e(5,3) = 9, e(4,3) = 0 → x steps.
     pts = arc_points([5, 0], [0, 5], [0.0, 0.0], clockwise=False)
     assert pts.tolist() == [[5, 0], [5, 1], [5, 2], [4, 3], [3, 4], [2, 5], [1, 5], [0, 5]]

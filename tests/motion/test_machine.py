@@ -12,7 +12,7 @@ def test_shipped_cbr40_file_is_the_builtin_default():
     assert m.description == CBR40.description
 
 
-def test_seed_004_numbers():
+def test_cbr40_numbers():
     # eq. (1): R = d / N = 3 mm / 6400 = 0.46875 µm; table 1: 1546.0875 mm/min
     assert CBR40.resolution_um == pytest.approx((0.46875,) * 3, abs=1e-15)
     assert CBR40.max_step_rate_hz == (54972,) * 3
@@ -90,3 +90,27 @@ def test_steps_per_rev_and_lead(tmp_path):
     good.write_text("[mechanics]\nsteps_per_rev = 3200\nlead_mm = 2\n")
     assert load_machine(good).steps_per_mm == (1600.0, 1600.0, 1600.0)
     assert load_machine(good).name == "mine"
+
+
+def test_laser_maximum_is_stated_only_in_the_machine_description():
+    """No function defaults a laser maximum of its own: the figure lives in the machine
+    description (labkit/motion/machine.py and its TOML files) and is passed in."""
+    import inspect
+    import re
+    from pathlib import Path
+
+    import labkit
+    from labkit import units
+
+    root = Path(labkit.__file__).parent
+    offenders = []
+    for path in root.rglob("*.py"):
+        if path.relative_to(root).as_posix() == "motion/machine.py":
+            continue
+        for k, line in enumerate(path.read_text("utf-8").splitlines(), 1):
+            if re.search(r"max_power_mw\w*\s*(:\s*float\s*)?=\s*\d", line) and ">>>" not in line \
+                    and "..." not in line:
+                offenders.append(f"{path.name}:{k}: {line.strip()}")
+    assert offenders == []
+    for fn in (units.s_to_mw, units.mw_to_s):
+        assert inspect.signature(fn).parameters["max_power_mw"].default is inspect.Parameter.empty

@@ -136,7 +136,7 @@ def test_deeper_buffers_never_slow_the_job():
     np.testing.assert_allclose(one.lookahead.speed_mm_s, one.lookahead.junction_rest_mm_s)
 
 
-def test_mbla_modes_on_a_zigzag_follow_seed_fig17():
+def test_mbla_modes_on_a_zigzag_follow_cbr40_fig17():
     moves = zigzag_moves(rows=20, segments_per_row=4)
     plans = {m: plan(moves, planner=m) for m in ("fast", "normal", "hq")}
     t = {m: p.job_time_s for m, p in plans.items()}

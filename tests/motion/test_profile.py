@@ -51,7 +51,7 @@ def test_distance_under_speed_curve_equals_length(law):
         assert v[0] == pytest.approx(ve, abs=1e-9) and v[-1] == pytest.approx(vx, rel=1e-7, abs=1e-9)
 
 
-def test_peak_lowered_where_the_ramps_meet_seed_fig13():
+def test_peak_lowered_where_the_ramps_meet_cbr40_fig13():
     # 2 mm from and to 1 mm/s, cap 100 mm/s, slopes 40 and 60 Hz/step: the ramps meet where
     # 1 + 40 s = 1 + 60 (2 − s) -> s = 1.2 mm, v = 49 mm/s (found here by root finding).
     p = block_profiles(2.0, 1.0, 100.0, 1.0, 40, 60)
@@ -61,7 +61,7 @@ def test_peak_lowered_where_the_ramps_meet_seed_fig13():
     assert p.cruise_mm[0] == 0 and p.shape_name[0] == "triangle"
 
 
-def test_accel_only_and_decel_only_seed_fig14():
+def test_accel_only_and_decel_only_cbr40_fig14():
     up = block_profiles(1.0, 2.0, 100.0, 42.0, 40, 40)          # 2 + 40·1 = 42: ramp up only
     assert up.shape_name[0] == "accel" and up.peak_mm_s[0] == pytest.approx(42.0)
     down = block_profiles(1.0, 42.0, 100.0, 2.0, 40, 40)

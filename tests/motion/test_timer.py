@@ -21,7 +21,7 @@ from labkit.motion.timer import (
 from labkit.toolpath import LaserMode, MovesBuilder
 
 
-def test_seed_period_formula_by_hand():
+def test_cbr40_period_formula_by_hand():
     # Period = Timer_clk / (f · (Prescaler + 1)) − 1, rounded up: 48 MHz, prescaler 3, 1 kHz
     assert timer_period(1000, prescaler=3) == 48_000_000 // 4000 - 1
     assert timer_period(7, timer_clock_hz=100, prescaler=0) == math.ceil(100 / 7) - 1

@@ -85,3 +85,33 @@ def test_builder_errors_and_records():
     assert len(m) == 0 and m.records[0].kind == "pause"
     assert Moves.empty().bounds().shape == (2, 3)
     assert MovesBuilder(laser=LaserMode.DYNAMIC).laser == LaserMode.DYNAMIC
+
+
+def test_the_columns_are_stated_once_and_everything_derives_from_them():
+    """Moves' constructor, MOVE_ROW (the parser kernel's row type), BLANK_ROW, the builders
+    and the parser all use the one column table of labkit.toolpath.moves."""
+    import re
+    from pathlib import Path
+
+    import labkit
+    from labkit.gcode import parse
+    from labkit.toolpath import corners
+    from labkit.toolpath.moves import _COLUMNS, BLANK_ROW, MOVE_ROW
+
+    names = tuple(_COLUMNS)
+    assert Moves.column_names() == names == MOVE_ROW.names
+    for name, (dtype, shape, fill) in _COLUMNS.items():
+        assert MOVE_ROW[name].base == np.dtype(dtype) and MOVE_ROW[name].shape == shape
+        np.testing.assert_array_equal(BLANK_ROW[name][0], np.full(shape, fill, dtype))
+    b = MovesBuilder(feed_mm_min=600)
+    b.line(x=1)
+    built, parsed = b.build(), parse("G1 X1 F600")
+    for m in (built, parsed, Moves.empty()):
+        assert tuple(m.columns()) == names
+        assert all(getattr(m, n).dtype == np.dtype(_COLUMNS[n][0]) for n in names)
+    np.testing.assert_array_equal(built.work_offset, parsed.work_offset)
+    assert corners._COLS == names
+    # No other module spells the column list out.
+    spelled = re.compile(r'"kind",\s*"start",\s*"end",\s*"centre",\s*"plane",\s*"feed_mm_min"')
+    root = Path(labkit.__file__).parent
+    assert [p.name for p in root.rglob("*.py") if spelled.search(p.read_text("utf-8"))] == []
