@@ -254,21 +254,21 @@ def _put_record(recs, j, line, k, s0, s1, value, row):
 
 #: One rejected line: 1-based line, byte span of the culprit [pos, end), status code
 #: number, detail (``D_*``, selects the message) and two numbers for the message.
-ERROR_ROW = np.dtype([("line", np.int64), ("pos", np.int64), ("end", np.int64),
-                      ("code", np.int64), ("detail", np.int64), ("aux", np.float64, (2,))])
+ERROR_ROW = np.dtype((np.record, [("line", np.int64), ("pos", np.int64), ("end", np.int64),
+                      ("code", np.int64), ("detail", np.int64), ("aux", np.float64, (2,))]))
 
 #: One kept non-motion line: 1-based line, kind (index into :data:`RECORD_NAMES`), byte
 #: span of its text, numeric value (NaN when none) and the number of moves before it.
-RECORD_ROW = np.dtype([("line", np.int64), ("kind", np.int64), ("span", np.int64, (2,)),
-                       ("value", np.float64), ("index", np.int64)])
+RECORD_ROW = np.dtype((np.record, [("line", np.int64), ("kind", np.int64), ("span", np.int64, (2,)),
+                       ("value", np.float64), ("index", np.int64)]))
 
 #: The modal state after one line (for teaching, :func:`labkit.gcode.reader.modal_trace`):
 #: G numbers of the motion, plane, units, distance and arc-distance groups, the feed
 #: (mm/min, NaN while undefined), S, the laser mode and the position (mm, machine).
-TRACE_ROW = np.dtype([("motion", np.float64), ("plane", np.float64), ("units", np.float64),
+TRACE_ROW = np.dtype((np.record, [("motion", np.float64), ("plane", np.float64), ("units", np.float64),
                       ("distance", np.float64), ("arc_distance", np.float64),
                       ("feed_mm_min", np.float64), ("power_s", np.float64),
-                      ("laser", np.float64), ("position", np.float64, (3,))])
+                      ("laser", np.float64), ("position", np.float64, (3,))]))
 
 #: What :func:`interpret` returns: ``moves`` (array of ``MOVE_ROW``), ``errors`` (of
 #: :data:`ERROR_ROW`, at most ``max_errors``), ``error_total`` (all rejected lines),

@@ -112,7 +112,9 @@ _COLUMNS = {
 
 #: One move as a record: every column of ``_COLUMNS`` by name, dtype and shape (the row
 #: type of the compiled parser's output; :meth:`Moves.from_rows` turns it into columns).
-MOVE_ROW = np.dtype([(name, dtype, shape) for name, (dtype, shape, _) in _COLUMNS.items()])
+# np.record as the scalar type: a row reads and writes its fields as attributes (row.kind = k) in
+# plain Python too, as it does in compiled code, so one kernel source runs both ways (labkit._jit).
+MOVE_ROW = np.dtype((np.record, [(name, dtype, shape) for name, (dtype, shape, _) in _COLUMNS.items()]))
 
 #: A one-element array of :data:`MOVE_ROW` holding every column's fill value (a new row
 #: starts as a copy of it, so a column nobody writes keeps its default).
