@@ -113,7 +113,8 @@ def add_stream_arguments(parser):
 
 
 class _Progress:
-    """tqdm in a terminal when installed, otherwise a line every few seconds on stderr."""
+    """tqdm's bar on stderr in a terminal (nothing when stderr is not a terminal: ``disable=None``);
+    without tqdm, a line every few seconds."""
 
     def __init__(self, total: int):
         self.total = total

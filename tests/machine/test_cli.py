@@ -68,3 +68,13 @@ def test_console(monkeypatch, capsys):
     assert main(["console"]) == 0
     out = capsys.readouterr().out
     assert "connected: Grbl 1.1h" in out and "< [OPT:VL,16,128]" in out and "< <" in out
+
+
+def test_stream_progress_is_a_tqdm_bar():
+    from labkit.commands.machine import _Progress
+
+    progress = _Progress(10)
+    assert type(progress.bar).__module__.startswith("tqdm")
+    progress(3, 5, 10, 12.0)
+    assert progress.bar.n == 5 and "ETA 12 s" in progress.bar.postfix
+    progress.close()
