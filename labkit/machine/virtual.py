@@ -137,11 +137,14 @@ class VirtualMachine:
         self.is_open = True
         self.settings = dict(_DEFAULT_SETTINGS)
         self.settings[11] = f"{self.machine.junction_deviation_mm:.3f}"
+        self.overrides = (100, 100, 100)     # feed, rapid, laser power (%), GRBL's Ov: field
+        self._ov_changed = False
         self.settings[12] = f"{self.machine.arc_tolerance_mm:.3f}"
         for axis in range(3):
             self.settings[110 + axis] = f"{self.machine.max_rate_mm_min[axis]:.3f}"
             self.settings[120 + axis] = f"{self.machine.accel_mm_s2[axis]:.3f}"
             self.settings[130 + axis] = f"{self.machine.travel_mm[axis]:.3f}"
+            self.settings[100 + axis] = f"{self.machine.steps_per_mm[axis]:.3f}"
         self._lock = threading.RLock()
         self._out = bytearray()
         self._rx = bytearray()
@@ -178,9 +181,11 @@ class VirtualMachine:
         with self._lock:
             self._advance()
             for byte in bytes(data):
-                kind = _REALTIME.get(byte) or ("override" if 0x90 <= byte <= 0x9D else None)
+                kind = _REALTIME.get(byte)
                 if kind:
                     self._realtime(kind)
+                elif 0x90 <= byte <= 0x9D:
+                    self._override(byte)
                 elif len(self._rx) < self.rx_bytes - 1:    # GRBL keeps one byte free
                     self._rx.append(byte)
                 else:
@@ -282,7 +287,24 @@ class VirtualMachine:
             self._emit("\r\nGrbl 1.1h ['$' for help]")
             if self.state == "Alarm":
                 self._emit("[MSG:'$H'|'$X' to unlock]")
-        # feed/rapid/power overrides are accepted and ignored by the simulation
+
+    def _override(self, byte: int) -> None:
+        """GRBL 1.1's override bytes: feed 10–200 %, rapid 25/50/100 %, laser power 10–200 %.
+        They apply to blocks that start from now on (GRBL re-plans the queue; close enough for
+        a simulation), and the status report's Ov: field shows them."""
+        feed, rapid, power = self.overrides
+        if byte == 0x90:
+            feed = 100
+        elif byte in (0x91, 0x92, 0x93, 0x94):
+            feed += {0x91: 10, 0x92: -10, 0x93: 1, 0x94: -1}[byte]
+        elif byte in (0x95, 0x96, 0x97):
+            rapid = {0x95: 100, 0x96: 50, 0x97: 25}[byte]
+        elif byte == 0x99:
+            power = 100
+        elif byte in (0x9A, 0x9B, 0x9C, 0x9D):
+            power += {0x9A: 10, 0x9B: -10, 0x9C: 1, 0x9D: -1}[byte]
+        self.overrides = (min(200, max(10, feed)), rapid, min(200, max(10, power)))
+        self._ov_changed = True
 
     def _status_report(self) -> str:
         x, y, z = (float(v) for v in self.pos)
@@ -296,6 +318,9 @@ class VirtualMachine:
         text = f"<{st}|MPos:{x:.3f},{y:.3f},{z:.3f}|Bf:{free_blocks},{free_rx}|FS:{feed:.0f},{s:.0f}"
         if self._status_count % 10 == 0:
             text += "|WCO:0.000,0.000,0.000"
+        if self._ov_changed or self._status_count % 10 == 1:     # GRBL: on change, else now and then
+            text += "|Ov:{},{},{}".format(*self.overrides)
+            self._ov_changed = False
         self._status_count += 1
         if self._blocks and self._blocks[0].n_word >= 0:
             text += f"|Ln:{self._blocks[0].n_word}"
@@ -564,6 +589,10 @@ class VirtualMachine:
         if b.is_dwell:
             self._speed = 0.0
             return
+        feed_ov, rapid_ov, power_ov = self.overrides
+        b.speed_mm_s *= (rapid_ov if b.rapid else feed_ov) / 100.0
+        if not b.rapid:
+            b.power = min(1.0, b.power * power_ov / 100.0)
         length = float(np.linalg.norm(b.end - b.start))
         acc = b.accel_mm_s2
         ahead = sum(float(np.linalg.norm(q.end - q.start)) for q in list(self._blocks)[1:])
