@@ -35,3 +35,39 @@ def pytest_configure(config):
 
     for note in warm_once():
         print(f"note: kernel warm-up: {note}")
+
+
+
+def _serialise_kernel_starts():
+    """Parallel workers (make test: pytest -n) start one Jupyter kernel per notebook. Two kernels
+    starting at the same moment can pick the same free TCP ports, and one dies ("Kernel died
+    before replying to kernel_info"), failing a notebook at random. Starts are serialised across
+    workers by a file lock; each kernel is running, with its ports bound, when the lock opens."""
+    import fcntl
+    import functools
+    import tempfile
+    from pathlib import Path
+
+    try:
+        from nbval import kernel as nbval_kernel
+    except ImportError:
+        return
+    start = nbval_kernel.RunningKernel.__init__
+    if getattr(start, "_labkit_serialised", False):
+        return
+    lock_path = Path(tempfile.gettempdir()) / "labkit-nbval-kernel-start.lock"
+
+    @functools.wraps(start)
+    def serialised(self, *args, **kwargs):
+        with open(lock_path, "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            try:
+                start(self, *args, **kwargs)
+            finally:
+                fcntl.flock(lock, fcntl.LOCK_UN)
+
+    serialised._labkit_serialised = True
+    nbval_kernel.RunningKernel.__init__ = serialised
+
+
+_serialise_kernel_starts()
