@@ -34,6 +34,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "dxf2gcode": ("vector", "convert DXF drawings to laser G-code"),
     "img2gcode": ("raster", "engrave a raster image: zig-zag, spiral, edges, gray, dither"),
     "pattern": ("pattern", "write a parametric toolpath: helix, spiral, square-spiral, zigzag, cone"),
+    "slice": ("slice", "planar sections of a 3-D model (STL), each pocketed, as one laser job"),
     "split": ("split", "split a long G-code program into sub-programs that each restate the state"),
     "plan": ("motion", "plan a G-code job: blocks, speed profiles, look-ahead, job time"),
     "steps": ("motion", "write the Bresenham step sequence of a G-code job"),
