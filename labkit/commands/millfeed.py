@@ -49,22 +49,14 @@ def run_millfeed(args) -> int:
     from labkit._files import check_output_file
     from labkit.errors import InputError
     from labkit.gcode import parse_file, write_gcode
-    from labkit.micromachining.chipvolume import ZMap
+    from labkit.micromachining.chipvolume import ZMap, stock_extent
     from labkit.micromachining.feedschedule import SEED_BLOCK_TIME_S, schedule_feeds
 
     check_output_file(args.output, args.file)
     if args.window % 2 == 0:
         raise InputError(f"--window must be odd, got {args.window}")
     moves = parse_file(args.file, dialect=args.dialect)
-    if args.stock is None:
-        cut = moves[moves.is_feed]
-        if not len(cut):
-            raise InputError(f"{args.file}: no feed moves (G1/G2/G3) to schedule")
-        lo, hi = cut.bounds()
-        r = args.tool_d / 2
-        lower, upper = (lo[0] - r, lo[1] - r), (hi[0] + r, hi[1] + r)
-    else:
-        lower, upper = tuple(args.stock[:2]), tuple(args.stock[2:])
+    lower, upper = stock_extent(moves, args.tool_d, args.stock)
     stock = ZMap.stock(lower, upper, top_z=args.top, bottom_z=args.top - args.thickness, cell_mm=args.cell)
     s = schedule_feeds(moves, stock, tool_diameter_mm=args.tool_d, rpm=args.rpm, teeth=args.teeth,
                        ft_min_mm=args.ft_min, ft_max_mm=args.ft_max, scale=args.scale, window=args.window)

@@ -36,20 +36,12 @@ def run_plough(args) -> int:
     """Simulate and print the totals (and write the CSV)."""
     import numpy as np
 
-    from labkit.errors import InputError
     from labkit.gcode import parse_file
+    from labkit.micromachining.chipvolume import stock_extent
     from labkit.micromachining.dexel import plough
 
     moves = parse_file(args.file)
-    if args.stock is None:
-        cut = moves[moves.is_feed]
-        if not len(cut):
-            raise InputError(f"{args.file}: no feed moves (G1/G2/G3) to simulate")
-        lo, hi = cut.bounds()
-        r = args.tool_d / 2
-        lower, upper = (lo[0] - r, lo[1] - r), (hi[0] + r, hi[1] + r)
-    else:
-        lower, upper = tuple(args.stock[:2]), tuple(args.stock[2:])
+    lower, upper = stock_extent(moves, args.tool_d, args.stock)
     res = plough(moves, lower, upper, resolution_mm=args.resolution, tool_diameter_mm=args.tool_d,
                  rpm=args.rpm, teeth=args.teeth, min_chip_mm=args.min_chip,
                  edge_radius_mm=args.edge_radius, scale=args.scale)

@@ -28,7 +28,7 @@ import numpy as np
 from labkit.errors import GeometryError
 from labkit.toolpath.moves import MoveKind, Moves
 
-__all__ = ["ZMap", "ChipVolumes", "feed_per_tooth_mm", "tool_positions", "chip_volumes"]
+__all__ = ["ZMap", "ChipVolumes", "feed_per_tooth_mm", "tool_positions", "chip_volumes", "stock_extent"]
 
 
 def feed_per_tooth_mm(feed_mm_min, rpm: float, teeth: int):
@@ -132,6 +132,24 @@ class ZMap:
         xyz = np.ascontiguousarray(xyz, float)
         return _cut_path(self.height, self.x0, self.y0, self.cell_mm, xyz[:, 0].copy(),
                          xyz[:, 1].copy(), xyz[:, 2].copy(), float(radius_mm), self.bottom_z)
+
+
+def stock_extent(moves: Moves, tool_diameter_mm: float, stock=None):
+    """The stock's XY corners: ``stock`` = (xmin, ymin, xmax, ymax) if given, else the cutting
+    moves' extent plus the tool radius (everything the cutter touches), mm.
+
+    >>> from labkit.gcode import parse
+    >>> stock_extent(parse("G0 X1 Y1\nG1 X3 F60"), 1.0)
+    ((0.5, 0.5), (3.5, 1.5))
+    """
+    if stock is not None:
+        return (float(stock[0]), float(stock[1])), (float(stock[2]), float(stock[3]))
+    cut = moves[moves.is_feed]
+    if not len(cut):
+        raise GeometryError(f"{moves.source or 'the program'}: no feed moves (G1/G2/G3) to cut with")
+    lo, hi = cut.bounds()
+    r = tool_diameter_mm / 2
+    return (float(lo[0] - r), float(lo[1] - r)), (float(hi[0] + r), float(hi[1] + r))
 
 
 def tool_positions(moves: Moves, step_of_move_mm: np.ndarray, *, rapids: bool = False):
