@@ -139,7 +139,7 @@ def stock_extent(moves: Moves, tool_diameter_mm: float, stock=None):
     moves' extent plus the tool radius (everything the cutter touches), mm.
 
     >>> from labkit.gcode import parse
-    >>> stock_extent(parse("G0 X1 Y1\nG1 X3 F60"), 1.0)
+    >>> stock_extent(parse("G0 X1 Y1\\nG1 X3 F60"), 1.0)
     ((0.5, 0.5), (3.5, 1.5))
     """
     if stock is not None:
