@@ -127,6 +127,9 @@ def add_svg2gcode_arguments(parser: argparse.ArgumentParser) -> None:
                         help="with --arcs, how curves become arcs: fewest blocks (greedy, default) "
                              "or tangent-continuous biarcs")
     parser.add_argument("--no-flip", action="store_true", help="keep SVG's downward y axis")
+    parser.add_argument("--clip-to-page", action="store_true",
+                        help="cut only what lies on the page, as a renderer shows it (default: "
+                             "shapes reaching beyond the page are cut whole, with a warning)")
 
 
 def add_dxf2gcode_arguments(parser: argparse.ArgumentParser) -> None:
@@ -224,7 +227,9 @@ def _refuse_empty(drawing, kind: str) -> None:
         raise InputError(f"{drawing.source}: nothing to cut: the {kind} holds only "
                          f"{', '.join(kinds)} ({len(drawing.skipped)} element(s)); convert text to "
                          f"paths in the drawing program, and engrave bitmaps with labkit img2gcode")
-    raise InputError(f"{drawing.source}: nothing to cut: the {kind} has no visible shapes")
+    hidden = getattr(drawing, "clipped", [])
+    raise InputError(f"{drawing.source}: nothing to cut: the {kind} has no visible shapes"
+                     + (f" ({len(hidden)} clipped away entirely: {', '.join(hidden[:5])})" if hidden else ""))
 
 
 def run_svg2gcode(args) -> int:
@@ -235,7 +240,8 @@ def run_svg2gcode(args) -> int:
     check_input_file(args.input, what="SVG file")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        drawing = read_svg(args.input, tol_mm=args.tol, arcs=args.arcs, fit=args.fit, flip_y=not args.no_flip)
+        drawing = read_svg(args.input, tol_mm=args.tol, arcs=args.arcs, fit=args.fit, flip_y=not args.no_flip,
+                           clip_to_page=args.clip_to_page)
     for w in caught:
         print(f"warning: {w.message}", file=sys.stderr)
     _refuse_empty(drawing, "SVG")

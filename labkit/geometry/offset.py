@@ -29,7 +29,7 @@ from labkit.errors import GeometryError
 from labkit.geometry.arcfit import fit_arcs
 from labkit.geometry.path import Path
 
-__all__ = ["offset_paths", "region"]
+__all__ = ["offset_paths", "region", "region_paths"]
 
 _JOINS = {"round": "round", "miter": "mitre", "mitre": "mitre", "bevel": "bevel"}
 
@@ -142,10 +142,38 @@ def offset_paths(paths: Sequence[Path], distance_mm: float, *, join="round", tol
                      f"at {tol_mm:g} mm", option="--kerf")
         reg = shapely.buffer(reg, d, quad_segs=quad_segs, join_style=_JOINS[join],
                              mitre_limit=miter_limit)
-    reg = shapely.orient_polygons(reg) if hasattr(shapely, "orient_polygons") else reg
     first = paths[0]
     meta = dict(layer=first.layer, stroke=first.stroke, fill=first.fill, fill_rule=first.fill_rule,
                 source=first.source)
+    return region_paths(reg, tol_mm, sample_tol_mm=sample_tol, arcs=arcs, **meta)
+
+
+def region_paths(reg, tol_mm, *, sample_tol_mm=0.0, arcs=True, **meta) -> list[Path]:
+    """The boundary rings of a shapely region as closed Paths of lines and arcs.
+
+    Parameters
+    ----------
+    reg : shapely geometry
+        Polygons (other parts are ignored), e.g. from :func:`region`.
+    tol_mm : float
+        Largest deviation of the output from the true boundary, mm.
+    sample_tol_mm : float
+        Deviation already in the region's vertices (how finely its curves were
+        sampled), mm; the arc fit gets the rest of ``tol_mm``.
+    arcs : bool
+        Recover circular arcs (True) or give straight segments only.
+    **meta
+        Layer, colours, fill rule and source of the Paths.
+
+    Returns
+    -------
+    list of Path
+        Outer rings counter-clockwise, holes clockwise, so either fill rule
+        fills the region.
+    """
+    import shapely
+
+    reg = shapely.orient_polygons(reg) if hasattr(shapely, "orient_polygons") else reg
     out: list[Path] = []
     for poly in getattr(reg, "geoms", [reg]):
         if poly.is_empty or poly.geom_type != "Polygon":
@@ -156,8 +184,8 @@ def offset_paths(paths: Sequence[Path], distance_mm: float, *, join="round", tol
             ccw = _signed_area(pts) > 0
             if ccw != outer:
                 pts = pts[::-1]
-            out.append(fit_arcs(pts, tol_mm - sample_tol, arcs=arcs, closed=True,
-                                base_deviation_mm=sample_tol, **meta))
+            out.append(fit_arcs(pts, tol_mm - sample_tol_mm, arcs=arcs, closed=True,
+                                base_deviation_mm=sample_tol_mm, **meta))
     return out
 
 

@@ -23,7 +23,7 @@ import numpy as np
 
 from labkit.errors import GeometryError
 from labkit.geometry.chains import join_chains
-from labkit.geometry.hatch import hatch
+from labkit.geometry.hatching import hatch
 from labkit.geometry.offset import offset_paths
 from labkit.geometry.order import order_paths
 from labkit.geometry.path import Path

@@ -50,6 +50,8 @@ class SvgScan:
     uses: int
     unrendered: int = 0        # elements render_only rewrites (containers never drawn directly,
                                # switch, transform-origin)
+    clip_transforms: dict = None   # clipPath id → its own transform attribute ("" when none):
+                                   # svgelements folds the context where it is defined in too
 
 
 def _local(tag: str) -> str:
@@ -104,6 +106,7 @@ def scan_svg(data: bytes, name: str) -> SvgScan:
     root_targets: Counter = Counter()
     state = {"n": 0, "depth": 0, "uses": 0, "root": None, "unrendered": 0}
     counts: list[int] = []            # running element count per open element (to size subtrees)
+    clips: dict[str, str] = {}
 
     def where() -> str:
         return f"{name}:{parser.CurrentLineNumber}:{parser.CurrentColumnNumber + 1}"
@@ -140,6 +143,8 @@ def scan_svg(data: bytes, name: str) -> SvgScan:
                             f"{where()}: <{local}> viewBox={value!r} has a width or height that is "
                             f"not positive; SVG disables rendering of such an element (a renderer "
                             f"draws nothing), so labkit will not cut it")
+        if local == "clipPath" and ident is not None:
+            clips[ident] = attrs.get("transform", "")
         if local in _UNRENDERED or local == "switch" or "transform-origin" in attrs:
             state["unrendered"] += 1
         stack.append([ident, Counter()])
@@ -210,7 +215,7 @@ def scan_svg(data: bytes, name: str) -> SvgScan:
                              cause=f"<use> copies of #{node} in {name}")
     expanded = state["n"] + sum(k * size.get(t, 0) for t, k in root_targets.items())
     check_budget("elements", expanded, cause=f"<use> copies in {name}")
-    return SvgScan(state["n"], expanded, state["depth"], state["uses"], state["unrendered"])
+    return SvgScan(state["n"], expanded, state["depth"], state["uses"], state["unrendered"], clips)
 
 
 #: Elements whose content a renderer draws only through a reference (symbol, marker, mask,

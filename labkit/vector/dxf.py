@@ -448,4 +448,32 @@ def read_dxf(source, *, tol_mm=0.01, units=None, warn=True) -> Drawing:
         listed = ", ".join(f"{n} {kind}" for kind, n in kinds.most_common())
         warnings.warn(f"{name}: skipped {len(skipped)} entities labkit does not cut ({listed}): "
                       f"{', '.join(skipped[:10])}{' …' if len(skipped) > 10 else ''}", stacklevel=2)
+    if units is None and paths and warn:
+        _check_extents(paths, k, name)
     return Drawing(paths, math.nan, math.nan, skipped, name)
+
+
+#: Drawing sizes (largest side, mm) a laser job plausibly has; outside, the units are doubted.
+PLAUSIBLE_SPAN_MM = (1.0, 3000.0)
+
+
+def _check_extents(paths, mm_per_unit, name) -> None:
+    """Warn when the drawing's size in mm is implausible for a laser job: the units in the
+    file (or the mm assumed without them) are probably not the ones it was drawn in."""
+    from labkit.geometry.path import paths_bounds
+
+    lo, hi = paths_bounds(paths)
+    span = float(np.max(hi - lo))
+    low, high = PLAUSIBLE_SPAN_MM
+    if not span > 0 or low <= span <= high:
+        return
+    assumed = next(u for u, v in UNIT_NAMES.items() if v == mm_per_unit) if mm_per_unit in \
+        UNIT_NAMES.values() else f"{mm_per_unit:g} mm"
+    drawn = span / mm_per_unit
+    better = [u for u in ("mm", "inch", "cm", "m", "um") if low <= drawn * UNIT_NAMES[u] <= high
+              and UNIT_NAMES[u] != mm_per_unit]
+    hint = (f"if it was drawn in {better[0]}, give --units {better[0]} (units='{better[0]}')"
+            if better else "check the drawing's units (--units)")
+    warnings.warn(f"{name}: the drawing is {f'{span:,.0f}' if span >= 10 else f'{span:.3g}'} mm across with its units taken as {assumed}, "
+                  f"implausibly {'small' if span < low else 'large'} for a laser job — {hint}",
+                  stacklevel=3)

@@ -23,8 +23,10 @@ Only what a renderer draws is cut (checked against resvg in the tests):
 ``symbol``/``marker``/``mask``/``pattern`` outside a reference, ``metadata`` and
 Inkscape's ``flowRoot`` text frames; ``display:none`` and ``visibility:hidden``
 (with CSS and inheritance, as svgelements resolves them); shapes with neither fill
-nor stroke, or opacity 0; every ``switch`` child but the first. ``clip-path`` is not
-applied: the shapes it clips are named in a warning.
+nor stroke, or opacity 0; every ``switch`` child but the first. ``clip-path`` is applied
+(:mod:`labkit.geometry.clip`): a shape is cut only inside its clip region, built from
+the clipPath's shapes in the referencing element's user space or bounding box; a
+clipPath holding text is not applied, and the shapes it clips are named in a warning.
 
 Text and images cannot be cut as vectors; they are skipped with a warning
 naming each one once (convert text to paths in the drawing program first).
@@ -45,7 +47,9 @@ from labkit.geometry import transform as tf
 from labkit.budget import check_budget
 from labkit.geometry.arcfit import FLATTEN_SHARE, coordinate_limit_mm, cubics_to_arcs
 from labkit.geometry.bezier import cubic_samples, flatten_cubics, quad_to_cubic
+from labkit.geometry.clip import clip_paths
 from labkit.geometry.measure import path_distance
+from labkit.geometry.offset import region
 from labkit.geometry.ellipse import ellipse_arc_arrays
 from labkit.geometry.path import Path
 from labkit.vector._svg_scan import render_only, scan_svg
@@ -71,6 +75,9 @@ class Drawing:
     invisible : list of str
         Shapes a renderer paints nothing for (no fill and no stroke, opacity 0, a fill
         of zero area), named; never cut.
+    clipped : list of str
+        Shapes cut only in part (or not at all) because a ``clip-path`` or the page
+        clip hides the rest, named.
     source : str
         File name or ``"<string>"``.
     """
@@ -81,6 +88,7 @@ class Drawing:
     skipped: list[str] = field(default_factory=list)
     source: str = "<string>"
     invisible: list[str] = field(default_factory=list)
+    clipped: list[str] = field(default_factory=list)
 
     @property
     def layers(self) -> list[str]:
@@ -105,7 +113,7 @@ def _load(source):
     if scan.unrendered:             # svgelements draws symbols, markers, masks, text frames
         data, dropped = render_only(data)
     try:
-        return se.SVG.parse(io.BytesIO(data), reify=False, ppi=PX_PER_INCH), name, dropped
+        return se.SVG.parse(io.BytesIO(data), reify=False, ppi=PX_PER_INCH), name, dropped, scan
     except (ValueError, SyntaxError) as exc:       # svgelements: unresolvable units, bad XML
         raise GeometryError(f"{name}: cannot read this SVG ({exc})") from None
     except ArithmeticError as exc:                 # svgelements on degenerate numbers (an arc
@@ -366,6 +374,139 @@ def _shape_paths(el, m, tol_mm, arcs, fit, meta) -> list[Path]:
     return out
 
 
+def _clip_id(el) -> str | None:
+    """The id a ``clip-path="url(#id)"`` names (clip-path is not inherited), else None."""
+    value = el.values.get("clip-path")
+    if not value or value == "none":
+        return None
+    value = str(value).strip()
+    if value.startswith("url(") and value.endswith(")"):
+        value = value[4:-1].strip().strip("'\"")
+    return value[1:] if value.startswith("#") else value
+
+
+class _Clips:
+    """Clip regions (shapely, page mm) of every shape under a ``clip-path``.
+
+    A ``clipPath``'s contents are drawn in the user space of the element that references
+    it (``clipPathUnits="userSpaceOnUse"``, that element's transform included) or in its
+    bounding box (``objectBoundingBox``), through the clipPath's own transform — not in
+    the frame where it is defined. svgelements folds the definition's context into the
+    clip contents' matrices; the scan's record of each clipPath's own transform takes it
+    back out. Nested clips (a clipped shape in a clipped group) intersect.
+    """
+
+    def __init__(self, doc, scan, page, tol_mm, fit):
+        import svgelements as se
+
+        self.doc, self.own, self.page, self.fit = doc, scan.clip_transforms or {}, page, fit
+        self.sample_tol = 0.2 * tol_mm
+        self.chains: dict[int, tuple] = {}
+        self.cache: dict[tuple, object] = {}
+        self.unsupported: list[str] = []
+        if not self.own and not any(_clip_id(el) for el in doc.elements()):
+            return
+        stack = [(iter(doc), ())]
+        while stack:                                  # iterative: nesting may be deep
+            children, chain = stack[-1]
+            el = next(children, None)
+            if el is None:
+                stack.pop()
+                continue
+            ident = _clip_id(el)
+            own = chain + ((el, ident),) if ident else chain
+            if own:
+                self.chains[id(el)] = own
+            if isinstance(el, (se.Group, se.Use)):
+                stack.append((iter(el), own))
+
+    def region(self, el, label):
+        """The region that clips ``el``, or None when nothing clips it."""
+        import shapely
+
+        chain = self.chains.get(id(el))
+        if not chain:
+            return None
+        out = None
+        for ref, ident in chain:
+            key = (id(ref), ident)
+            if key not in self.cache:
+                self.cache[key] = self._build(ref, ident, label)
+            reg = self.cache[key]
+            if reg is not None:
+                out = reg if out is None else shapely.intersection(out, reg)
+        return out
+
+    def _matrix(self, text):
+        import svgelements as se
+
+        m = se.Matrix(text) if text else se.Matrix()
+        return tf.matrix(m.a, m.b, m.c, m.d, m.e, m.f)
+
+    def _build(self, ref, ident, label):
+        import shapely
+        import svgelements as se
+
+        clip = self.doc.get_element_by_id(ident)
+        if not isinstance(clip, se.ClipPath):
+            self.unsupported.append(f"{label} (clip-path #{ident} is not a clipPath)")
+            return None
+        acc = self._matrix(clip.values.get("transform", ""))       # context @ own
+        user = _element_matrix(ref, self.page) @ self._matrix(self.own.get(ident, "")) @ np.linalg.inv(acc)
+        if clip.values.get("clipPathUnits") == "objectBoundingBox":
+            box = _own_bbox(ref)
+            if box is None:
+                return shapely.Polygon()              # no box: nothing is drawn
+            (x0, y0), (x1, y1) = box
+            user = (_element_matrix(ref, self.page) @ tf.matrix(x1 - x0, 0, 0, y1 - y0, x0, y0)
+                    @ self._matrix(self.own.get(ident, "")) @ np.linalg.inv(acc))
+        parts = []
+        stack = [iter(clip)]
+        while stack:
+            child = next(stack[-1], None)
+            if child is None:
+                stack.pop()
+                continue
+            if isinstance(child, (se.Group, se.Use)):
+                stack.append(iter(child))
+                continue
+            if (child.values.get("display") == "none"
+                    or child.values.get("visibility") in ("hidden", "collapse")):
+                continue
+            if not isinstance(child, se.Shape) or isinstance(child, (se.SVGText, se.Text)):
+                self.unsupported.append(f"{label} (clip-path #{ident} holds {type(child).__name__.lower()})")
+                continue
+            rule = "evenodd" if str(child.values.get("clip-rule", "nonzero")).strip() == "evenodd" \
+                else "nonzero"
+            meta = dict(layer="clip", fill_rule=rule, source=f"clipPath#{ident}")
+            m = user @ _element_matrix(child, np.eye(3))
+            subpaths = _shape_paths(child, m, self.sample_tol, False, self.fit, meta)
+            rings = [p if p.closed else _closed(p) for p in subpaths if len(p.vertices) > 2]
+            if rings:
+                parts.append(region(rings, tol_mm=self.sample_tol, fill_rule=rule))
+        return shapely.union_all(parts) if parts else shapely.Polygon()
+
+
+def _own_bbox(el):
+    """Bounding box of ``el`` in its own user space ((x0, y0), (x1, y1)), or None."""
+    import svgelements as se
+
+    if isinstance(el, se.Shape):
+        box = el.bbox(transformed=False)
+        return None if box is None else ((box[0], box[1]), (box[2], box[3]))
+    inv = np.linalg.inv(_element_matrix(el, np.eye(3)))
+    corners = []
+    for sub in el.select():
+        if isinstance(sub, se.Shape) and sub is not el:
+            box = sub.bbox(transformed=True)
+            if box is not None:
+                corners += [(box[0], box[1]), (box[2], box[1]), (box[0], box[3]), (box[2], box[3])]
+    if not corners:
+        return None
+    pts = tf.apply(inv, np.array(corners, float))
+    return tuple(pts.min(axis=0)), tuple(pts.max(axis=0))
+
+
 def _iter_shapes(doc):
     import svgelements as se
 
@@ -380,7 +521,8 @@ def _iter_shapes(doc):
             yield index, el, "shape"
 
 
-def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=True) -> Drawing:
+def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=True,
+             clip_to_page=False) -> Drawing:
     """Read an SVG file (or SVG text) into Paths in mm.
 
     Parameters
@@ -400,7 +542,12 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
     flip_y : bool
         Mirror y so the drawing's top is at +y (SVG's y points down).
     warn : bool
-        Issue a :class:`UserWarning` naming skipped text and images.
+        Issue a :class:`UserWarning` naming skipped text and images, shapes a
+        clip-path could not be applied to, and shapes that reach outside the page.
+    clip_to_page : bool
+        Cut only what lies on the page (the document's width × height), as a
+        renderer shows it. Otherwise shapes beyond the page are kept whole and
+        named in a warning that says how far and how much lies outside.
 
     Returns
     -------
@@ -422,8 +569,9 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
     """
     if not tol_mm > 0:
         raise GeometryError(f"tol_mm must be > 0 mm, got {tol_mm!r}")
-    doc, name, dropped = _load(source)
+    doc, name, dropped, scan = _load(source)
     page = _page_matrix(doc, flip_y)
+    clips = _Clips(doc, scan, page, tol_mm, fit)
     paths: list[Path] = []
     skipped: list[str] = list(dropped)
     invisible: list[str] = []
@@ -437,8 +585,6 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
         if (stroke is None and fill is None) or _opacity(el) == 0:
             invisible.append(label)               # a renderer paints nothing here
             continue
-        if el.values.get("clip-path") not in (None, "", "none"):
-            clipped.append(label)
         rule = str(el.values.get("fill-rule", "nonzero")).strip().lower()
         meta = dict(layer=stroke or fill or "none", stroke=stroke, fill=fill,
                     fill_rule="evenodd" if rule == "evenodd" else "nonzero", source=label)
@@ -461,6 +607,12 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
             if not (np.isfinite(p.vertices).all() and np.isfinite(p.sweeps).all()):
                 raise GeometryError(f"{name}: {label} maps to coordinates that are not finite "
                                     f"numbers (a transform or size beyond double range)")
+        reg = clips.region(el, label)
+        if reg is not None and new:
+            cut = clip_paths(new, reg, tol_mm=tol_mm, arcs=arcs)
+            if cut.clipped:
+                clipped.append(label)
+            new = cut.paths
         paths += new
     if skipped and warn:
         warnings.warn(f"{name}: skipped {len(skipped)} element(s) that are not vector shapes "
@@ -470,14 +622,46 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
         warnings.warn(f"{name}: skipped {len(invisible)} shape(s) a renderer paints nothing for "
                       f"(no fill and no stroke, opacity 0, or a fill of zero area): {', '.join(invisible[:10])}"
                       f"{' …' if len(invisible) > 10 else ''}", stacklevel=2)
-    if clipped and warn:
-        warnings.warn(f"{name}: clip-path is not applied; {len(clipped)} shape(s) are cut whole "
-                      f"where a renderer shows only their clipped part: {', '.join(clipped[:10])}"
-                      f"{' …' if len(clipped) > 10 else ''} — clip them in the drawing program "
-                      f"(Inkscape: Path › Intersection)", stacklevel=2)
+    if clips.unsupported and warn:
+        warnings.warn(f"{name}: clip-path is not applied where its clipPath holds text or is "
+                      f"missing; {len(clips.unsupported)} shape(s) are cut whole where a renderer "
+                      f"shows only their clipped part: {', '.join(clips.unsupported[:10])}"
+                      f"{' …' if len(clips.unsupported) > 10 else ''} — clip them in the drawing "
+                      f"program (Inkscape: Path › Intersection)", stacklevel=2)
     width = float(doc.width) * MM_PER_PX if doc.width is not None else math.nan
     height = float(doc.height) * MM_PER_PX if doc.height is not None else math.nan
-    return Drawing(paths, width, height, skipped, name, invisible)
+    if paths and width > 0 and height > 0:
+        paths = _page_check(paths, width, height, name, tol_mm, arcs, clip_to_page, warn, clipped)
+    return Drawing(paths, width, height, skipped, name, invisible, clipped)
+
+
+def _page_check(paths, width, height, name, tol_mm, arcs, clip_to_page, warn, clipped):
+    """Shapes reaching beyond the page (a renderer does not show that part): clipped to
+    it, or named in a warning with how far and how much lies outside."""
+    from labkit.geometry.clip import rectangle_region
+
+    lo, hi = np.array([0.0, 0.0]), np.array([width, height])
+    beyond = np.array([max(float(np.max(lo - b[0])), float(np.max(b[1] - hi)), 0.0)
+                       for b in (p.bounds() for p in paths)])
+    out = np.flatnonzero(beyond > tol_mm)
+    if not len(out):
+        return paths
+    page = rectangle_region(0.0, 0.0, width, height)
+    pieces = {i: clip_paths([paths[i]], page, tol_mm=tol_mm, arcs=arcs) for i in out}
+    names = list(dict.fromkeys(s for r in pieces.values() for s in r.clipped))
+    if not names:                       # the bounds of an arc reach out, the arc does not
+        return paths
+    if clip_to_page:
+        clipped.extend(s for s in names if s not in clipped)
+        return [q for i, p in enumerate(paths) for q in (pieces[i].paths if i in pieces else [p])]
+    removed = sum(r.removed_mm for r in pieces.values())
+    if warn:
+        warnings.warn(f"{name}: {len(names)} shape(s) reach outside the {width:g} × {height:g} mm "
+                      f"page, up to {beyond.max():.3g} mm beyond its edge ({removed:.1f} mm of "
+                      f"path outside, which a renderer does not show): {', '.join(names[:10])}"
+                      f"{' …' if len(names) > 10 else ''} — they are cut whole; clip_to_page=True "
+                      f"(--clip-to-page) cuts only what lies on the page", stacklevel=3)
+    return paths
 
 
 def svg_reference_samples(source, *, per_segment=2000, flip_y=True,
@@ -498,7 +682,7 @@ def svg_reference_samples(source, *, per_segment=2000, flip_y=True,
     """
     import svgelements as se
 
-    doc, _, _ = _load(source)
+    doc, _, _, _ = _load(source)
     page = _page_matrix(doc, flip_y)
     out: dict[str, list[np.ndarray]] = {}
     t = np.linspace(0.0, 1.0, per_segment)

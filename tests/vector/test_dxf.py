@@ -89,3 +89,76 @@ def test_errors(tmp_path):
         read_dxf(tmp_path / "miles.dxf")
     with pytest.raises(GeometryError, match="tol_mm must be a finite number > 0"):
         read_dxf(PARTS, tol_mm=0)
+
+
+@pytest.mark.parametrize("insunits, size, expect", [
+    (6, 100.0, r"100,000 mm across with its units taken as m, implausibly large .* drawn in mm, give --units mm"),
+    (4, 0.5, r"0\.5 mm across with its units taken as mm, implausibly small .* drawn in inch, give --units inch"),
+    (4, 100.0, None),
+])
+def test_implausible_extents_warn_with_the_unit_to_try(tmp_path, insunits, size, expect):
+    """A 100-unit part whose file says metres (a 100 m laser job), or a half-unit part in a
+    file that says mm, is drawn in other units: the warning says which unit was assumed and
+    which one brings the part to a laser-sized drawing. A plausible drawing is silent, and
+    --units silences the check (the user has said)."""
+    import warnings
+
+    doc = ezdxf.new()
+    doc.header["$INSUNITS"] = insunits
+    doc.modelspace().add_lwpolyline([(0, 0), (size, 0), (size, size / 2)], close=True)
+    path = tmp_path / "part.dxf"
+    doc.saveas(path)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        d = read_dxf(path)
+    messages = [str(w.message) for w in caught]
+    if expect is None:
+        assert not messages
+    else:
+        assert any(__import__("re").search(expect, m) for m in messages), messages
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        read_dxf(path, units="mm")
+    assert d.paths
+
+
+def _de_boor(t, c, p, u):
+    """C(u) by the Cox–de Boor recursion, written out (independent of scipy and ezdxf)."""
+    k = int(np.searchsorted(t, u, side="right") - 1)
+    k = min(max(k, p), len(c) - 1)
+    d = [c[j + k - p].astype(float) for j in range(p + 1)]
+    for r in range(1, p + 1):
+        for j in range(p, r - 1, -1):
+            a = (u - t[j + k - p]) / (t[j + 1 + k - r] - t[j + k - p])
+            d[j] = (1 - a) * d[j - 1] + a * d[j]
+    return d[p]
+
+
+def test_closed_periodic_spline_as_qcad_writes_it(tmp_path):
+    """QCAD writes a closed spline as a periodic one: uniform knots and the first p control
+    points repeated at the end, flags closed | periodic. Only [t_p, t_n] is the curve; the
+    knot vector's ends are not (evaluated there, a tail once reached 1,190 mm from a 100 mm
+    drawing). The flattened loop closes on itself, lies in the control points' convex hull
+    (a B-spline's own bound) and within the tolerance of a Cox–de Boor evaluation."""
+    p, tol = 3, 0.01
+    ring = np.array([[0, 0], [60, -10], [100, 20], [90, 70], [40, 90], [-10, 60], [-20, 20.0]])
+    ctrl = np.vstack([ring, ring[:p]])
+    knots = np.arange(len(ctrl) + p + 1, dtype=float)
+    doc = ezdxf.new()
+    doc.header["$INSUNITS"] = 4
+    s = doc.modelspace().add_spline(dxfattribs={"flags": 1 | 2 | 8})
+    s.dxf.degree = p
+    s.control_points = [(x, y, 0) for x, y in ctrl]
+    s.knots = knots
+    path = tmp_path / "qcad_closed.dxf"
+    doc.saveas(path)
+    (drawn,) = read_dxf(path, tol_mm=tol).paths
+    pts = drawn.sample(tol / 10)
+    assert np.allclose(pts[0], pts[-1], atol=1e-9)
+    import shapely
+
+    hull = shapely.MultiPoint(ring).convex_hull.buffer(1e-9)
+    assert hull.covers(shapely.LineString(pts))
+    u = np.linspace(knots[p], knots[len(ctrl)], 4001)
+    ref = np.array([_de_boor(knots, ctrl, p, x) for x in u])
+    assert hausdorff(Path(pts), Path(ref)) <= tol

@@ -15,6 +15,7 @@ from ezdxf import recover
 from ezdxf.path import make_path
 from scipy.spatial import cKDTree
 
+from labkit.geometry import join_chains
 from labkit.vector.dxf import INSUNITS_MM, read_dxf
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "dxf"
@@ -91,3 +92,20 @@ def test_headerless_file_is_millimetres_not_ezdxf_template_metres():
         warnings.simplefilter("ignore")
         d = read_dxf(DATA / "ezdxf" / "R12_with_trash_beyond_EOF.dxf")
     assert np.allclose(d.paths[0].bounds(), [[-1.5, -1.5], [1.5, 1.5]])
+
+
+def test_openscad_plate_is_three_closed_outlines_of_the_modelled_size():
+    """OpenSCAD 2021.01's export of data/dxf/openscad_plate.scad (LINE entities, no units):
+    the 60 × 40 mm plate with 4 mm corners, the 12 mm hole and the 5 mm slot with centres
+    √(8² + 12²) apart join into three closed loops whose lengths are the model's, less the
+    shortfall of OpenSCAD's 48-gon circles (perimeter factor sin(π/48)/(π/48))."""
+    with pytest.warns(UserWarning, match=r"does not say its units"):
+        d = read_dxf(DATA / "openscad_plate.dxf")
+    loops = sorted(join_chains(d.paths), key=lambda p: -p.length_mm)
+    assert [p.closed for p in loops] == [True, True, True]
+    shrink = math.sin(math.pi / 48) / (math.pi / 48)
+    expected = [2 * (52 + 32) + 2 * math.pi * 4 * shrink,
+                2 * math.hypot(8, 12) + math.pi * 5 * shrink,
+                math.pi * 12 * shrink]
+    assert [p.length_mm for p in loops] == pytest.approx(expected, abs=0.02)
+    assert np.allclose(loops[0].bounds(), [[-30, -20], [30, 20]], atol=1e-3)

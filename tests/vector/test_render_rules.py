@@ -44,6 +44,28 @@ RULES = {
                         f'width="12" height="4" {STROKE}/></g>',
     "fill-only line (zero area)": '<path id="zl" d="M 10 10 L 30 20"/>',
     "fill-only curve (an area)": '<path id="fc" d="M 10 10 C 20 30 30 0 30 20"/>',
+    # clip-path applied (a renderer paints only inside the clip region)
+    "clip-path rectangle on a shape": f'<clipPath id="c1"><rect x="5" y="5" width="12" height="12"/>'
+                                      f'</clipPath><circle id="cc" cx="15" cy="15" r="8" clip-path="url(#c1)" {STROKE}/>',
+    "clip-path circle on a transformed group": f'<clipPath id="c2"><circle cx="10" cy="10" r="6"/></clipPath>'
+                                               f'<g transform="translate(5,5) scale(1.2)" clip-path="url(#c2)">'
+                                               f'<rect id="cg" x="3" y="3" width="14" height="14" {STROKE}/></g>',
+    "clipPath with its own transform, defined in a moved group":
+        f'<g transform="translate(30,0)"><defs><clipPath id="c3" transform="rotate(90 15 15)">'
+        f'<rect x="8" y="8" width="10" height="10"/></clipPath></defs></g>'
+        f'<rect id="ct" x="5" y="11" width="25" height="5" clip-path="url(#c3)" {STROKE}/>',
+    "clipPath in objectBoundingBox units": f'<clipPath id="c4" clipPathUnits="objectBoundingBox">'
+                                           f'<rect x="0.25" y="-0.5" width="0.5" height="2"/></clipPath>'
+                                           f'<rect id="cb" x="8" y="10" width="24" height="12" clip-path="url(#c4)" {STROKE}/>',
+    "nested clips intersect": f'<clipPath id="c5"><rect x="0" y="0" width="20" height="40"/></clipPath>'
+                              f'<clipPath id="c6"><rect x="0" y="12" width="40" height="40"/></clipPath>'
+                              f'<g clip-path="url(#c5)"><circle id="cn" cx="18" cy="16" r="7" clip-path="url(#c6)" {STROKE}/></g>',
+    "clip-rule evenodd cuts a hole": f'<clipPath id="c7"><path clip-rule="evenodd" d="M4 4 H36 V28 H4 Z M14 10 H26 V22 H14 Z"/>'
+                                     f'</clipPath><path id="ce" d="M2 16 H38" clip-path="url(#c7)" {STROKE}/>',
+    "fill-only shape clipped to half": '<clipPath id="c8"><rect x="0" y="0" width="20" height="40"/></clipPath>'
+                                       '<circle id="cf" cx="20" cy="15" r="8" fill="#000" clip-path="url(#c8)"/>',
+    "shape clipped away entirely": f'<clipPath id="c9"><rect x="30" y="0" width="5" height="5"/></clipPath>'
+                                   f'<rect id="cw" {HIDDEN} clip-path="url(#c9)"/>',
     "switch draws its first child": f'<switch><rect id="sw1" {HIDDEN}/>'
                                     f'<rect id="sw2" x="25" y="5" width="5" height="5" {STROKE}/></switch>',
 }
@@ -90,11 +112,26 @@ def test_hidden_content_is_really_in_the_files():
     assert [p.source for p in read_svg(text).paths] == ["rect#shown", "rect#keep"]
 
 
-def test_clip_path_is_named_when_not_applied():
-    text = DOC.format(f'<clipPath id="c"><rect width="5" height="5"/></clipPath>'
+def test_clip_path_that_holds_text_is_named_when_not_applied():
+    text = DOC.format(f'<clipPath id="c"><text x="10" y="20">A</text></clipPath>'
                       f'<rect id="clipped" clip-path="url(#c)" {HIDDEN}/>')
-    with pytest.warns(UserWarning, match=r"clip-path is not applied; 1 shape\(s\) .*rect#clipped"):
+    with pytest.warns(UserWarning, match=r"clip-path is not applied .* 1 shape\(s\) .*rect#clipped"):
         read_svg(text)
+
+
+def test_clip_path_keeps_arcs_and_reports_the_clipped_shapes():
+    """A circle clipped to its upper half stays one arc (G2/G3), exact to the tolerance, and
+    the drawing names the shapes the clip shortened."""
+    text = ('<svg xmlns="http://www.w3.org/2000/svg" width="40mm" height="40mm" viewBox="0 0 40 40">'
+            '<clipPath id="h"><rect x="0" y="0" width="40" height="20"/></clipPath>'
+            '<circle id="c" cx="20" cy="20" r="10" stroke="red" fill="none" clip-path="url(#h)"/>'
+            '<rect id="r" x="1" y="1" width="5" height="5" stroke="red" fill="none" clip-path="url(#h)"/></svg>')
+    d = read_svg(text, tol_mm=0.001)
+    arc = d.paths[0]
+    assert (arc.n_segments, int(arc.is_arc.sum())) == (1, 1)
+    assert abs(arc.radii_mm()[0] - 10.0) < 0.001 and abs(abs(arc.sweeps[0]) - np.pi) < 1e-3
+    assert d.clipped == ["circle#c"]               # the rectangle lies wholly inside
+    assert d.paths[1].source == "rect#r" and d.paths[1].n_segments == 4
 
 
 def test_text_and_bitmap_only_file_is_an_error_not_an_empty_job(tmp_path, run_labkit_cli):
@@ -159,3 +196,32 @@ def test_corpus_cuts_lie_on_what_resvg_draws(path):
     distance = ndimage.distance_transform_edt(~drawn)[rc[inside, 0], rc[inside, 1]]
     assert distance.max() <= zoom + 1, (f"{path.name}: a cut sample {distance.max() / zoom:.1f} px "
                                         f"from resvg's ink")
+
+
+OFF_PAGE = DOC.format(f'<circle id="big" cx="35" cy="20" r="10" {STROKE}/>')
+
+
+def test_geometry_outside_the_page_is_named_with_how_much():
+    """A circle of radius 10 centred 5 units inside the right edge: 5 units (13.2 mm at 2.646
+    mm per unit) beyond the page and a third of its length (2π·10/3 units) outside."""
+    unit = 10 * MM_PER_PX
+    with pytest.warns(UserWarning, match=r"1 shape\(s\) reach outside the 105\.833 × 105\.833 mm page, "
+                      r"up to 13\.2 mm beyond its edge \((\d+\.\d) mm of path outside.*circle#big") as w:
+        d = read_svg(OFF_PAGE)
+    import re
+
+    outside = float(re.search(r"\((\d+\.\d) mm of path outside", str(w[-1].message)).group(1))
+    assert outside == pytest.approx(2 * np.pi * 10 * unit / 3, abs=0.1)
+    assert [p.source for p in d.paths] == ["circle#big", "rect#keep"]      # kept whole by default
+
+
+def test_clip_to_page_cuts_what_the_renderer_shows():
+    drawn = ink(OFF_PAGE)
+    d = read_svg(OFF_PAGE, flip_y=False, clip_to_page=True)
+    assert d.clipped == ["circle#big"]
+    rc = cut_pixels(d)
+    assert (rc >= 0).all() and (rc <= 400).all()          # on the page (its edge is px 400)
+    rc = np.minimum(rc, 399)
+    assert ndimage.binary_dilation(drawn, iterations=2)[rc[:, 0], rc[:, 1]].all()
+    kept = sum(p.length_mm for p in d.paths if p.source == "circle#big")
+    assert kept == pytest.approx(2 * np.pi * 10 * 10 * MM_PER_PX * 2 / 3, rel=1e-4)
