@@ -28,11 +28,11 @@ import warnings
 
 import numpy as np
 
-from labkit.commands.vector import motion_lines
 from labkit.gcode import emit, parse
 from labkit.geometry import Path, order_segments
 from labkit.geometry.measure import path_distance
 from labkit.toolpath.build import LayerSettings, build_moves, prepare_paths
+from labkit.toolpath.job import vector_job
 from labkit.vector import read_svg, svg_reference_samples
 
 ROOT = os.path.join(os.path.dirname(__file__), "..")
@@ -53,8 +53,7 @@ def _best_of(fn, repeat=3):
 def labkit_convert(path, tol):
     """What ``labkit svg2gcode --arcs`` does: import, chains and ordering, Moves, G-code."""
     d = read_svg(path, tol_mm=tol, arcs=True, warn=False)
-    paths = prepare_paths(d.paths, tol_mm=tol)
-    return emit(build_moves(paths, SETTINGS), tol_mm=min(tol / 10, 0.001))
+    return vector_job(d.paths, default=SETTINGS, tol_mm=tol).gcode()
 
 
 def peer_convert(path, tol):
@@ -98,6 +97,11 @@ def element_errors(text, reference):
             continue
         errs[label] = float(path_distance(cuts, pts).max()) if cuts else np.inf
     return errs
+
+
+def motion_lines(text: str) -> int:
+    """Motion lines of a G-code text (labkit's or the peer's), counted by labkit's parser."""
+    return parse(text).motion_lines
 
 
 def part1():

@@ -49,7 +49,7 @@
 #define LK_ARC_MAX_FIXED_RADIUS 3000000000.0
 
 /* Longest arc walk the parser accepts, by the walk's bound on its ticks
-   (1.05 x radius x sweep in steps, labkit.motion.bresenham.arc_points): the
+   (1.05 x radius x sweep in steps, labkit.motion.bresenham.arc_lattice_points): the
    walk is counted once in the main loop before the line is answered. 4
    million allow a full circle of 280 mm radius at 2133 steps/mm (3.6 million
    points, about 60 ms on a PC). Longer arcs are error 33. */

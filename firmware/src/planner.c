@@ -4,7 +4,7 @@
   program of each block.
 
   The arithmetic follows labkit.motion (blocks.py, lookahead.py,
-  _lookahead.py, profile.py, _ramp.py, timer.py, bresenham.py) operation by
+  _planner.py, profile.py, _ramp.py, timer.py, bresenham.py) operation by
   operation in IEEE double, so that the tests can hold the firmware to the
   shared vectors exactly.
 */
@@ -409,7 +409,7 @@ int plan_arc_next(plan_arc_t *a, int32_t *px, int32_t *py)
   return 0;
 }
 
-/* Set up the walk of labkit.motion.bresenham.arc_points: start s, end e
+/* Set up the walk of labkit.motion.bresenham.arc_lattice_points: start s, end e
    (lattice), centre c and radius r in steps, signed sweep. 0 ok, -1 when the
    arc is beyond the exact integer walk. */
 static int arc_init(plan_arc_t *a, const int32_t s[2], const int32_t e[2], const double c_in[2],
@@ -597,7 +597,7 @@ void plan_push_block(const plan_block_t *src)
   pl.flushed = 0;
   pl.pending_dwell = 0;
   if (b.stop_before == PLAN_STOP_START) pl.have_last = 0;
-  /* MBLA super blocks (labkit.motion._lookahead.group_blocks) */
+  /* MBLA super blocks (labkit.motion._planner.group_blocks) */
   int is_new = !pl.have_last || b.stop_before != PLAN_STOP_NONE || b.rapid != pl.last_rapid ||
                pl.group_size >= pl.depth;
   if (!is_new && pl.mode == PLAN_MODE_HQ) {

@@ -9,7 +9,7 @@
   The stepper takes the oldest block with plan_get_current_block(); only then
   is its exit speed fixed, by the look-ahead chosen at run time:
     PLAN_MODE_JUNCTION  GRBL's junction deviation, backward pass over the
-                        buffer window and forward pass (labkit.motion.lookahead)
+                        buffer window and forward pass (labkit.motion.planner)
     PLAN_MODE_FAST / NORMAL / HQ   [CBR40]'s multi-block look-ahead: super
                         blocks planned from rest to rest.
   and the ramp law PLAN_LAW_LINEAR (Hz per step) or PLAN_LAW_ACCEL (mm/s^2).

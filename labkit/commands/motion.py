@@ -17,7 +17,7 @@ from labkit.gcode.dialects import DIALECTS
 
 def _add_common(parser):
     from labkit.commands._args import integer, number
-    from labkit.motion.lookahead import PLANNERS
+    from labkit.motion.planner import PLANNERS
 
     parser.add_argument("file", help="G-code file")
     parser.add_argument("--planner", choices=PLANNERS, default="junction",

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import re
 import sys
 import warnings
 from pathlib import Path as FilePath
@@ -12,30 +11,10 @@ from pathlib import Path as FilePath
 import numpy as np
 
 __all__ = ["add_svg2gcode_arguments", "run_svg2gcode", "add_dxf2gcode_arguments", "run_dxf2gcode",
-           "parse_layer_option", "motion_lines"]
+           "parse_layer_option"]
 
 #: The range of --tol, mm.
 TOL_MIN_MM, TOL_MAX_MM = 1e-4, 10.0
-
-_FIRST_WORD = re.compile(r"^\s*(?:N\d+\s*)?([A-Z])\s*([-+]?\d*\.?\d*)", re.IGNORECASE)
-
-
-def motion_lines(text: str) -> int:
-    """G-code lines that move the head: G0–G3, or modal continuations starting with X/Y/Z/I/J.
-
-    >>> motion_lines("G21\\nG0 X1 Y1\\nG1 X2 F100\\nX3\\nM5\\nG4 P1\\n")
-    3
-    """
-    count = 0
-    for line in text.splitlines():
-        m = _FIRST_WORD.match(line)
-        if not m:
-            continue
-        letter, number = m.group(1).upper(), m.group(2)
-        if letter in "XYZIJ" or (letter == "G" and number and float(number) in (0, 1, 2, 3)):
-            count += 1
-    return count
-
 
 def parse_layer_option(text: str):
     """``NAME:FEED:POWER[:PASSES[:ZSTEP]]`` → (name, LayerSettings).
@@ -143,16 +122,14 @@ def add_dxf2gcode_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _run(args, drawing) -> int:
-    from labkit.gcode import emit
+    from labkit._files import check_output_file
+    from labkit.commands._args import check_fits
+    from labkit.errors import GeometryError, InputError
     from labkit.gcode.simulate import summarize
     from labkit.geometry.path import count_segments, max_deviation
-    from labkit.toolpath.build import LayerSettings, build_moves, prepare_paths
+    from labkit.toolpath.build import LayerSettings
+    from labkit.toolpath.job import vector_job
     from labkit.toolpath.moves import LaserMode
-
-    from labkit._files import check_output_file
-    from labkit.budget import check_budget
-    from labkit.commands._args import check_fits
-    from labkit.errors import InputError
 
     output = check_output_file(args.output, args.input)
     laser = LaserMode.DYNAMIC if args.dynamic else LaserMode.CONSTANT
@@ -166,40 +143,26 @@ def _run(args, drawing) -> int:
         if layer.power_s > args.s_max:
             raise InputError(f"{name}: power S{layer.power_s:g} is above --s-max {args.s_max:g}; "
                              f"expected a power within 0…{args.s_max:g}")
-    source = drawing.paths
-    if args.fill and source:
-        # Hatch lines across each closed shape: its extent over the spacing, estimated
-        # before hatching so that --fill-spacing 1e-5 is refused, not computed.
-        extents = [float(np.ptp(p.bounds().reshape(2, 2), axis=0).max()) for p in source if p.closed]
-        check_budget("hatch_lines", sum(extents) / args.fill_spacing,
-                     cause=f"hatching {len(extents)} closed shape(s) at {args.fill_spacing:g} mm",
-                     option="the drawing, or raise --fill-spacing")
-    if not args.arcs:       # DXF arcs (read at tol/2) become chords within the other half
-        source = [p if not p.is_arc.any() else
-                  p.with_geometry(p.sample(args.tol / 2), deviation_mm=p.deviation_mm + args.tol / 2)
-                  for p in source]
-    paths = prepare_paths(source, kerf_mm=args.kerf, tol_mm=args.tol, arcs=args.arcs,
-                          fill=args.fill, fill_spacing_mm=args.fill_spacing,
-                          fill_angle_rad=math.radians(args.fill_angle), order=not args.no_order,
-                          improve=not args.no_improve)
-    most_passes = max([default.passes] + [v.passes for v in per_layer.values()])
-    segments = sum(len(p.vertices) for p in paths)
-    check_budget("moves", float(segments) * most_passes,
-                 cause=f"{segments:,} segments × {most_passes:,} passes", option="--passes")
-    moves = build_moves(paths, per_layer, default=default, s_max=args.s_max)
+    try:
+        job = vector_job(drawing.paths, default=default, layers=per_layer, tol_mm=args.tol,
+                         arcs=args.arcs, kerf_mm=args.kerf, fill=args.fill,
+                         fill_spacing_mm=args.fill_spacing, fill_angle_rad=math.radians(args.fill_angle),
+                         order=not args.no_order, improve=not args.no_improve, s_max=args.s_max)
+    except GeometryError as exc:
+        raise InputError(str(exc)) from None
+    paths, moves = job.paths, job.moves
     if len(moves):
         ends = np.vstack([moves.start, moves.end])
         extent = np.ptp(ends, axis=0)
         check_fits(args, extent if extent[2] > 0 else extent[:2])
-    text = emit(moves, dialect=args.dialect, tol_mm=min(args.tol / 10, 0.001),
-                travel_beam_off=args.travel_beam_off or None,
-                comment=f"{FilePath(args.input).name}: tol {args.tol:g} mm, "
-                        f"{'arcs' if args.arcs else 'lines'}")
+    text = job.gcode(args.dialect, travel_beam_off=args.travel_beam_off or None,
+                     comment=f"{FilePath(args.input).name}: tol {args.tol:g} mm, "
+                             f"{'arcs' if args.arcs else 'lines'}")
     output.write_text(text, encoding="ascii")
     opts = {} if args.rapid is None else {"rapid_mm_min": args.rapid}
     summary = summarize(moves, source_lines=text.count("\n"), **opts)
     lines, arcs = count_segments(paths)
-    motion = motion_lines(text)
+    motion = moves.motion_lines
     print(f"input           {args.input} ({len(drawing.paths)} paths, layers {', '.join(drawing.layers) or '-'})")
     if drawing.skipped:
         print(f"skipped         {', '.join(drawing.skipped)}")
@@ -256,8 +219,7 @@ def run_dxf2gcode(args) -> int:
     check_input_file(args.input, what="DXF file")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        drawing = read_dxf(args.input, tol_mm=args.tol if args.arcs else args.tol / 2,
-                           units=args.units)
+        drawing = read_dxf(args.input, tol_mm=args.tol, arcs=args.arcs, units=args.units)
     for w in caught:
         print(f"warning: {w.message}", file=sys.stderr)
     _refuse_empty(drawing, "DXF")

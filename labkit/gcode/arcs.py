@@ -21,6 +21,7 @@ import numpy as np
 
 from labkit.errors import GeometryError
 from labkit.geometry.circle import (
+    arc_chord_points,
     arc_length,
     chord_segments,
     grbl_segments,
@@ -214,15 +215,7 @@ def arc_polyline(start, end, centre, clockwise, *, plane=17, tol_mm=0.01):
     r = math.hypot(*(p0 - c))
     sweep = float(sweep_angle(p0, p1, c, clockwise))
     n = chord_segments(r, sweep, tol_mm)
-    t = np.linspace(0.0, 1.0, n + 1)
-    ang0 = math.atan2(p0[1] - c[1], p0[0] - c[0])
-    pts = np.empty((n + 1, 3))
-    pts[:, a0] = c[0] + r * np.cos(ang0 + sweep * t)
-    pts[:, a1] = c[1] + r * np.sin(ang0 + sweep * t)
-    pts[:, lin] = start[lin] + (end[lin] - start[lin]) * t
-    pts[0] = start
-    pts[-1] = end
-    return pts
+    return arc_chord_points(start, end, centre, [[a0, a1, lin]], [r], [sweep], [n])[0]
 
 
 def moves_polylines(moves: Moves, *, tol_mm=0.01):

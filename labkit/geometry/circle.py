@@ -27,6 +27,8 @@ __all__ = [
     "arc_length",
     "arc_point",
     "arc_points",
+    "arc_chord_points",
+    "XY_AXES",
     "mid_arc_point",
     "chord_segments",
     "grbl_segments",
@@ -195,6 +197,11 @@ def arc_points(start, end, centre, clockwise, *, tol_mm=None, n=None):
     Returns
     -------
     ndarray, shape (k + 1, 2)
+
+    Examples
+    --------
+    >>> arc_points([1, 0], [0, 1], [0, 0], False, n=2).round(6).tolist()
+    [[1.0, 0.0], [0.707107, 0.707107], [0.0, 1.0]]
     """
     start = np.asarray(start, dtype=float)
     end = np.asarray(end, dtype=float)
@@ -207,11 +214,74 @@ def arc_points(start, end, centre, clockwise, *, tol_mm=None, n=None):
         n = chord_segments(r, sweep, tol_mm)
     if n < 1:
         raise ValueError(f"n must be >= 1 chord, got {n}")
-    a0 = math.atan2(start[1] - centre[1], start[0] - centre[0])
-    pts = arc_point(centre, r, a0 + sweep * np.linspace(0.0, 1.0, n + 1))
-    pts[0] = start
-    pts[-1] = end
-    return pts
+    s3, e3, c3 = (np.r_[q, 0.0][None] for q in (start, end, centre))
+    pts, _, _ = arc_chord_points(s3, e3, c3, XY_AXES, [r], [sweep], [n])
+    return pts[:, :2]
+
+
+#: Axis order (first arc axis, second arc axis, linear axis) of the XY plane.
+XY_AXES = np.array([[0, 1, 2]])
+
+
+def arc_chord_points(start, end, centre, axes, radius, sweep, counts):
+    """Points of k arcs (or helices) cut into chords of equal angle, all in one array.
+
+    The one place labkit turns arcs into points: the G-code preview, GRBL's chords for
+    the motion reference and the virtual machine, and the flattening of parsed programs
+    all call it (with chord counts from :func:`chord_segments` or :func:`grbl_segments`).
+
+    Parameters
+    ----------
+    start, end, centre : array_like, shape (k, 3)
+        Arc ends and centres, mm (the centre's linear-axis coordinate is ignored).
+    axes : array_like of int, shape (k, 3) or (1, 3)
+        Per arc: its first and second arc axis and its linear axis (``PLANE_AXES``).
+    radius, sweep : array_like, shape (k,)
+        Radius (mm) and signed sweep (rad, counter-clockwise positive).
+    counts : array_like of int, shape (k,)
+        Chords per arc (≥ 1).
+
+    Returns
+    -------
+    points : ndarray, shape (sum(counts) + k, 3)
+        Each arc's ``counts[i] + 1`` points in turn, from its start to its end (both exact);
+        the linear axis moves in proportion to the angle.
+    owner : ndarray of int
+        The arc each point belongs to.
+    t : ndarray
+        Each point's share of its arc's sweep, 0…1.
+
+    Examples
+    --------
+    >>> pts, owner, t = arc_chord_points([[1, 0, 0]], [[-1, 0, 2]], [[0, 0, 0]], XY_AXES,
+    ...                                  [1.0], [np.pi], [2])
+    >>> pts.round(6).tolist(), owner.tolist()
+    ([[1.0, 0.0, 0.0], [0.0, 1.0, 1.0], [-1.0, 0.0, 2.0]], [0, 0, 0])
+    """
+    start = np.asarray(start, dtype=float).reshape(-1, 3)
+    end = np.asarray(end, dtype=float).reshape(-1, 3)
+    centre = np.asarray(centre, dtype=float).reshape(-1, 3)
+    k = np.arange(len(start))
+    axes = np.broadcast_to(np.asarray(axes, dtype=np.int64).reshape(-1, 3), (len(k), 3))
+    radius = np.asarray(radius, dtype=float).reshape(-1)
+    sweep = np.asarray(sweep, dtype=float).reshape(-1)
+    counts = np.asarray(counts, dtype=np.int64).reshape(-1)
+    c0, c1 = centre[k, axes[:, 0]], centre[k, axes[:, 1]]
+    ang0 = np.arctan2(start[k, axes[:, 1]] - c1, start[k, axes[:, 0]] - c0)
+    npts = counts + 1
+    owner = np.repeat(k, npts)
+    first = np.cumsum(npts) - npts
+    t = (np.arange(int(npts.sum())) - np.repeat(first, npts)) / counts[owner]
+    ang = ang0[owner] + sweep[owner] * t
+    pts = np.empty((len(owner), 3))
+    j = np.arange(len(owner))
+    pts[j, axes[owner, 0]] = c0[owner] + radius[owner] * np.cos(ang)
+    pts[j, axes[owner, 1]] = c1[owner] + radius[owner] * np.sin(ang)
+    z0 = start[k, axes[:, 2]]
+    pts[j, axes[owner, 2]] = z0[owner] + (end[k, axes[:, 2]] - z0)[owner] * t
+    pts[first] = start
+    pts[first + counts] = end
+    return pts, owner, t
 
 
 def chord_segments(radius, sweep, tol_mm):

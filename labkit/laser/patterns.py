@@ -20,7 +20,7 @@ import numpy as np
 
 from labkit.errors import InputError
 from labkit.gcode.writer import emit
-from labkit.motion.plan import plan
+from labkit.motion.pipeline import plan
 from labkit.toolpath.moves import Moves
 from labkit.units import mw_to_s
 
@@ -126,7 +126,7 @@ class GridPattern:
     layout: dict
 
     def job_time_s(self, machine=None, *, planner: str = "junction") -> float:
-        """Planned job time in s (:func:`labkit.motion.plan.plan`), before burning anything."""
+        """Planned job time in s (:func:`labkit.motion.plan`), before burning anything."""
         return float(plan(self.moves, machine, planner=planner).summary().job_time_s)
 
     def gcode(self, dialect: str = "grbl", **options) -> str:

@@ -32,7 +32,7 @@ import numpy as np
 
 from labkit.errors import GeometryError
 from labkit.micromachining.chipvolume import ChipVolumes, ZMap, chip_volumes
-from labkit.motion.machine import CBR40, Machine
+from labkit.motion.machine import CBR40, MachineSpec
 from labkit.toolpath.moves import MoveKind, Moves
 
 __all__ = ["MICRO_MILL", "optimal_feed_per_tooth", "moving_average", "FeedSchedule", "schedule_feeds",
@@ -83,7 +83,7 @@ def moving_average(x, window: int) -> np.ndarray:
     return (c[hi] - c[lo]) / (hi - lo)
 
 
-def machining_time_s(moves: Moves, machine: Machine | str = MICRO_MILL, *, block_time_s: float = 0.0) -> float:
+def machining_time_s(moves: Moves, machine: MachineSpec | str = MICRO_MILL, *, block_time_s: float = 0.0) -> float:
     """Job time from :func:`labkit.motion.plan` (junction deviation, constant acceleration),
     each motion block taking at least ``block_time_s`` (a controller's block-processing time), s."""
     from labkit.motion import plan
@@ -119,7 +119,7 @@ class FeedSchedule:
     per_block: Moves
     original: Moves
 
-    def times_s(self, machine: Machine | str = MICRO_MILL, *, block_time_s: float = 0.0) -> dict:
+    def times_s(self, machine: MachineSpec | str = MICRO_MILL, *, block_time_s: float = 0.0) -> dict:
         """Machining time of the original and both variants, s."""
         return {name: machining_time_s(m, machine, block_time_s=block_time_s)
                 for name, m in (("original", self.original), ("per_position", self.per_position),

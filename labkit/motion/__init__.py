@@ -5,14 +5,14 @@ step: the machine description (:mod:`~labkit.motion.machine`), Bresenham
 lines and arcs on the step lattice (:mod:`~labkit.motion.bresenham`), blocks
 and their FIFO (:mod:`~labkit.motion.blocks`), per-block speed profiles
 (:mod:`~labkit.motion.profile`), multi-block look-ahead — [CBR40]'s three
-MBLA modes and GRBL's junction-deviation planner (:mod:`~labkit.motion.lookahead`),
+MBLA modes and GRBL's junction-deviation planner (:mod:`~labkit.motion.planner`),
 laser power that follows speed (:mod:`~labkit.motion.laser`), the step timer
 (:mod:`~labkit.motion.timer`) and the whole chain (:func:`plan`).
 """
 
 from labkit.motion.blocks import BlockFifo, BlockKind, Blocks, build_blocks, expand_arcs, to_steps
 from labkit.motion.bresenham import (
-    arc_points,
+    arc_lattice_points,
     circle_points,
     direction_bits,
     line_points,
@@ -21,9 +21,9 @@ from labkit.motion.bresenham import (
     steps_from_points,
 )
 from labkit.motion.laser import dose_mj_per_mm, laser_power_mw, power_ratio
-from labkit.motion.lookahead import PLANNERS, Lookahead, junction_speed_caps, lookahead
-from labkit.motion.machine import AXES, CBR40, MACHINES_DIR, Machine, load_machine, machine_files
-from labkit.motion.plan import Plan, PlanSummary, default_law, plan
+from labkit.motion.planner import PLANNERS, Lookahead, junction_speed_caps, lookahead
+from labkit.motion.machine import AXES, CBR40, MACHINES_DIR, MachineSpec, load_machine, machine_files
+from labkit.motion.pipeline import Plan, PlanSummary, default_law, plan
 from labkit.motion.profile import RAMP_LAWS, Profiles, block_profiles, ramp_distance, ramp_time, reach_speed
 from labkit.motion.timer import (
     StepBlocks,
@@ -38,9 +38,9 @@ from labkit.motion.timer import (
 
 __all__ = [
     # machine
-    "Machine", "CBR40", "AXES", "MACHINES_DIR", "load_machine", "machine_files",
+    "MachineSpec", "CBR40", "AXES", "MACHINES_DIR", "load_machine", "machine_files",
     # Bresenham
-    "line_points", "line_steps", "lines_points", "direction_bits", "arc_points", "circle_points",
+    "line_points", "line_steps", "lines_points", "direction_bits", "arc_lattice_points", "circle_points",
     "steps_from_points",
     # blocks
     "Blocks", "BlockKind", "BlockFifo", "build_blocks", "expand_arcs", "to_steps",

@@ -38,8 +38,8 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from labkit.errors import MotionError
-from labkit.motion.bresenham import arc_points, direction_bits
-from labkit.motion.machine import Machine, load_machine
+from labkit.motion.bresenham import arc_lattice_points, direction_bits
+from labkit.motion.machine import MachineSpec, load_machine
 from labkit.toolpath.moves import PLANE_AXES, LaserMode, MoveKind, Moves
 
 __all__ = ["BlockKind", "Blocks", "BlockFifo", "build_blocks", "to_steps", "expand_arcs"]
@@ -268,39 +268,34 @@ def expand_arcs(moves: Moves, tol_mm: float) -> Moves:
     >>> len(expand_arcs(b.build(), 0.01))          # floor(½·2π·5 / sqrt(0.01·9.99))
     49
     """
-    from labkit.geometry.circle import grbl_segments
+    from labkit.geometry.circle import arc_chord_points, grbl_segments
 
     if not tol_mm > 0:
         raise MotionError(f"tol_mm must be > 0 mm, got {tol_mm!r}")
     arc = moves.is_arc
     if not arc.any():
         return moves
-    sweep = moves.sweep_rad()
-    radius = moves.radius_mm()
-    parts = []
-    cols = moves.columns()
-    for i in range(len(moves)):
-        if not arc[i]:
-            parts.append({k: v[i:i + 1] for k, v in cols.items()})
-            continue
-        a0, a1, lin = PLANE_AXES[int(moves.plane[i])]
-        n = int(grbl_segments(radius[i], sweep[i], tol_mm))
-        c = moves.centre[i]
-        p0 = moves.start[i]
-        ang0 = math.atan2(p0[a1] - c[a1], p0[a0] - c[a0])
-        t = np.arange(1, n + 1) / n
-        pts = np.empty((n, 3))
-        pts[:, a0] = c[a0] + radius[i] * np.cos(ang0 + sweep[i] * t)
-        pts[:, a1] = c[a1] + radius[i] * np.sin(ang0 + sweep[i] * t)
-        pts[:, lin] = p0[lin] + (moves.end[i, lin] - p0[lin]) * t
-        pts[-1] = moves.end[i]
-        rows = {k: np.repeat(v[i:i + 1], n, axis=0) for k, v in cols.items()}
-        rows["kind"][:] = MoveKind.LINE
-        rows["start"] = np.vstack([p0[None, :], pts[:-1]])
-        rows["end"] = pts
-        rows["centre"][:] = np.nan
-        parts.append(rows)
-    merged = {k: np.concatenate([p[k] for p in parts]) for k in cols}
+    sweep = moves.sweep_rad()[arc]
+    radius = moves.radius_mm()[arc]
+    arcs = np.flatnonzero(arc)
+    counts = np.atleast_1d(grbl_segments(radius, sweep, tol_mm)).astype(np.int64)
+    axes = np.array([PLANE_AXES[17], PLANE_AXES[18], PLANE_AXES[19]])[moves.plane[arcs].astype(int) - 17]
+    pts, owner, _ = arc_chord_points(moves.start[arcs], moves.end[arcs], moves.centre[arcs], axes,
+                                     radius, sweep, counts)
+    # each arc's points after the first are its chords' ends; every row keeps its move's
+    # feed, power, laser and source line
+    first = np.cumsum(counts + 1) - (counts + 1)
+    chord_end = np.ones(len(pts), bool)
+    chord_end[first] = False
+    per_row = np.ones(len(moves), np.int64)
+    per_row[arcs] = counts
+    source_row = np.repeat(np.arange(len(moves)), per_row)
+    merged = {k: v[source_row] for k, v in moves.columns().items()}
+    is_chord = np.repeat(arc, per_row)
+    merged["kind"][is_chord] = MoveKind.LINE
+    merged["end"][is_chord] = pts[chord_end]
+    merged["start"][is_chord] = pts[np.flatnonzero(chord_end) - 1]
+    merged["centre"][is_chord] = np.nan
     return Moves(source=moves.source, s_max=moves.s_max, **merged)
 
 
@@ -311,7 +306,7 @@ def _axis_limit(values, unit):
     return per_axis.min(axis=-1)
 
 
-def build_blocks(moves: Moves, machine: Machine | str | None = None, *,
+def build_blocks(moves: Moves, machine: MachineSpec | str | None = None, *,
                  arc_tol_mm: float | None = None) -> Blocks:
     """Turn a program into blocks for ``machine``.
 
@@ -319,7 +314,7 @@ def build_blocks(moves: Moves, machine: Machine | str | None = None, *,
     ----------
     moves : Moves
         The program (absolute mm; feeds in mm/min).
-    machine : Machine, str or None
+    machine : MachineSpec, str or None
         Machine or the name of a description in ``labkit/motion/machines/``
         (default :data:`~labkit.motion.CBR40`).
     arc_tol_mm : float, optional
@@ -408,7 +403,7 @@ def build_blocks(moves: Moves, machine: Machine | str | None = None, *,
         if abs(r_end - r) > 0.005 and abs(r_end - r) > 0.001 * r:
             raise MotionError(f"move {i} (line {moves.line[i]}): arc radius {r:g} mm at the start but "
                               f"{r_end:g} mm at the end (GRBL allows 0.005 mm and 0.1 %)")
-        pts = arc_points(start_steps[i, [a0, a1]], end_steps[i, [a0, a1]], c[[a0, a1]] * spm[a0],
+        pts = arc_lattice_points(start_steps[i, [a0, a1]], end_steps[i, [a0, a1]], c[[a0, a1]] * spm[a0],
                          clockwise=moves.kind[i] == MoveKind.ARC_CW, radius=r * spm[a0], sweep_rad=sw)
         n_ticks = len(pts) - 1
         h = int(end_steps[i, lin] - start_steps[i, lin])

@@ -26,7 +26,7 @@ along which the circle runs faster is the driver and steps every tick, the
 other is driven and steps only when that brings the point closer to the
 circle, comparing the integer error e = x² + y² − r² of the candidates
 ([CBR40] eq. 4: step x when |e(x−1, y+1)| < |e(x, y+1)|). Details in
-:func:`arc_points`.
+:func:`arc_lattice_points`.
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ __all__ = [
     "lines_points",
     "lines_points_closed_form",
     "direction_bits",
-    "arc_points",
+    "arc_lattice_points",
     "circle_points",
     "steps_from_points",
     "ARC_SCALE",
@@ -241,7 +241,7 @@ def _fixed(value: float, scale: int) -> int:
     return int(math.floor(v + 0.5)) if v >= 0 else -int(math.floor(-v + 0.5))
 
 
-def arc_points(start, end, centre, *, clockwise: bool, radius: float | None = None,
+def arc_lattice_points(start, end, centre, *, clockwise: bool, radius: float | None = None,
                sweep_rad: float | None = None, scale: int = ARC_SCALE) -> np.ndarray:
     """Lattice points of a circular arc walked octant by octant ([CBR40] §J).
 
@@ -309,7 +309,7 @@ def arc_points(start, end, centre, *, clockwise: bool, radius: float | None = No
 
     Examples
     --------
-    >>> arc_points([5, 0], [0, 5], [0, 0], clockwise=False).tolist()
+    >>> arc_lattice_points([5, 0], [0, 5], [0, 0], clockwise=False).tolist()
     [[5, 0], [5, 1], [5, 2], [4, 3], [3, 4], [2, 5], [1, 5], [0, 5]]
     >>> len(circle_points([0, 0], 10))
     57
@@ -335,7 +335,7 @@ def arc_points(start, end, centre, *, clockwise: bool, radius: float | None = No
                               f"(at most {_MAX_FIXED_RADIUS - 4:.6g} steps); cut the arc into "
                               "chords instead (--arc-tol, GRBL's $12)")
     if clockwise:   # walk the mirror image counter-clockwise
-        pts = arc_points(s * [1, -1], e * [1, -1], c * [1, -1], clockwise=False, radius=r,
+        pts = arc_lattice_points(s * [1, -1], e * [1, -1], c * [1, -1], clockwise=False, radius=r,
                          sweep_rad=None if sweep_rad is None else -sweep_rad, scale=scale)
         return pts * np.array([1, -1])
     q = int(scale)
@@ -370,7 +370,7 @@ def arc_points(start, end, centre, *, clockwise: bool, radius: float | None = No
 def circle_points(centre, radius: int) -> np.ndarray:
     """A full circle walked counter-clockwise from angle 0 (integer centre and radius).
 
-    Returns the N + 1 points of :func:`arc_points` (first = last = centre + (r, 0)).
+    Returns the N + 1 points of :func:`arc_lattice_points` (first = last = centre + (r, 0)).
 
     Examples
     --------
@@ -383,4 +383,4 @@ def circle_points(centre, radius: int) -> np.ndarray:
     s = c + [int(radius), 0]
     if radius < MIN_ARC_RADIUS_STEPS:   # r = 1: the four axis points, joined diagonally
         return c + np.array([[1, 0], [0, 1], [-1, 0], [0, -1], [1, 0]])
-    return arc_points(s, s, c.astype(float), clockwise=False, radius=float(radius))
+    return arc_lattice_points(s, s, c.astype(float), clockwise=False, radius=float(radius))

@@ -116,7 +116,7 @@ def dose_uniformity(dose_mj_per_mm, speed_mm_s=None, feed_mm_s=None) -> dict:
     ----------
     dose_mj_per_mm : array
         Dose samples at equal spacing along the path (e.g. from
-        :meth:`~labkit.motion.plan.Plan.burn_profile`).
+        :meth:`~labkit.motion.pipeline.Plan.burn_profile`).
     speed_mm_s, feed_mm_s : array, optional
         Speed and programmed speed at the same samples, for the slow fraction.
 

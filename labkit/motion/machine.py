@@ -1,10 +1,10 @@
 """Machine description: what the motion reference needs to know about a machine.
 
-A :class:`Machine` holds the mechanics (steps per mm, maximum rates,
+A :class:`MachineSpec` holds the mechanics (steps per mm, maximum rates,
 accelerations, travel), the controller settings the planners use ([CBR40]'s
 ramp slopes in Hz per step, GRBL's junction deviation, the look-ahead depth),
 the laser (maximum optical power, the S value of full power) and the step
-timer (clock, prescaler, width). It is frozen; :meth:`Machine.replace` makes a
+timer (clock, prescaler, width). It is frozen; :meth:`MachineSpec.replace` makes a
 changed copy. Descriptions live as small TOML files in ``labkit/motion/machines/`` and
 load with :func:`load_machine`.
 
@@ -28,7 +28,7 @@ import numpy as np
 
 from labkit.errors import MotionError
 
-__all__ = ["Machine", "CBR40", "AXES", "load_machine", "machine_files", "MACHINES_DIR", "check_job_fits"]
+__all__ = ["MachineSpec", "CBR40", "AXES", "load_machine", "machine_files", "MACHINES_DIR", "check_job_fits"]
 
 #: Axis names in column order.
 AXES = ("x", "y", "z")
@@ -44,7 +44,7 @@ def _triple(name: str, value) -> tuple[float, float, float]:
 
 
 @dataclass(frozen=True)
-class Machine:
+class MachineSpec:
     """A laser CNC machine as the motion planner sees it.
 
     Parameters
@@ -190,7 +190,7 @@ class Machine:
         """Counting rate of the step timer, Hz: clock / (prescaler + 1)."""
         return self.timer_clock_hz / (self.prescaler + 1)
 
-    def replace(self, **changes) -> "Machine":
+    def replace(self, **changes) -> "MachineSpec":
         """A copy with some fields changed (validated again)."""
         return dataclasses.replace(self, **changes)
 
@@ -200,9 +200,9 @@ class Machine:
 
 
 #: [CBR40]'s machine (Colinbus CBR-40 frame, 6400 steps per 3 mm lead, 2500 mW laser).
-CBR40 = Machine(description="Colinbus CBR-40 frame with a 2500 mW diode laser ([CBR40])")
+CBR40 = MachineSpec(description="Colinbus CBR-40 frame with a 2500 mW diode laser ([CBR40])")
 
-_FIELDS = {f.name for f in dataclasses.fields(Machine)}
+_FIELDS = {f.name for f in dataclasses.fields(MachineSpec)}
 
 
 def machine_files() -> list[Path]:
@@ -210,19 +210,19 @@ def machine_files() -> list[Path]:
     return sorted(MACHINES_DIR.glob("*.toml")) if MACHINES_DIR.is_dir() else []
 
 
-def load_machine(source: str | Path | Machine | None = None) -> Machine:
+def load_machine(source: str | Path | MachineSpec | None = None) -> MachineSpec:
     """Read a machine description.
 
     Parameters
     ----------
     source : str, Path, Machine or None
         A TOML file, or the stem of a file in ``labkit/motion/machines/``
-        (``"cbr40-laser"``), or a :class:`Machine` (returned as is).
+        (``"cbr40-laser"``), or a :class:`MachineSpec` (returned as is).
         ``None`` gives :data:`CBR40`.
 
     Returns
     -------
-    Machine
+    MachineSpec
 
     Raises
     ------
@@ -233,7 +233,7 @@ def load_machine(source: str | Path | Machine | None = None) -> Machine:
     Notes
     -----
     The file is flat or grouped in tables; table names are ignored, keys are
-    the :class:`Machine` field names. ``steps_per_mm`` may be given instead as
+    the :class:`MachineSpec` field names. ``steps_per_mm`` may be given instead as
     ``steps_per_rev`` and ``lead_mm`` ([CBR40] eq. 1: steps per mm = steps
     per turn / lead). A scalar applies to all three axes.
 
@@ -244,7 +244,7 @@ def load_machine(source: str | Path | Machine | None = None) -> Machine:
     """
     if source is None:
         return CBR40
-    if isinstance(source, Machine):
+    if isinstance(source, MachineSpec):
         return source
     path = Path(source)
     if not path.suffix and not path.exists():
@@ -282,14 +282,14 @@ def load_machine(source: str | Path | Machine | None = None) -> Machine:
         raise MotionError(f"{path}: unknown key(s) {sorted(unknown)}; known keys: {sorted(_FIELDS)}")
     flat.setdefault("name", path.stem)
     try:
-        return Machine(**flat)
+        return MachineSpec(**flat)
     except MotionError as exc:
         raise MotionError(f"{path}: {exc}") from None
     except (TypeError, ValueError) as exc:
         raise MotionError(f"{path}: bad value ({exc})") from None
 
 
-def check_job_fits(size_mm, machine: "Machine | str | None" = None, *, force: bool = False,
+def check_job_fits(size_mm, machine: "MachineSpec | str | None" = None, *, force: bool = False,
                    what: str = "the job") -> str | None:
     """Refuse a job larger than the machine's travel.
 
@@ -300,7 +300,7 @@ def check_job_fits(size_mm, machine: "Machine | str | None" = None, *, force: bo
     ----------
     size_mm : sequence of 2 or 3 floats
         The job's extent along X, Y (and Z), mm.
-    machine : Machine, str or None
+    machine : MachineSpec, str or None
         As :func:`load_machine` takes it (None: [CBR40]'s machine).
     force : bool
         Return the message instead of raising (the job is written anyway).

@@ -54,7 +54,7 @@ import numpy as np
 from labkit._array import scalar_or_array
 from labkit.errors import MotionError
 from labkit.motion.blocks import BlockKind
-from labkit.motion.bresenham import arc_points, lines_points
+from labkit.motion.bresenham import arc_lattice_points, lines_points
 from labkit.toolpath.moves import PLANE_AXES
 
 __all__ = ["timer_period", "tick_cycles", "StepBlocks", "step_blocks", "tick_rates",
@@ -172,12 +172,12 @@ class StepBlocks:
 
 
 def step_blocks(plan) -> StepBlocks:
-    """Quantise a :class:`~labkit.motion.plan.Plan` into integer step blocks (see the module notes).
+    """Quantise a :class:`~labkit.motion.pipeline.Plan` into integer step blocks (see the module notes).
 
     Examples
     --------
     >>> from labkit.toolpath import MovesBuilder
-    >>> from labkit.motion.plan import plan
+    >>> from labkit.motion.pipeline import plan
     >>> b = MovesBuilder(feed_mm_min=1200)
     >>> b.line(x=1)
     >>> sb = step_blocks(plan(b.build(), planner="hq"))
@@ -358,7 +358,7 @@ def step_trace(plan) -> StepTrace:
     Examples
     --------
     >>> from labkit.toolpath import MovesBuilder
-    >>> from labkit.motion.plan import plan
+    >>> from labkit.motion.pipeline import plan
     >>> b = MovesBuilder(feed_mm_min=600)
     >>> b.line(x=0.003, y=-0.001)          # 6.4 and -2.13 steps: a (6, -2) step line
     >>> tr = step_trace(plan(b.build(), planner="hq"))
@@ -392,7 +392,7 @@ def block_points(blocks, i: int, steps_per_mm) -> np.ndarray:
     a0, a1, lin = PLANE_AXES[int(blocks.plane[i])]
     spm = np.asarray(steps_per_mm, float)
     c = blocks.centre_mm[i]
-    plane = arc_points(s[[a0, a1]], e[[a0, a1]], c[[a0, a1]] * spm[a0],
+    plane = arc_lattice_points(s[[a0, a1]], e[[a0, a1]], c[[a0, a1]] * spm[a0],
                        clockwise=blocks.sweep_rad[i] < 0, radius=blocks.radius_mm[i] * spm[a0],
                        sweep_rad=blocks.sweep_rad[i])
     n = len(plane) - 1

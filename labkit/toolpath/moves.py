@@ -325,6 +325,23 @@ class Moves:
     # -- derived quantities -----------------------------------------------------------
 
     @property
+    def motion_lines(self) -> int:
+        """G-code lines that move the head (G0–G3 and their modal continuations).
+
+        Parsed Moves count the distinct source lines holding a motion; built Moves one
+        line per motion row, as :func:`labkit.gcode.emit` writes them.
+
+        >>> from labkit.gcode import parse
+        >>> parse("G21\\nG0 X1 Y1\\nG1 X2 F100\\nX3\\nM5\\nG4 P1\\n").motion_lines
+        3
+        """
+        motion = self.kind <= MoveKind.ARC_CCW
+        lines = self.line[motion]
+        if len(lines) and (lines > 0).all():
+            return int(len(np.unique(lines)))
+        return int(np.count_nonzero(motion))
+
+    @property
     def work_start(self) -> np.ndarray:
         """Start points in work coordinates (what the program's X Y Z words mean), mm."""
         return self.start - self.work_offset

@@ -38,7 +38,7 @@ import numpy as np
 from labkit._files import check_input_file
 from labkit.budget import check_budget
 from labkit.errors import GeometryError
-from labkit.geometry.arcfit import FLATTEN_SHARE, coordinate_limit_mm, fit_arcs
+from labkit.geometry.arcfit import FLATTEN_SHARE, coordinate_limit_mm, fit_arcs, tolerance_budget
 from labkit.geometry.ellipse import ellipse_arc_to_arcs
 from labkit.geometry.path import Path
 from labkit.vector.svg import Drawing
@@ -381,7 +381,7 @@ def _unit_scale(doc, units, name, warn, written_units=True) -> float:
     return INSUNITS_MM[code]
 
 
-def read_dxf(source, *, tol_mm=0.01, units=None, warn=True) -> Drawing:
+def read_dxf(source, *, tol_mm=0.01, units=None, warn=True, arcs=True) -> Drawing:
     """Read a DXF file into Paths in mm (see the module docstring for entities and units).
 
     Parameters
@@ -395,6 +395,9 @@ def read_dxf(source, *, tol_mm=0.01, units=None, warn=True) -> Drawing:
         ``"mil"``), overriding ``$INSUNITS``.
     warn : bool
         Warn about recovery, missing units and skipped entities (counted by kind).
+    arcs : bool
+        Keep arcs (G2/G3). False gives straight segments only, the tolerance shared
+        between reading and chording by :func:`labkit.geometry.arcfit.tolerance_budget`.
 
     Returns
     -------
@@ -405,8 +408,8 @@ def read_dxf(source, *, tol_mm=0.01, units=None, warn=True) -> Drawing:
     import ezdxf
     from ezdxf import recover
 
-    if not (isinstance(tol_mm, (int, float)) and 0 < tol_mm < math.inf):
-        raise GeometryError(f"tol_mm must be a finite number > 0 mm, got {tol_mm!r}")
+    budget = tolerance_budget(tol_mm, arcs=arcs)
+    tol_mm = budget.read_mm
     path = check_input_file(source, what="DXF file")
     name = str(path)
     import logging
@@ -450,6 +453,10 @@ def read_dxf(source, *, tol_mm=0.01, units=None, warn=True) -> Drawing:
                       f"{', '.join(skipped[:10])}{' …' if len(skipped) > 10 else ''}", stacklevel=2)
     if units is None and paths and warn:
         _check_extents(paths, k, name)
+    if not arcs:                # exact arcs read at read_mm become chords within chords_mm
+        paths = [p if not p.is_arc.any() else
+                 p.with_geometry(p.sample(budget.chords_mm), deviation_mm=p.deviation_mm + budget.chords_mm)
+                 for p in paths]
     return Drawing(paths, math.nan, math.nan, skipped, name)
 
 

@@ -45,7 +45,7 @@ from labkit._files import check_input_file
 from labkit.errors import GeometryError
 from labkit.geometry import transform as tf
 from labkit.budget import check_budget
-from labkit.geometry.arcfit import FLATTEN_SHARE, coordinate_limit_mm, cubics_to_arcs
+from labkit.geometry.arcfit import FLATTEN_SHARE, coordinate_limit_mm, cubics_to_arcs, tolerance_budget
 from labkit.geometry.bezier import cubic_samples, flatten_cubics, quad_to_cubic
 from labkit.geometry.clip import clip_paths
 from labkit.geometry.measure import path_distance
@@ -281,13 +281,13 @@ class _Builder:
             self._chords(np.vstack([centre + np.stack([np.cos(t), np.sin(t)], axis=1) @ jac.T, np.asarray(end, float)[None]]))
             return
         self._flush()
-        budget = self.tol if self.arcs else 0.5 * self.tol
-        v, c, sweep, dev, _ = ellipse_arc_arrays(centre, jac, t0, dt, None, budget, "midpoint")
+        budget = tolerance_budget(self.tol, arcs=self.arcs)
+        v, c, sweep, dev, _ = ellipse_arc_arrays(centre, jac, t0, dt, None, budget.read_mm, "midpoint")
         v[0], v[-1] = self.v[-1], end
         if not self.arcs:
-            for q in Path(v, c, sweep).sample(0.5 * self.tol)[1:]:
+            for q in Path(v, c, sweep).sample(budget.chords_mm)[1:]:
                 self.line(q)
-            self.dev = max(self.dev, dev + 0.5 * self.tol)
+            self.dev = max(self.dev, dev + budget.chords_mm)
             return
         self.v.extend(v[1:])
         self.c.extend(c)

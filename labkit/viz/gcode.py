@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from labkit.geometry.circle import chord_segments
+from labkit.geometry.circle import arc_chord_points, chord_segments
 from labkit.toolpath.moves import PLANE_AXES, MoveKind, Moves
 from labkit.viz._widgets import show
 
@@ -52,19 +52,8 @@ def moves_to_segments(moves: Moves, *, tol_mm: float, view: str = "xy"):
         sweep = sub.sweep_rad()
         counts = np.atleast_1d(chord_segments(radius, sweep, tol_mm)).astype(np.int64)
         axes = np.array([PLANE_AXES[17], PLANE_AXES[18], PLANE_AXES[19]])[sub.plane.astype(int) - 17]
-        k = np.arange(len(arcs))
-        c0, c1 = sub.centre[k, axes[:, 0]], sub.centre[k, axes[:, 1]]
-        ang0 = np.arctan2(sub.start[k, axes[:, 1]] - c1, sub.start[k, axes[:, 0]] - c0)
+        pts, arc, _ = arc_chord_points(sub.start, sub.end, sub.centre, axes, radius, sweep, counts)
         npts = counts + 1
-        arc = np.repeat(k, npts)
-        t = (np.arange(int(npts.sum())) - np.repeat(np.cumsum(npts) - npts, npts)) / counts[arc]
-        ang = ang0[arc] + sweep[arc] * t
-        pts = np.empty((len(arc), 3))
-        j = np.arange(len(arc))
-        pts[j, axes[arc, 0]] = c0[arc] + radius[arc] * np.cos(ang)
-        pts[j, axes[arc, 1]] = c1[arc] + radius[arc] * np.sin(ang)
-        z0 = sub.start[k, axes[:, 2]]
-        pts[j, axes[arc, 2]] = z0[arc] + (sub.end[k, axes[:, 2]] - z0)[arc] * t
         p2 = pts[:, [ax0, ax1]]
         last = np.cumsum(npts) - 1                   # no segment from an arc's end to the next
         keep = np.ones(len(arc) - 1, bool)

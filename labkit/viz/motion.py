@@ -252,7 +252,7 @@ def bresenham_explorer():
     import ipywidgets as w
     import matplotlib.pyplot as plt
 
-    from labkit.motion import arc_points, line_points
+    from labkit.motion import arc_lattice_points, line_points
     from labkit.motion._bresenham import octant_ccw
 
     def show(x_end, y_end, radius, centre_dx, sweep_deg):
@@ -266,7 +266,7 @@ def bresenham_explorer():
         end = c + radius * np.array([np.cos(np.radians(sweep_deg)), np.sin(np.radians(sweep_deg))])
         s = np.floor(c + [radius, 0] + 0.5).astype(int)
         e = np.floor(end + 0.5).astype(int)
-        arc = arc_points(s, e, c, clockwise=False, radius=float(radius), sweep_rad=np.radians(sweep_deg - a0))
+        arc = arc_lattice_points(s, e, c, clockwise=False, radius=float(radius), sweep_rad=np.radians(sweep_deg - a0))
         q = 256
         oct_ = [octant_ccw(int(q * x - round(c[0] * q)), int(q * y - round(c[1] * q))) for x, y in arc]
         plot_lattice_path(arc, a2, circle=(c, radius), colour_by=oct_,

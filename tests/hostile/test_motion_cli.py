@@ -49,13 +49,13 @@ def test_a_100_m_line_is_refused_not_swapped(tmp_path, run_labkit):
 
 
 def test_exact_walk_keeps_int64_exact_for_radii_past_the_fixed_point_range():
-    from labkit.motion.bresenham import arc_points
+    from labkit.motion.bresenham import arc_lattice_points
 
     r = 2.0e7                                        # (r + 4) × 256 > 3e9: fewer sub-steps
     a = math.radians(0.001)
     start = [round(r), 0]
     end = [round(r * math.cos(a)), round(r * math.sin(a))]
-    pts = arc_points(start, end, [0.0, 0.0], clockwise=False)
+    pts = arc_lattice_points(start, end, [0.0, 0.0], clockwise=False)
     radii = (pts[:, 0].astype(float) ** 2 + pts[:, 1].astype(float) ** 2) ** 0.5
     assert pts[0].tolist() == start and pts[-1].tolist() == end
     assert abs(radii - r).max() <= 0.75              # within a step of the true circle

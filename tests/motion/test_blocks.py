@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from labkit.errors import MotionError
 from labkit.geometry.circle import grbl_segments
-from labkit.motion import CBR40, arc_points, load_machine
+from labkit.motion import CBR40, arc_lattice_points, load_machine
 from labkit.motion.blocks import BlockFifo, BlockKind, build_blocks, expand_arcs, to_steps
 from labkit.toolpath import LaserMode, Moves, MovesBuilder
 
@@ -73,7 +73,7 @@ def test_arc_block_matches_its_octant_walk():
     arc = blk[1]
     assert arc.kind[0] == BlockKind.ARC
     spm = CBR40.steps_per_mm[0]
-    pts = arc_points(arc.start_steps[0, :2], arc.end_steps[0, :2], [0.0, 0.0], clockwise=False,
+    pts = arc_lattice_points(arc.start_steps[0, :2], arc.end_steps[0, :2], [0.0, 0.0], clockwise=False,
                      radius=10 * spm, sweep_rad=math.pi / 2)
     assert arc.ticks[0] == len(pts) - 1
     assert arc.length_mm[0] == pytest.approx(10 * math.pi / 2)

@@ -10,7 +10,7 @@ from skimage.draw import circle_perimeter, line, line_nd
 
 from labkit.errors import MotionError
 from labkit.motion.bresenham import (
-    arc_points,
+    arc_lattice_points,
     circle_points,
     direction_bits,
     line_points,
@@ -136,7 +136,7 @@ def test_random_arcs_stay_within_half_a_step_and_end_exactly(r_lo, r_hi):
     rng = np.random.default_rng(r_hi)
     for _ in range(3000):
         s, e, c, r, sw = _random_arc(rng, r_lo, r_hi)
-        pts = arc_points(s, e, c, clockwise=sw < 0, radius=r, sweep_rad=sw)
+        pts = arc_lattice_points(s, e, c, clockwise=sw < 0, radius=r, sweep_rad=sw)
         assert np.array_equal(pts[0], s) and np.array_equal(pts[-1], e)
         steps_from_points(pts)                                  # 8-connected, one step per axis
         dev = np.abs(np.hypot(*(pts[1:-1] - c).T) - r)
@@ -153,9 +153,9 @@ def test_random_arcs_stay_within_half_a_step_and_end_exactly(r_lo, r_hi):
 def test_quarter_arc_by_hand():
     # [CBR40] eq. 4 worked by hand for r = 5, first octant from (5, 0): y drives;
     # at y = 1, 2 x stays (|e(4, y)| > |e(5, y)|), at y = 3: e(5,3) = 9, e(4,3) = 0 → x steps.
-    pts = arc_points([5, 0], [0, 5], [0.0, 0.0], clockwise=False)
+    pts = arc_lattice_points([5, 0], [0, 5], [0.0, 0.0], clockwise=False)
     assert pts.tolist() == [[5, 0], [5, 1], [5, 2], [4, 3], [3, 4], [2, 5], [1, 5], [0, 5]]
-    cw = arc_points([0, 5], [5, 0], [0.0, 0.0], clockwise=True)
+    cw = arc_lattice_points([0, 5], [5, 0], [0.0, 0.0], clockwise=True)
     assert cw.tolist() == pts[::-1].tolist()
 
 
@@ -163,13 +163,13 @@ def test_arc_short_and_full_sweeps_in_one_octant():
     c = np.array([0.3, -0.2])
     s = np.array([1000, 0])
     e = np.array([995, 100])
-    short = arc_points(s, e, c, clockwise=False, sweep_rad=0.1)
-    full = arc_points(s, e, c, clockwise=False, sweep_rad=0.1 + 2 * math.pi - 0.2)
+    short = arc_lattice_points(s, e, c, clockwise=False, sweep_rad=0.1)
+    full = arc_lattice_points(s, e, c, clockwise=False, sweep_rad=0.1 + 2 * math.pi - 0.2)
     assert len(short) < 110 < 5000 < len(full)
 
 
 def test_tiny_radius_is_a_line():
-    assert arc_points([0, 0], [1, 1], [0.5, 0.5], clockwise=False).tolist() == [[0, 0], [1, 1]]
+    assert arc_lattice_points([0, 0], [1, 1], [0.5, 0.5], clockwise=False).tolist() == [[0, 0], [1, 1]]
 
 
 @pytest.mark.parametrize("kwargs,match", [
@@ -182,7 +182,7 @@ def test_tiny_radius_is_a_line():
 ])
 def test_arc_argument_errors(kwargs, match):
     with pytest.raises(MotionError, match=match):
-        arc_points(clockwise=False, **kwargs)
+        arc_lattice_points(clockwise=False, **kwargs)
 
 
 def test_line_argument_errors():

@@ -3,7 +3,7 @@
 import pytest
 
 from labkit.errors import MotionError
-from labkit.motion import CBR40, Machine, load_machine, machine_files
+from labkit.motion import CBR40, MachineSpec, load_machine, machine_files
 
 
 def test_shipped_cbr40_file_is_the_builtin_default():
@@ -31,7 +31,7 @@ def test_every_shipped_file_loads():
 
 
 def test_scalars_broadcast_and_replace_validates():
-    m = Machine(steps_per_mm=80, max_rate_mm_min=6000, accel_mm_s2=1000, travel_mm=300,
+    m = MachineSpec(steps_per_mm=80, max_rate_mm_min=6000, accel_mm_s2=1000, travel_mm=300,
                 start_rate_hz=250, timer_clock_hz=16_000_000)
     assert m.steps_per_mm == (80.0, 80.0, 80.0)
     assert m.replace(prescaler=7).tick_hz == 2_000_000

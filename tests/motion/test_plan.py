@@ -9,8 +9,8 @@ from motion_jobs import random_polyline_moves, zigzag_moves
 from labkit.errors import MotionError
 from labkit.motion import CBR40
 from labkit.motion.blocks import BlockFifo, build_blocks
-from labkit.motion.lookahead import PLANNERS, junction_speed_caps, lookahead
-from labkit.motion.plan import plan
+from labkit.motion.planner import PLANNERS, junction_speed_caps, lookahead
+from labkit.motion.pipeline import plan
 from labkit.toolpath import LaserMode, MovesBuilder
 
 PLANNER_LAWS = [(p, law) for p in PLANNERS for law in ("linear", "accel")]

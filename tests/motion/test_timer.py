@@ -7,8 +7,8 @@ import pytest
 from motion_jobs import random_polyline_moves, zigzag_moves
 
 from labkit.errors import MotionError
-from labkit.motion import CBR40, arc_points, lines_points
-from labkit.motion.plan import plan
+from labkit.motion import CBR40, arc_lattice_points, lines_points
+from labkit.motion.pipeline import plan
 from labkit.motion.timer import (
     block_points,
     isqrt,
@@ -97,7 +97,7 @@ def test_lines_and_arcs_in_the_trace_are_the_bresenham_walks():
     ref, _ = lines_points(blk.start_steps[:1], blk.end_steps[:1])
     assert np.array_equal(line_pts, ref)
     arc_pts = block_points(blk, 1, spm)
-    plane = arc_points(blk.start_steps[1, :2], blk.end_steps[1, :2], blk.centre_mm[1, :2] * spm[0],
+    plane = arc_lattice_points(blk.start_steps[1, :2], blk.end_steps[1, :2], blk.centre_mm[1, :2] * spm[0],
                        clockwise=True, radius=0.2 * spm[0], sweep_rad=blk.sweep_rad[1])
     assert np.array_equal(arc_pts[:, :2], plane)
     assert np.array_equal(arc_pts[-1], blk.end_steps[1])

@@ -47,7 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from labkit.errors import MotionError
-from labkit.motion import _lookahead as K
+from labkit.motion import _planner as K
 from labkit.motion.blocks import BlockKind, Blocks
 from labkit.motion.profile import RAMP_LAWS
 

@@ -1,4 +1,4 @@
-"""Compiled kernels of :mod:`labkit.motion.lookahead`: grouping and the two passes."""
+"""Compiled kernels of :mod:`labkit.motion.planner`: grouping and the two passes."""
 
 from __future__ import annotations
 

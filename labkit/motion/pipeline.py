@@ -16,8 +16,8 @@ import numpy as np
 from labkit.errors import MotionError
 from labkit.motion.blocks import BlockKind, Blocks, build_blocks
 from labkit.motion.laser import laser_power_mw
-from labkit.motion.lookahead import PLANNERS, Lookahead, lookahead
-from labkit.motion.machine import Machine, load_machine
+from labkit.motion.planner import PLANNERS, Lookahead, lookahead
+from labkit.motion.machine import MachineSpec, load_machine
 from labkit.motion import _ramp
 from labkit.motion.profile import RAMP_LAWS, Profiles, block_profiles
 from labkit.toolpath.moves import Moves
@@ -68,7 +68,7 @@ class Plan:
 
     Attributes
     ----------
-    machine : Machine
+    machine : MachineSpec
     blocks : Blocks
         All blocks, dwells included.
     motion : ndarray of int
@@ -79,7 +79,7 @@ class Plan:
         Speed profile of each motion block.
     """
 
-    machine: Machine
+    machine: MachineSpec
     blocks: Blocks
     motion: np.ndarray
     lookahead: Lookahead
@@ -240,7 +240,7 @@ class Plan:
                 "block": blk}
 
 
-def plan(moves: Moves | Blocks, machine: Machine | str | None = None, *, planner: str = "junction",
+def plan(moves: Moves | Blocks, machine: MachineSpec | str | None = None, *, planner: str = "junction",
          buffer_blocks: int | None = None, law: str | None = None,
          arc_tol_mm: float | None = None) -> Plan:
     """Plan a program the way a controller would.
@@ -249,7 +249,7 @@ def plan(moves: Moves | Blocks, machine: Machine | str | None = None, *, planner
     ----------
     moves : Moves or Blocks
         The program (or blocks already built for this machine).
-    machine : Machine, str or None
+    machine : MachineSpec, str or None
         Machine or name of a description in ``labkit/motion/machines/`` (default CBR-40).
     planner : {"junction", "fast", "normal", "hq"}
         GRBL's junction deviation, or [CBR40]'s MBLA modes.
