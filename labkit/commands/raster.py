@@ -11,7 +11,7 @@ __all__ = ["add_img2gcode_arguments", "run_img2gcode"]
 def add_img2gcode_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``labkit img2gcode``."""
     from labkit.commands._args import FEED, add_machine_options, number
-    from labkit.raster.dither import DIFFUSION
+    from labkit.raster.diffusion import DIFFUSION
     from labkit.raster.engrave import MODES
 
     positive = number(0, lo_open=True)

@@ -6,7 +6,7 @@ edges       SXOR, Roberts, Sobel, Prewitt (kernel and pseudo-convolution); Canny
 resample    one pixel = one beam diameter, with the size error in mm
 islands     4-connected segmentation
 pathing     zig-zag runs, spiral corner walk, greedy segment connection (O(n²) and indexed)
-dither      error diffusion (Floyd–Steinberg, Atkinson, Jarvis–Judice–Ninke, Stucki)
+diffusion   error diffusion (Floyd–Steinberg, Atkinson, Jarvis–Judice–Ninke, Stucki)
 engrave     image → Moves for every mode, with the seed's report figures
 coverage    Moves → burned pixels (the independent check of every path)
 io          image files with their dpi
@@ -33,7 +33,7 @@ __all__ = [
 ]
 
 from labkit.raster.coverage import burn_map  # noqa: E402
-from labkit.raster.dither import DIFFUSION, dither  # noqa: E402
+from labkit.raster.diffusion import DIFFUSION, dither  # noqa: E402
 from labkit.raster.engrave import (MODES, RasterJob, RasterReport, gray_job, image_to_job,  # noqa: E402
                                    mask_job, power_map, segments_to_moves, summarize)
 from labkit.raster.pathing import (Connection, Segments, choose_axis, connect, scan_order,  # noqa: E402

@@ -1,4 +1,4 @@
-"""Compiled error diffusion (used by :mod:`labkit.raster.dither`)."""
+"""Compiled error diffusion (used by :mod:`labkit.raster.diffusion`)."""
 
 from __future__ import annotations
 

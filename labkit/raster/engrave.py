@@ -23,7 +23,7 @@ from labkit.errors import RasterError
 from labkit.raster import _scanlines
 from labkit.raster._border import check_image_2d, check_mask
 from labkit.raster.color import adjust_gamma, invert as _invert, threshold, to_gray
-from labkit.raster.dither import DIFFUSION, dither as _dither
+from labkit.raster.diffusion import DIFFUSION, dither as _dither
 from labkit.raster.edges import detect_edges
 from labkit.raster.filters import blur as _blur, sharpen as _sharpen
 from labkit.raster.islands import label_islands
@@ -319,7 +319,7 @@ def gray_job(gray, *, pixel_mm: float, feed_mm_min: float = 3000.0, s_max: float
         Power mapping (:func:`power_map`). With ``dither`` every dot gets
         ``max_power``.
     dither : str, optional
-        Error diffusion method (:data:`~labkit.raster.dither.DIFFUSION`);
+        Error diffusion method (:data:`~labkit.raster.diffusion.DIFFUSION`);
         None for proportional power.
     serpentine : bool
         Serpentine scan for the dithering.
