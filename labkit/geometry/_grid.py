@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -14,13 +16,19 @@ def buckets(x, y, cell, x0, y0, nx, ny):
     cell) and ``start`` (CSR offsets: the points of cell c are
     ``order[start[c]:start[c + 1]]``).
     """
-    gx = np.minimum(np.maximum(((x - x0) / cell).astype(np.int64), 0), nx - 1)
-    gy = np.minimum(np.maximum(((y - y0) / cell).astype(np.int64), 0), ny - 1)
-    key = gy * nx + gx
-    order = np.argsort(key, kind="mergesort")
+    n = x.shape[0]
+    key = np.empty(n, np.int64)
     start = np.zeros(nx * ny + 1, np.int64)
-    for k in range(x.shape[0]):
+    for k in range(n):
+        gx = min(max(int(math.floor((x[k] - x0) / cell)), 0), nx - 1)
+        gy = min(max(int(math.floor((y[k] - y0) / cell)), 0), ny - 1)
+        key[k] = gy * nx + gx
         start[key[k] + 1] += 1
-    for k in range(nx * ny):
-        start[k + 1] += start[k]
+    for c in range(nx * ny):
+        start[c + 1] += start[c]
+    order = np.empty(n, np.int64)             # a counting sort: stable, O(n + cells)
+    fill = start[:-1].copy()
+    for k in range(n):
+        order[fill[key[k]]] = k
+        fill[key[k]] += 1
     return key, order, start

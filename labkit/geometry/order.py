@@ -38,7 +38,7 @@ from labkit.errors import GeometryError
 from labkit.geometry._grid import buckets
 from labkit.geometry.path import Path
 
-__all__ = ["Ordering", "order_segments", "order_paths", "travel_length", "containment_parents"]
+__all__ = ["Ordering", "order_segments", "order_paths", "travel_length", "containment_parents", "greedy_grid"]
 
 
 @dataclass(frozen=True)
@@ -87,13 +87,34 @@ def travel_length(starts, ends, origin=(0.0, 0.0)) -> float:
 # -- greedy nearest neighbour on a grid -----------------------------------------------------
 
 @numba.njit(cache=True)
-def _greedy(cx, cy, ex, ey, citem, n_items, remaining, parent, ox, oy, cell, x0, y0, nx, ny):
+def greedy_grid(cx, cy, ex, ey, citem, n_items, remaining, parent, ox, oy, cell, x0, y0, nx, ny):
+    """Greedy nearest-entry order over candidates filed in a uniform grid (compiled).
+
+    The one greedy search of labkit: chains here, raster runs in
+    :func:`labkit.raster.pathing.connect`. Each item (a chain, a raster run) has one or
+    more candidates — an entry point (cx, cy) and the exit (ex, ey) reached by cutting it
+    that way. From the head position the nearest eligible candidate is taken, ties going
+    to the lower candidate index (so a caller that numbers an item's variants after the
+    item, ``2i`` forward and ``2i + 1`` reversed, gets ties by item, then direction —
+    [LaserApp]'s O(n²) scan exactly). The search visits square rings of cells and stops
+    once every unsearched cell is strictly farther than the best candidate; a taken
+    item's candidates are swap-removed from their cells. ``remaining[i] > 0`` (contents
+    of item i not yet cut) makes item i ineligible; taking an item decrements
+    ``remaining[parent[item]]``.
+
+    Returns (picked candidate per step, travel length, candidates examined, whether every
+    item could be taken — False when parent links form a cycle).
+    """
     m = cx.shape[0]
     key, order_c, start = buckets(cx, cy, cell, x0, y0, nx, ny)
+    items = order_c.copy()                      # per cell, its live candidates first
+    pos = np.empty(m, np.int64)
+    for s in range(m):
+        pos[items[s]] = s
     live = np.zeros(nx * ny, np.int64)
     for k in range(m):
         live[key[k]] += 1
-    # candidates of one item, to retire them from the live counts when it is taken
+    # candidates of one item, to retire them all when it is taken
     item_c_start = np.zeros(n_items + 1, np.int64)
     for k in range(m):
         item_c_start[citem[k] + 1] += 1
@@ -104,54 +125,73 @@ def _greedy(cx, cy, ex, ey, citem, n_items, remaining, parent, ox, oy, cell, x0,
     for k in range(m):
         item_c[fill[citem[k]]] = k
         fill[citem[k]] += 1
-    used = np.zeros(n_items, np.bool_)
     out = np.empty(n_items, np.int64)
     px, py = ox, oy
     total = 0.0
+    examined = 0
+    constrained = False
+    for i in range(n_items):
+        constrained |= remaining[i] > 0
     for step in range(n_items):
-        pgx = min(max(int((px - x0) / cell), 0), nx - 1)
-        pgy = min(max(int((py - y0) / cell), 0), ny - 1)
+        qx = min(max(int(math.floor((px - x0) / cell)), 0), nx - 1)
+        qy = min(max(int(math.floor((py - y0) / cell)), 0), ny - 1)
         best, best_d = -1, np.inf
         r = 0
-        rmax = max(nx, ny) + 1
-        while r <= rmax:
-            for gyy in range(pgy - r, pgy + r + 1):
-                if gyy < 0 or gyy >= ny:
-                    continue
-                on_edge_row = gyy == pgy - r or gyy == pgy + r
-                stride = 1 if on_edge_row else 2 * r
-                gxx = pgx - r
-                while gxx <= pgx + r:
-                    if 0 <= gxx < nx:
-                        cidx = gyy * nx + gxx
-                        if live[cidx] > 0:
-                            for s in range(start[cidx], start[cidx + 1]):
-                                k = order_c[s]
-                                it = citem[k]
-                                if used[it] or remaining[it] > 0:
-                                    continue
-                                d = math.hypot(cx[k] - px, cy[k] - py)
-                                if d < best_d:
-                                    best_d, best = d, k
-                    if stride == 0:
-                        break
-                    gxx += stride
-            if best >= 0 and best_d <= r * cell:
-                break
+        while True:
+            for gy in range(max(qy - r, 0), min(qy + r, ny - 1) + 1):
+                edge_row = gy == qy - r or gy == qy + r
+                gx = max(qx - r, 0)
+                while gx <= min(qx + r, nx - 1):
+                    c = gy * nx + gx
+                    for s in range(start[c], start[c] + live[c]):
+                        k = items[s]
+                        examined += 1
+                        if constrained and remaining[citem[k]] > 0:
+                            continue
+                        dx = cx[k] - px
+                        dy = cy[k] - py
+                        d = dx * dx + dy * dy
+                        if d < best_d or (d == best_d and k < best):
+                            best_d, best = d, k
+                    if edge_row or gx == qx + r:
+                        gx += 1
+                    else:
+                        gx = qx + r             # inner rows: only the ring's two side cells
+            if qx - r <= 0 and qy - r <= 0 and qx + r >= nx - 1 and qy + r >= ny - 1:
+                break                           # the whole grid is searched
+            if best >= 0:
+                # nearest unsearched cell border, per side still open
+                lb = np.inf
+                if qx - r > 0:
+                    lb = min(lb, px - (x0 + (qx - r) * cell))
+                if qx + r < nx - 1:
+                    lb = min(lb, x0 + (qx + r + 1) * cell - px)
+                if qy - r > 0:
+                    lb = min(lb, py - (y0 + (qy - r) * cell))
+                if qy + r < ny - 1:
+                    lb = min(lb, y0 + (qy + r + 1) * cell - py)
+                if lb > 0 and lb * lb > best_d:
+                    break
             r += 1
         if best < 0:
-            return out[:step], total, False       # nothing eligible: a precedence cycle
+            return out[:step], total, examined, False     # nothing eligible: a precedence cycle
         it = citem[best]
-        used[it] = True
         for s in range(item_c_start[it], item_c_start[it + 1]):
             k = item_c[s]
-            live[key[k]] -= 1
+            c = key[k]
+            last = start[c] + live[c] - 1
+            q = items[last]
+            items[pos[k]] = q
+            pos[q] = pos[k]
+            items[last] = k
+            pos[k] = last
+            live[c] -= 1
         if parent[it] >= 0:
             remaining[parent[it]] -= 1
         out[step] = best
-        total += best_d
+        total += math.sqrt(best_d)
         px, py = ex[best], ey[best]
-    return out, total, True
+    return out, total, examined, True
 
 
 # -- 2-opt with neighbour lists ---------------------------------------------------------------
@@ -316,11 +356,12 @@ def order_segments(starts, ends, *, closed_points=None, origin=(0.0, 0.0), impro
         raise GeometryError(f"parent must hold one item index (or -1) per item, {n} items")
     # candidates: open items twice (forward, reversed), closed items once per vertex
     cl_sizes = np.array([len(c) for c in closed], np.int64)
-    cx = np.concatenate([s[:, 0], e[:, 0]] + [c[:, 0] for c in closed])
-    cy = np.concatenate([s[:, 1], e[:, 1]] + [c[:, 1] for c in closed])
-    ex = np.concatenate([e[:, 0], s[:, 0]] + [c[:, 0] for c in closed])
-    ey = np.concatenate([e[:, 1], s[:, 1]] + [c[:, 1] for c in closed])
-    citem = np.concatenate([np.arange(n_open), np.arange(n_open),
+    # open item i: candidate 2i forward, 2i + 1 reversed (ties go by item, then direction)
+    cx = np.concatenate([np.stack([s[:, 0], e[:, 0]], 1).ravel()] + [c[:, 0] for c in closed])
+    cy = np.concatenate([np.stack([s[:, 1], e[:, 1]], 1).ravel()] + [c[:, 1] for c in closed])
+    ex = np.concatenate([np.stack([e[:, 0], s[:, 0]], 1).ravel()] + [c[:, 0] for c in closed])
+    ey = np.concatenate([np.stack([e[:, 1], s[:, 1]], 1).ravel()] + [c[:, 1] for c in closed])
+    citem = np.concatenate([np.repeat(np.arange(n_open), 2),
                             np.repeat(np.arange(n_open, n), cl_sizes)]).astype(np.int64)
     cvert = np.concatenate([np.full(2 * n_open, -1), *[np.arange(k) for k in cl_sizes]]).astype(np.int64)
     remaining = np.bincount(par[par >= 0], minlength=n).astype(np.int64)
@@ -330,13 +371,13 @@ def order_segments(starts, ends, *, closed_points=None, origin=(0.0, 0.0), impro
     cell = max(span / max(1.0, math.sqrt(len(cx) / 2.0)), 1e-9)
     nx = int((hi[0] - lo[0]) / cell) + 1
     ny = int((hi[1] - lo[1]) / cell) + 1
-    picked, greedy_travel, ok = _greedy(cx, cy, ex, ey, citem, n, remaining, par,
-                                        float(origin[0]), float(origin[1]), cell, float(lo[0]),
-                                        float(lo[1]), nx, ny)
+    picked, greedy_travel, _, ok = greedy_grid(cx, cy, ex, ey, citem, n, remaining, par,
+                                               float(origin[0]), float(origin[1]), cell, float(lo[0]),
+                                               float(lo[1]), nx, ny)
     if not ok:
         raise GeometryError("parent links form a cycle: no order can cut every item after its contents")
     order = citem[picked]
-    is_rev = (picked >= n_open) & (picked < 2 * n_open)
+    is_rev = (picked < 2 * n_open) & (picked % 2 == 1)
     entry = cvert[picked]
     moves = 0
     travel = float(greedy_travel)

@@ -333,10 +333,27 @@ def connect(segments: Segments, *, method: str = "indexed", origin=(0, 0)) -> Co
 
     if method == "reference":
         order, flipped, examined = _connect.greedy_reference(*args)
+        return Connection(order, flipped, int(examined), method)
+    # the grid search every ordering in labkit uses; half-pixel coordinates are integers, so
+    # squared distances are exact and the ties fall as in the reference scan
+    from labkit.geometry.order import greedy_grid
+
+    if segments.reversible:         # candidate 2i: run i forward, 2i + 1: backwards
+        entry = np.stack([s, e], axis=1).reshape(-1, 2).astype(float)
+        leave = np.stack([e, s], axis=1).reshape(-1, 2).astype(float)
     else:
-        pts = np.vstack([s, e]) if segments.reversible else s
-        order, flipped, examined = _connect.greedy_indexed(*args, _grid_cell(pts, len(pts)))
-    return Connection(order, flipped, int(examined), method)
+        entry, leave = s.astype(float), e.astype(float)
+    ends = 2 if segments.reversible else 1
+    citem = np.repeat(np.arange(n, dtype=np.int64), ends)
+    cell = float(_grid_cell(entry, len(entry)))
+    hi = np.maximum(entry.max(axis=0), (ox, oy))
+    nx, ny = (int(v // cell) + 1 for v in hi)
+    none = np.full(n, -1, np.int64)
+    x, y, lx, ly = (np.ascontiguousarray(a) for a in (entry[:, 0], entry[:, 1], leave[:, 0], leave[:, 1]))
+    picked, _, examined, _ = greedy_grid(x, y, lx, ly, citem, n,
+                                         np.zeros(n, np.int64), none, float(ox), float(oy), cell,
+                                         0.0, 0.0, nx, ny)
+    return Connection(citem[picked], picked % ends == 1, int(examined), method)
 
 
 def scan_order(segments: Segments) -> Connection:
