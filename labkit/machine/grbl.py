@@ -562,6 +562,46 @@ class Grbl:
                 out[key] = value
         return out
 
+    def set_origin(self, axes: str = "XY") -> None:
+        """Make the current position the work zero of the active coordinate system
+        (``G10 L20 P0 X0 Y0``): the drawing's origin goes where the head is now."""
+        axes = "".join(dict.fromkeys(a.upper() for a in axes))
+        if not axes or set(axes) - set("XYZ"):
+            raise MachineError(f"set_origin: axes must be a choice of X, Y, Z, got {axes!r}")
+        self.command("G10 L20 P0 " + " ".join(f"{a}0" for a in axes))
+
+    def test_pulse(self, power_s: float, duration_s: float = 0.2, *, step_mm: float = 0.05) -> None:
+        """Fire the laser briefly at ``power_s`` where the head is, to find the focus or the beam.
+
+        GRBL's laser mode (``$32=1``) keeps the beam off unless the machine moves, so the
+        pulse is a slow step of ``step_mm`` out and back (the head ends where it was), each
+        half in ``duration_s / 2``; then ``M5``, and the distance mode and feed rate in
+        effect before are restored.
+
+        Parameters
+        ----------
+        power_s : float
+            Laser power word S (0 < S ≤ ``$30``); keep it low (1–5 % of ``$30``).
+        duration_s : float
+            How long the beam is on, s (0.01…5).
+        step_mm : float
+            Length of the step out and back, mm (a few motor steps).
+        """
+        s_max = self.setting(30, 1000.0)
+        if not 0 < power_s <= s_max:
+            raise MachineError(f"test pulse power S{power_s:g}: expected 0 < S ≤ $30 = {s_max:g}")
+        if not 0.01 <= duration_s <= 5.0:
+            raise MachineError(f"test pulse of {duration_s:g} s: expected 0.01…5 s")
+        state = self.parser_state().split()
+        relative = "G91" in state
+        feed = next((w[1:] for w in state if w.startswith("F")), "0")
+        f = 60.0 * step_mm / (duration_s / 2.0)
+        try:
+            self.command(f"G91 G1 X{step_mm:g} F{f:.4g} S{power_s:g} M3")
+            self.command(f"X{-step_mm:g}")
+        finally:
+            self.command(f"M5 {'G91' if relative else 'G90'}" + (f" F{feed}" if float(feed) > 0 else ""))
+
     def unlock(self) -> None:
         """``$X``: leave the alarm state (position may be wrong after a hard limit)."""
         self.command("$X")

@@ -2,8 +2,8 @@
 
 :class:`ControlPanel` has [LaserApp]'s three states, each enabling only its own
 controls: **disconnected** (port list and connect), **manual control**
-(status, jog with a step size, home, unlock, console, load / frame / start a
-job) and **printing** (pause, resume, stop, overrides and the progress bar;
+(status, jog with a step size, home, unlock, set the origin here, a laser test
+pulse, console, load / frame / start a job) and **printing** (pause, resume, stop, overrides and the progress bar;
 the console is locked). A job runs in a background thread — [LaserApp]'s
 communication thread — through :func:`labkit.machine.stream.run_job`, so
 every fault ends with the laser off and a report. With no port it drives the
@@ -65,6 +65,10 @@ class ControlPanel:
                             for name in ("X-", "X+", "Y-", "Y+")}
         self.home_button = w.Button(description="home $H")
         self.unlock_button = w.Button(description="unlock $X")
+        self.origin_button = w.Button(description="set origin here")
+        self.pulse_power = w.BoundedFloatText(value=1.0, min=0.1, max=20.0, step=0.5,
+                                              description="pulse % of S max")
+        self.pulse_button = w.Button(description="test pulse 0.2 s")
         self.console_line = w.Text(placeholder="G-code or $ command", description="send")
         self.console_button = w.Button(description="send")
         self.console_log = w.Textarea(rows=8, layout=w.Layout(width="100%"), disabled=True)
@@ -86,6 +90,8 @@ class ControlPanel:
             b.on_click(lambda _, n=name: self.jog(n))
         self.home_button.on_click(lambda _: self._run(lambda: self.machine.home()))
         self.unlock_button.on_click(lambda _: self._run(lambda: self.machine.unlock()))
+        self.origin_button.on_click(lambda _: self.set_origin())
+        self.pulse_button.on_click(lambda _: self.test_pulse())
         self.console_button.on_click(lambda _: self.send(self.console_line.value))
         self.frame_button.on_click(lambda _: self.frame())
         self.start_button.on_click(lambda _: self.start())
@@ -98,6 +104,7 @@ class ControlPanel:
             "connection": [self.port, self.connect_button],
             "manual": [self.disconnect_button, self.refresh_button, self.step, self.jog_feed,
                        *self.jog_buttons.values(), self.home_button, self.unlock_button,
+                       self.origin_button, self.pulse_power, self.pulse_button,
                        self.console_line, self.console_button, self.frame_button,
                        self.start_button, self.job_text],
             "printing": [self.pause_button, self.resume_button, self.stop_button, self.feed_up,
@@ -108,6 +115,7 @@ class ControlPanel:
             w.HBox([self.status, self.refresh_button]),
             w.HBox([self.step, self.jog_feed]),
             w.HBox(list(self.jog_buttons.values()) + [self.home_button, self.unlock_button]),
+            w.HBox([self.origin_button, self.pulse_power, self.pulse_button]),
             w.HBox([self.console_line, self.console_button]), self.console_log,
             self.job_text,
             w.HBox([self.frame_button, self.start_button, self.pause_button, self.resume_button,
@@ -200,6 +208,20 @@ class ControlPanel:
         axis, sign = name[0].lower(), (1 if name[1] == "+" else -1)
         step = sign * float(self.step.value)
         self._run(lambda: self.machine.jog(feed_mm_min=float(self.jog_feed.value), **{axis: step}))
+
+    def set_origin(self) -> None:
+        """Make the head's position the job's X/Y zero (``G10 L20 P0 X0 Y0``)."""
+        if self.machine is not None and self.state == MANUAL:
+            self._log("> set origin (G10 L20 P0 X0 Y0)")
+            self._run(lambda: self.machine.set_origin("XY"))
+
+    def test_pulse(self, duration_s: float = 0.2) -> None:
+        """Fire the beam briefly at the chosen share of ``$30`` where the head is."""
+        if self.machine is None or self.state != MANUAL:
+            return
+        s = float(self.pulse_power.value) / 100.0 * self.machine.setting(30, 1000.0)
+        self._log(f"> test pulse S{s:g} for {duration_s:g} s")
+        self._run(lambda: self.machine.test_pulse(s, duration_s))
 
     def send(self, line: str) -> None:
         """Console: send one line (send-response) and log the replies."""
