@@ -233,3 +233,34 @@ def test_known_gap_near_reversal():
         handle = b - in_h
     p = cubics_to_arcs(np.array(ctrl), 0.01, method="biarc")
     assert _kinks_ok(p)
+
+
+def test_readable_biarc_equals_the_compiled_kernel():
+    """labkit.geometry.biarc (plain numpy, for chapter 03) and the fit's compiled kernel
+    (geometry._biarcfit._biarc) build the same biarc — or both refuse — on 2,000 random ends."""
+    from labkit.errors import GeometryError
+    from labkit.geometry._biarcfit import _biarc, _emit
+
+    rng = np.random.default_rng(7)
+    built = refused = 0
+    for _ in range(2000):
+        p0, p1 = rng.uniform(-10, 10, (2, 2))
+        a0, a1 = rng.uniform(-np.pi, np.pi, 2)
+        t0, t1 = np.array([np.cos(a0), np.sin(a0)]), np.array([np.cos(a1), np.sin(a1)])
+        out = np.empty(8)
+        ok = _biarc(*p0, *t0, *p1, *t1, out)
+        try:
+            mine = biarc(p0, t0, p1, t1)
+        except GeometryError:
+            assert not ok
+            refused += 1
+            continue
+        assert ok
+        verts, centres, sweeps = np.empty((3, 2)), np.empty((2, 2)), np.empty(2)
+        verts[0] = p0
+        k = _emit(out, *p0, *p1, verts, centres, sweeps, 0)
+        assert np.allclose(mine.vertices, verts[:k + 1], rtol=0, atol=1e-9)
+        assert np.allclose(mine.sweeps, sweeps[:k], rtol=0, atol=1e-9)
+        assert np.allclose(mine.centres, centres[:k], rtol=0, atol=1e-6, equal_nan=True)
+        built += 1
+    assert built > 1500 and refused > 0
