@@ -11,15 +11,16 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
+from labkit._jit import jit
+from labkit.geometry._quadratic import stable_quadratic_roots
 from labkit.geometry.biarc import LINE_SAGITTA_MM, MAX_JOINT_REACH
 
 _FULL_TURN = 2.0 * math.pi - 1e-6
 
 
-@numba.njit(cache=True)
+@jit
 def _unit(x, y):
     n = math.hypot(x, y)
     if n == 0.0:
@@ -27,7 +28,7 @@ def _unit(x, y):
     return x / n, y / n, n
 
 
-@numba.njit(cache=True)
+@jit
 def _arc_from_tangent(ax, ay, tx, ty, bx, by):
     """Arc from A (unit tangent t) to B: (cx, cy, sweep); sweep 0 means a line, 2π none."""
     vx, vy = bx - ax, by - ay
@@ -47,7 +48,7 @@ def _arc_from_tangent(ax, ay, tx, ty, bx, by):
     return ax - r * ty, ay + r * tx, sweep
 
 
-@numba.njit(cache=True)
+@jit
 def _two_arcs(p0x, p0y, t0x, t0y, jx, jy, tjx, tjy, p1x, p1y, out):
     """The arcs p0 (tangent t0) → J and J (tangent tj) → p1 into out; False if either closes."""
     c1x, c1y, s1 = _arc_from_tangent(p0x, p0y, t0x, t0y, jx, jy)
@@ -60,7 +61,7 @@ def _two_arcs(p0x, p0y, t0x, t0y, jx, jy, tjx, tjy, p1x, p1y, out):
     return True
 
 
-@numba.njit(cache=True)
+@jit
 def _biarc(p0x, p0y, t0x, t0y, p1x, p1y, t1x, t1y, out):
     """Equal-tangent-length biarc; out = (jx, jy, c1x, c1y, s1, c2x, c2y, s2). False if none."""
     vx, vy = p1x - p0x, p1y - p0y
@@ -84,7 +85,7 @@ def _biarc(p0x, p0y, t0x, t0y, p1x, p1y, t1x, t1y, out):
     return _two_arcs(p0x, p0y, t0x, t0y, jx, jy, ux, uy, p1x, p1y, out)
 
 
-@numba.njit(cache=True)
+@jit
 def _joint_circle(p0x, p0y, t0x, t0y, p1x, p1y, t1x, t1y):
     """The circle on which every biarc joint between these ends lies: (cx, cy, r); r = 0 when
     it is the straight line through p0 and p1 (equal tangents).
@@ -102,7 +103,7 @@ def _joint_circle(p0x, p0y, t0x, t0y, p1x, p1y, t1x, t1y):
     return cx, cy, math.hypot(p0x - cx, p0y - cy)
 
 
-@numba.njit(cache=True)
+@jit
 def _joint_side(qx, qy, p0x, p0y, p1x, p1y, cx, cy, r):
     """Signed side of q relative to the joint circle (or line when r == 0)."""
     if r == 0.0:
@@ -110,7 +111,7 @@ def _joint_side(qx, qy, p0x, p0y, p1x, p1y, cx, cy, r):
     return math.hypot(qx - cx, qy - cy) - r
 
 
-@numba.njit(cache=True)
+@jit
 def _biarc_joint(p0x, p0y, t0x, t0y, p1x, p1y, jx, jy, out):
     """The biarc whose joint is J (a point of the joint circle); out as in _biarc."""
     ux, uy, L = _unit(jx - p0x, jy - p0y)
@@ -122,7 +123,7 @@ def _biarc_joint(p0x, p0y, t0x, t0y, p1x, p1y, jx, jy, out):
     return _two_arcs(p0x, p0y, t0x, t0y, jx, jy, tjx, tjy, p1x, p1y, out)
 
 
-@numba.njit(cache=True)
+@jit
 def _seg_distance(qx, qy, ax, ay, bx, by):
     dx, dy = bx - ax, by - ay
     L2 = dx * dx + dy * dy
@@ -133,7 +134,7 @@ def _seg_distance(qx, qy, ax, ay, bx, by):
     return math.hypot(qx - ax - t * dx, qy - ay - t * dy)
 
 
-@numba.njit(cache=True)
+@jit
 def _arc_distance(qx, qy, ax, ay, cx, cy, sweep, bx, by):
     """Distance from q to the arc A→B (centre c, signed sweep); a line when sweep == 0."""
     if sweep == 0.0:
@@ -150,7 +151,7 @@ def _arc_distance(qx, qy, ax, ay, cx, cy, sweep, bx, by):
     return min(math.hypot(qx - ax, qy - ay), math.hypot(qx - bx, qy - by))
 
 
-@numba.njit(cache=True)
+@jit
 def _biarc_error(samples, n, p0x, p0y, p1x, p1y, ba, tol):
     """Two-sided distance between the polyline samples[:n] and the biarc (stops early above tol).
 
@@ -191,7 +192,7 @@ def _biarc_error(samples, n, p0x, p0y, p1x, p1y, ba, tol):
     return worst
 
 
-@numba.njit(cache=True)
+@jit
 def _emit(ba, p0x, p0y, p1x, p1y, verts, centres, sweeps, k):
     """Append the biarc's one or two segments (zero-length ones skipped); returns the new count."""
     jx, jy = ba[0], ba[1]
@@ -206,14 +207,14 @@ def _emit(ba, p0x, p0y, p1x, p1y, verts, centres, sweeps, k):
     return k
 
 
-@numba.njit(cache=True)
+@jit
 def _emit_line(p1x, p1y, verts, centres, sweeps, k):
     verts[k + 1, 0], verts[k + 1, 1] = p1x, p1y
     centres[k, 0], centres[k, 1], sweeps[k] = math.nan, math.nan, 0.0
     return k + 1
 
 
-@numba.njit(cache=True)
+@jit
 def _merge(verts, centres, sweeps, k, eps):
     """Merge neighbours that are one primitive: co-circular arcs turning the same way (their
     union sweeping less than a full turn) and collinear lines. Returns the new count."""
@@ -261,7 +262,7 @@ _MIN_STEP = 1e-9
 _JOINTS = np.array([0.5, 0.35, 0.65, 0.25, 0.75])
 
 
-@numba.njit(cache=True)
+@jit
 def _blossom(c, u1, u2, u3):
     ax0 = c[0, 0] + u1 * (c[1, 0] - c[0, 0])
     ay0 = c[0, 1] + u1 * (c[1, 1] - c[0, 1])
@@ -276,7 +277,7 @@ def _blossom(c, u1, u2, u3):
     return bx0 + u3 * (bx1 - bx0), by0 + u3 * (by1 - by0)
 
 
-@numba.njit(cache=True)
+@jit
 def _point(c, t):
     u = 1.0 - t
     b0, b1, b2, b3 = u * u * u, 3.0 * u * u * t, 3.0 * u * t * t, t * t * t
@@ -284,7 +285,7 @@ def _point(c, t):
             b0 * c[0, 1] + b1 * c[1, 1] + b2 * c[2, 1] + b3 * c[3, 1])
 
 
-@numba.njit(cache=True)
+@jit
 def _piece_tangent(c, ta, tb, at_end):
     """Unit tangent at the start (or end) of the part [ta, tb] of cubic c, from the part's own
     control polygon: the first non-vanishing of c1 − c0, c2 − c0, c3 − c0 (ends: c3 − c2, …),
@@ -311,7 +312,7 @@ def _piece_tangent(c, ta, tb, at_end):
     return 0.0, 0.0
 
 
-@numba.njit(cache=True)
+@jit
 def _turnarounds(c, out):
     """Parameters in (0, 1) where a straight (collinear) cubic stops and runs back: roots of
     B′(t)·d with d along its line."""
@@ -326,42 +327,23 @@ def _turnarounds(c, out):
     return _roots_in_unit(a - 2.0 * b + e, 2.0 * (b - a), a, out)
 
 
-@numba.njit(cache=True)
+@jit
 def _roots_in_unit(A, B, C, out):
     """Roots of A t² + B t + C strictly inside (0, 1), ascending, written to out; returns how
     many. A near-double root (discriminant within rounding of 0) counts once: a cusp."""
-    scale = abs(A) + abs(B) + abs(C)
     lo, hi = 1e-7, 1.0 - 1e-7
-    if scale == 0.0:
-        return 0
-    if abs(A) <= 1e-12 * scale:
-        if abs(B) > 1e-12 * scale and lo < -C / B < hi:
-            out[0] = -C / B
-            return 1
-        return 0
-    disc = B * B - 4.0 * A * C
-    if disc < 0.0:
-        if disc > -1e-12 * B * B:
-            disc = 0.0
-        else:
-            return 0
-    sq = math.sqrt(disc)
-    q = -0.5 * (B + (sq if B >= 0.0 else -sq))      # the stable form of the two roots
-    r1 = q / A
-    r2 = C / q if q != 0.0 else r1
-    if r1 > r2:
-        r1, r2 = r2, r1
+    n, r1, r2 = stable_quadratic_roots(A, B, C)
     k = 0
-    if lo < r1 < hi:
+    if n >= 1 and lo < r1 < hi:
         out[k] = r1
         k += 1
-    if lo < r2 < hi and (k == 0 or r2 - out[k - 1] > 1e-9):
+    if n == 2 and lo < r2 < hi and (k == 0 or r2 - out[k - 1] > 1e-9):
         out[k] = r2
         k += 1
     return k
 
 
-@numba.njit(cache=True)
+@jit
 def _inflections(c, out):
     """Parameters in (0, 1) where the curvature changes sign or the speed vanishes (cusp):
     roots of cross(B', B''), a quadratic in t. Returns how many were written to out."""
@@ -380,14 +362,14 @@ def _inflections(c, out):
     return _roots_in_unit(A, f1 - f0 - A, f0, out)
 
 
-@numba.njit(cache=True)
+@jit
 def _chain_point(ctrl, T, linear):
     m = ctrl.shape[0]
     i = min(int(math.floor(T)), m - 1)
     return _at(ctrl[i], T - i, linear)
 
 
-@numba.njit(cache=True)
+@jit
 def _at(c, t, linear):
     """The curve at t: the cubic, or (``linear``) its chord — a polyline whose cubics carry
     only the tangent estimates."""
@@ -396,7 +378,7 @@ def _at(c, t, linear):
     return _point(c, t)
 
 
-@numba.njit(cache=True)
+@jit
 def _sample_chain(ctrl, Ta, Tb, p0x, p0y, buf, tbuf, linear):
     """Samples of the chain between global parameters Ta < Tb into buf (their parameters in
     tbuf); returns (count, buf, tbuf).
@@ -430,7 +412,7 @@ def _sample_chain(ctrl, Ta, Tb, p0x, p0y, buf, tbuf, linear):
     return n, buf, tbuf
 
 
-@numba.njit(cache=True)
+@jit
 def _curve_joint(ctrl, buf, tbuf, n, p0x, p0y, t0x, t0y, p1x, p1y, t1x, t1y, ba, linear):
     """The biarc whose joint is where the curve crosses the joint circle (the crossing nearest
     the middle sample, refined on the cubic); the equal-tangent-length biarc when the
@@ -465,7 +447,7 @@ def _curve_joint(ctrl, buf, tbuf, n, p0x, p0y, t0x, t0y, p1x, p1y, t1x, t1y, ba,
     return _biarc(p0x, p0y, t0x, t0y, p1x, p1y, t1x, t1y, ba)
 
 
-@numba.njit(cache=True)
+@jit
 def _chain_fit(ctrl, Ta, Tb, p0x, p0y, t0x, t0y, single, kink, tol, buf, tbuf, ba, linear):
     """Error over the chain piece [Ta, Tb] of one arc leaving p0 along t0 (``single``), or of
     the biarc from (p0, t0) to the curve's end point and tangent; inf when none exists.
@@ -535,7 +517,7 @@ def _chain_fit(ctrl, Ta, Tb, p0x, p0y, t0x, t0y, single, kink, tol, buf, tbuf, b
     return best_e, p1x, p1y, buf, tbuf
 
 
-@numba.njit(cache=True)
+@jit
 def _arc_only(p0x, p0y, t0x, t0y, p1x, p1y, out):
     """One arc from p0 along t0 to p1, stored as a biarc whose joint is p1."""
     cx, cy, sw = _arc_from_tangent(p0x, p0y, t0x, t0y, p1x, p1y)
@@ -547,7 +529,7 @@ def _arc_only(p0x, p0y, t0x, t0y, p1x, p1y, out):
     return True
 
 
-@numba.njit(cache=True)
+@jit
 def _end_tangent(ba, p0x, p0y, p1x, p1y):
     """Unit tangent at p1 of the piece stored in ba (its last non-empty segment)."""
     jx, jy = ba[0], ba[1]
@@ -565,7 +547,7 @@ def _end_tangent(ba, p0x, p0y, p1x, p1y):
     return ux, uy
 
 
-@numba.njit(cache=True)
+@jit
 def _search(ctrl, Ta, rem, guess, p0x, p0y, t0x, t0y, single, kink, tol, buf, tbuf, ba, best, linear):
     """Longest piece from Ta (at most rem) that fits: try guess, double or halve, bisect.
     Returns (length, bracket end or -1, error, end x, end y, buf, tbuf); best holds the fit."""
@@ -611,7 +593,7 @@ def _search(ctrl, Ta, rem, guess, p0x, p0y, t0x, t0y, single, kink, tol, buf, tb
     return lo, hi, best_e, bx, by, buf, tbuf
 
 
-@numba.njit(cache=True)
+@jit
 def _grow(verts, centres, sweeps, k, need):
     if k + need + 1 < sweeps.shape[0]:
         return verts, centres, sweeps
@@ -625,14 +607,14 @@ def _grow(verts, centres, sweeps, k, need):
     return v2, c2, s2
 
 
-@numba.njit(cache=True)
-def fit_cubic_chain(ctrl, tol, kink_rad, split_inflections, closed, extra_breaks, a_factor, g1_tol, linear):
+@jit
+def fit_cubic_chain(ctrl, tol, kink_rad, closed, extra_breaks, a_factor, g1_tol, linear):
     """Tangent-continuous arcs for a chain of cubics (m, 4, 2), each starting where the
     previous ends.
 
     The chain is cut into runs at corners — joints between cubics whose
-    tangents differ by more than ``kink_rad`` — and cusps; with
-    ``split_inflections`` pieces also end at inflections, and they end at
+    tangents differ by more than ``kink_rad`` — and cusps (pieces run on
+    through inflections, where the tangent carries on), and at
     ``extra_breaks`` (global parameters, cubic i spanning [i, i + 1]). Along a
     run every piece leaves along the tangent the previous piece arrived with
     (the curve's own at the run's start), so the run is G1. Each piece is the
@@ -656,10 +638,9 @@ def fit_cubic_chain(ctrl, tol, kink_rad, split_inflections, closed, extra_breaks
             t = roots[j]
             ax, ay = _piece_tangent(ctrl[i], 0.0, t, True)
             bx, by = _piece_tangent(ctrl[i], t, 1.0, False)
-            cusp = ax * bx + ay * by < 0.99
-            if cusp or split_inflections:
+            if ax * bx + ay * by < 0.99:            # a cusp
                 brk[nb] = i + t
-                hard[nb] = cusp
+                hard[nb] = True
                 nb += 1
         for j in range(extra_breaks.shape[0]):
             if i < extra_breaks[j] < i + 1:
@@ -769,7 +750,7 @@ def fit_cubic_chain(ctrl, tol, kink_rad, split_inflections, closed, extra_breaks
     return verts[:k + 1], centres[:k], sweeps[:k], worst + 2.0 * eps, pieces
 
 
-@numba.njit(cache=True)
+@jit
 def _vertex_tangents(p, closed, corner_rad, reach):
     """Tangent estimates (into, out of) every vertex of a polyline, and corner flags.
 
@@ -846,14 +827,14 @@ def _vertex_tangents(p, closed, corner_rad, reach):
     return tin, tout, corner
 
 
-@numba.njit(cache=True)
+@jit
 def _mirror(tx, ty, ux, uy):
     """The unit vector t mirrored in the line along unit u."""
     d = 2.0 * (tx * ux + ty * uy)
     return d * ux - tx, d * uy - ty
 
 
-@numba.njit(cache=True)
+@jit
 def hermite_chain(p, closed, corner_rad, reach):
     """A tangent-continuous chain of cubics (n − 1, 4, 2) through the polyline's vertices:
     cubic Hermite pieces with handles of a third of the chord along the estimated tangents

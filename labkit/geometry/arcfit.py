@@ -12,7 +12,7 @@ within the rest of the tolerance (exponential then binary search). The arc
 for a run is chosen on the run's chord: of the arcs of up to a half turn
 through the run's two end samples, the one in the middle of the range of
 curvatures for which every sample lies within the tolerance (each sample
-allows one interval, found in closed form — :func:`_arc_fits_band`); when
+allows one interval, found in closed form — :mod:`labkit.geometry._greedyfit`); when
 that range is empty, the circle through the first, middle and last samples
 is tried. A candidate is accepted only if every sample is within the
 tolerance radially and every chord between samples is too (its sagitta
@@ -52,12 +52,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 from labkit.errors import GeometryError
 from labkit.geometry._biarcfit import _PER_CUBIC, fit_cubic_chain, hermite_chain
-from labkit.geometry.bezier import flatten_cubics
+from labkit.geometry._greedyfit import fit_runs
+from labkit.geometry.bezier import cubic_samples, flatten_cubics
 from labkit.geometry.path import Path
 
 __all__ = ["fit_arcs", "cubics_to_arcs", "coordinate_limit_mm", "tolerance_budget", "ToleranceBudget",
@@ -143,252 +143,9 @@ SAMPLE_SHARE = 0.85
 #: is within tolerance (:func:`_measured_deviation`).
 VERIFY_ROUNDS = 4
 METHODS = ("greedy", "biarc")
-#: End pieces at inflections (the tangent carries on through them either way).
-SPLIT_INFLECTIONS = False
 #: Largest kink the fit leaves between two of its own segments where the curve is smooth (rad).
 G1_TOL_RAD = math.radians(1.0)
 _NO_BREAKS = np.empty(0)
-_MAX_RADIUS_MM = 1e4
-#: Lines are preferred only when this close (share of tol); otherwise an arc is tried first,
-#: so that lines do not eat into the corner arcs of an offset.
-LINE_SHARE = 0.05
-
-
-@numba.njit(cache=True)
-def _line_fits(p, i, j, tol):
-    sx, sy = p[i, 0], p[i, 1]
-    dx, dy = p[j, 0] - sx, p[j, 1] - sy
-    L2 = dx * dx + dy * dy
-    worst = 0.0
-    for k in range(i + 1, j):
-        qx, qy = p[k, 0] - sx, p[k, 1] - sy
-        if L2 == 0.0:
-            d = math.hypot(qx, qy)
-        else:
-            t = min(1.0, max(0.0, (qx * dx + qy * dy) / L2))
-            d = math.hypot(qx - t * dx, qy - t * dy)
-        if d > tol:
-            return -1.0
-        worst = max(worst, d)
-    return worst
-
-
-@numba.njit(cache=True)
-def _arc_fits(p, i, j, tol, out):
-    """Circle through p[i], p[mid], p[j]; out = (cx, cy, sweep).
-
-    Returns the max error, -1 if it does not fit, -2 if the points are too
-    nearly straight for a usable circle."""
-    m = (i + j) // 2
-    ax, ay = p[i, 0], p[i, 1]
-    ux, uy = p[m, 0] - ax, p[m, 1] - ay
-    vx, vy = p[j, 0] - ax, p[j, 1] - ay
-    d = 2.0 * (ux * vy - uy * vx)
-    u2 = ux * ux + uy * uy
-    v2 = vx * vx + vy * vy
-    if abs(d) <= 1e-14 * math.sqrt(u2 * v2) or d == 0.0:
-        return -2.0
-    cx = ax + (vy * u2 - uy * v2) / d
-    cy = ay + (ux * v2 - vx * u2) / d
-    return _arc_check(p, i, j, tol, cx, cy, out)
-
-
-@numba.njit(cache=True)
-def _arc_check(p, i, j, tol, cx, cy, out):
-    """Whether the arc about (cx, cy) from p[i] to p[j] stays within tol of the polyline
-    p[i..j]; out = (cx, cy, sweep). Returns the max error, -1 if it does not fit, -2 if the
-    radius is too large for a usable arc."""
-    ax, ay = p[i, 0], p[i, 1]
-    r = math.hypot(ax - cx, ay - cy)
-    if r > _MAX_RADIUS_MM:
-        return -2.0
-    # the direction of travel: the turn from the chord to the far end, seen from the centre
-    ex, ey = p[j, 0] - cx, p[j, 1] - cy
-    sx, sy = ax - cx, ay - cy
-    mid = (i + j) // 2
-    qx, qy = p[mid, 0] - cx, p[mid, 1] - cy
-    turn = (sx * qy - sy * qx) if mid != i else (sx * ey - sy * ex)
-    sign = 1.0 if turn > 0 else -1.0
-    sweep = 0.0
-    worst = 0.0
-    px, py = sx, sy
-    e_prev = 0.0
-    for k in range(i + 1, j + 1):
-        qx, qy = p[k, 0] - cx, p[k, 1] - cy
-        e = abs(math.hypot(qx, qy) - r)
-        if e > tol:
-            return -1.0
-        worst = max(worst, e)
-        step = math.atan2(px * qy - py * qx, px * qx + py * qy)
-        if step * sign < 0.0:
-            return -1.0
-        # the input between two samples is a straight chord: the arc strays from it by
-        # its sagitta plus the larger radial miss of the chord's two ends (both ends count:
-        # a long chord after a sample off the circle drew a 0.13 mm miss at 0.1 mm)
-        half = 0.5 * math.hypot(qx - px, qy - py)
-        sag = r - math.sqrt(max(r * r - half * half, 0.0))
-        if sag + max(e, e_prev) > tol:
-            return -1.0
-        sweep += step
-        px, py = qx, qy
-        e_prev = e
-    if abs(sweep) >= 2.0 * math.pi - 1e-6:
-        return -1.0
-    out[0], out[1], out[2] = cx, cy, sweep
-    return worst
-
-
-@numba.njit(cache=True)
-def _band_root(A, B, e):
-    """t = tan(θ/2) in [−1, 1] where A sin θ + B cos θ = 2e, on the branch where the left
-    side falls as θ grows (there the distance it stands for falls too); nan when none.
-
-    With sin θ = 2t/(1 + t²) and cos θ = (1 − t²)/(1 + t²) the equation is the
-    quadratic −(B + 2e) t² + 2A t + (B − 2e) = 0 — no trigonometry."""
-    a2, a1, a0 = -(B + 2.0 * e), 2.0 * A, B - 2.0 * e
-    scale = abs(a2) + abs(a1) + abs(a0)
-    if abs(a2) <= 1e-14 * scale:
-        if a1 == 0.0:
-            return math.nan
-        t = -a0 / a1
-        return t if -1.0 <= t <= 1.0 and a1 <= 0.0 else math.nan
-    disc = a1 * a1 - 4.0 * a2 * a0
-    if disc < 0.0:
-        return math.nan
-    sq = math.sqrt(disc)
-    q = -0.5 * (a1 + (sq if a1 >= 0.0 else -sq))          # the stable form of both roots
-    for t in (q / a2, a0 / q if q != 0.0 else math.nan):
-        if -1.0 <= t <= 1.0 and 2.0 * a2 * t + a1 <= 0.0:
-            return t
-    return math.nan
-
-
-@numba.njit(cache=True)
-def _arc_fits_band(p, i, j, tol, out):
-    """The circle through p[i] and p[j] that best fits the samples between them: of the arcs
-    of at most half a turn on that chord (half-sweep θ, curvature sin θ / h), the middle of
-    the range of t = tan(θ/2) over which every sample lies within ``tol`` radially.
-
-    A sample q at (x, y) in the chord's frame (origin at its middle, half length
-    h) is a signed distance ε(θ) from the arc, with ε = e exactly where
-    (K − e²)/h · sin θ + 2y cos θ = 2e, K = x² + y² − h²; near the arc ε falls
-    as θ grows, so each sample allows one interval of θ (found by
-    :func:`_band_root`). A minor arc stays inside the circle on its chord, so a
-    sample more than ``tol`` outside that circle rules the chord out. The
-    chosen circle is then checked by :func:`_arc_check`, which alone decides;
-    returns its result, or -2 when no θ suits every sample."""
-    ax, ay = p[i, 0], p[i, 1]
-    bx, by = p[j, 0], p[j, 1]
-    ux, uy = bx - ax, by - ay
-    L = math.hypot(ux, uy)
-    if L == 0.0:
-        return -2.0
-    h = 0.5 * L
-    ux, uy = ux / L, uy / L
-    mx, my = 0.5 * (ax + bx), 0.5 * (ay + by)
-    lo, hi = -1.0, 1.0
-    for k in range(i + 1, j):
-        dx, dy = p[k, 0] - mx, p[k, 1] - my
-        x = dx * ux + dy * uy
-        y = -dx * uy + dy * ux
-        A = (x * x + y * y - h * h - tol * tol) / h
-        if A > 2.0 * tol:                  # farther than tol outside the chord's circle
-            return -2.0
-        if A >= -2.0 * tol:                # near the chord's ends every arc passes close
-            continue
-        t = _band_root(A, 2.0 * y, tol)    # ε ≤ tol from here up
-        if not math.isnan(t):
-            lo = max(lo, t)
-        elif y > tol:
-            return -2.0
-        t = _band_root(A, 2.0 * y, -tol)   # ε ≥ −tol up to here
-        if not math.isnan(t):
-            hi = min(hi, t)
-        elif y < -tol:
-            return -2.0
-        if lo > hi:
-            return -2.0
-    t = 0.5 * (lo + hi)
-    if abs(t) * 2.0 * _MAX_RADIUS_MM <= h * (1.0 + t * t):
-        return -2.0                        # straight: a line fits or nothing does
-    # the centre lies on the chord's bisector, R cos θ = h (1 − t²) / 2t from its middle,
-    # on the side away from the bulge (the bulge is to the chord's left for t > 0)
-    off = h * (1.0 - t * t) / (2.0 * t)
-    cx, cy = mx + uy * off, my - ux * off
-    return _arc_check(p, i, j, tol, cx, cy, out)
-
-
-@numba.njit(cache=True)
-def _try(p, i, j, tol, allow_arcs, buf):
-    """Fit samples i..j: a near-exact line, else an arc, else (if the samples are too
-    straight for a circle of usable radius) a line within tol."""
-    if not allow_arcs:
-        return _line_fits(p, i, j, tol), 0
-    e = _line_fits(p, i, j, LINE_SHARE * tol)
-    if e >= 0.0:
-        return e, 0
-    if j - i >= 2:
-        e = _arc_fits_band(p, i, j, tol, buf)
-        if e >= 0.0:
-            return e, 1
-        e = _arc_fits(p, i, j, tol, buf)
-        if e >= 0.0:
-            return e, 1
-        if e == -1.0:
-            return -1.0, 0
-    return _line_fits(p, i, j, tol), 0
-
-
-@numba.njit(cache=True)
-def _fit_kernel(p, tol, allow_arcs):
-    n = p.shape[0]
-    ends = np.empty(n, np.int64)
-    centres = np.full((n, 2), np.nan)
-    sweeps = np.zeros(n)
-    k = 0
-    worst_all = 0.0
-    buf = np.empty(3)
-    best_buf = np.empty(3)
-    i = 0
-    while i < n - 1:
-        # exponential then binary search for the longest run i..j one primitive fits
-        best_j, best_kind, best_err = i + 1, 0, 0.0
-        lo, hi = i + 1, n          # lo fits (adjacent points always fit a line); hi does not
-        step = 2
-        while True:
-            j = i + step
-            if j >= n:
-                j = n - 1
-            e, kind = _try(p, i, j, tol, allow_arcs, buf)
-            if e >= 0.0:
-                lo, best_j, best_kind, best_err = j, j, kind, e
-                best_buf[:] = buf
-                if j == n - 1:
-                    hi = n
-                    break
-                step *= 2
-            else:
-                hi = j
-                break
-        while hi - lo > 1:
-            j = (lo + hi) // 2
-            e, kind = _try(p, i, j, tol, allow_arcs, buf)
-            if e >= 0.0:
-                lo, best_j, best_kind, best_err = j, j, kind, e
-                best_buf[:] = buf
-            else:
-                hi = j
-        ends[k] = best_j
-        if best_kind == 1:
-            centres[k, 0] = best_buf[0]
-            centres[k, 1] = best_buf[1]
-            sweeps[k] = best_buf[2]
-        worst_all = max(worst_all, best_err)
-        k += 1
-        i = best_j
-    return ends[:k], centres[:k], sweeps[:k], worst_all
-
-
 def _check_method(method):
     if method not in METHODS:
         raise GeometryError(f"method must be one of {METHODS}, got {method!r}")
@@ -466,12 +223,12 @@ def fit_arcs(points, tol_mm, *, arcs=True, closed=False, base_deviation_mm=0.0, 
         # fit the two halves of a loop apart, so that a circle becomes two half arcs
         # rather than one arc short of a full turn plus a sliver
         mid = len(p) // 2
-        e1, c1, s1, w1 = _fit_kernel(p[:mid + 1], float(tol_mm), bool(arcs))
-        e2, c2, s2, w2 = _fit_kernel(p[mid:], float(tol_mm), bool(arcs))
+        e1, c1, s1, w1 = fit_runs(p[:mid + 1], float(tol_mm), bool(arcs))
+        e2, c2, s2, w2 = fit_runs(p[mid:], float(tol_mm), bool(arcs))
         ends = np.concatenate([e1, e2 + mid])
         centres, sweeps, worst = np.vstack([c1, c2]), np.concatenate([s1, s2]), max(w1, w2)
     else:
-        ends, centres, sweeps, worst = _fit_kernel(p, float(tol_mm), bool(arcs))
+        ends, centres, sweeps, worst = fit_runs(p, float(tol_mm), bool(arcs))
     verts = np.vstack([p[:1], p[ends]])
     return Path(verts, centres, sweeps, closed=closed,
                 deviation_mm=float(worst) + base_deviation_mm, **meta)
@@ -484,7 +241,7 @@ def _fit(ctrl, tol_mm, closed_loop, breaks, *, linear=False, base_deviation_mm=0
     for _ in range(VERIFY_ROUNDS):
         # the kernel turns tangents by up to its limit; 2 % headroom keeps the joints that
         # the written arcs actually make within G1_TOL_RAD
-        v, cen, sw, worst, _ = fit_cubic_chain(ctrl, share * float(tol_mm), KINK_RAD, SPLIT_INFLECTIONS,
+        v, cen, sw, worst, _ = fit_cubic_chain(ctrl, share * float(tol_mm), KINK_RAD,
                                                closed_loop, breaks, 2.0, 0.98 * G1_TOL_RAD, linear)
         if len(sw) == 0:                               # the chain is a single point
             v, cen, sw = np.vstack([ctrl[0, :1], ctrl[-1, 3:]]), None, None
@@ -508,10 +265,7 @@ def _samples_may_hide(ctrl: np.ndarray, tol_mm: float) -> np.ndarray:
     the fit's own measure is close enough; elsewhere (tight loops, near-cusps, fine
     tolerances) the result is checked densely.
     """
-    t = np.linspace(0.0, 1.0, _PER_CUBIC + 1)[None, :, None]
-    u = 1.0 - t
-    c = ctrl[:, None, :, :]
-    pts = u**3 * c[:, :, 0] + 3 * u * u * t * c[:, :, 1] + 3 * u * t * t * c[:, :, 2] + t**3 * c[:, :, 3]
+    pts = cubic_samples(ctrl, _PER_CUBIC + 1).reshape(len(ctrl), _PER_CUBIC + 1, 2)
     d2 = pts[:, :-2] - 2.0 * pts[:, 1:-1] + pts[:, 2:]
     return np.hypot(d2[..., 0], d2[..., 1]).max(axis=1) / 8.0 > (1.0 - SAMPLE_SHARE) * tol_mm
 
@@ -528,10 +282,7 @@ def _measured_deviation(path: Path, ctrl: np.ndarray, tol_mm: float) -> float:
 
     polygon = np.hypot(*np.diff(ctrl, axis=1).transpose(2, 0, 1)).sum(axis=1)
     counts = np.clip(np.ceil(polygon / (0.5 * tol_mm)), 8, 4000).astype(np.int64)
-    t = np.concatenate([np.linspace(0.0, 1.0, n + 1) for n in counts])[:, None]
-    c = np.repeat(ctrl, counts + 1, axis=0)
-    u = 1.0 - t
-    curve = u**3 * c[:, 0] + 3 * u * u * t * c[:, 1] + 3 * u * t * t * c[:, 2] + t**3 * c[:, 3]
+    curve = cubic_samples(ctrl, counts + 1)
     return float(path_distance(path, curve).max())
 
 

@@ -65,9 +65,14 @@ def quad_to_cubic(start, control, end) -> np.ndarray:
 def cubic_point(ctrl, t) -> np.ndarray:
     """Point(s) of a cubic at parameter(s) t (Bernstein form, [LaserApp] eq. 20)."""
     c = _cubic(ctrl)
-    t = np.asarray(t, dtype=float)[..., None]
+    return _bernstein(c, np.asarray(t, dtype=float)[..., None])
+
+
+def _bernstein(c, t):
+    """Σ Bᵢ(t)·cᵢ for control points c[..., i, :] and parameters t broadcast against them."""
     u = 1.0 - t
-    return u**3 * c[0] + 3 * u * u * t * c[1] + 3 * u * t * t * c[2] + t**3 * c[3]
+    return (u**3 * c[..., 0, :] + 3 * u * u * t * c[..., 1, :] + 3 * u * t * t * c[..., 2, :]
+            + t**3 * c[..., 3, :])
 
 
 def split_cubic(ctrl, t=0.5) -> tuple[np.ndarray, np.ndarray]:
@@ -339,6 +344,4 @@ def cubic_samples(ctrls, per_curve) -> np.ndarray:
     idx = np.repeat(np.arange(len(c)), n)
     first = np.repeat(np.cumsum(n) - n, n)
     t = ((np.arange(len(idx)) - first) / (n[idx] - 1))[:, None]
-    u = 1.0 - t
-    q = c[idx]
-    return u**3 * q[:, 0] + 3 * u * u * t * q[:, 1] + 3 * u * t * t * q[:, 2] + t**3 * q[:, 3]
+    return _bernstein(c[idx], t)

@@ -99,7 +99,7 @@ def test_band_arc_reaches_where_the_three_point_arc_does_not():
     the whole band of admissible curvatures fits a run 19 % longer than the circle through
     the first, middle and last samples does (measured: 234 against 196 samples); the band
     arc is checked independently against the samples and the chords between them."""
-    from labkit.geometry.arcfit import _arc_check, _arc_fits, _arc_fits_band
+    from labkit.geometry._greedyfit import _arc_check, _arc_fits, _arc_fits_band
 
     x = np.linspace(0, 12, 481)
     pts = np.c_[x, np.sqrt(x + 0.5)]
