@@ -19,7 +19,7 @@ from skimage import filters, measure, transform
 
 from labkit.errors import InputError
 
-__all__ = ["render_scan", "register", "measure_lines"]
+__all__ = ["render_scan", "register", "measure_lines", "scale_from_reference"]
 
 _MM_PER_INCH = 25.4
 
@@ -124,7 +124,39 @@ def register(image, layout: dict) -> transform.SimilarityTransform:
     return tf
 
 
-def measure_lines(image, layout: dict, *, dpi: float, stations: int = 40, min_burned: float = 0.5):
+def scale_from_reference(p0_px, p1_px, length_mm: float) -> float:
+    """Scan resolution (dpi) from a length marked in the image.
+
+    Parameters
+    ----------
+    p0_px, p1_px : (float, float)
+        The ends of the marked length, pixels (column, row) — for example the
+        ends of a ruler's 50 mm, clicked in an image viewer.
+    length_mm : float
+        Its true length, mm.
+
+    Returns
+    -------
+    float
+        Dots per inch.
+
+    Examples
+    --------
+    600 px across a 25.4 mm inch is 600 dpi, whichever way the ruler lies.
+
+    >>> round(scale_from_reference((10, 10), (10 + 360, 10 + 480), 25.4), 9)
+    600.0
+    """
+    d = float(np.hypot(p1_px[0] - p0_px[0], p1_px[1] - p0_px[1]))
+    if not (np.isfinite(length_mm) and length_mm > 0):
+        raise InputError(f"the reference length must be > 0 mm, got {length_mm!r}")
+    if not d > 0:
+        raise InputError("the reference length's two ends are the same pixel")
+    return d / length_mm * _MM_PER_INCH
+
+
+def measure_lines(image, layout: dict, *, dpi: float | None = None, stations: int = 40,
+                  min_burned: float = 0.5):
     """Width profile of every layout line in a scan.
 
     Parameters
@@ -133,8 +165,11 @@ def measure_lines(image, layout: dict, *, dpi: float, stations: int = 40, min_bu
         Grey scan (paper light, burn dark; any scale).
     layout : dict
         From :func:`labkit.laser.patterns.grid_pattern`.
-    dpi : float
-        Scan resolution, used to check the registered scale (±20 %).
+    dpi : float, optional
+        Scan resolution (from the file, or :func:`scale_from_reference`), used to
+        check the registered scale (±20 %). None: the scale is the one the
+        corner crosses give — their distances in the layout are a reference
+        length burned into the piece.
     stations : int
         Profiles taken along each line (its central 80 %).
     min_burned : float
@@ -158,7 +193,7 @@ def measure_lines(image, layout: dict, *, dpi: float, stations: int = 40, min_bu
     darkness = (paper - img) / (paper - ink)
     tf = register(img, layout)
     px_per_mm = tf.scale
-    if abs(px_per_mm / (dpi / _MM_PER_INCH) - 1) > 0.2:
+    if dpi is not None and abs(px_per_mm / (dpi / _MM_PER_INCH) - 1) > 0.2:
         raise InputError(f"the registered scale ({px_per_mm * _MM_PER_INCH:.0f} dpi) disagrees with dpi={dpi:g}")
     half = layout["pitch_mm"] / 2
     step = 0.25 / px_per_mm                    # quarter-pixel sampling across the line, mm
