@@ -21,6 +21,7 @@ Units: power mW, speed mm/min, widths and radii mm, fluence mJ/mm².
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -202,25 +203,51 @@ def fit_dose(power_mw, speed_mm_min, width_mm, *, level: float = 0.95) -> Fit:
     Returns
     -------
     Fit
+        Intervals ± t·SE from the covariance of (w0, ln F_th) (the threshold's
+        mapped from its log, so it is asymmetric). Measured coverage of the
+        95 % intervals over 2000 synthetic data sets per case, width noise
+        0.004–0.02 mm: 94.5–95.1 % on grids spanning the no-cut region,
+        94.1–94.4 % on grids crowding the threshold (P/v from 1.02 to 1.6 × its
+        threshold) — slightly under, where dW/d ln F_th = −w0²/W makes the
+        model most curved (tests/laser/test_models.py checks 1000 sets).
+
+    Raises
+    ------
+    InputError
+        Too few burned lines, widths that do not grow with P/v, or data that
+        do not determine both parameters.
     """
     p, v, w = _data(power_mw, speed_mm_min, width_mm, 2)
     x = np.log(p / v)
+    if len(np.unique(np.round(x, 9))) < 2:
+        raise InputError("the dose model needs burned lines at two or more power/speed ratios; "
+                         f"all {len(x)} have P/v = {np.exp(x[0]):.4g} mW per mm/min")
     slope, icpt = np.polyfit(x, w ** 2, 1)
     if not slope > 0:
         raise InputError("widths do not grow with power/speed: the dose model does not apply")
     w0 = np.sqrt(slope / 2.0)
-    # W² = slope·(ln(P/v) + ln(sqrt(2/π)/(w0/60)) − ln F_th): solve the intercept for F_th
-    ln_fth = np.log(_GAUSS * 60.0 / w0) + icpt / slope
+    # W² = slope·(ln(P/v) + ln(sqrt(2/π)·60/w0) − ln F_th): the intercept gives F_th
+    ln_fth = np.log(_GAUSS * 60.0 / w0) - icpt / slope
+    pv = np.vstack([p, v])
 
-    def model(pv, w0_, ln_fth_):
-        return dose_width(pv[0], pv[1], abs(w0_), np.exp(ln_fth_))
+    def model(pv_, w0_, ln_fth_):
+        return dose_width(pv_[0], pv_[1], abs(w0_), np.exp(ln_fth_))
 
-    popt, pcov = optimize.curve_fit(model, np.vstack([p, v]), w, p0=[w0, ln_fth])
+    try:
+        with warnings.catch_warnings():
+            # a covariance that cannot be estimated comes back infinite and is refused below
+            warnings.simplefilter("ignore", optimize.OptimizeWarning)
+            popt, pcov = optimize.curve_fit(model, pv, w, p0=[w0, ln_fth])
+    except RuntimeError as exc:       # no convergence
+        raise InputError(f"the dose model could not be fitted to these widths ({exc})") from None
     popt[0] = abs(popt[0])
+    if not np.all(np.isfinite(pcov)):
+        raise InputError("the dose model could not be fitted to these widths (no unique w0 and threshold); "
+                         "burn lines over a wider range of power/speed")
     ci = _intervals(["w0_mm", "ln_fth"], popt, pcov, len(w) - 2, level)
     ci["fth_mj_mm2"] = tuple(float(np.exp(b)) for b in ci.pop("ln_fth"))
     params = dict(w0_mm=float(popt[0]), fth_mj_mm2=float(np.exp(popt[1])))
-    res = w - model(np.vstack([p, v]), *popt)
+    res = w - model(pv, *popt)
     return Fit("dose", params, ci, level, float(np.sqrt(np.mean(res ** 2))), len(w), pcov.tolist())
 
 

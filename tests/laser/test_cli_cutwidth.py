@@ -150,3 +150,18 @@ def test_a_scan_without_the_grid_is_refused(burned, tmp_path, capsys):
     Image.fromarray(noisy).save(blank)
     _one_line_error(*_run(capsys, "measure", blank, "--layout", tmp / "GRID.json", "--dpi", 600,
                           "-o", tmp_path / "w.csv")[::2], "grid")
+
+
+def test_measure_with_a_reference_length_instead_of_dpi(burned, tmp_path, capsys):
+    tmp, layout, truth = burned
+    img = render_scan(layout, truth, dpi=450, rotation_deg=-1.0, seed=2)
+    path = tmp_path / "nodpi.png"
+    Image.fromarray((img * 255).round().astype(np.uint8)).save(path)       # the file stores no dpi
+    n = 50 / 25.4 * 450                                                    # a 50 mm ruler, horizontal
+    code, out, err = _run(capsys, "measure", path, "--layout", tmp / "GRID.json", "--reference",
+                          10, 20, 10 + n, 20, 50, "-o", tmp_path / "w.csv")
+    assert code == 0, err
+    assert "450 dpi" in out
+    df = pd.read_csv(tmp_path / "w.csv")
+    assert np.abs(df.width_mm.to_numpy() - truth).max() < 25.4 / 450
+    assert (tmp_path / "w.png").exists()
