@@ -9,7 +9,9 @@
 ``labkit cutwidth settings --width 0.2 --speed 600 --fit FIT.json``
     the power for a width (or the speed, with ``--power``), with its band;
 ``labkit cutwidth window FIT.json -o WINDOW.png``
-    the process window: width contours over power × speed.
+    the process window: width contours over power × speed;
+``labkit cutwidth source SOURCE.csv [--nominal MW] [-o CURVES.png]``
+    the laser itself: threshold current, slope efficiency, I–V line, efficiency ([CBR40] §F).
 """
 
 from __future__ import annotations
@@ -97,6 +99,13 @@ def add_cutwidth_arguments(parser):
                    help="model to draw (default the fit's choice)")
 
 
+    c = sub.add_parser("source", help="the laser's P–I and I–V curves: threshold, slope efficiency, efficiency")
+    c.add_argument("csv", metavar="SOURCE.csv", help="current_a, optical_mw and optionally voltage_v per reading")
+    c.add_argument("--nominal", type=number(0, 1e7, lo_open=True), default=None, metavar="MW",
+                   help="the label's optical power, mW, to compare with the largest measured")
+    c.add_argument("-o", "--output", default=None, metavar="CURVES.png", help="draw the curves to a PNG")
+
+
 def parse_range(text: str, what: str, scale: str = "linear"):
     """``LO:HI:N`` or ``a,b,c`` → values (> 0), as :class:`labkit.errors.InputError` when not.
 
@@ -128,7 +137,7 @@ def parse_range(text: str, what: str, scale: str = "linear"):
 
 def run_cutwidth(args) -> int:
     return {"pattern": _pattern, "measure": _measure, "fit": _fit, "settings": _settings,
-            "window": _window}[args.action](args)
+            "window": _window, "source": _source}[args.action](args)
 
 
 def _pattern(args) -> int:
@@ -417,4 +426,30 @@ def _window(args) -> int:
                                     speed_range_mm_min=res["data"]["speed_mm_min"], target_mm=args.width,
                                     cut_model=res.get("cut_through"), no_burn_fit=dose), args.output)
     print(f"{args.output}: process window ({fit.model}), {args.width:g} mm contour highlighted")
+    return 0
+
+
+def _source(args) -> int:
+    from labkit.laser.source import fit_source, label_ratio, read_source_csv
+
+    df = read_source_csv(args.csv)
+    volts = df["voltage_v"].to_numpy() if "voltage_v" in df.columns else None
+    f = fit_source(df["current_a"].to_numpy(), df["optical_mw"].to_numpy(), volts)
+    pct = round(100 * f.level)
+    lo, hi = f.ci["threshold_a"]
+    print(f"{args.csv}: {len(df)} readings, largest optical power {f.max_optical_mw:.1f} mW")
+    print(f"threshold current {1000 * f.threshold_a:.1f} mA ({pct} % interval {1000 * lo:.1f}…{1000 * hi:.1f})")
+    lo, hi = f.ci["slope_w_per_a"]
+    print(f"slope efficiency {f.slope_w_per_a:.4f} W/A ({pct} % interval {lo:.4f}…{hi:.4f})")
+    if f.series_ohm is not None:
+        print(f"above threshold V = {f.v0_v:.3f} V + {f.series_ohm:.3f} Ω × I; "
+              f"electrical-to-optical efficiency up to {100 * f.peak_efficiency:.1f} %")
+    if args.nominal:
+        print(f"largest measured / nominal: {f.max_optical_mw:.1f} / {args.nominal:g} mW = "
+              f"{100 * label_ratio(f.max_optical_mw, args.nominal):.1f} %")
+    if args.output:
+        from labkit.viz.laser import plot_source
+
+        _save(lambda ax: plot_source(df, f, ax), args.output, size=(7, 4.5))
+        print(f"{args.output}: P–I and I–V curves")
     return 0

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["plot_scan_annotations", "plot_width_map", "process_window", "target_width_explorer"]
+__all__ = ["plot_scan_annotations", "plot_width_map", "process_window", "target_width_explorer", "plot_source"]
 
 
 def _axes(ax, figsize=(7, 5)):
@@ -202,3 +202,41 @@ def target_width_explorer(fits: dict, *, speeds_mm_min=(200.0, 2000.0), max_powe
 
     return interact_figure(draw, width=w.FloatSlider(value=width_mm, min=0.05, max=0.4, step=0.01,
                                                     description="width (mm)", readout_format=".2f"))
+
+
+def plot_source(readings, fit, ax=None):
+    """P–I readings with the fitted line (left axis) and I–V readings (right axis).
+
+    Parameters
+    ----------
+    readings : DataFrame or dict
+        ``current_a``, ``optical_mw``, optionally ``voltage_v``.
+    fit : labkit.laser.source.SourceFit
+    ax : matplotlib Axes, optional
+
+    Returns
+    -------
+    matplotlib Axes
+        The power axis (the voltage axis is its twin).
+    """
+    ax = _axes(ax, figsize=(7, 4.5))
+    i = np.asarray(readings["current_a"], float)
+    ax.plot(i, readings["optical_mw"], "o", color="tab:blue", label="optical power (readings)")
+    grid = np.linspace(0, i.max(), 200)
+    ax.plot(grid, fit.power_mw(grid), color="tab:blue",
+            label=f"fit: I_th {1000 * fit.threshold_a:.0f} mA, η_s {fit.slope_w_per_a:.2f} W/A")
+    ax.axvline(fit.threshold_a, color="tab:blue", ls=":", lw=1)
+    ax.set_xlabel("current (A)")
+    ax.set_ylabel("optical power (mW)", color="tab:blue")
+    if "voltage_v" in readings:
+        ax2 = ax.twinx()
+        ax2.plot(i, readings["voltage_v"], "s", ms=4, color="tab:orange", label="voltage (readings)")
+        if fit.series_ohm is not None:
+            above = grid[grid > fit.threshold_a]
+            ax2.plot(above, fit.v0_v + fit.series_ohm * above, color="tab:orange", lw=1,
+                     label=f"V = {fit.v0_v:.2f} V + {fit.series_ohm:.2f} Ω·I")
+        ax2.set_ylabel("voltage (V)", color="tab:orange")
+        ax2.legend(loc="lower right", fontsize="small")
+    ax.legend(loc="upper left", fontsize="small")
+    ax.set_title("laser source: P–I and I–V")
+    return ax
