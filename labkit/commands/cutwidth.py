@@ -406,8 +406,9 @@ def _settings(args) -> int:
         pmax = res["data"]["power_mw"][1]
         for v, p, a, b in zip(args.speed, power, lo, hi):
             note = "" if np.isfinite(p) and p <= pmax else "  (outside the measured powers)"
+            # the power/speed ratio is what M4 holds through the ramps ([CBR40] §IV)
             print(f"width {args.width:g} mm at {v:g} mm/min: power {p:.0f} mW, {pct} % band {a:.0f}…{b:.0f} mW"
-                  f" ({fit.model}){note}")
+                  f" ({fit.model}); P/v = {p / v:.4g} mW per mm/min{note}")
     else:
         for p in args.power:
             v = float(speed_for_width(fit, args.width, p))

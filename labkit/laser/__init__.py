@@ -1,4 +1,10 @@
-"""Laser characterisation: test patterns for cut width against power and speed ([CBR40] §F, figure 10)."""
+"""Laser characterisation ([CBR40] §F, figure 10): cut width against power and speed, and the source.
+
+Test grids (:mod:`~labkit.laser.patterns`), widths from a scan (:mod:`~labkit.laser.measure`), the dose
+and empirical models with cross-validation, cut-through and inverse design (:mod:`~labkit.laser.models`),
+the virtual material (:mod:`~labkit.laser.simulate`) and the laser source's curves
+(:mod:`~labkit.laser.source`). Command: ``labkit cutwidth``; chapter 16.
+"""
 
 from labkit.laser.measure import measure_lines, register, render_scan, scale_from_reference
 from labkit.laser.models import (Fit, cross_validate, cut_probability, dose_width, fit_cut_through, fit_dose,
