@@ -174,12 +174,15 @@ class Burn:
         cols = ["block", "line", "along_mm", "x_mm", "y_mm", "speed_mm_s", "power_mw", "width_mm"]
         return pd.concat(rows, ignore_index=True) if rows else pd.DataFrame(columns=cols)
 
-    def scan(self, *, dpi: float = 600.0, noise: float = 0.0, blur_px: float = 0.0, seed: int = 0) -> np.ndarray:
+    def scan(self, *, dpi: float = 600.0, rotation_deg: float = 0.0, margin_mm: float = 2.0, noise: float = 0.0,
+             blur_px: float = 0.0, seed: int = 0) -> np.ndarray:
         """The burned piece as a grey scan (paper 0.9, burn 0.1; rows down, y up) at ``dpi``.
 
         Each scan pixel takes the burned share (:attr:`coverage`) of the simulation
-        pixels it covers (their pixel must be at most the scan's), then optional blur
-        and noise as :func:`labkit.laser.measure.render_scan`.
+        pixels it covers (their pixel must be at most the scan's); the piece lies
+        ``rotation_deg`` counter-clockwise on the scanner, with ``margin_mm`` of paper
+        round the simulated area; then optional blur and noise as
+        :func:`labkit.laser.measure.render_scan`.
         """
         px = _MM_PER_INCH / dpi
         if px < self.pixel_mm * 0.999:
@@ -187,9 +190,18 @@ class Burn:
                              f"({self.pixel_mm:.4f} mm); simulate with a smaller pixel_mm")
         dark = ndimage.uniform_filter(self.coverage, size=max(1, int(round(px / self.pixel_mm))))
         x_lo, x_hi, y_lo, y_hi = self.extent
-        cols = np.arange(x_lo + px / 2, x_hi, px)
-        rows = np.arange(y_hi - px / 2, y_lo, -px)
-        X, Y = np.meshgrid(cols, rows)
+        cx, cy = (x_lo + x_hi) / 2, (y_lo + y_hi) / 2
+        t = np.deg2rad(rotation_deg)
+        w, h = x_hi - x_lo, y_hi - y_lo
+        # the rotated piece's bounding box, plus the margin
+        half_w = (abs(np.cos(t)) * w + abs(np.sin(t)) * h) / 2 + margin_mm
+        half_h = (abs(np.sin(t)) * w + abs(np.cos(t)) * h) / 2 + margin_mm
+        u = np.arange(-half_w + px / 2, half_w, px)
+        v = np.arange(half_h - px / 2, -half_h, -px)          # rows go down, y up
+        U, V = np.meshgrid(u, v)
+        # scan frame → piece frame: undo the piece's rotation
+        X = cx + np.cos(t) * U + np.sin(t) * V
+        Y = cy - np.sin(t) * U + np.cos(t) * V
         d = ndimage.map_coordinates(dark, [(Y - self.y_mm[0]) / self.pixel_mm, (X - self.x_mm[0]) / self.pixel_mm],
                                     order=1, mode="constant", cval=0.0)
         img = 0.9 - 0.8 * np.clip(d, 0, 1)

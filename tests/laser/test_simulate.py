@@ -68,7 +68,7 @@ def test_simulated_grid_scanned_and_measured_gives_the_closed_form_widths():
     w0, fth = 0.12, 200.0
     burn = simulate_burn(g.moves, w0_mm=w0, fth_mj_mm2=fth, pixel_mm=0.03)
     dpi = 400
-    img = burn.scan(dpi=dpi, noise=0.02, blur_px=0.8, seed=4)
+    img = burn.scan(dpi=dpi, rotation_deg=-3.0, noise=0.02, blur_px=0.8, seed=4)
     df = measure_lines(img, g.layout, dpi=dpi)
     expected = dose_width(df.power_mw.to_numpy(), df.speed_mm_min.to_numpy(), w0, fth)
     assert (df.burned.to_numpy() == (expected > 0)).all()
