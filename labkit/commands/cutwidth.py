@@ -18,8 +18,6 @@ from __future__ import annotations
 
 import json
 
-#: Columns a widths CSV must have for ``fit``.
-REQUIRED = ("power_mw", "speed_mm_min", "width_mm")
 FIT_FORMAT = "labkit-cutwidth-fit"
 
 
@@ -223,55 +221,14 @@ def _read_json(path, what):
         raise InputError(f"{path}: not JSON ({exc})") from None
 
 
-def read_widths(path):
-    """A tidy widths CSV as a DataFrame; leading ``#`` lines are comments.
-
-    Raises
-    ------
-    InputError
-        A required column (``power_mw``, ``speed_mm_min``, ``width_mm``) is
-        missing — named — or holds something other than numbers.
-    """
-    import pandas as pd
-
-    from labkit._files import check_input_file
-    from labkit.errors import InputError
-
-    path = check_input_file(path, what="widths CSV")
-    with open(path, encoding="utf-8") as fh:
-        skip = 0
-        for line in fh:
-            if not line.startswith("#"):
-                break
-            skip += 1
-    try:
-        df = pd.read_csv(path, skiprows=skip)
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: not a CSV table ({str(exc).splitlines()[0]})") from None
-    for col in REQUIRED:
-        if col not in df.columns:
-            raise InputError(f"{path}: column '{col}' is missing (have: {', '.join(map(str, df.columns))}); "
-                             f"expected {', '.join(REQUIRED)}")
-        values = pd.to_numeric(df[col], errors="coerce")
-        bad = values.isna()
-        if bad.any():
-            k = int(bad.to_numpy().argmax())
-            raise InputError(f"{path}:{skip + k + 2}: column '{col}' holds {df[col].iloc[k]!r}; expected a number")
-        df[col] = values
-    return df
-
-
 def _cut_column(df):
-    """The cut_through column as booleans, or None when absent or not filled in."""
-    import pandas as pd
-
-    if "cut_through" not in df.columns:
+    """The cut_through column as booleans, or None when absent or not filled in on every row."""
+    if "cut_through" not in df.columns or not len(df):
         return None
     text = df["cut_through"].astype(str).str.strip().str.lower()
-    known = text.isin(["true", "false", "1", "0", "yes", "no"])
-    if not known.all():
+    if not text.isin(["true", "false", "1", "0", "yes", "no"]).all():
         return None
-    return text.isin(["true", "1", "yes"]).to_numpy() if len(pd.unique(text)) else None
+    return text.isin(["true", "1", "yes"]).to_numpy()
 
 
 def fit_table(df, *, model: str = "both", degree: int = 2, level: float = 0.95, source: str = "") -> dict:
@@ -299,11 +256,11 @@ def fit_table(df, *, model: str = "both", degree: int = 2, level: float = 0.95, 
     """
     import numpy as np
 
+    from labkit.errors import InputError
+    from labkit.laser.measure import REQUIRED
     from labkit.laser.models import cross_validate, fit_cut_through, fit_dose, fit_empirical, fit_power_law
 
     p, v, w = (df[c].to_numpy(float) for c in REQUIRED)
-    from labkit.errors import InputError
-
     for col, x in (("power_mw", p), ("speed_mm_min", v)):
         bad = np.flatnonzero(~(np.isfinite(x) & (x > 0)))
         if len(bad):
@@ -338,6 +295,8 @@ def fit_table(df, *, model: str = "both", degree: int = 2, level: float = 0.95, 
 
 
 def _fit(args) -> int:
+    from labkit.laser.measure import read_widths
+
     res = fit_table(read_widths(args.csv), model=args.model, degree=args.degree, level=args.level,
                     source=str(args.csv))
     if args.output:

@@ -19,7 +19,10 @@ from skimage import filters, measure, transform
 
 from labkit.errors import InputError
 
-__all__ = ["render_scan", "register", "measure_lines", "scale_from_reference"]
+__all__ = ["render_scan", "register", "measure_lines", "scale_from_reference", "read_widths", "read_table", "REQUIRED"]
+
+#: Columns a widths table must have to be fitted (the tidy format of ``data/cutwidth/README.md``).
+REQUIRED = ("power_mw", "speed_mm_min", "width_mm")
 
 _MM_PER_INCH = 25.4
 
@@ -236,3 +239,54 @@ def measure_lines(image, layout: dict, *, dpi: float | None = None, stations: in
                          width_sd_mm=float(width[burnt].std()) if ok else 0.0,
                          burned_fraction=frac, burned=bool(ok)))
     return pd.DataFrame(rows)
+
+
+def read_table(path, required, *, optional=(), what: str = "CSV"):
+    """A CSV table whose ``required`` (and present ``optional``) columns must hold numbers.
+
+    Leading lines starting with ``#`` are comments (the SYNTHETIC marks of
+    ``data/cutwidth/``); ``#`` elsewhere is data.
+
+    Raises
+    ------
+    InputError
+        Not a CSV; a required column missing (named, with those present); a
+        cell that is not a number (file:line and column).
+    """
+    from labkit._files import check_input_file
+
+    path = check_input_file(path, what=what)
+    with open(path, encoding="utf-8") as fh:
+        skip = 0
+        for line in fh:
+            if not line.startswith("#"):
+                break
+            skip += 1
+    try:
+        df = pd.read_csv(path, skiprows=skip)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: not a CSV table ({str(exc).splitlines()[0]})") from None
+    for col in required:
+        if col not in df.columns:
+            raise InputError(f"{path}: column '{col}' is missing (have: {', '.join(map(str, df.columns))}); "
+                             f"expected {', '.join(required)}")
+    for col in [*required, *(c for c in optional if c in df.columns)]:
+        values = pd.to_numeric(df[col], errors="coerce")
+        bad = values.isna()
+        if bad.any():
+            k = int(bad.to_numpy().argmax())
+            raise InputError(f"{path}:{skip + k + 2}: column '{col}' holds {df[col].iloc[k]!r}; expected a number")
+        df[col] = values
+    return df
+
+
+def read_widths(path):
+    """A tidy widths CSV (``data/cutwidth/README.md``) as a DataFrame.
+
+    Raises
+    ------
+    InputError
+        A required column (``power_mw``, ``speed_mm_min``, ``width_mm``) is
+        missing — named — or holds something other than numbers.
+    """
+    return read_table(path, REQUIRED, what="widths CSV")

@@ -32,7 +32,6 @@ __all__ = ["SourceFit", "fit_source", "read_source_csv", "label_ratio", "synthet
 CBR40_MEASURED_MW = 963.65
 CBR40_NOMINAL_MW = 2500.0
 
-COLUMNS = ("current_a", "voltage_v", "optical_mw")
 
 
 def label_ratio(measured_mw: float = CBR40_MEASURED_MW, nominal_mw: float = CBR40_NOMINAL_MW) -> float:
@@ -149,30 +148,16 @@ def fit_source(current_a, optical_mw, voltage_v=None, *, level: float = 0.95) ->
 
 
 def read_source_csv(path):
-    """A source CSV (``current_a``, ``optical_mw``, optional ``voltage_v``; ``#`` lines are comments).
+    """A source CSV (``current_a``, ``optical_mw``, optional ``voltage_v``; leading ``#`` lines are comments).
 
     Raises
     ------
     InputError
         A required column is missing (named) or holds something other than numbers.
     """
-    import pandas as pd
+    from labkit.laser.measure import read_table
 
-    from labkit._files import check_input_file
-
-    path = check_input_file(path, what="laser source CSV")
-    df = pd.read_csv(path, comment="#")
-    for col in ("current_a", "optical_mw"):
-        if col not in df.columns:
-            raise InputError(f"{path}: column '{col}' is missing (have: {', '.join(map(str, df.columns))}); "
-                             f"expected {', '.join(COLUMNS)}")
-    for col in [c for c in COLUMNS if c in df.columns]:
-        values = pd.to_numeric(df[col], errors="coerce")
-        if values.isna().any():
-            k = int(values.isna().to_numpy().argmax())
-            raise InputError(f"{path}: row {k + 1}: column '{col}' holds {df[col].iloc[k]!r}; expected a number")
-        df[col] = values
-    return df
+    return read_table(path, ("current_a", "optical_mw"), optional=("voltage_v",), what="laser source CSV")
 
 
 def synthetic_source_curves(*, threshold_a: float = 0.30, slope_w_per_a: float = 1.15, max_current_a: float = 1.14,
