@@ -19,7 +19,10 @@ from skimage import filters, measure, transform
 
 from labkit.errors import InputError
 
-__all__ = ["render_scan", "register", "measure_lines"]
+__all__ = ["render_scan", "register", "measure_lines", "scale_from_reference", "read_widths", "read_table", "REQUIRED"]
+
+#: Columns a widths table must have to be fitted (the tidy format of ``data/cutwidth/README.md``).
+REQUIRED = ("power_mw", "speed_mm_min", "width_mm")
 
 _MM_PER_INCH = 25.4
 
@@ -124,7 +127,61 @@ def register(image, layout: dict) -> transform.SimilarityTransform:
     return tf
 
 
-def measure_lines(image, layout: dict, *, dpi: float, stations: int = 40, min_burned: float = 0.5):
+def scale_from_reference(p0_px, p1_px, length_mm: float) -> float:
+    """Scan resolution (dpi) from a length marked in the image.
+
+    Parameters
+    ----------
+    p0_px, p1_px : (float, float)
+        The ends of the marked length, pixels (column, row) — for example the
+        ends of a ruler's 50 mm, clicked in an image viewer.
+    length_mm : float
+        Its true length, mm.
+
+    Returns
+    -------
+    float
+        Dots per inch.
+
+    Examples
+    --------
+    600 px across a 25.4 mm inch is 600 dpi, whichever way the ruler lies.
+
+    >>> round(scale_from_reference((10, 10), (10 + 360, 10 + 480), 25.4), 9)
+    600.0
+    """
+    d = float(np.hypot(p1_px[0] - p0_px[0], p1_px[1] - p0_px[1]))
+    if not (np.isfinite(length_mm) and length_mm > 0):
+        raise InputError(f"the reference length must be > 0 mm, got {length_mm!r}")
+    if not d > 0:
+        raise InputError("the reference length's two ends are the same pixel")
+    return d / length_mm * _MM_PER_INCH
+
+
+def _ink_level(img):
+    """Grey level of a full burn: the darkest median over the dark pixels k pixels inside a burn.
+
+    Edge pixels are partly paper, the more so the more the scan is blurred; a
+    low percentile of all dark pixels is pulled darker by noise. The median
+    of the pixels at least k pixels inside the burned areas is not moved by
+    noise, and darkens as k grows until the blur no longer reaches in: the
+    darkest of those medians (each over at least 200 pixels) is the burn's
+    level. Falls back to the darkest tenth of the dark pixels when no burn is
+    that wide (only hairlines).
+    """
+    dark = img < filters.threshold_otsu(img)
+    region = ndimage.binary_closing(dark)
+    medians = []
+    for _ in range(12):
+        region = ndimage.binary_erosion(region)
+        if region.sum() < 200:
+            break
+        medians.append(float(np.median(img[region])))
+    return min(medians) if medians else float(np.percentile(img[dark], 10))
+
+
+def measure_lines(image, layout: dict, *, dpi: float | None = None, stations: int = 40,
+                  min_burned: float = 0.5):
     """Width profile of every layout line in a scan.
 
     Parameters
@@ -133,8 +190,11 @@ def measure_lines(image, layout: dict, *, dpi: float, stations: int = 40, min_bu
         Grey scan (paper light, burn dark; any scale).
     layout : dict
         From :func:`labkit.laser.patterns.grid_pattern`.
-    dpi : float
-        Scan resolution, used to check the registered scale (±20 %).
+    dpi : float, optional
+        Scan resolution (from the file, or :func:`scale_from_reference`), used to
+        check the registered scale (±20 %). None: the scale is the one the
+        corner crosses give — their distances in the layout are a reference
+        length burned into the piece.
     stations : int
         Profiles taken along each line (its central 80 %).
     min_burned : float
@@ -154,11 +214,11 @@ def measure_lines(image, layout: dict, *, dpi: float, stations: int = 40, min_bu
     # paper is most of the image; the burn level is the darkest tenth of the dark class.
     # Darkness is not clipped: noise must average out across the profile, not add up.
     paper = float(np.median(img))
-    ink = float(np.percentile(img[img < filters.threshold_otsu(img)], 10))
+    ink = _ink_level(img)
     darkness = (paper - img) / (paper - ink)
     tf = register(img, layout)
     px_per_mm = tf.scale
-    if abs(px_per_mm / (dpi / _MM_PER_INCH) - 1) > 0.2:
+    if dpi is not None and abs(px_per_mm / (dpi / _MM_PER_INCH) - 1) > 0.2:
         raise InputError(f"the registered scale ({px_per_mm * _MM_PER_INCH:.0f} dpi) disagrees with dpi={dpi:g}")
     half = layout["pitch_mm"] / 2
     step = 0.25 / px_per_mm                    # quarter-pixel sampling across the line, mm
@@ -179,3 +239,54 @@ def measure_lines(image, layout: dict, *, dpi: float, stations: int = 40, min_bu
                          width_sd_mm=float(width[burnt].std()) if ok else 0.0,
                          burned_fraction=frac, burned=bool(ok)))
     return pd.DataFrame(rows)
+
+
+def read_table(path, required, *, optional=(), what: str = "CSV"):
+    """A CSV table whose ``required`` (and present ``optional``) columns must hold numbers.
+
+    Leading lines starting with ``#`` are comments (the SYNTHETIC marks of
+    ``data/cutwidth/``); ``#`` elsewhere is data.
+
+    Raises
+    ------
+    InputError
+        Not a CSV; a required column missing (named, with those present); a
+        cell that is not a number (file:line and column).
+    """
+    from labkit._files import check_input_file
+
+    path = check_input_file(path, what=what)
+    with open(path, encoding="utf-8") as fh:
+        skip = 0
+        for line in fh:
+            if not line.startswith("#"):
+                break
+            skip += 1
+    try:
+        df = pd.read_csv(path, skiprows=skip)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: not a CSV table ({str(exc).splitlines()[0]})") from None
+    for col in required:
+        if col not in df.columns:
+            raise InputError(f"{path}: column '{col}' is missing (have: {', '.join(map(str, df.columns))}); "
+                             f"expected {', '.join(required)}")
+    for col in [*required, *(c for c in optional if c in df.columns)]:
+        values = pd.to_numeric(df[col], errors="coerce")
+        bad = values.isna()
+        if bad.any():
+            k = int(bad.to_numpy().argmax())
+            raise InputError(f"{path}:{skip + k + 2}: column '{col}' holds {df[col].iloc[k]!r}; expected a number")
+        df[col] = values
+    return df
+
+
+def read_widths(path):
+    """A tidy widths CSV (``data/cutwidth/README.md``) as a DataFrame.
+
+    Raises
+    ------
+    InputError
+        A required column (``power_mw``, ``speed_mm_min``, ``width_mm``) is
+        missing — named — or holds something other than numbers.
+    """
+    return read_table(path, REQUIRED, what="widths CSV")

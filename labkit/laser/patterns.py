@@ -130,7 +130,12 @@ class GridPattern:
         return float(plan(self.moves, machine, planner=planner).summary().job_time_s)
 
     def gcode(self, dialect: str = "grbl", **options) -> str:
-        """The job as G-code in ``dialect`` (:func:`labkit.gcode.writer.emit`)."""
+        """The job as G-code in ``dialect`` (:func:`labkit.gcode.writer.emit`).
+
+        Travel is written beam-off (``M5`` before each rapid) unless ``travel_beam_off=False``
+        is passed: a test grid must not burn its travel on a controller without laser mode.
+        """
+        options.setdefault("travel_beam_off", True)
         return emit(self.moves, dialect=dialect, comment="labkit cut-width test grid", **options)
 
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from labkit.errors import InputError
-from labkit.laser.measure import measure_lines, render_scan
+from labkit.laser.measure import measure_lines, render_scan, scale_from_reference
 from labkit.laser.models import dose_width
 from labkit.laser.patterns import grid_pattern
 
@@ -18,8 +18,9 @@ def grid():
     return g.layout, dose_width(p, v, 0.12, 200.0)
 
 
-@pytest.mark.parametrize("dpi, rot, noise, blur", [(600, 0.0, 0.0, 0.0), (600, 3.0, 0.03, 1.0),
-                                                   (400, -4.0, 0.05, 0.7), (1200, 1.5, 0.02, 2.0)])
+@pytest.mark.parametrize("dpi, rot, noise, blur", [(600, 0.0, 0.0, 0.0), (600, 0.0, 0.05, 0.0),
+                                                   (600, 3.0, 0.03, 1.0), (400, -4.0, 0.05, 0.7),
+                                                   (1200, 1.5, 0.02, 2.0)])
 def test_widths_within_a_pixel_and_unburned_lines_flagged(grid, dpi, rot, noise, blur):
     layout, truth = grid
     assert (truth == 0).any() and (truth > 0).any()
@@ -27,6 +28,9 @@ def test_widths_within_a_pixel_and_unburned_lines_flagged(grid, dpi, rot, noise,
     df = measure_lines(img, layout, dpi=dpi)
     px = 25.4 / dpi
     assert np.abs(df.width_mm.to_numpy() - truth).max() < px       # stated tolerance: one pixel
+    # and no systematic error from the burn's grey level: noise used to pull it darker
+    # (mean -0.30 px at noise 0.05), blur lighter
+    assert abs(np.mean(df.width_mm.to_numpy()[truth > 0] - truth[truth > 0])) < 0.1 * px
     assert (df.burned.to_numpy() == (truth > 0)).all()
     assert (df.loc[df.burned, "burned_fraction"] == 1.0).all()
 
@@ -59,3 +63,28 @@ def test_a_scan_without_the_grid_is_a_named_error(grid):
     blobs[10:20, 10:20] = 0.1
     with pytest.raises(InputError, match="corner crosses"):
         measure_lines(blobs, layout, dpi=600)
+
+
+def test_scale_from_the_corner_crosses_when_no_dpi_is_known(grid):
+    layout, truth = grid
+    img = render_scan(layout, truth, dpi=500, rotation_deg=-3.0, noise=0.03, blur_px=1.0, seed=9)
+    df = measure_lines(img, layout)          # no dpi: the crosses' layout spacing is the reference
+    assert np.abs(df.width_mm.to_numpy() - truth).max() < 25.4 / 500
+
+
+def test_scale_from_a_marked_reference_length(grid):
+    layout, truth = grid
+    dpi = 800
+    img = render_scan(layout, truth, dpi=dpi, rotation_deg=2.0, seed=1)
+    # a 40 mm ruler photographed at 30° in the image: its ends 40 mm · dpi/25.4 px apart
+    n = 40 / 25.4 * dpi
+    a = np.deg2rad(30)
+    found = scale_from_reference((100.0, 200.0), (100.0 + n * np.cos(a), 200.0 + n * np.sin(a)), 40.0)
+    assert found == pytest.approx(dpi, rel=1e-12)
+    df = measure_lines(img, layout, dpi=found)
+    assert np.abs(df.width_mm.to_numpy() - truth).max() < 25.4 / dpi
+    # a reference that contradicts the crosses by more than 20 % is refused, not silently used
+    with pytest.raises(InputError, match="disagrees"):
+        measure_lines(img, layout, dpi=found * 1.5)
+    with pytest.raises(InputError, match="reference"):
+        scale_from_reference((0, 0), (10, 0), 0.0)

@@ -1,0 +1,415 @@
+"""``labkit cutwidth``: characterise cut width against power and speed ([CBR40] figure 10).
+
+``labkit cutwidth pattern --powers 500:2500:5 --speeds 300:1500:5 -o GRID.gcode``
+    a power × speed test grid (and GRID.json, its layout);
+``labkit cutwidth measure SCAN.png --layout GRID.json [--dpi D | --reference …] -o WIDTHS.csv``
+    the width of every line in a scan (and WIDTHS.png, annotated for checking by eye);
+``labkit cutwidth fit WIDTHS.csv [--model dose|empirical|both] [--json] [-o FIT.json]``
+    the dose and empirical models, cross-validated, and cut-through by a logistic model;
+``labkit cutwidth settings --width 0.2 --speed 600 --fit FIT.json``
+    the power for a width (or the speed, with ``--power``), with its band;
+``labkit cutwidth window FIT.json -o WINDOW.png``
+    the process window: width contours over power × speed;
+``labkit cutwidth source SOURCE.csv [--nominal MW] [-o CURVES.png]``
+    the laser itself: threshold current, slope efficiency, I–V line, efficiency ([CBR40] §F).
+"""
+
+from __future__ import annotations
+
+import json
+
+FIT_FORMAT = "labkit-cutwidth-fit"
+
+
+def add_cutwidth_arguments(parser):
+    from labkit.commands._args import integer, number
+    from labkit.gcode.dialects import DIALECTS
+
+    sub = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
+
+    p = sub.add_parser("pattern", help="write a power × speed test grid and its layout JSON")
+    p.add_argument("--powers", required=True, metavar="LO:HI:N",
+                   help="optical powers, mW: LO:HI:N (N steps) or a comma list")
+    p.add_argument("--speeds", required=True, metavar="LO:HI:N",
+                   help="speeds, mm/min: LO:HI:N (N steps) or a comma list")
+    p.add_argument("--scale", choices=("linear", "geometric"), default="linear",
+                   help="spacing of LO:HI:N ranges (default linear)")
+    p.add_argument("-o", "--output", required=True, metavar="GRID.gcode",
+                   help="G-code to write; the layout goes to the same name with .json")
+    p.add_argument("--line", type=number(0.1, 1000), default=10.0, metavar="MM",
+                   help="burned length of each line, 0.1…1000 mm (default 10)")
+    p.add_argument("--pitch", type=number(0.05, 100), default=2.0, metavar="MM",
+                   help="distance between rows, 0.05…100 mm (default 2)")
+    p.add_argument("--overscan", type=number(0, 100), default=3.0, metavar="MM",
+                   help="beam-off run before and after each line, 0…100 mm (default 3)")
+    p.add_argument("--repeats", type=integer(1, 100), default=1, metavar="N", help="copies of each line (default 1)")
+    p.add_argument("--passes", type=integer(1, 100), default=1, metavar="N", help="passes per line (default 1)")
+    p.add_argument("--max-power", type=number(1, 1e6), default=None, metavar="MW",
+                   help="power at full S, mW (default the CBR-40's 2500)")
+    p.add_argument("--dialect", choices=list(DIALECTS), default="grbl", help="G-code dialect (default grbl)")
+
+    m = sub.add_parser("measure", help="measure every line's width in a scan of the burned grid")
+    m.add_argument("scan", metavar="SCAN.png", help="scan or photograph (burn dark on light)")
+    m.add_argument("--layout", required=True, metavar="GRID.json", help="layout written by 'pattern'")
+    m.add_argument("--dpi", type=number(10, 100_000), default=None, metavar="DPI",
+                   help="scan resolution (default: the image file's, else --reference)")
+    m.add_argument("--reference", type=number(-1e7, 1e7), nargs=5, default=None,
+                   metavar=("COL0", "ROW0", "COL1", "ROW1", "MM"),
+                   help="a length marked in the image: two pixel positions and their distance in mm")
+    m.add_argument("-o", "--output", required=True, metavar="WIDTHS.csv", help="widths CSV to write")
+    m.add_argument("--annotated", default=None, metavar="PNG",
+                   help="annotated image for checking by eye (default: the CSV's name with .png)")
+    for name, default, what in (("material", "unknown", "material burned"),
+                                ("machine", "unknown", "machine used"), ("notes", "", "free text")):
+        m.add_argument(f"--{name}", default=default, help=f"{what} (goes into every row)")
+    m.add_argument("--thickness", type=number(0, 1000), default=float("nan"), metavar="MM",
+                   help="material thickness, mm")
+    m.add_argument("--beam", type=number(0, 100), default=float("nan"), metavar="MM", help="beam radius, mm")
+
+    f = sub.add_parser("fit", help="fit the dose and empirical models to a widths CSV")
+    f.add_argument("csv", metavar="WIDTHS.csv", help="tidy widths CSV (power_mw, speed_mm_min, width_mm, …)")
+    f.add_argument("--model", choices=("dose", "empirical", "both"), default="both",
+                   help="which models (default both, cross-validated)")
+    f.add_argument("--degree", type=integer(1, 3), default=2, metavar="D",
+                   help="degree of the empirical polynomial in ln P, ln v (default 2)")
+    f.add_argument("--level", type=number(0.5, 0.999), default=0.95, metavar="L",
+                   help="confidence level of the intervals (default 0.95)")
+    f.add_argument("--json", action="store_true", help="print the fit as JSON instead of text")
+    f.add_argument("-o", "--output", default=None, metavar="FIT.json", help="also save the fit as JSON")
+
+    s = sub.add_parser("settings", help="power (or speed) for a wanted width, with its band")
+    s.add_argument("--width", type=number(0, 100, lo_open=True), required=True, metavar="MM", help="wanted width, mm")
+    g = s.add_mutually_exclusive_group(required=True)
+    g.add_argument("--speed", type=number(0, 1e6, lo_open=True), nargs="+", metavar="MM_MIN",
+                   help="speed(s), mm/min: give the power")
+    g.add_argument("--power", type=number(0, 1e6, lo_open=True), nargs="+", metavar="MW",
+                   help="power(s), mW: give the speed")
+    s.add_argument("--fit", required=True, metavar="FIT.json", help="fit saved by 'fit -o'")
+    s.add_argument("--model", choices=("dose", "power_law", "empirical"), default=None,
+                   help="model to use (default the fit's cross-validated choice)")
+
+    w = sub.add_parser("window", help="draw the process window (width contours, no-cut region)")
+    w.add_argument("fit", metavar="FIT.json", help="fit saved by 'fit -o'")
+    w.add_argument("-o", "--output", required=True, metavar="WINDOW.png", help="PNG to write")
+    w.add_argument("--width", type=number(0, 100, lo_open=True), default=0.2, metavar="MM",
+                   help="wanted width to highlight, mm (default 0.2)")
+    w.add_argument("--model", choices=("dose", "power_law", "empirical"), default=None,
+                   help="model to draw (default the fit's choice)")
+
+
+    c = sub.add_parser("source", help="the laser's P–I and I–V curves: threshold, slope efficiency, efficiency")
+    c.add_argument("csv", metavar="SOURCE.csv", help="current_a, optical_mw and optionally voltage_v per reading")
+    c.add_argument("--nominal", type=number(0, 1e7, lo_open=True), default=None, metavar="MW",
+                   help="the label's optical power, mW, to compare with the largest measured")
+    c.add_argument("-o", "--output", default=None, metavar="CURVES.png", help="draw the curves to a PNG")
+
+
+def parse_range(text: str, what: str, scale: str = "linear"):
+    """``LO:HI:N`` or ``a,b,c`` → values (> 0), as :class:`labkit.errors.InputError` when not.
+
+    >>> parse_range("500:2500:5", "powers").tolist()
+    [500.0, 1000.0, 1500.0, 2000.0, 2500.0]
+    >>> parse_range("300, 600", "speeds").tolist()
+    [300.0, 600.0]
+    """
+    import numpy as np
+
+    from labkit.errors import InputError
+    from labkit.laser.patterns import steps
+
+    try:
+        if ":" in text:
+            lo, hi, n = text.split(":")
+            lo, hi, n = float(lo), float(hi), float(n)
+            if not (n >= 1 and n == int(n)):
+                raise InputError(f"--{what}: N in LO:HI:N must be a whole number >= 1, got {text!r}")
+            values = steps(lo, hi, int(n), scale=scale) if lo > 0 and hi > 0 else np.array([lo, hi])
+        else:
+            values = np.array([float(t) for t in text.split(",")])
+    except ValueError:
+        raise InputError(f"--{what}: expected LO:HI:N or a comma list of numbers, got {text!r}") from None
+    if not np.all(np.isfinite(values) & (values > 0)):
+        raise InputError(f"--{what} must be finite and > 0, got {text!r}")
+    return values
+
+
+def run_cutwidth(args) -> int:
+    return {"pattern": _pattern, "measure": _measure, "fit": _fit, "settings": _settings,
+            "window": _window, "source": _source}[args.action](args)
+
+
+def _pattern(args) -> int:
+    from labkit.laser.patterns import grid_pattern, write_pattern
+
+    powers = parse_range(args.powers, "powers", args.scale)
+    speeds = parse_range(args.speeds, "speeds", args.scale)
+    g = grid_pattern(powers, speeds, line_mm=args.line, pitch_mm=args.pitch, overscan_mm=args.overscan,
+                     gap_mm=max(6.0, 2 * args.overscan), repeats=args.repeats, passes=args.passes,
+                     max_power_mw=args.max_power)
+    layout = write_pattern(args.output, g, dialect=args.dialect)
+    x0, y0, x1, y1 = g.layout["bounds_mm"]
+    print(f"{args.output}: {len(g.layout['lines'])} lines ({len(powers)} powers × {len(speeds)} speeds"
+          f" × {args.repeats} repeats), {x1 - x0:.1f} × {y1 - y0:.1f} mm, job time {g.job_time_s():.1f} s")
+    print(f"{layout}: layout")
+    return 0
+
+
+def _measure(args) -> int:
+    from pathlib import Path
+
+    from labkit.errors import InputError
+    from labkit.laser.measure import measure_lines, register, scale_from_reference
+    from labkit.raster.color import to_gray
+    from labkit.raster.io import read_image
+    from labkit.viz.laser import plot_scan_annotations
+
+    layout = _read_json(args.layout, "layout")
+    if not isinstance(layout, dict) or "lines" not in layout:
+        raise InputError(f"{args.layout}: not a cut-width layout (no 'lines'); write one with 'labkit cutwidth pattern'")
+    im = read_image(args.scan)
+    img = to_gray(im.pixels) / 255.0
+    if args.reference is not None:
+        c0, r0, c1, r1, mm = args.reference
+        dpi = scale_from_reference((c0, r0), (c1, r1), mm)
+    elif args.dpi is not None:
+        dpi = args.dpi
+    else:
+        dpi = im.dpi            # None: the corner crosses' known spacing gives the scale
+    df = measure_lines(img, layout, dpi=dpi)
+    tf = register(img, layout)
+    out = df.assign(material=args.material, thickness_mm=args.thickness, machine=args.machine,
+                    beam_mm=args.beam, cut_through="", notes=args.notes or f"measured from {Path(args.scan).name}")
+    cols = ["material", "thickness_mm", "machine", "beam_mm", "power_mw", "power_s", "speed_mm_min",
+            "width_mm", "cut_through", "repeat", "notes", "row", "col", "width_sd_mm", "burned_fraction", "burned"]
+    out[cols].to_csv(args.output, index=False, float_format="%.6g")
+    png = args.annotated or str(Path(args.output).with_suffix(".png"))
+    _save(lambda ax: plot_scan_annotations(img, layout, df, ax, transform=tf), png,
+           size=(9, 9 * img.shape[0] / img.shape[1]))
+    burned = df.burned.to_numpy()
+    w = df.width_mm.to_numpy()[burned]
+    print(f"{args.output}: {len(df)} lines at {tf.scale * 25.4:.0f} dpi (registered), {int(burned.sum())} burned"
+          + (f", widths {w.min():.3f}…{w.max():.3f} mm" if len(w) else "")
+          + f", {int((~burned).sum())} flagged as not burned")
+    print(f"{png}: annotated scan")
+    return 0
+
+
+def _save(draw, path, *, size=(7, 5)):
+    """Draw on a fresh headless figure and write it as PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=size)
+    try:
+        draw(ax)
+        fig.tight_layout()
+        fig.savefig(path, dpi=120)
+    finally:
+        plt.close(fig)
+
+
+def _read_json(path, what):
+    from labkit._files import check_input_file
+    from labkit.errors import InputError
+
+    path = check_input_file(path, what=f"{what} file")
+    try:
+        return json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: not JSON ({exc})") from None
+
+
+def _cut_column(df):
+    """The cut_through column as booleans, or None when absent or not filled in on every row."""
+    if "cut_through" not in df.columns or not len(df):
+        return None
+    text = df["cut_through"].astype(str).str.strip().str.lower()
+    if not text.isin(["true", "false", "1", "0", "yes", "no"]).all():
+        return None
+    return text.isin(["true", "1", "yes"]).to_numpy()
+
+
+def fit_table(df, *, model: str = "both", degree: int = 2, level: float = 0.95, source: str = "") -> dict:
+    """Fit the models to a widths table; the JSON-ready result ``fit`` prints and saves.
+
+    Parameters
+    ----------
+    df : DataFrame
+        With ``power_mw``, ``speed_mm_min``, ``width_mm`` (0: not burned), optionally ``cut_through``.
+    model : {"dose", "empirical", "both"}
+    degree : int
+        Empirical polynomial degree.
+    level : float
+        Confidence level.
+    source : str
+        Where the data came from (recorded).
+
+    Returns
+    -------
+    dict
+        ``format``, ``source``, ``data`` (counts, ranges), ``models`` (name →
+        :meth:`Fit.to_dict` plus ``residuals_mm``), ``cv_rmse_mm`` (name →
+        held-out RMSE, when more than one model), ``chosen``, ``cut_through``
+        (logistic model or None).
+    """
+    import numpy as np
+
+    from labkit.errors import InputError
+    from labkit.laser.measure import REQUIRED
+    from labkit.laser.models import cross_validate, fit_cut_through, fit_dose, fit_empirical, fit_power_law
+
+    p, v, w = (df[c].to_numpy(float) for c in REQUIRED)
+    for col, x in (("power_mw", p), ("speed_mm_min", v)):
+        bad = np.flatnonzero(~(np.isfinite(x) & (x > 0)))
+        if len(bad):
+            raise InputError(f"{source or 'table'}: row {bad[0] + 1} of the data: {col} = {x[bad[0]]:g}; "
+                             "expected a value > 0")
+    fits = {}
+    if model in ("dose", "both"):
+        fits["dose"] = fit_dose(p, v, w, level=level)
+    if model in ("empirical", "both"):
+        fits["power_law"] = fit_power_law(p, v, w, level=level)
+        if degree > 1:
+            fits["empirical"] = fit_empirical(p, v, w, degree=degree, level=level)
+    burned = w > 0
+    out = dict(format=FIT_FORMAT, version=1, source=str(source),
+               data=dict(n=int(len(w)), burned=int(burned.sum()),
+                         power_mw=[float(p.min()), float(p.max())],
+                         speed_mm_min=[float(v.min()), float(v.max())]),
+               models={})
+    for name, f in fits.items():
+        d = f.to_dict()
+        d["residuals_mm"] = (w[burned] - f.width(p[burned], v[burned])).tolist()
+        out["models"][name] = d
+    if len(fits) > 1:
+        cv = cross_validate(p, v, w, models=list(fits))
+        out["cv_rmse_mm"] = cv
+        out["chosen"] = min(cv, key=cv.get)
+    else:
+        out["chosen"] = next(iter(fits))
+    cut = _cut_column(df)
+    out["cut_through"] = fit_cut_through(p, v, cut) if cut is not None and 0 < cut.sum() < len(cut) else None
+    return out
+
+
+def _fit(args) -> int:
+    from labkit.laser.measure import read_widths
+
+    res = fit_table(read_widths(args.csv), model=args.model, degree=args.degree, level=args.level,
+                    source=str(args.csv))
+    if args.output:
+        with open(args.output, "w") as fh:
+            json.dump(res, fh, indent=1)
+    if args.json:
+        print(json.dumps(res, indent=1))
+        return 0
+    print(report(res))
+    if args.output:
+        print(f"{args.output}: fit saved")
+    return 0
+
+
+def report(res: dict) -> str:
+    """The fit as text: parameters with intervals, residuals, cross-validation, cut-through."""
+    import numpy as np
+
+    d = res["data"]
+    lines = [f"{res['source']}: {d['n']} lines, {d['burned']} burned; power {d['power_mw'][0]:g}…"
+             f"{d['power_mw'][1]:g} mW, speed {d['speed_mm_min'][0]:g}…{d['speed_mm_min'][1]:g} mm/min"]
+    for name, m in res["models"].items():
+        pct = round(100 * m["level"])
+        r = np.asarray(m["residuals_mm"])
+        lines.append(f"{name}: RMSE {m['rmse_mm']:.4f} mm, largest residual {np.abs(r).max():.4f} mm, n = {m['n']}")
+        for k, (lo, hi) in m["ci"].items():
+            lines.append(f"  {k:>10} = {m['params'][k]:.6g}   {pct} % interval {lo:.6g} … {hi:.6g}")
+        if name == "dose":
+            from labkit.laser.models import threshold_ratio
+
+            r50 = threshold_ratio(m["params"]["w0_mm"], m["params"]["fth_mj_mm2"])
+            lines.append(f"  no burn below P/v = {r50:.4g} mW per mm/min")
+    if "cv_rmse_mm" in res:
+        cv = ", ".join(f"{k} {v:.4f}" for k, v in res["cv_rmse_mm"].items())
+        lines.append(f"cross-validated RMSE (mm): {cv} -> {res['chosen']}")
+    c = res.get("cut_through")
+    if c:
+        lines.append(f"cut through (logistic on ln P/v, {c['n_cut']} of {c['n']} lines cut): 50 % at "
+                     f"P/v = {c['ratio50_mw_per_mm_min']:.4g} mW per mm/min")
+    return "\n".join(lines)
+
+
+def load_fit(path, model=None):
+    """(the saved fit dict, the chosen or named :class:`~labkit.laser.models.Fit`)."""
+    from labkit.errors import InputError
+    from labkit.laser.models import Fit
+
+    res = _read_json(path, "fit")
+    if not isinstance(res, dict) or res.get("format") != FIT_FORMAT:
+        raise InputError(f"{path}: not a cut-width fit (write one with 'labkit cutwidth fit -o')")
+    name = model or res["chosen"]
+    if name not in res["models"]:
+        raise InputError(f"{path}: has no '{name}' model (has {', '.join(res['models'])})")
+    return res, Fit.from_dict(res["models"][name])
+
+
+def _settings(args) -> int:
+    import numpy as np
+
+    from labkit.laser.models import power_band, speed_for_width
+
+    res, fit = load_fit(args.fit, args.model)
+    pct = round(100 * fit.level)
+    if args.speed is not None:
+        power, lo, hi = (np.atleast_1d(a) for a in power_band(fit, args.width, np.asarray(args.speed)))
+        pmax = res["data"]["power_mw"][1]
+        for v, p, a, b in zip(args.speed, power, lo, hi):
+            note = "" if np.isfinite(p) and p <= pmax else "  (outside the measured powers)"
+            # the power/speed ratio is what M4 holds through the ramps ([CBR40] §IV)
+            print(f"width {args.width:g} mm at {v:g} mm/min: power {p:.0f} mW, {pct} % band {a:.0f}…{b:.0f} mW"
+                  f" ({fit.model}); P/v = {p / v:.4g} mW per mm/min{note}")
+    else:
+        for p in args.power:
+            v = float(speed_for_width(fit, args.width, p))
+            print(f"width {args.width:g} mm at {p:g} mW: speed {v:.0f} mm/min ({fit.model})")
+    return 0
+
+
+def _window(args) -> int:
+    from labkit.viz.laser import process_window
+
+    res, fit = load_fit(args.fit, args.model)
+    from labkit.laser.models import Fit
+
+    dose = Fit.from_dict(res["models"]["dose"]) if "dose" in res["models"] else None
+    _save(lambda ax: process_window(fit, ax, power_range_mw=res["data"]["power_mw"],
+                                    speed_range_mm_min=res["data"]["speed_mm_min"], target_mm=args.width,
+                                    cut_model=res.get("cut_through"), no_burn_fit=dose), args.output)
+    print(f"{args.output}: process window ({fit.model}), {args.width:g} mm contour highlighted")
+    return 0
+
+
+def _source(args) -> int:
+    from labkit.laser.source import fit_source, label_ratio, read_source_csv
+
+    df = read_source_csv(args.csv)
+    volts = df["voltage_v"].to_numpy() if "voltage_v" in df.columns else None
+    f = fit_source(df["current_a"].to_numpy(), df["optical_mw"].to_numpy(), volts)
+    pct = round(100 * f.level)
+    lo, hi = f.ci["threshold_a"]
+    print(f"{args.csv}: {len(df)} readings, largest optical power {f.max_optical_mw:.1f} mW")
+    print(f"threshold current {1000 * f.threshold_a:.1f} mA ({pct} % interval {1000 * lo:.1f}…{1000 * hi:.1f})")
+    lo, hi = f.ci["slope_w_per_a"]
+    print(f"slope efficiency {f.slope_w_per_a:.4f} W/A ({pct} % interval {lo:.4f}…{hi:.4f})")
+    if f.series_ohm is not None:
+        print(f"above threshold V = {f.v0_v:.3f} V + {f.series_ohm:.3f} Ω × I; "
+              f"electrical-to-optical efficiency up to {100 * f.peak_efficiency:.1f} %")
+    if args.nominal:
+        print(f"largest measured / nominal: {f.max_optical_mw:.1f} / {args.nominal:g} mW = "
+              f"{100 * label_ratio(f.max_optical_mw, args.nominal):.1f} %")
+    if args.output:
+        from labkit.viz.laser import plot_source
+
+        _save(lambda ax: plot_source(df, f, ax), args.output, size=(7, 4.5))
+        print(f"{args.output}: P–I and I–V curves")
+    return 0

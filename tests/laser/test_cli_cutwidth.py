@@ -1,0 +1,167 @@
+"""``labkit cutwidth``: the round trip pattern → synthetic scan → measure → fit → settings → window,
+and one-line errors for bad input."""
+
+import json
+import re
+
+import numpy as np
+import pandas as pd
+import pytest
+from PIL import Image
+
+from labkit.cli import main
+from labkit.laser.measure import render_scan
+from labkit.laser.models import dose_width
+
+W0, FTH = 0.12, 200.0          # the "material" the synthetic scan is burned into
+
+
+def _run(capsys, *argv):
+    code = main(["cutwidth", *map(str, argv)])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def _scan(tmp_path, layout, widths, name="SCAN.png", dpi=600, **kw):
+    img = render_scan(layout, widths, dpi=dpi, **kw)
+    path = tmp_path / name
+    Image.fromarray((img * 255).round().astype(np.uint8)).save(path, dpi=(dpi, dpi))
+    return path
+
+
+@pytest.fixture(scope="module")
+def burned(tmp_path_factory):
+    """A grid written by the command, 'burned' with the dose model, scanned rotated and noisy, measured."""
+    tmp = tmp_path_factory.mktemp("cutwidth")
+    assert main(["cutwidth", "pattern", "--powers", "500:2500:5", "--speeds", "300:1500:5",
+                 "-o", str(tmp / "GRID.gcode")]) == 0
+    layout = json.loads((tmp / "GRID.json").read_text())
+    p = np.array([d["power_mw"] for d in layout["lines"]])
+    v = np.array([d["speed_mm_min"] for d in layout["lines"]])
+    truth = dose_width(p, v, W0, FTH)
+    scan = _scan(tmp, layout, truth, rotation_deg=2.5, noise=0.03, blur_px=1.0, seed=5)
+    assert main(["cutwidth", "measure", str(scan), "--layout", str(tmp / "GRID.json"),
+                 "-o", str(tmp / "WIDTHS.csv")]) == 0
+    assert main(["cutwidth", "fit", str(tmp / "WIDTHS.csv"), "-o", str(tmp / "FIT.json")]) == 0
+    return tmp, layout, truth
+
+
+def test_pattern_writes_gcode_layout_and_reports_job_time(burned, capsys):
+    tmp, layout, _ = burned
+    assert len(layout["lines"]) == 25
+    assert sorted({d["power_mw"] for d in layout["lines"]}) == [500, 1000, 1500, 2000, 2500]
+    assert sorted({d["speed_mm_min"] for d in layout["lines"]}) == [300, 600, 900, 1200, 1500]
+    code, out, _ = _run(capsys, "pattern", "--powers", "100,400,1600", "--speeds", "300:1200:3",
+                        "--scale", "geometric", "-o", tmp / "G2.gcode")
+    assert code == 0 and "9 lines" in out
+    secs = float(re.search(r"job time ([\d.]+) s", out).group(1))
+    # at least every burned line's length over its feed (3 × 10 mm at 300, 600, 1200 mm/min)
+    assert secs > 3 * (10 / 5 + 10 / 10 + 10 / 20)
+    lay2 = json.loads((tmp / "G2.json").read_text())
+    assert lay2["speeds_mm_min"] == pytest.approx([300, 600, 1200])
+
+
+def test_measure_writes_tidy_csv_and_annotated_image(burned):
+    tmp, layout, truth = burned
+    df = pd.read_csv(tmp / "WIDTHS.csv")
+    for col in ("material", "thickness_mm", "machine", "beam_mm", "power_mw", "power_s", "speed_mm_min",
+                "width_mm", "cut_through", "repeat", "notes"):
+        assert col in df.columns
+    assert (df.burned.to_numpy() == (truth > 0)).all()
+    assert np.abs(df.width_mm.to_numpy() - truth).max() < 25.4 / 600        # one pixel
+    png = Image.open(tmp / "WIDTHS.png")
+    assert png.size[0] > 500 and np.asarray(png).std() > 0
+
+
+def test_round_trip_recovers_the_material_and_the_settings(burned, capsys):
+    tmp, _, _ = burned
+    fit = json.loads((tmp / "FIT.json").read_text())
+    assert fit["chosen"] == "dose"          # the data were made with it; cross-validation must see that
+    dose = fit["models"]["dose"]["params"]
+    assert dose["w0_mm"] == pytest.approx(W0, rel=0.02)
+    assert dose["fth_mj_mm2"] == pytest.approx(FTH, rel=0.04)
+    code, out, _ = _run(capsys, "settings", "--width", 0.2, "--speed", 600, "--fit", tmp / "FIT.json")
+    assert code == 0
+    power, lo, hi = map(float, re.search(r"power (\d+) mW, 95 % band (\d+)…(\d+)", out).groups())
+    assert lo < power < hi
+    # the power the command picks burns 0.2 mm into the true material, within 2 %
+    assert dose_width(power, 600, W0, FTH) == pytest.approx(0.2, rel=0.02)
+    code, out, _ = _run(capsys, "settings", "--width", 0.2, "--power", power, "--fit", tmp / "FIT.json")
+    assert float(re.search(r"speed (\d+) mm/min", out).group(1)) == pytest.approx(600, abs=1.0)
+
+
+def test_fit_json_and_text_agree_and_window_draws(burned, capsys):
+    tmp, _, _ = burned
+    code, out, _ = _run(capsys, "fit", tmp / "WIDTHS.csv", "--model", "dose", "--json")
+    res = json.loads(out)
+    assert code == 0 and list(res["models"]) == ["dose"]
+    assert len(res["models"]["dose"]["residuals_mm"]) == res["data"]["burned"]
+    code, out, _ = _run(capsys, "fit", tmp / "WIDTHS.csv", "--model", "empirical")
+    assert "c11" in out and "cross-validated" in out
+    code, out, _ = _run(capsys, "window", tmp / "FIT.json", "-o", tmp / "WINDOW.png", "--width", 0.2)
+    assert code == 0 and Image.open(tmp / "WINDOW.png").size[0] > 300
+
+
+def test_fit_of_the_synthetic_file_classifies_cut_through(capsys):
+    code, out, _ = _run(capsys, "fit", "data/cutwidth/synthetic_paperboard.csv", "--json")
+    res = json.loads(out)
+    c = res["cut_through"]
+    # the file's rule: cut where P/v exceeds twice the burn threshold ratio of w0=0.12, F_th=200
+    from labkit.laser.models import threshold_ratio
+    assert c["ratio50_mw_per_mm_min"] == pytest.approx(2 * threshold_ratio(0.12, 200.0), rel=0.25)
+
+
+def _one_line_error(code, err, *words):
+    assert code == 1
+    assert "Traceback" not in err and err.count("\n") == 1
+    for w in words:
+        assert w in err
+
+
+def test_a_csv_missing_a_column_is_named(tmp_path, capsys):
+    bad = tmp_path / "w.csv"
+    bad.write_text("power_mw,width_mm\n1000,0.1\n")
+    _one_line_error(*_run(capsys, "fit", bad)[::2], "speed_mm_min", "missing")
+    bad.write_text("power_mw,speed_mm_min,width_mm\n1000,600,wide\n")
+    _one_line_error(*_run(capsys, "fit", bad)[::2], "w.csv:2", "width_mm")
+    bad.write_text("power_mw,speed_mm_min,width_mm\n1000,600,0.1\n-5,600,0.1\n")
+    _one_line_error(*_run(capsys, "fit", bad)[::2], "power_mw", "> 0")
+
+
+@pytest.mark.parametrize("opt, value", [("--powers", "0:2500:5"), ("--powers", "-500,1000"),
+                                        ("--speeds", "300:0:3"), ("--speeds", "fast")])
+def test_non_positive_powers_or_speeds_are_refused(tmp_path, capsys, opt, value):
+    args = {"--powers": "500:2500:5", "--speeds": "300:1500:5", opt: value}
+    # "--powers=-500,1000": a value starting with '-' must be attached, as for any argparse option
+    code, _, err = _run(capsys, "pattern", f"--powers={args['--powers']}", f"--speeds={args['--speeds']}",
+                        "-o", tmp_path / "g.gcode")
+    _one_line_error(code, err, opt)
+    assert not (tmp_path / "g.gcode").exists()
+
+
+def test_a_scan_without_the_grid_is_refused(burned, tmp_path, capsys):
+    tmp, _, _ = burned
+    blank = tmp_path / "blank.png"
+    Image.fromarray(np.full((400, 400), 230, np.uint8)).save(blank)
+    _one_line_error(*_run(capsys, "measure", blank, "--layout", tmp / "GRID.json", "--dpi", 600,
+                          "-o", tmp_path / "w.csv")[::2], "grid")
+    Image.fromarray(np.full((400, 400), 230, np.uint8)).save(blank)
+    noisy = (np.random.default_rng(0).random((400, 400)) * 255).astype(np.uint8)
+    Image.fromarray(noisy).save(blank)
+    _one_line_error(*_run(capsys, "measure", blank, "--layout", tmp / "GRID.json", "--dpi", 600,
+                          "-o", tmp_path / "w.csv")[::2], "grid")
+
+
+def test_measure_with_a_reference_length_instead_of_dpi(burned, tmp_path, capsys):
+    tmp, layout, truth = burned
+    img = render_scan(layout, truth, dpi=450, rotation_deg=-1.0, seed=2)
+    path = tmp_path / "nodpi.png"
+    Image.fromarray((img * 255).round().astype(np.uint8)).save(path)       # the file stores no dpi
+    n = 50 / 25.4 * 450                                                    # a 50 mm ruler, horizontal
+    code, out, err = _run(capsys, "measure", path, "--layout", tmp / "GRID.json", "--reference",
+                          10, 20, 10 + n, 20, 50, "-o", tmp_path / "w.csv")
+    assert code == 0, err
+    assert "450 dpi" in out
+    df = pd.read_csv(tmp_path / "w.csv")
+    assert np.abs(df.width_mm.to_numpy() - truth).max() < 25.4 / 450
+    assert (tmp_path / "w.png").exists()
