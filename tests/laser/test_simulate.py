@@ -81,3 +81,41 @@ def test_bad_parameters_are_named():
     burn = simulate_burn(_program(3, corner=False), w0_mm=W0, fth_mj_mm2=FTH)
     with pytest.raises(InputError, match="finer"):
         burn.scan(dpi=10_000)
+
+
+def _short_segment_arc(mode):
+    """Three quarters of a 3 mm circle as 36 lines of 0.39 mm: the short blocks of CAM output."""
+    b = MovesBuilder(feed_mm_min=1800.0, power_s=mw_to_s(1000.0, max_power_mw=2500), laser=mode)
+    angle = np.linspace(0.0, 1.5 * np.pi, 37)
+    b.rapid(x=3.0, y=0.0)
+    for a in angle[1:]:
+        b.line(x=3.0 * np.cos(a), y=3.0 * np.sin(a))
+    return b.build()
+
+
+def test_the_planner_mode_changes_m3_widths_on_short_blocks_and_m4_keeps_them():
+    """[CBR40]'s MBLA modes plan different speeds over short blocks; under M3 the burn follows
+    the speed (wider where the head is slower), under M4 it does not."""
+    cruise = dose_width(1000.0, 1800.0, W0, FTH)
+    m3, m4 = {}, {}
+    for planner in ("fast", "hq", "junction"):
+        m3[planner] = simulate_burn(_short_segment_arc(3), w0_mm=W0, fth_mj_mm2=FTH, machine=SLOW,
+                                    planner=planner).line_widths()
+        m4[planner] = simulate_burn(_short_segment_arc(4), w0_mm=W0, fth_mj_mm2=FTH, machine=SLOW,
+                                    planner=planner).line_widths()
+    speed = {k: df.speed_mm_s.mean() for k, df in m3.items()}
+    width = {k: df.width_mm.mean() for k, df in m3.items()}
+    assert speed["hq"] < 0.5 * speed["fast"]                 # the modes really plan differently here
+    assert width["hq"] > 1.3 * width["fast"]                  # and M3 burns that difference
+    # slower mean speed, wider mean line: the order of the widths is the reverse of the speeds'
+    assert sorted(width, key=width.get) == sorted(speed, key=speed.get, reverse=True)
+    for planner, df in m3.items():
+        # mostly the closed form at the local speed (the speed changes within a beam radius
+        # at the block joints, where the dose also comes from the neighbouring speeds)
+        local = dose_width(1000.0, 60.0 * df.speed_mm_s.to_numpy(), W0, FTH)
+        assert np.median(np.abs(df.width_mm.to_numpy() / local - 1.0)) < 0.02
+        # M4 holds the energy per mm whatever the planner does (away from the path's two
+        # ends, which lack the dose of the path beyond them)
+        w = m4[planner]
+        inner = (np.hypot(w.x_mm - 3.0, w.y_mm) > 3 * W0) & (np.hypot(w.x_mm, w.y_mm + 3.0) > 3 * W0)
+        assert w.width_mm[inner].to_numpy() == pytest.approx(cruise, rel=0.01)
