@@ -151,6 +151,7 @@ def _pattern(args) -> int:
     print(f"{args.output}: {len(g.layout['lines'])} lines ({len(powers)} powers × {len(speeds)} speeds"
           f" × {args.repeats} repeats), {x1 - x0:.1f} × {y1 - y0:.1f} mm, job time {g.job_time_s():.1f} s")
     print(f"{layout}: layout")
+    print(g.legend())
     return 0
 
 

@@ -129,14 +129,35 @@ class GridPattern:
         """Planned job time in s (:func:`labkit.motion.plan`), before burning anything."""
         return float(plan(self.moves, machine, planner=planner).summary().job_time_s)
 
+    def legend(self) -> str:
+        """What the engraved numbers mean: row number → power, column number → speed.
+
+        Printed by ``labkit cutwidth pattern`` and written at the head of the
+        G-code, so the piece can be read without the layout file.
+
+        >>> g = grid_pattern([500, 1000], [300, 600], label_mm=0, fiducial_mm=0, repeats=2)
+        >>> print(g.legend())
+        rows (engraved left, bottom to top; 2 repeats each): 1 = 500 mW (S200), 2 = 1000 mW (S400)
+        columns (engraved on top, left to right): 1 = 300 mm/min, 2 = 600 mm/min
+        """
+        lines = self.layout["lines"]
+        reps = max(d["repeat"] for d in lines) + 1
+        powers = {d["row"] // reps: (d["power_mw"], d["power_s"]) for d in lines}
+        speeds = {d["col"]: d["speed_mm_min"] for d in lines}
+        rows = ", ".join(f"{i + 1} = {p:g} mW (S{s:g})" for i, (p, s) in sorted(powers.items()))
+        cols = ", ".join(f"{j + 1} = {v:g} mm/min" for j, v in sorted(speeds.items()))
+        each = f"; {reps} repeats each" if reps > 1 else ""
+        return (f"rows (engraved left, bottom to top{each}): {rows}\n"
+                f"columns (engraved on top, left to right): {cols}")
+
     def gcode(self, dialect: str = "grbl", **options) -> str:
-        """The job as G-code in ``dialect`` (:func:`labkit.gcode.writer.emit`).
+        """The job as G-code in ``dialect`` (:func:`labkit.gcode.writer.emit`), the legend in its header.
 
         Travel is written beam-off (``M5`` before each rapid) unless ``travel_beam_off=False``
         is passed: a test grid must not burn its travel on a controller without laser mode.
         """
         options.setdefault("travel_beam_off", True)
-        return emit(self.moves, dialect=dialect, comment="labkit cut-width test grid", **options)
+        return emit(self.moves, dialect=dialect, comment=f"labkit cut-width test grid\n{self.legend()}", **options)
 
 
 def _positive(name, values):

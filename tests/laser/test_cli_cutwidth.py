@@ -59,6 +59,11 @@ def test_pattern_writes_gcode_layout_and_reports_job_time(burned, capsys):
     assert secs > 3 * (10 / 5 + 10 / 10 + 10 / 20)
     lay2 = json.loads((tmp / "G2.json").read_text())
     assert lay2["speeds_mm_min"] == pytest.approx([300, 600, 1200])
+    # the legend, printed and at the head of the G-code, says what every engraved number means
+    legend = "rows (engraved left, bottom to top): 1 = 100 mW (S40), 2 = 400 mW (S160), 3 = 1600 mW (S640)"
+    assert legend in out
+    assert "columns (engraved on top, left to right): 1 = 300 mm/min, 2 = 600 mm/min, 3 = 1200 mm/min" in out
+    assert f"; {legend}" in (tmp / "G2.gcode").read_text().splitlines()[:5]
 
 
 def test_measure_writes_tidy_csv_and_annotated_image(burned):
