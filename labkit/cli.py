@@ -38,6 +38,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "split": ("split", "split a long G-code program into sub-programs that each restate the state"),
     "millfeed": ("millfeed", "schedule a micro-milling program's feed from its chip volume"),
     "plough": ("plough", "chip and ploughing area of a micro-milling program on a dual-dexel stock"),
+    "probe": ("probe", "the rotating-wire probe: effective diameter, calibration, a simulated part scanned"),
     "cutwidth": ("cutwidth", "cut width against power and speed: test grid, measure a scan, fit, settings, window"),
     "plan": ("motion", "plan a G-code job: blocks, speed profiles, look-ahead, job time"),
     "steps": ("motion", "write the Bresenham step sequence of a G-code job"),
