@@ -168,3 +168,18 @@ def test_importing_the_package_and_gcode_loads_no_compiler():
                            " if m in sys.modules))")
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[]"
+
+
+def test_svg2gcode_on_a_small_drawing_imports_no_compiler_and_writes_the_compiled_result(tmp_path):
+    """A 578-segment drawing runs its geometry kernels (flattening, deviation, ordering, 2-opt,
+    emission) as Python — no numba, no scipy — and writes byte for byte what the compiled
+    kernels write."""
+    svg = ROOT / "data" / "svg" / "cncjs" / "jsdc.svg"
+    out = _run_labkit("svg2gcode", str(svg), "-o", str(tmp_path / "py.gcode"))
+    assert out.returncode == 0, out.stderr
+    assert out.stderr.strip().splitlines()[-1] == "[]", out.stderr
+    env = dict(os.environ, PYTHONPATH=str(ROOT), LABKIT_JIT="compiled")
+    done = subprocess.run([sys.executable, "-m", "labkit", "svg2gcode", str(svg), "-o", str(tmp_path / "nb.gcode")],
+                          capture_output=True, text=True, env=env, cwd=ROOT, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "py.gcode").read_bytes() == (tmp_path / "nb.gcode").read_bytes()

@@ -6,7 +6,8 @@ back and forth and leaves closed outlines as several open cuts. [MicroCAM]
 joins entities whose end points coincide into open or closed chains by
 comparing every end with every chain end, recursively — O(n²).
 
-Here the ends go into a k-d tree (scipy's ``cKDTree``), ends within ``tol_mm``
+Here the close pairs of ends are found by a k-d tree (scipy's ``cKDTree``; a
+few thousand ends are compared all at once instead, without importing scipy), ends within ``tol_mm``
 are merged into nodes (union–find over the close pairs), and the pieces
 become edges of a graph on those nodes. Walking the graph from every node
 that is not of degree 2 gives the open chains; what is left are loops, the
@@ -19,9 +20,9 @@ from __future__ import annotations
 from typing import Sequence
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from labkit.errors import GeometryError
+from labkit.geometry._grid import close_pairs
 from labkit.geometry.path import Path
 
 __all__ = ["join_chains", "end_nodes"]
@@ -50,7 +51,7 @@ def end_nodes(paths: Sequence[Path], tol_mm: float) -> np.ndarray:
         return root
 
     if n and tol_mm > 0:
-        for a, b in cKDTree(ends).query_pairs(tol_mm, output_type="ndarray"):
+        for a, b in close_pairs(ends, tol_mm):
             ra, rb = find(a), find(b)
             if ra != rb:
                 parent[max(ra, rb)] = min(ra, rb)

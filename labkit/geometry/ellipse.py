@@ -29,9 +29,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
+from labkit._jit import jit
 from labkit.errors import GeometryError
 from labkit.geometry.circle import circumcentre, cross2
 from labkit.geometry.path import Path
@@ -137,7 +137,7 @@ def _arc_through(p0, pm, p1):
     return c, np.where(straight, 0.0, ang)
 
 
-@numba.njit(cache=True)
+@jit
 def _peak1(f):
     """Maximum of smoothly varying samples, refined by the parabola through the largest
     sample and its neighbours (the true peak lies between samples)."""
@@ -153,7 +153,7 @@ def _peak1(f):
     return best
 
 
-@numba.njit(cache=True)
+@jit
 def _deviations(a, b, u_a, u_b, cx, cy, sweep, samples):
     """Measured deviation of each arc (or chord, sweep 0) from its piece of the ellipse:
     ellipse samples → circle (radial distance) and arc samples → ellipse polyline."""

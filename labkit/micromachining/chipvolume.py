@@ -22,9 +22,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numba as nb
 import numpy as np
 
+from labkit._jit import jit
 from labkit.errors import GeometryError
 from labkit.toolpath.moves import MoveKind, Moves
 
@@ -47,7 +47,7 @@ def _check_spindle(rpm, teeth):
         raise GeometryError(f"rpm must be > 0 and teeth a whole number >= 1, got {rpm!r}, {teeth!r}")
 
 
-@nb.njit(cache=True)
+@jit
 def _cut_disc(h, x0, y0, cell, cx, cy, r, z, bottom):
     """Lower every cell whose centre is within r of (cx, cy) to z (not below bottom);
     return the volume removed, mm³."""
@@ -69,7 +69,7 @@ def _cut_disc(h, x0, y0, cell, cx, cy, r, z, bottom):
     return removed * cell * cell
 
 
-@nb.njit(cache=True)
+@jit
 def _cut_path(h, x0, y0, cell, xs, ys, zs, r, bottom):
     out = np.empty(len(xs))
     for k in range(len(xs)):

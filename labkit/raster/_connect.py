@@ -11,20 +11,21 @@ they look at.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
+
+from labkit._jit import jit
 
 _BIG = np.iinfo(np.int64).max
 
 
-@numba.njit(cache=True, inline="always")
+@jit(inline="always")
 def _dist2(ax, ay, bx, by):
     dx = ax - bx
     dy = ay - by
     return dx * dx + dy * dy
 
 
-@numba.njit(cache=True, inline="always")
+@jit(inline="always")
 def _exit_point(sx, sy, ex, ey, i, flipped):
     """Where the head is after cutting segment i (its start if run backwards)."""
     if flipped:
@@ -32,7 +33,7 @@ def _exit_point(sx, sy, ex, ey, i, flipped):
     return ex[i], ey[i]
 
 
-@numba.njit(cache=True)
+@jit
 def greedy_reference(sx, sy, ex, ey, reversible, ox, oy):
     """[LaserApp] §3.4.1: look at every remaining segment at every step.
 
