@@ -264,11 +264,15 @@ RECORD_ROW = np.dtype((np.record, [("line", np.int64), ("kind", np.int64), ("spa
 
 #: The modal state after one line (for teaching, :func:`labkit.gcode.reader.modal_trace`):
 #: G numbers of the motion, plane, units, distance and arc-distance groups, the feed
-#: (mm/min, NaN while undefined), S, the laser mode and the position (mm, machine).
+#: (mm/min, NaN while undefined), S, the laser mode and the position (mm, machine); the
+#: offsets GRBL keeps: the coordinate system in use (54…59), the G54…G59 origins and the
+#: G92 offset (mm, machine) and the G43.1 tool length offset (mm).
 TRACE_ROW = np.dtype((np.record, [("motion", np.float64), ("plane", np.float64), ("units", np.float64),
                       ("distance", np.float64), ("arc_distance", np.float64),
                       ("feed_mm_min", np.float64), ("power_s", np.float64),
-                      ("laser", np.float64), ("position", np.float64, (3,))]))
+                      ("laser", np.float64), ("position", np.float64, (3,)),
+                      ("coord_system", np.float64), ("coord_origins", np.float64, (6, 3)),
+                      ("g92", np.float64, (3,)), ("tool_offset", np.float64)]))
 
 #: What :func:`interpret` returns: ``moves`` (array of ``MOVE_ROW``), ``errors`` (of
 #: :data:`ERROR_ROW`, at most ``max_errors``), ``error_total`` (all rejected lines),
@@ -1062,6 +1066,11 @@ def interpret(buf, options, lenient, max_errors, trace):
             t.laser = laser
             for a in range(3):
                 t.position[a] = pos[a]
+                t.g92[a] = g92[a]
+                for k in range(6):
+                    t.coord_origins[k, a] = wcs[k, a]
+            t.coord_system = 54 + coord
+            t.tool_offset = tlo
         ls = le + 1
 
     return Interpretation(rows[:nrows], errs[:nerr], nerr_total, recs[:nrec],

@@ -238,13 +238,24 @@ def check(text, *, dialect: str | Dialect = "grbl", filename: str | None = None)
                       streaming=True).diagnostics)
 
 
-def modal_trace(text, *, dialect: str | Dialect = "grbl", filename: str | None = None):
+def modal_trace(text, *, dialect: str | Dialect = "grbl", filename: str | None = None,
+                offsets: bool = False):
     """The modal state after every line, as a pandas DataFrame (for teaching).
 
     Columns: ``line``, ``text``, ``motion`` (G0…G3), ``plane``, ``units``,
     ``distance``, ``arc_centres``, ``feed_mm_min``, ``S``, ``laser`` (M3/M4/M5)
-    and the position ``x``, ``y``, ``z`` in mm. Rejected lines keep the
-    previous state and are marked in ``error``.
+    and the position ``x``, ``y``, ``z`` in mm (machine coordinates, the
+    controller's own offsets taken as zero at the start). Rejected lines keep
+    the previous state and are marked in ``error``.
+
+    With ``offsets=True`` also the work offsets the program set: ``coords``
+    (G54…G59 in use), ``origin_x/y/z`` (its origin), ``g92_x/y/z``,
+    ``tool_offset`` (G43.1 Z) and the work position ``wx``, ``wy``, ``wz`` —
+    what the program's own X Y Z words mean there (mm).
+
+    >>> t = modal_trace("G0 X10 Y5\\nG92 X0 Y0\\nG0 X1\\n", offsets=True)
+    >>> t[["x", "wx", "g92_x", "coords"]].values.tolist()
+    [[10.0, 10.0, 0.0, 'G54'], [10.0, 0.0, 10.0, 'G54'], [11.0, 1.0, 10.0, 'G54']]
     """
     import pandas as pd
 
@@ -259,7 +270,7 @@ def modal_trace(text, *, dialect: str | Dialect = "grbl", filename: str | None =
     errs = dict(zip(out.errors["line"].tolist(), out.errors["code"].tolist()))
     laser_names = {int(LaserMode.OFF): "M5", int(LaserMode.CONSTANT): "M3",
                    int(LaserMode.DYNAMIC): "M4"}
-    return pd.DataFrame({
+    table = pd.DataFrame({
         "line": np.arange(1, n + 1),
         "text": [s.rstrip("\r") for s in lines],
         "motion": [f"G{int(v)}" for v in state["motion"][:n]],
@@ -274,6 +285,18 @@ def modal_trace(text, *, dialect: str | Dialect = "grbl", filename: str | None =
         "z": state["position"][:n, 2],
         "error": [errs.get(i, 0) for i in range(1, n + 1)],
     })
+    if offsets:
+        system = state["coord_system"][:n].astype(int)
+        origin = state["coord_origins"][:n][np.arange(n), system - 54]
+        shift = origin + state["g92"][:n]
+        shift[:, 2] += state["tool_offset"][:n]
+        work = state["position"][:n] - shift
+        table = table.assign(coords=[f"G{v}" for v in system],
+                             origin_x=origin[:, 0], origin_y=origin[:, 1], origin_z=origin[:, 2],
+                             g92_x=state["g92"][:n, 0], g92_y=state["g92"][:n, 1], g92_z=state["g92"][:n, 2],
+                             tool_offset=state["tool_offset"][:n],
+                             wx=work[:, 0], wy=work[:, 1], wz=work[:, 2])
+    return table
 
 
 # ---- messages -------------------------------------------------------------------------

@@ -185,7 +185,7 @@ class JobReport:
     lines_acknowledged: int = 0
     last_acknowledged_line: int = 0        #: source line of the last ok/error received
     last_executed_line: int = 0            #: source line whose motion completed last
-    stop_position: tuple | None = None     #: MPos where motion stopped (after a fault)
+    stop_position: tuple | None = None     #: where motion stopped, job coordinates (WPos; MPos if no WCO seen)
     resume_line: int | None = None         #: first source line not (fully) executed
     fault: str | None = None               #: what stopped the job, in words
     errors: list = field(default_factory=list)   #: (source line, code, message)
@@ -581,7 +581,7 @@ def _make_safe(grbl: Grbl, fault: _Fault, report: JobReport, acked: list, inflig
                                       and (s.state != "Hold" or s.substate in (0, None)), 3.0)
             else:
                 st = grbl.get_status(1.0)
-            report.stop_position = st.mpos
+            report.stop_position = _job_position(st)
         except MachineError as exc:
             report.safe_actions.append(f"no status after the hold ({exc})")
             st = None
@@ -609,7 +609,7 @@ def _make_safe(grbl: Grbl, fault: _Fault, report: JobReport, acked: list, inflig
                 grbl.command("M5 S0", 2.0)
                 report.safe_actions.append("M5 S0")
             if report.stop_position is None:
-                report.stop_position = st2.mpos
+                report.stop_position = _job_position(st2)
         except MachineError:
             pass
     if st is None or st.planner_free is None:
@@ -669,18 +669,27 @@ def check_job(grbl: Grbl, job: Job) -> list:
 # -- resume -------------------------------------------------------------------------------------
 
 def _modal_at(job: Job, line: int):
-    """The modal state in effect *before* source line ``line`` (a pandas row)."""
+    """The modal state in effect *before* source line ``line`` (a pandas row, offsets
+    included), and whether the job set a G92 offset or a tool length offset before it."""
     from labkit.gcode.reader import modal_trace
 
     text = "\n".join(job.source_lines[: max(0, line - 1)])
     if line <= 1 or not text:
-        return None
-    trace = modal_trace(text, dialect=job.dialect)
-    return trace.iloc[-1]
+        return None, False
+    trace = modal_trace(text, dialect=job.dialect, offsets=True)
+    volatile = bool((trace[["g92_x", "g92_y", "g92_z", "tool_offset"]] != 0).to_numpy().any())
+    return trace.iloc[-1], volatile
 
 
 def resume_text(job: Job, line: int, position=None) -> list[str]:
     """Lines that restore the state before ``line``, go there with the beam off, and finish it.
+
+    Everything is said in the job's own coordinates (the work coordinates its X Y Z
+    words mean), so a resume lands where the job would have been whatever origin the
+    controller holds: G54–G59 origins stay on the controller (GRBL keeps them in
+    EEPROM) and the coordinate system in use is restated; a G92 or G43.1 offset the job
+    itself set is restated too, since GRBL's reset clears them — G92.1, the move, then
+    G92 with the position the job's words give there.
 
     Parameters
     ----------
@@ -688,9 +697,10 @@ def resume_text(job: Job, line: int, position=None) -> list[str]:
     line : int
         First source line to run (1-based).
     position : sequence of 3 floats, optional
-        Where the machine stopped inside ``line`` (machine coordinates). The
-        line's remaining motion is sent from there instead of the whole line,
-        so nothing is burned twice. None: go to the line's start.
+        Where the machine stopped inside ``line``, in the job's coordinates (a
+        status report's WPos: ``report.stop_position``). The line's remaining
+        motion is sent from there instead of the whole line, so nothing is
+        burned twice. None: go to the line's start.
 
     Returns
     -------
@@ -702,24 +712,46 @@ def resume_text(job: Job, line: int, position=None) -> list[str]:
     --------
     >>> job = Job.from_text("G21 G90\\nM4 S300 F600\\nG1 X10\\nG1 Y10\\nM5\\n")
     >>> resume_text(job, 4)
-    ['M5 S0', 'G21 G90 G91.1 G17', 'G0 X10 Y0 Z0', 'G1 F600 S300', 'M4']
+    ['M5 S0', 'G21 G90 G91.1 G17 G54', 'G0 X10 Y0 Z0', 'G1 F600 S300', 'M4']
     >>> resume_text(job, 4, position=(10, 4, 0))[-1]
     'G1 X10 Y10 Z0'
+
+    A job that sets its own origin with G92 gets it back:
+
+    >>> job = Job.from_text("G0 X50 Y50\\nG92 X0 Y0\\nM4 S300 F600\\nG1 X10\\nG1 Y10\\nM5\\n")
+    >>> resume_text(job, 5)[1:5]
+    ['G21 G90 G91.1 G17 G54', 'G92.1', 'G0 X60 Y50 Z0', 'G92 X10 Y0 Z0']
     """
     if not 1 <= line <= len(job.source_lines):
         raise InputError(f"resume line {line} is outside the file (1–{len(job.source_lines)})")
-    st = _modal_at(job, line)
+    st, volatile = _modal_at(job, line)
     out = ["M5 S0"]
+    g92 = np.zeros(3)                    # the job's own G92 and G43.1 at the line (restated below)
+    tool = 0.0
     if st is None:
         start = np.zeros(3)
-        units, distance, arc, plane, feed, s, laser = "G21", "G90", "G91.1", "G17", math.nan, 0.0, "M5"
+        units, distance, arc, plane, coords = "G21", "G90", "G91.1", "G17", "G54"
+        feed, s, laser = math.nan, 0.0, "M5"
     else:
-        start = np.array([st["x"], st["y"], st["z"]], float)
-        units, distance, arc, plane = st["units"], st["distance"], st["arc_centres"], st["plane"]
+        start = np.array([st["wx"], st["wy"], st["wz"]], float)
+        units, distance, arc, plane, coords = st["units"], st["distance"], st["arc_centres"], st["plane"], st["coords"]
         feed, s, laser = float(st["feed_mm_min"]), float(st["S"]), st["laser"]
-    out.append(f"G21 G90 {arc} {plane}")
+        if volatile:
+            tool = float(st["tool_offset"])
+            g92 = np.array([st["g92_x"], st["g92_y"], st["g92_z"]], float)
+    out.append(f"G21 G90 {arc} {plane} {coords}")
     here = np.asarray(position, float) if position is not None else start
-    out.append("G0 " + _xyz(here))
+    if volatile:
+        # from the bare origin (G92.1; the tool offset restated), the move, then G92 so that
+        # the point reads `here` again
+        out.append("G92.1")
+        if tool:
+            out.append(f"G43.1 Z{tool:g}")
+        out.append("G0 " + _xyz(here + g92))
+        if np.any(g92 != 0):
+            out.append("G92 " + _xyz(here))
+    else:
+        out.append("G0 " + _xyz(here))
     words = []
     if math.isfinite(feed):
         words.append(f"F{feed:g}")
@@ -734,9 +766,10 @@ def resume_text(job: Job, line: int, position=None) -> list[str]:
             raise InputError(f"line {line} has no motion to finish")
         r = rows[-1]
         kind = int(m.kind[r])
-        end = m.end[r]
+        offset = m.work_offset[r]                    # Moves are machine coordinates
+        end = m.end[r] - offset
         if kind in (2, 3):
-            c = m.centre[r] - here
+            c = m.centre[r] - offset - here
             out.append(f"G{kind} {_xyz(end)} I{c[0]:.4f} J{c[1]:.4f}")
         else:
             out.append(f"G{kind} {_xyz(end)}")
@@ -744,6 +777,12 @@ def resume_text(job: Job, line: int, position=None) -> list[str]:
     if units != "G21" or distance != "G90":
         out.append(f"{units} {distance}")
     return out
+
+
+def _job_position(st):
+    """A status report's position in the job's coordinates: WPos (MPos − WCO), or MPos while
+    the controller has not reported its WCO yet (offsets taken as zero)."""
+    return st.wpos if st.wpos is not None else st.mpos
 
 
 def _xyz(p) -> str:

@@ -6,8 +6,9 @@ buffer (bytes that do not fit are lost, as on the real controller), a
 16-block planner buffer (a line is read from the RX buffer only when the
 planner has room, so ``ok`` comes late when it is full), ``ok`` /
 ``error:N`` for every line, real-time bytes, status reports with ``MPos``,
-``FS``, ``Bf`` and ``WCO``, soft-limit alarms for moves outside the machine's
-travel, ``$`` commands (``$$ $I $G $# $X $H $J= $C $N=V``), feed hold,
+``FS``, ``Bf`` and ``WCO``, work offsets (G10 L2/L20 origins of G54–G59 kept
+through a reset as in GRBL's EEPROM, G92 and G43.1 cleared by it; ``WCO`` is their
+sum), soft-limit alarms for moves outside the machine's travel, ``$`` commands (``$$ $I $G $# $X $H $J= $C $N=V``), feed hold,
 resume and soft reset (a reset while moving raises ALARM:3, as GRBL does).
 
 Lines are interpreted by :mod:`labkit.gcode`'s parser (the one home of the
@@ -162,7 +163,9 @@ class VirtualMachine:
         self.overflows = 0
         self.rx_fill: list[tuple[float, int]] = []
         self._status_count = 0
+        self._wco_sent = np.zeros(3)
         self._speed = 0.0           # mm/s at the end of the last block executed
+        self.coord_origins = np.zeros((6, 3))    # G54…G59, machine mm: GRBL keeps them in EEPROM
         self._reset_parser()
         if banner:
             self._emit("\r\nGrbl 1.1h ['$' for help]")
@@ -244,6 +247,15 @@ class VirtualMachine:
     def _reset_parser(self) -> None:
         self.units, self.distance, self.arc_mode, self.plane, self.motion = 21, 90, 91.1, 17, 0
         self.feed_mm_min, self.s_word, self.laser_mode_word = math.nan, 0.0, 0
+        # GRBL's reset selects G54 and clears the G92 offset and the tool length offset
+        self.coord_system, self.g92, self.tool_offset = 54, np.zeros(3), 0.0
+
+    @property
+    def work_offset(self) -> np.ndarray:
+        """WCO: machine position minus work position, mm (G54…G59 origin + G92 + TLO on Z)."""
+        wco = self.coord_origins[self.coord_system - 54] + self.g92
+        wco[2] += self.tool_offset
+        return wco
 
     def _beam_fraction(self, laser: int, s: float) -> float:
         s_max = float(self.settings[30]) or 1000.0
@@ -316,8 +328,10 @@ class VirtualMachine:
         free_blocks = self.planner_blocks - len(self._blocks)
         free_rx = self.rx_bytes - 1 - len(self._rx)
         text = f"<{st}|MPos:{x:.3f},{y:.3f},{z:.3f}|Bf:{free_blocks},{free_rx}|FS:{feed:.0f},{s:.0f}"
-        if self._status_count % 10 == 0:
-            text += "|WCO:0.000,0.000,0.000"
+        wco = self.work_offset
+        if self._status_count % 10 == 0 or not np.array_equal(wco, self._wco_sent):
+            text += "|WCO:{:.3f},{:.3f},{:.3f}".format(*wco)       # GRBL: now and then, and on change
+            self._wco_sent = wco
         if self._ov_changed or self._status_count % 10 == 1:     # GRBL: on change, else now and then
             text += "|Ov:{},{},{}".format(*self.overrides)
             self._ov_changed = False
@@ -408,12 +422,15 @@ class VirtualMachine:
         elif cmd == "G":
             laser = {0: "M5", 3: "M3", 4: "M4"}[self.laser_mode_word]
             feed = 0 if math.isnan(self.feed_mm_min) else self.feed_mm_min
-            self._emit(f"[GC:G{self.motion} G54 G{self.plane} G{self.units} G{self.distance} G94 "
+            self._emit(f"[GC:G{self.motion} G{self.coord_system} G{self.plane} G{self.units} G{self.distance} G94 "
                        f"{laser} M9 T0 F{feed:g} S{self.s_word:g}]")
         elif cmd == "#":
-            for name in ("G54", "G55", "G56", "G57", "G58", "G59", "G28", "G30", "G92"):
+            for k in range(6):
+                self._emit("[G{}:{:.3f},{:.3f},{:.3f}]".format(54 + k, *self.coord_origins[k]))
+            for name in ("G28", "G30"):
                 self._emit(f"[{name}:0.000,0.000,0.000]")
-            self._emit("[TLO:0.000]")
+            self._emit("[G92:{:.3f},{:.3f},{:.3f}]".format(*self.g92))
+            self._emit(f"[TLO:{self.tool_offset:.3f}]")
             self._emit("[PRB:0.000,0.000,0.000:0]")
         elif cmd == "X":
             if self.state == "Alarm":
@@ -483,10 +500,23 @@ class VirtualMachine:
         if not math.isnan(self.feed_mm_min):
             feed = f" F{float(self.feed_mm_min) / (25.4 if self.units == 20 else 1.0)!r}"
         motion = f"G{self.motion}" if self.motion in (0, 1) else ""
-        prefix = (f"G21 G90 G0 X{x!r} Y{y!r} Z{z!r}\n"
-                  f"G{self.units} G{self.distance}{arc} G{self.plane}{feed} S{float(self.s_word)!r} "
-                  f"M{self.laser_mode_word or 5}\n{motion}\n")
-        data = (prefix + text + "\n").encode("ascii", "replace")
+        # the state restated for the parser: position (machine, offsets still zero), the work
+        # offsets (G54…G59 origins, the system in use, TLO, G92), then the modal words
+        prefix = [f"G21 G90 G0 X{x!r} Y{y!r} Z{z!r}"]
+        for k in np.flatnonzero(np.any(self.coord_origins != 0, axis=1)):
+            ox, oy, oz = (float(v) for v in self.coord_origins[k])
+            prefix.append(f"G10 L2 P{k + 1} X{ox!r} Y{oy!r} Z{oz!r}")
+        prefix.append(f"G{self.coord_system}")
+        if self.tool_offset:
+            prefix.append(f"G43.1 Z{float(self.tool_offset)!r}")
+        if np.any(self.g92 != 0):
+            # G92 v makes the current position read v: v = machine − origin − G92 − TLO
+            v = base - self.coord_origins[self.coord_system - 54] - self.g92
+            v[2] -= self.tool_offset
+            prefix.append("G92 X{!r} Y{!r} Z{!r}".format(*(float(c) for c in v)))
+        prefix += [f"G{self.units} G{self.distance}{arc} G{self.plane}{feed} S{float(self.s_word)!r} "
+                   f"M{self.laser_mode_word or 5}", motion]
+        data = ("\n".join(prefix) + "\n" + text + "\n").encode("ascii", "replace")
         out = _parse_run(data, get_dialect("grbl"), True, True)
         rows = out.moves
         kind, start, end, centre, plane = (rows[k] for k in ("kind", "start", "end", "centre", "plane"))
@@ -496,7 +526,7 @@ class VirtualMachine:
         if len(e_code):
             return int(e_code[0])
         state, pos = out.trace, out.trace["position"]
-        row = 3
+        row = len(prefix)                                # the trace row of the sent line
         new_pos = pos[row]
         lo = np.zeros(3)
         hi = np.asarray(self.machine.travel_mm, float)
@@ -518,10 +548,15 @@ class VirtualMachine:
             float(state["feed_mm_min"][row]), float(state["power_s"][row]),
             int(state["laser"][row]))
         self.lines_accepted += 1
+        if not self.check_mode:                          # check mode changes no offsets
+            self.coord_system = int(state["coord_system"][row])
+            self.coord_origins = np.array(state["coord_origins"][row], float)
+            self.g92 = np.array(state["g92"][row], float)
+            self.tool_offset = float(state["tool_offset"][row])
         if self.check_mode:
             self._check_pos = np.array(new_pos, float)
             return None
-        mine = np.flatnonzero(line == 4)
+        mine = np.flatnonzero(line == row + 1)
         n_word = -1
         head = text.lstrip().upper()
         if head.startswith("N"):
@@ -613,11 +648,13 @@ class VirtualMachine:
 
 
 
-def burn_coverage(moves, vm: VirtualMachine, *, tol_mm: float = 1e-3):
+def burn_coverage(moves, vm: VirtualMachine, *, tol_mm: float = 1e-3, origin_mm=(0.0, 0.0)):
     """How often each burning move of a job was burned by the virtual machine.
 
     Every piece of motion the machine executed with the beam on is laid onto
     the job's burning straight moves (within ``tol_mm`` of the line).
+    ``origin_mm`` is the work offset (XY, mm) the controller held when the job
+    started — the job's own coordinates are relative to it.
 
     Returns
     -------
@@ -631,7 +668,8 @@ def burn_coverage(moves, vm: VirtualMachine, *, tol_mm: float = 1e-3):
         Length of each burning move, mm.
     """
     on = np.flatnonzero(moves.laser_on & ~moves.is_arc)
-    segments = [(moves.start[i, :2], moves.end[i, :2]) for i in on]
+    shift = np.asarray(origin_mm, float)[:2]
+    segments = [(moves.start[i, :2] + shift, moves.end[i, :2] + shift) for i in on]
     pieces = [(np.array(p.start[:2]), np.array(p.end[:2])) for p in vm.executed
               if p.power > 0 and not p.rapid and p.start != p.end]
     covered = np.zeros(len(segments))

@@ -67,8 +67,8 @@ def test_bad_port_is_logged_not_raised(monkeypatch):
 
 
 def test_set_origin_and_test_pulse_on_the_virtual_machine():
-    """Set origin sends GRBL's G10 L20 P0 X0 Y0, which the machine accepts (the virtual
-    machine does not model work offsets yet: its WCO stays 0, so WPos is not checked). Test pulse: the beam burns only while moving in laser mode, so the pulse
+    """Set origin sends GRBL's G10 L20 P0 X0 Y0: the work position reads 0 where the head is,
+    the machine position is unchanged. Test pulse: the beam burns only while moving in laser mode, so the pulse
     is a slow step out and back — the machine burned at the chosen power for the chosen time,
     ended where it started with the laser off, and the modal state (G90, F) is restored."""
     panel = ControlPanel(virtual_options={"time_scale": 0})
@@ -82,6 +82,8 @@ def test_set_origin_and_test_pulse_on_the_virtual_machine():
     panel.origin_button.click()
     assert vm.lines_accepted == accepted + 1 and "! " not in panel.console_log.value
     assert "> set origin (G10 L20 P0 X0 Y0)" in panel.console_log.value
+    st = m.wait_status(lambda s: s.wco is not None and s.wco[:2] == pytest.approx((10, 5)), 5)
+    assert st.mpos[:2] == pytest.approx((10, 5)) and st.wpos[:2] == pytest.approx((0, 0))
     before = len(vm.executed)
     panel.pulse_power.value = 2.0                          # 2 % of $30
     panel.pulse_button.click()

@@ -59,8 +59,8 @@ def machine(port_wrapper=None, **vm_opts):
 POSITION_TOL_MM = 1e-3
 
 
-def assert_exactly_once(job, vm):
-    covered, doubled, stray, lengths = burn_coverage(job.moves, vm, tol_mm=POSITION_TOL_MM)
+def assert_exactly_once(job, vm, origin_mm=(0.0, 0.0)):
+    covered, doubled, stray, lengths = burn_coverage(job.moves, vm, tol_mm=POSITION_TOL_MM, origin_mm=origin_mm)
     assert len(lengths) == len(job_segments(job)) > 0
     np.testing.assert_allclose(covered, lengths, atol=POSITION_TOL_MM)
     assert doubled.max() < POSITION_TOL_MM, "a stretch was burned twice"
@@ -302,7 +302,7 @@ def test_bad_file_and_options_are_refused_up_front():
 def test_resume_text_restores_inch_relative_state():
     job = Job.from_text("G20 G91\nM3 S200 F10\nG1 X1\nG1 Y1\n")
     pre = resume_text(job, 4)
-    assert pre[:3] == ["M5 S0", "G21 G90 G91.1 G17", "G0 X25.4 Y0 Z0"]
+    assert pre[:3] == ["M5 S0", "G21 G90 G91.1 G17 G54", "G0 X25.4 Y0 Z0"]
     assert pre[3] == "G1 F254 S200" and pre[-1] == "G20 G91"
     with pytest.raises(InputError, match="outside the file"):
         resume_text(job, 99)
@@ -348,4 +348,28 @@ def test_transcript_has_timestamps_and_both_directions():
     assert any(x[2] == "ok" for x in got)
     ts = [t[0] for t in g.transcript]
     assert ts == sorted(ts)
+    g.close()
+
+
+@pytest.mark.parametrize("own_g92", [False, True])
+def test_resume_lands_in_the_job_coordinates_under_work_offsets(own_g92):
+    """The user set the origin at (30, 20) before the job (G10 L20, kept by the controller);
+    the job may also shift itself with G92 (cleared by the fault's soft reset). After a
+    garbled line and a resume from the reported stop point, every burn happened exactly
+    once, at the job's coordinates from that origin."""
+    text = raster_text()
+    if own_g92:
+        text = "G0 X5 Y5\nG92 X0 Y0\n" + text      # the job's (0, 0) is (35, 25) on the machine
+    job = Job.from_text(text, machine=MACHINE)
+    vm, g = machine(lambda v: FaultyPort(v, garble_line=24))
+    g.command("G0 X30 Y20")
+    g.wait_status(lambda s: s.state == "Idle", 5)
+    g.command("G10 L20 P0 X0 Y0")
+    rep = run_job(g, job)
+    assert not rep.ok and "soft reset (buffers flushed, laser off)" in rep.safe_actions
+    assert vm.g92.tolist() == [0, 0, 0] and vm.work_offset[:2].tolist() == [30, 20]
+    g.link.port.garble_line = None
+    rep2 = run_job(g, job, resume_from=rep.resume_line, resume_position=rep.stop_position)
+    assert rep2.ok, rep2.summary()
+    assert_exactly_once(job, vm, origin_mm=(30, 20))
     g.close()
