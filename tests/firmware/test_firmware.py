@@ -1,0 +1,190 @@
+"""The firmware from the top-level suite: its C tests, and the host simulator
+driven by labkit.machine over a pty and compared with labkit.motion.
+
+The simulator is built with ``make -C firmware sim`` (a failed build fails
+every test here). Jobs are small so that the whole module runs in well under
+a minute.
+"""
+from __future__ import annotations
+
+import csv
+import importlib.util
+import re
+import subprocess
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from labkit.errors import GcodeError
+from labkit.gcode import parse
+from labkit.machine.grbl import Grbl
+from labkit.machine.link import open_link
+from labkit.machine.stream import Controls, Job, run_job
+
+ROOT = Path(__file__).resolve().parents[2]
+FW = ROOT / "firmware"
+SIM = FW / "build/host/labkit-fw-sim"
+JOB = ROOT / "data/gcode/cncjs/jsdc-laser.gcode"
+STEPS_PER_MM = 6400.0 / 3.0      # firmware defaults.h (CBR-40): one step, 0.47 µm
+
+
+def _load(name):
+    spec = importlib.util.spec_from_file_location(name, FW / "tests" / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+@pytest.fixture(scope="module")
+def sim():
+    run = subprocess.run(["make", "-C", str(FW), "sim"], capture_output=True, text=True)
+    assert run.returncode == 0, f"make -C firmware sim failed:\n{run.stdout}\n{run.stderr}"
+    assert SIM.exists()
+    return str(SIM)
+
+
+@pytest.fixture
+def short_job(tmp_path):
+    """The first 300 lines of jsdc-laser.gcode and an M5 (the beam off at the end)."""
+    lines = JOB.read_text("utf-8").splitlines()[:300] + ["M5"]
+    path = tmp_path / "jsdc-300.gcode"
+    path.write_text("\n".join(lines) + "\n", "utf-8")
+    return path
+
+
+def _status_name(number):
+    with open(ROOT / "labkit/status_codes.csv", newline="", encoding="utf-8") as f:
+        return {int(row["code"]): row["name"] for row in csv.DictReader(f)}[number]
+
+
+class _Sim:
+    """The simulator on a pty in GRBL mode, with labkit's GRBL client connected."""
+
+    def __init__(self, sim):
+        self.proc, pty = _load("sim_stream").start_sim(sim, "grbl")
+        self.grbl = Grbl(open_link(pty))
+        self.grbl.realtime("soft_reset")          # the banner went out before the pty opened
+        self.info = self.grbl.connect(timeout_s=5.0)
+
+    def close(self):
+        self.grbl.close()
+        self.proc.terminate()
+        try:
+            self.proc.communicate(timeout=5)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.communicate()
+
+
+def _assert_ends_at(status, job):
+    end = [float(v) for v in job.moves.end[-1]]
+    for got, want in zip(status.mpos, end):
+        assert abs(got * STEPS_PER_MM - round(want * STEPS_PER_MM)) <= 1.01, (status.raw, end)
+
+
+def test_c_host_tests():
+    run = subprocess.run(["make", "--no-print-directory", "-C", str(FW), "test"], capture_output=True, text=True)
+    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
+    last = [ln for ln in run.stdout.splitlines() if ln.strip()][-1]
+    m = re.search(r"\ball (\d+) test programs passed$", last)
+    assert m and int(m.group(1)) >= 6, last
+
+
+@pytest.mark.parametrize("native", [False, True], ids=["grbl", "labkit-fw"])
+def test_stream_job(sim, short_job, native, capsys):
+    """(a) GRBL mode with the character-counting streamer, (b) the labkit-fw dialect:
+    every line ok, RX budget 128 kept, '?' at the job's end point, beam off, M5."""
+    argv = ["sim_stream", sim, str(short_job)] + (["--labkit-fw"] if native else [])
+    rc = _load("sim_stream").main(argv)
+    out = capsys.readouterr().out
+    assert rc == 0, out
+    assert "sim_stream (" + ("labkit-fw" if native else "grbl") + "): PASS" in out
+    sent = re.search(r"(\d+) lines sent, (\d+) ok", out)
+    assert native or (sent and sent.group(1) == sent.group(2) and int(sent.group(1)) > 250), out
+
+
+def test_trace_equals_labkit_steps(sim, tmp_path, capsys):
+    """(c) the simulator's --trace equals ``labkit steps`` tick for tick (lines and arcs)."""
+    job = tmp_path / "lines-arcs.gcode"
+    job.write_text("G21 G90\nM4 S600\nG1 X5 Y0 F1200\nG2 X10 Y5 I0 J5\nG1 X10 Y8 S300\n"
+                   "G3 X6 Y8 I-2 J0 F900\nG0 X0 Y0\nG1 X2 Y1 F3000\nM5\n", "utf-8")
+    rc = _load("sim_trace").main(["sim_trace", sim, str(job)])
+    out = capsys.readouterr().out
+    assert rc == 0, out
+    assert "sim_trace: identical" in out
+    ticks = int(out.split(" simulator ticks")[0].rsplit(" ", 1)[1])
+    assert ticks > 10000, out
+
+
+def test_feed_hold_and_resume(sim, short_job):
+    """(d) '!' mid-job: Hold with the laser at 0 at once; '~' finishes it, every line ok."""
+    job = Job.from_text(short_job.read_text("utf-8"), filename=str(short_job))
+    s = _Sim(sim)
+    controls = Controls()
+    seen = {}
+
+    def progress(executed, acknowledged, total, eta):
+        if acknowledged >= 120 and "hold_at" not in seen:
+            seen["hold_at"] = acknowledged
+            controls.pause()
+
+    def watcher():
+        while "hold_at" not in seen:
+            time.sleep(0.005)
+        st = s.grbl.wait_status(lambda st: st.state.startswith("Hold"), timeout_s=5.0)
+        seen["hold"] = st
+        time.sleep(0.3)                       # held: nothing may move meanwhile
+        seen["still"] = s.grbl.get_status()
+        controls.resume()
+
+    t = threading.Thread(target=watcher, daemon=True)
+    try:
+        t.start()
+        report = run_job(s.grbl, job, mode="counting", status_interval_s=0.02,
+                         progress=progress, controls=controls, watchdog_s=5.0)
+        t.join(10)
+        assert report.ok and report.fault is None, report.summary()
+        assert report.lines_acknowledged == len(job.send)
+        assert not report.errors
+        hold, still = seen["hold"], seen["still"]
+        assert hold.spindle in (0, 0.0), hold.raw          # the beam went off with the hold
+        assert still.state.startswith("Hold") and still.mpos == hold.mpos, (hold.raw, still.raw)
+        final = s.grbl.get_status()
+        assert final.state == "Idle" and final.spindle in (0, 0.0), final.raw
+        _assert_ends_at(final, job)
+    finally:
+        s.close()
+
+
+def test_rejected_line_and_resume(sim, short_job):
+    """(e) a line GRBL rejects: error:N with labkit's number; resuming finishes the job."""
+    bad = "G0 G1 X3 Y3"                       # two motion commands (one modal group)
+    with pytest.raises(GcodeError) as exc:
+        parse(bad + "\n", dialect="grbl")
+    want_code = exc.value.code
+    assert _status_name(want_code) == "modal_group_violation"
+    job = Job.from_text(short_job.read_text("utf-8"), filename=str(short_job))
+    k = 150
+    bad_line, good_text = job.send[k]
+    job.send[k] = (bad_line, bad)
+    s = _Sim(sim)
+    try:
+        report = run_job(s.grbl, job, mode="counting", on_error="stop", watchdog_s=5.0)
+        assert not report.ok
+        assert report.errors[0][:2] == (bad_line, want_code), report.errors
+        assert report.resume_line is not None and report.resume_line <= bad_line
+        assert report.last_executed_line < bad_line
+        # the line fixed, resume where the report says: every line ok, the job's end reached
+        job.send[k] = (bad_line, good_text)
+        if s.grbl.get_status().state == "Alarm":    # the reset stopped motion: GRBL's ALARM:3
+            s.grbl.unlock()
+        again = run_job(s.grbl, job, mode="counting", resume_from=report.resume_line,
+                        resume_position=report.stop_position, watchdog_s=5.0)
+        assert again.ok and not again.errors, again.summary()
+        final = s.grbl.get_status()
+        assert final.state == "Idle" and final.spindle in (0, 0.0), final.raw
+        _assert_ends_at(final, job)
+    finally:
+        s.close()
