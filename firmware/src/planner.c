@@ -796,6 +796,8 @@ plan_block_t *plan_get_current_block(void)
     entry_rest = dmin(dmax(pl.prev_rest, b->rest_mm_s), dmin(cp, cn));
   }
   double vb = jrest[e];
+  if (e < cnt)   /* the block past the window may have to stop within itself */
+    vb = dmin(vb, reach(dmin(win[e]->rest_mm_s, vb), win[e]->length_mm, slope_down(win[e]), pl.law));
   for (uint32_t j = e - 1; j >= 1 && j < e; j--)
     vb = dmin(jcap[j], reach(vb, win[j]->length_mm, slope_down(win[j]), pl.law));
   double exitv = dmin(vb, reach(entry, b->length_mm, slope_up(b), pl.law));

@@ -10,13 +10,16 @@ from labkit.motion._ramp import reach_nb
 
 
 @jit
-def windowed_passes(length, up, down, jcap, jrest, window, law):
+def windowed_passes(length, up, down, jcap, jrest, rest, window, law):
     """Junction speeds (n + 1) of n blocks planned through a buffer of ``window`` blocks.
 
     ``jcap[j]`` caps the speed at junction j (entry of block j; j = n is the
     end), ``jrest[j]`` is the rest speed there. Block k's entry is fixed when
     it starts running; its exit is the smaller of (a) the backward pass over
-    the blocks k+1 … k+window−1 from a stop at the end of the buffer and
+    the blocks k+1 … k+window−1 from a stop at the end of the buffer (at the
+    rest speed there, or lower: at most what the block past the buffer can
+    slow down from to its own rest speed ``rest[j]`` within its length, since
+    a later window can end there) and
     (b) what accelerating from the entry over block k reaches (forward pass).
     """
     n = length.shape[0]
@@ -25,6 +28,10 @@ def windowed_passes(length, up, down, jcap, jrest, window, law):
     for k in range(n):
         j_end = min(k + window, n)
         vb = jrest[j_end]
+        if j_end < n:
+            # the block past the window may have to stop within itself (the next
+            # window can end lower than this rest speed): start no faster than that
+            vb = min(vb, reach_nb(min(rest[j_end], vb), length[j_end], down[j_end], law))
         for j in range(j_end - 1, k, -1):
             vb = min(jcap[j], reach_nb(vb, length[j], down[j], law))
         v[k + 1] = min(vb, reach_nb(v[k], length[k], up[k], law))

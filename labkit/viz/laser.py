@@ -156,7 +156,7 @@ def process_window(fit, ax=None, *, power_range_mw=(200.0, 2500.0), speed_range_
     return ax
 
 
-def target_width_explorer(fits: dict, *, speeds_mm_min=(200.0, 2000.0), max_power_mw: float = 2500.0,
+def target_width_explorer(fits: dict, *, speeds_mm_min=(200.0, 2000.0), max_power_mw: float | None = None,
                           width_mm: float = 0.2):
     """Target-width slider → the power each model asks for at every speed, with the band.
 
@@ -166,8 +166,9 @@ def target_width_explorer(fits: dict, *, speeds_mm_min=(200.0, 2000.0), max_powe
         Name → :class:`labkit.laser.models.Fit`.
     speeds_mm_min : (float, float)
         Speed axis span.
-    max_power_mw : float
-        The laser's maximum (drawn as a line; settings above it cannot be burned).
+    max_power_mw : float, optional
+        The laser's maximum (drawn as a line; settings above it cannot be burned);
+        default the machine description's (``labkit.motion.CBR40``).
     width_mm : float
         Slider's starting value.
 
@@ -175,6 +176,10 @@ def target_width_explorer(fits: dict, *, speeds_mm_min=(200.0, 2000.0), max_powe
     -------
     ipywidgets.VBox
     """
+    if max_power_mw is None:
+        from labkit.motion import CBR40
+
+        max_power_mw = CBR40.laser_max_power_mw
     import ipywidgets as w
     import matplotlib.pyplot as plt
 

@@ -55,6 +55,13 @@ CASES = {
         description="Rapids, a dwell and cuts on the GRBL diode machine (80 steps/mm, 16 MHz timer)",
         machine="grbl-diode", planner="junction",
         gcode="G21 G90\nG0 X1 Y0.5\nM3 S1000\nG1 X1.5 Y0.5 F1500\nG4 P0.05\nG1 X1.5 Y1.0\nM5\nG0 X0 Y0\n"),
+    "short_blocks_buffer1_fast": dict(
+        description="Short blocks through a one-block look-ahead, fast MBLA on the GRBL diode "
+                    "machine: the window's end speed must let the next block slow to its rest "
+                    "speed (the reference used to refuse this job)",
+        machine="grbl-diode", planner="fast", buffer_blocks=1,
+        gcode="G21 G90\nM3 S583\nG1 X0 Y0 F600\nG1 X-0.0554 Y-0.0073 F8070\n"
+              "G1 X-0.0361 Y-0.0211 F8406 S470\nG1 X0.0488 Y0.0710 S248\nG1 X0.0183 Y0.0907 F2100\n"),
 }
 
 
