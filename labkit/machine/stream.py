@@ -714,7 +714,7 @@ def resume_text(job: Job, line: int, position=None) -> list[str]:
     >>> resume_text(job, 4)
     ['M5 S0', 'G21 G90 G91.1 G17 G54', 'G0 X10 Y0 Z0', 'G1 F600 S300', 'M4']
     >>> resume_text(job, 4, position=(10, 4, 0))[-1]
-    'G1 X10 Y10 Z0'
+    'G1 X10 Y10 Z0 F600 S300'
 
     A job that sets its own origin with G92 gets it back:
 
@@ -768,11 +768,17 @@ def resume_text(job: Job, line: int, position=None) -> list[str]:
         kind = int(m.kind[r])
         offset = m.work_offset[r]                    # Moves are machine coordinates
         end = m.end[r] - offset
+        # the rest of the line burns with the line's own F, S and M3/M4 (its words may set them)
+        own, _ = _modal_at(job, line + 1)
+        if own["laser"] != laser:
+            out.append(own["laser"])
+        words = (f" F{float(own['feed_mm_min']):g}" if math.isfinite(own["feed_mm_min"]) else "") + \
+            f" S{float(own['S']):g}"
         if kind in (2, 3):
             c = m.centre[r] - offset - here
-            out.append(f"G{kind} {_xyz(end)} I{c[0]:.4f} J{c[1]:.4f}")
+            out.append(f"G{kind} {_xyz(end)} I{c[0]:.4f} J{c[1]:.4f}{words}")
         else:
-            out.append(f"G{kind} {_xyz(end)}")
+            out.append(f"G{kind} {_xyz(end)}{words}")
     # back to the file's own units and distance mode for the lines that follow
     if units != "G21" or distance != "G90":
         out.append(f"{units} {distance}")

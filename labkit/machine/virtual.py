@@ -165,6 +165,7 @@ class VirtualMachine:
         self._status_count = 0
         self._wco_sent = np.zeros(3)
         self._speed = 0.0           # mm/s at the end of the last block executed
+        self._hold_v = 0.0          # mm/s while braking for a feed hold
         self.coord_origins = np.zeros((6, 3))    # G54…G59, machine mm: GRBL keeps them in EEPROM
         self._reset_parser()
         if banner:
@@ -233,7 +234,8 @@ class VirtualMachine:
 
     def laser_output(self) -> float:
         """Beam power now, as a fraction of full."""
-        moving = self.state in ("Run", "Jog") and self._blocks
+        moving = (self.state in ("Run", "Jog") or (self.state == "Hold" and self.substate == 1)) \
+            and self._blocks
         if self.settings[32] != "0":                    # laser mode: beam only while cutting
             return self._blocks[0].power if moving else 0.0
         # spindle mode ($32=0): the beam follows M3/M4 S whatever the motion
@@ -271,21 +273,25 @@ class VirtualMachine:
             self._emit(self._status_report())
         elif kind == "hold":
             if self.state in ("Run",):
-                self.state, self.substate = "Hold", 0     # stops at once (deceleration ignored)
-                self._speed = 0.0
-                self._note_stop("feed hold")
+                # GRBL decelerates along the path (Hold:1) and reports Hold:0 once stopped
+                self.state, self.substate = "Hold", 1
+                self._hold_v = self._current_speed()
             elif self.state == "Jog":
                 self._blocks.clear()
                 self.state = "Idle"
         elif kind == "start":
             if self.state == "Hold":
+                if self.substate == 1 and self._blocks:    # resumed while still braking
+                    self._rearm(self._hold_v)
                 self.state = "Run" if self._blocks else "Idle"
+                self.substate = 0
         elif kind == "jog_cancel":
             if self.state == "Jog":
                 self._blocks.clear()
                 self.state = "Idle"
         elif kind == "reset":
-            moving = self.state in ("Run", "Jog", "Home") and bool(self._blocks)
+            moving = (self.state in ("Run", "Jog", "Home") or (self.state == "Hold" and self.substate == 1)) \
+                and bool(self._blocks)
             self._rx.clear()
             self._blocks.clear()
             self._speed = 0.0
@@ -353,8 +359,66 @@ class VirtualMachine:
         if len(self.rx_fill) > 200_000:
             del self.rx_fill[:100_000]
 
+    def _current_speed(self) -> float:
+        """Speed of the head now, mm/s (the block's mean speed: blocks move at a steady
+        rate between their timed ends)."""
+        if self._blocks and self._blocks[0].started and not self._blocks[0].is_dwell:
+            b = self._blocks[0]
+            length = float(np.linalg.norm(b.end - b.start))
+            return length / b.duration_s if b.duration_s > 0 else 0.0
+        return self._speed
+
+    def _rearm(self, speed: float) -> None:
+        """The head block continues from where the head is, timed afresh from ``speed``."""
+        b = self._blocks[0]
+        b.start = self.pos.copy()
+        b.done_s, b.started = 0.0, False
+        self._speed = speed
+
+    def _brake(self, dt: float) -> float:
+        """Feed hold: decelerate along the queued path at the block's acceleration until the
+        head stops (then Hold:0); returns the time left of ``dt``."""
+        while dt > 0 and self._hold_v > 1e-9 and self._blocks:
+            b = self._blocks[0]
+            if b.is_dwell:
+                break
+            acc = b.accel_mm_s2 if math.isfinite(b.accel_mm_s2) else 1e9
+            length = float(np.linalg.norm(b.end - b.start))
+            if not b.started:                       # entering a queued block while braking
+                b.started, b.done_s = True, 0.0
+                b.duration_s = length / self._hold_v if self._hold_v > 0 else math.inf
+            done = length * (b.done_s / b.duration_s if b.duration_s > 0 else 1.0)
+            left = max(0.0, length - done)
+            v = self._hold_v
+            step = min(dt, v / acc)
+            dist = v * step - 0.5 * acc * step * step
+            start = self.pos.copy()
+            if dist >= left:                         # this block ends before the head stops
+                step = (v - math.sqrt(max(0.0, v * v - 2.0 * acc * left))) / acc
+                self.pos = b.end.copy()
+                self._blocks.popleft()
+            else:
+                u = (b.end - b.start) / length if length > 0 else np.zeros(3)
+                self.pos = self.pos + u * dist
+                b.done_s = (done + dist) / length * b.duration_s
+            self._hold_v = max(0.0, v - acc * step)
+            self._sim_t += step
+            dt -= step
+            self.executed.append(Piece(b.line, b.n_word, b.text, tuple(start), tuple(self.pos),
+                                       b.power, b.rapid, self._sim_t))
+        if self._hold_v <= 1e-9 or not self._blocks or self._blocks[0].is_dwell:
+            self.substate, self._hold_v = 0, 0.0
+            if self._blocks and not self._blocks[0].is_dwell:
+                self._rearm(0.0)
+            self._speed = 0.0
+            self._note_stop("feed hold")
+        return dt
+
     def _run_for(self, dt: float) -> None:
         while dt > 0:
+            if self.state == "Hold" and self.substate == 1:
+                dt = self._brake(dt)
+                continue
             if self.state not in ("Run", "Jog") or not self._blocks:
                 self._sim_t += dt
                 if self.state in ("Run", "Jog") and not self._blocks:

@@ -373,3 +373,42 @@ def test_resume_lands_in_the_job_coordinates_under_work_offsets(own_g92):
     assert rep2.ok, rep2.summary()
     assert_exactly_once(job, vm, origin_mm=(30, 20))
     g.close()
+
+
+def test_a_line_finished_after_a_stop_burns_with_its_own_feed_and_power():
+    """The rest of an interrupted line must carry the S and F the line itself sets (found when
+    the virtual machine learned to brake through a feed hold: the stop fell inside a line whose
+    S differs from the line before, and the rest was 'finished' at S0)."""
+    job = Job.from_text("G21 G90\nM4 S0 F600\nG1 X5\nG1 X10 S500 F1200\nM5\n")
+    pre = resume_text(job, 4, position=(7, 0, 0))
+    assert pre[-1] == "G1 X10 Y0 Z0 F1200 S500"
+    job = Job.from_text("G21 G90\nM5 F600\nG0 X5\nM3 G1 X10 S500\nM5\n")
+    pre = resume_text(job, 4, position=(7, 0, 0))
+    assert pre[-2:] == ["M3", "G1 X10 Y0 Z0 F600 S500"]
+
+
+@pytest.mark.parametrize("garbled", [10, 19, 32])
+def test_feed_hold_inside_a_line_then_resume_burns_each_stretch_once(garbled):
+    """A raster whose lines each set their power; the garbled line's fault brakes the head to a
+    stop inside a line (deceleration, as GRBL), and the resume from there covers the rest.
+    These three stop inside the first line after an S0 line (without the line's own S the
+    rest of it burned at S0)."""
+    rng = np.random.default_rng(1)
+    lines, x = ["G21 G90", "M4 S0 F3000", "G0 X10 Y10"], 10.0
+    for r in range(6):
+        if r:
+            lines.append(f"G1 Y{10 + 0.5 * r:.1f} S0")
+        for _ in range(12):
+            x += 0.5 if r % 2 == 0 else -0.5
+            lines.append(f"G1 X{x:.1f} S{int(rng.integers(50, 1000))}")
+    job = Job.from_text("\n".join(lines + ["M5 S0"]) + "\n", machine=MACHINE)
+    vm, g = machine(lambda v: FaultyPort(v, garble_line=garbled), tick_s=0.002)
+    rep = run_job(g, job)
+    assert not rep.ok
+    g.link.port.garble_line = None
+    rows = np.flatnonzero(job.moves.line == rep.resume_line)
+    assert len(rows) and not np.allclose(job.moves.start[rows[-1]][:2], rep.stop_position[:2])   # inside
+    rep2 = run_job(g, job, resume_from=rep.resume_line, resume_position=rep.stop_position)
+    assert rep2.ok, rep2.summary()
+    assert_exactly_once(job, vm)
+    g.close()
