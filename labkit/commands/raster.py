@@ -70,7 +70,7 @@ def add_img2gcode_arguments(parser: argparse.ArgumentParser) -> None:
 def run_img2gcode(args) -> int:
     """Convert, write the G-code and the preview, print the report."""
     from labkit.gcode import emit
-    from labkit.raster.engrave import image_to_job
+    from labkit.raster.engrave import RasterSettings, image_to_job, placed_size
     from labkit.raster.io import read_image
 
     from labkit._files import check_output_file
@@ -92,41 +92,24 @@ def run_img2gcode(args) -> int:
         raise InputError(f"--min-power {args.min_power:g} is above --max-power {args.max_power:g}")
     img = read_image(args.input)
     rows, cols = img.pixels.shape[:2]
-    size = {}
-    if args.width is not None:
-        size["width_mm"] = args.width
-        width_mm, source = args.width, "--width"
-    elif args.height is not None:
-        size["height_mm"] = args.height
-        width_mm, source = args.height * cols / rows, "--height"
-    else:
-        dpi = args.dpi or img.dpi or 96.0
-        size["dpi"] = dpi
-        width_mm = cols * 25.4 / dpi
-        source = ("--dpi" if args.dpi else "the file's resolution" if img.dpi
-                  else "no resolution in the file: 96 dpi assumed") + f" ({dpi:g} dpi)"
-    height_mm = width_mm * rows / cols
+    width_mm, height_mm, size, source = placed_size(img.pixels.shape, width_mm=args.width, height_mm=args.height,
+                                                    dpi=args.dpi, file_dpi=img.dpi)
     print(f"job size {width_mm:.1f} × {height_mm:.1f} mm from {source}")
     check_fits(args, (width_mm, height_mm), what="the engraving")
     # Estimate the resampled size before resampling: one pixel per beam diameter.
     check_budget("pixels", (width_mm / args.beam) * (height_mm / args.beam),
                  cause=f"a {width_mm:.0f} × {height_mm:.0f} mm job at a {args.beam:g} mm beam",
                  option="--width/--height/--dpi or raise --beam")
-    common = dict(feed_mm_min=args.feed, rapid_mm_min=args.rapid, s_max=args.s_max)
-    if args.mode in ("gray", "dither"):
-        opts = dict(min_power=args.min_power, max_power=args.max_power, overscan_mm=args.overscan,
-                    skip_white_mm=args.skip_white, gamma=args.gamma)
-        if args.mode == "dither":
-            opts["dither"] = args.dither
-    else:
-        opts = dict(power_s=args.power, order=args.order, axis=args.axis,
-                    direction="unidirectional" if args.unidirectional else "bidirectional")
+    settings = RasterSettings(
+        mode=args.mode, beam_mm=args.beam, **size, resample=args.resample, level=args.threshold,
+        invert=args.invert, blur=args.blur, sharpen=args.sharpen, gamma=args.gamma,
+        edge_operator=args.edge_operator, edge_threshold=args.edge_threshold, edge_path=args.edge_path,
+        feed_mm_min=args.feed, rapid_mm_min=args.rapid, s_max=args.s_max, power_s=args.power,
+        order=args.order, axis=args.axis, direction="unidirectional" if args.unidirectional else "bidirectional",
+        min_power=args.min_power, max_power=args.max_power, overscan_mm=args.overscan,
+        skip_white_mm=args.skip_white, dither=args.dither if args.mode == "dither" else None)
     try:
-        job = image_to_job(img.pixels, mode=args.mode, beam_mm=args.beam, resample=args.resample,
-                           level=args.threshold, invert=args.invert, blur=args.blur,
-                           sharpen=args.sharpen, edge_operator=args.edge_operator,
-                           edge_threshold=args.edge_threshold, edge_path=args.edge_path,
-                           **size, **common, **opts)
+        job = image_to_job(img.pixels, settings)
     except MemoryError:
         # image_to_job estimates its memory first (budget raster_bytes); a machine with
         # less free memory than the budget still gets a sentence, not a traceback.

@@ -14,7 +14,7 @@ estimated time at constant speed (the seed's assumption: no acceleration).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
@@ -31,7 +31,7 @@ from labkit.raster.pathing import Connection, Segments, connect, spiral_segments
 from labkit.raster.resample import beam_shape, resample_to_beam
 from labkit.toolpath.moves import LaserMode, MoveKind, Moves
 
-__all__ = ["MODES", "RasterReport", "RasterJob", "segments_to_moves", "mask_job", "gray_job",
+__all__ = ["MODES", "RasterSettings", "placed_size", "DEFAULT_DPI", "RasterReport", "RasterJob", "segments_to_moves", "mask_job", "gray_job",
            "power_map", "image_to_job", "summarize"]
 
 #: Modes of :func:`image_to_job` (and ``labkit img2gcode --mode``).
@@ -429,12 +429,178 @@ def _mask_in_bands(image: np.ndarray, weights, invert: bool, level: float) -> np
     return mask
 
 
-def image_to_job(image, *, mode: str = "zigzag", beam_mm: float = 0.1, width_mm=None, height_mm=None,
-                 pixel_mm=None, dpi=None, resample: str = "bicubic", weights="seed",
-                 level: float = 128, invert: bool = False, blur: bool = False,
-                 sharpen: bool = False, gamma: float = 1.0, edge_operator: str = "sobel",
-                 edge_threshold: float | None = None, edge_pseudo: bool = False,
-                 edge_path: str = "spiral", **options) -> RasterJob:
+@dataclass(frozen=True)
+class RasterSettings:
+    """Every choice of a raster engraving, in one record ([LaserApp] §3.4.1).
+
+    ``image_to_job(image, settings)`` takes it whole; ``image_to_job(image,
+    mode="gray", beam_mm=0.2)`` builds one from the defaults. A field left
+    None takes the mode's default: the binary modes (zigzag, spiral, edges)
+    cut at 1000 mm/min with M3, the gray modes scan at 3000 mm/min with M4.
+
+    Attributes
+    ----------
+    mode : {"zigzag", "spiral", "edges", "gray", "dither"}
+        Binary modes threshold at ``level`` and path the marked pixels; ``edges``
+        paths the edge pixels (:func:`~labkit.raster.edges.detect_edges`);
+        ``gray`` maps darkness to power; ``dither`` diffuses it to full-power dots.
+    beam_mm : float
+        Beam diameter = output pixel size, mm.
+    width_mm, height_mm, pixel_mm, dpi : float, optional
+        The engraved size: exactly one, or none to keep one input pixel per beam
+        (:func:`~labkit.raster.resample.resample_to_beam`).
+    resample : {"bicubic", "nearest"}
+    weights : str
+        Gray weights (:data:`~labkit.raster.color.GRAY_WEIGHTS`).
+    level : float
+        Threshold of the binary modes, 0…256 (darker than it burns).
+    invert, blur, sharpen : bool
+        [LaserApp]'s filters, applied before resampling.
+    gamma : float
+        Gamma of the gray modes (> 0).
+    edge_operator, edge_threshold, edge_pseudo, edge_path
+        Edge detector and how its pixels are pathed (``"spiral"`` or ``"zigzag"``).
+    feed_mm_min : float, optional
+        Cutting (binary) or scanning (gray) feed, mm/min.
+    laser : LaserMode, optional
+        M3 or M4.
+    s_max : float
+        S meaning full power.
+    rapid_mm_min : float, optional
+        Travel speed for the time estimate.
+    power_s, order, axis, direction, ends
+        Binary modes: S of the cuts and how runs are connected and scanned
+        (:func:`mask_job`).
+    min_power, max_power, white_level, dither, serpentine, overscan_mm, skip_white_mm, bidirectional
+        Gray modes: the power map and the scan (:func:`gray_job`); ``dither``
+        None in mode ``"dither"`` means Floyd–Steinberg.
+    """
+
+    mode: str = "zigzag"
+    beam_mm: float = 0.1
+    width_mm: float | None = None
+    height_mm: float | None = None
+    pixel_mm: float | None = None
+    dpi: float | None = None
+    resample: str = "bicubic"
+    weights: str = "seed"
+    level: float = 128
+    invert: bool = False
+    blur: bool = False
+    sharpen: bool = False
+    gamma: float = 1.0
+    edge_operator: str = "sobel"
+    edge_threshold: float | None = None
+    edge_pseudo: bool = False
+    edge_path: str = "spiral"
+    feed_mm_min: float | None = None
+    laser: LaserMode | None = None
+    s_max: float = 1000.0
+    rapid_mm_min: float | None = None
+    power_s: float = 1000.0
+    order: str = "indexed"
+    axis: str = "auto"
+    direction: str = "bidirectional"
+    ends: str = "edge"
+    min_power: float = 0.0
+    max_power: float = 1.0
+    white_level: float = 255.0
+    dither: str | None = None
+    serpentine: bool = False
+    overscan_mm: float = 2.0
+    skip_white_mm: float = 5.0
+    bidirectional: bool = True
+
+    def __post_init__(self):
+        if self.mode not in MODES:
+            raise RasterError(f"mode must be one of {MODES}, got {self.mode!r}")
+        if not (isinstance(self.beam_mm, (int, float)) and self.beam_mm > 0 and math.isfinite(self.beam_mm)):
+            raise RasterError(f"beam_mm must be a finite number > 0 mm, got {self.beam_mm!r}")
+        if not self.gamma > 0:
+            raise RasterError(f"gamma must be > 0, got {self.gamma!r}")
+        if self.edge_path not in ("spiral", "zigzag"):
+            raise RasterError(f"edge_path must be 'spiral' or 'zigzag', got {self.edge_path!r}")
+
+    @property
+    def gray_mode(self) -> bool:
+        return self.mode in ("gray", "dither")
+
+    def size(self) -> dict:
+        """The size fields given (for :func:`~labkit.raster.resample.resample_to_beam`)."""
+        return dict(width_mm=self.width_mm, height_mm=self.height_mm, pixel_mm=self.pixel_mm, dpi=self.dpi)
+
+    def burn_options(self) -> dict:
+        """Keywords of :func:`mask_job` or :func:`gray_job` for this mode (the mode's defaults
+        where a field is None)."""
+        common = dict(s_max=self.s_max, rapid_mm_min=self.rapid_mm_min)
+        if self.feed_mm_min is not None:
+            common["feed_mm_min"] = self.feed_mm_min
+        if self.laser is not None:
+            common["laser"] = self.laser
+        if self.gray_mode:
+            dither = self.dither or ("floyd-steinberg" if self.mode == "dither" else None)
+            return dict(common, min_power=self.min_power, max_power=self.max_power,
+                        white_level=self.white_level, dither=dither, serpentine=self.serpentine,
+                        overscan_mm=self.overscan_mm, skip_white_mm=self.skip_white_mm,
+                        bidirectional=self.bidirectional)
+        return dict(common, power_s=self.power_s, order=self.order, axis=self.axis,
+                    direction=self.direction, ends=self.ends)
+
+
+_SETTING_NAMES = tuple(f.name for f in fields(RasterSettings))
+
+
+#: Resolution assumed for an image file that states none (the CSS pixel: browsers and most tools).
+DEFAULT_DPI = 96.0
+
+
+def placed_size(shape, *, width_mm=None, height_mm=None, dpi=None, file_dpi=None):
+    """How large an image will be engraved, and where that size came from.
+
+    Parameters
+    ----------
+    shape : (rows, cols, ...)
+        The image's shape in pixels.
+    width_mm, height_mm : float, optional
+        The size asked for (the other side follows the aspect ratio).
+    dpi : float, optional
+        The resolution asked for; else the file's ``file_dpi``; else
+        :data:`DEFAULT_DPI`.
+    file_dpi : float, optional
+        The resolution stated in the file.
+
+    Returns
+    -------
+    width_mm, height_mm : float
+    size : dict
+        The one size keyword for :class:`RasterSettings` (``width_mm``,
+        ``height_mm`` or ``dpi``).
+    source : str
+        Where the size came from, for the user (a file without a resolution
+        is said so: a 72-dpi photo becomes a metre-wide job without warning
+        otherwise).
+
+    Examples
+    --------
+    >>> placed_size((300, 600), file_dpi=None)[::3]
+    (158.75, 'no resolution in the file: 96 dpi assumed (96 dpi)')
+    >>> placed_size((300, 600), width_mm=100)[:2]
+    (100, 50.0)
+    """
+    rows, cols = int(shape[0]), int(shape[1])
+    if width_mm is not None:
+        w, size, source = width_mm, dict(width_mm=width_mm), "--width"
+    elif height_mm is not None:
+        w, size, source = height_mm * cols / rows, dict(height_mm=height_mm), "--height"
+    else:
+        res = dpi or file_dpi or DEFAULT_DPI
+        w, size = cols * 25.4 / res, dict(dpi=res)
+        source = ("--dpi" if dpi else "the file's resolution" if file_dpi
+                  else f"no resolution in the file: {DEFAULT_DPI:g} dpi assumed") + f" ({res:g} dpi)"
+    return w, w * rows / cols, size, source
+
+
+def image_to_job(image, settings: RasterSettings | None = None, **changes) -> RasterJob:
     """The whole chain of [LaserApp] §3.4.1 from an image array to Moves.
 
     gray → (invert, sharpen, blur, gamma) → resample to the beam → then by mode:
@@ -447,80 +613,85 @@ def image_to_job(image, *, mode: str = "zigzag", beam_mm: float = 0.1, width_mm=
     image : array_like
         Any image :func:`~labkit.raster.color.to_gray` takes (a bool mask
         is used as is, True = burn).
-    mode : {"zigzag", "spiral", "edges", "gray", "dither"}
-    beam_mm : float
-        Beam diameter = output pixel size, mm.
-    width_mm, height_mm, pixel_mm, dpi : float
-        The engraved size (exactly one; see :func:`~labkit.raster.resample.resample_to_beam`).
-    resample : {"bicubic", "nearest"}
-    weights : str
-        Gray weights (:data:`~labkit.raster.color.GRAY_WEIGHTS`).
-    level : float
-        Threshold for the binary modes (0…256).
-    invert, blur, sharpen : bool
-        The seed's filters, applied before resampling.
-    gamma : float
-        Gamma for the gray modes.
-    edge_operator, edge_threshold, edge_pseudo
-        Edge detector for ``mode="edges"`` (:func:`~labkit.raster.edges.detect_edges`).
-    edge_path : {"spiral", "zigzag"}
-        How the edge pixels are pathed.
-    **options
-        Passed to :func:`mask_job` or :func:`gray_job` (feeds, power, order, overscan …).
+    settings : RasterSettings, optional
+        Every choice of the job (default: :class:`RasterSettings`'s defaults).
+    **changes
+        Fields of :class:`RasterSettings` to change, e.g. ``mode="gray",
+        beam_mm=0.2, width_mm=50``.
 
     Returns
     -------
     RasterJob
+
+    Raises
+    ------
+    RasterError
+        A name that is not a field of :class:`RasterSettings` (the fields are
+        listed), or a field out of range.
+
+    Examples
+    --------
+    >>> mask = np.zeros((4, 6), bool); mask[1:3, 1:5] = True
+    >>> job = image_to_job(mask, beam_mm=0.5, pixel_mm=0.5)
+    >>> job.report.mode, len(job.moves) > 0
+    ('zigzag', True)
+    >>> image_to_job(mask, beam_mm=0.5, pixel_mm=0.5, speed=3)
+    Traceback (most recent call last):
+    ...
+    labkit.errors.RasterError: image_to_job: unknown setting(s) speed; expected fields of RasterSettings: mode, beam_mm, ...
     """
-    if mode not in MODES:
-        raise RasterError(f"mode must be one of {MODES}, got {mode!r}")
+    unknown = sorted(set(changes) - set(_SETTING_NAMES))
+    if unknown:
+        raise RasterError(f"image_to_job: unknown setting(s) {', '.join(unknown)}; "
+                          f"expected fields of RasterSettings: {', '.join(_SETTING_NAMES)}")
+    cfg = replace(settings or RasterSettings(), **changes)
     arr = np.asarray(image)
     is_mask = arr.dtype == bool and arr.ndim == 2
-    if is_mask and (mode in ("gray", "dither", "edges") or blur or sharpen):
+    if is_mask and (cfg.mode in ("gray", "dither", "edges") or cfg.blur or cfg.sharpen):
         arr = np.where(arr, 0, 255).astype(np.uint8)     # a mask means True = burn = black
         is_mask = False
-    size = dict(width_mm=width_mm, height_mm=height_mm, pixel_mm=pixel_mm, dpi=dpi)
-    if arr.ndim in (2, 3) and arr.size and beam_mm > 0 and math.isfinite(beam_mm):
-        out_shape = beam_shape(arr.shape, beam_mm, **size)
-        banded = (mode in ("zigzag", "spiral") and not (blur or sharpen) and arr.dtype.kind == "u"
+    size = cfg.size()
+    if arr.ndim in (2, 3) and arr.size:
+        out_shape = beam_shape(arr.shape, cfg.beam_mm, **size)
+        banded = (cfg.mode in ("zigzag", "spiral") and not (cfg.blur or cfg.sharpen) and arr.dtype.kind == "u"
                   and out_shape == arr.shape[:2])
-        need = working_bytes(arr.shape[:2], out_shape, mode, banded=banded or is_mask)
+        need = working_bytes(arr.shape[:2], out_shape, cfg.mode, banded=banded or is_mask)
         check_budget("raster_bytes", need,
                      cause=f"a {arr.shape[1]:,} × {arr.shape[0]:,} px image engraved as "
-                           f"{out_shape[1]:,} × {out_shape[0]:,} beam pixels ({mode})",
+                           f"{out_shape[1]:,} × {out_shape[0]:,} beam pixels ({cfg.mode})",
                      option="the size (width, height, dpi) or raise the beam diameter")
     else:
         banded = False
     if is_mask:
-        arr = ~arr if invert else arr
+        arr = ~arr if cfg.invert else arr
     elif banded:
         # One pixel per beam already and every step is per pixel: threshold band by band,
         # so the whole image is never held as float64 gray (8 bytes a pixel), only the mask.
-        arr, is_mask = _mask_in_bands(arr, weights, invert, level), True
+        arr, is_mask = _mask_in_bands(arr, cfg.weights, cfg.invert, cfg.level), True
     else:
-        arr = to_gray(arr, weights)
-        if invert:
+        arr = to_gray(arr, cfg.weights)
+        if cfg.invert:
             arr = _invert(arr)
-        if sharpen:
+        if cfg.sharpen:
             arr = _sharpen(arr)
-        if blur:
+        if cfg.blur:
             arr = _blur(arr)
-    res = resample_to_beam(arr, beam_mm=beam_mm, **size, method=resample, level=level)
+    res = resample_to_beam(arr, beam_mm=cfg.beam_mm, **size, method=cfg.resample, level=cfg.level)
     img = res.image
-    common = dict(pixel_mm=beam_mm, size_error_mm=res.error_mm)
-    if mode in ("gray", "dither"):
-        if gamma != 1.0:
-            img = adjust_gamma(img, gamma)
-        if mode == "dither":
-            options.setdefault("dither", "floyd-steinberg")
-        return gray_job(img, **common, **options)
-    if mode == "edges":
+    common = dict(pixel_mm=cfg.beam_mm, size_error_mm=res.error_mm)
+    if cfg.gray_mode:
+        if cfg.gamma != 1.0:
+            img = adjust_gamma(img, cfg.gamma)
+        return gray_job(img, **common, **cfg.burn_options())
+    if cfg.mode == "edges":
         if img.shape[0] > arr.shape[0] or img.shape[1] > arr.shape[1]:
             # Upscaling spreads a sharp edge over several beam pixels, so no gradient
             # reaches the detector's threshold and the job came out empty: find the
             # edges of the shapes (thresholded at ``level``) at the beam's resolution.
-            img = np.where(img < level, 0.0, 255.0)
-        mask = detect_edges(img, edge_operator, threshold=edge_threshold, pseudo=edge_pseudo, level=level)
-        return mask_job(mask, mode=edge_path, report_mode="edges", **common, **options)
-    mask = img if is_mask else threshold(img, level)
-    return mask_job(mask, mode=mode, **common, **options)
+            img = np.where(img < cfg.level, 0.0, 255.0)
+        mask = detect_edges(img, cfg.edge_operator, threshold=cfg.edge_threshold, pseudo=cfg.edge_pseudo,
+                            level=cfg.level)
+        return mask_job(mask, mode=cfg.edge_path, report_mode="edges", **common, **cfg.burn_options())
+    mask = img if is_mask else threshold(img, cfg.level)
+    return mask_job(mask, mode=cfg.mode, **common, **cfg.burn_options())
+

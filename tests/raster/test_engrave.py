@@ -175,3 +175,37 @@ def test_engrave_errors():
         summarize(mask_job(g < 1, pixel_mm=0.1).moves, feed_mm_min=0)
     with pytest.raises(RasterError, match="method must be one of"):
         dither(g, "bayer")
+
+
+def test_settings_are_one_record_with_named_fields():
+    """image_to_job takes one RasterSettings (or its fields by name); an unknown name is refused
+    with the valid ones listed, instead of reaching mask_job or gray_job."""
+    from labkit.errors import RasterError
+    from labkit.raster.engrave import RasterSettings, image_to_job
+
+    img = np.full((20, 30), 255, np.uint8)
+    img[5:15, 5:25] = 0
+    s = RasterSettings(mode="gray", beam_mm=0.5, pixel_mm=0.5, feed_mm_min=2400)
+    a = image_to_job(img, s)
+    b = image_to_job(img, mode="gray", beam_mm=0.5, pixel_mm=0.5, feed_mm_min=2400)
+    assert len(a.moves) == len(b.moves) > 0 and np.array_equal(a.moves.end, b.moves.end)
+    assert set(a.moves.feed_mm_min[a.moves.laser_on]) == {2400.0}
+    # the mode's defaults where a field is None: gray scans with M4, binary cuts with M3
+    assert s.burn_options().get("laser") is None and "dither" in s.burn_options()
+    assert "power_s" in RasterSettings(mode="zigzag").burn_options()
+    with pytest.raises(RasterError, match=r"unknown setting\(s\) feed; expected fields of RasterSettings: mode, beam_mm"):
+        image_to_job(img, mode="gray", beam_mm=0.5, pixel_mm=0.5, feed=2400)
+    for bad, msg in ((dict(beam_mm=0), "beam_mm must be"), (dict(gamma=0), "gamma must be"),
+                     (dict(edge_path="hilbert"), "edge_path must be")):
+        with pytest.raises(RasterError, match=msg):
+            RasterSettings(**bad)
+
+
+def test_placed_size_says_where_the_size_came_from():
+    from labkit.raster.engrave import placed_size
+
+    assert placed_size((1000, 4000), file_dpi=72)[3] == "the file's resolution (72 dpi)"
+    w, h, size, source = placed_size((1000, 4000))
+    assert (round(w, 3), round(h, 3), size) == (1058.333, 264.583, {"dpi": 96.0})
+    assert "no resolution in the file" in source
+    assert placed_size((100, 200), height_mm=50)[:3] == (100.0, 50.0, {"height_mm": 50})
