@@ -105,10 +105,11 @@ class Kernel:
         Below this many array elements in all, an uncompiled module runs ``py_func``.
     """
 
-    def __init__(self, func, options: dict, python_below: int):
+    def __init__(self, func, options: dict, python_below: int, python=None):
         self.py_func = func
         self.options = options
         self.python_below = int(python_below)
+        self.python_impl = python
         self.dispatcher = None
         functools.update_wrapper(self, func)
 
@@ -140,9 +141,26 @@ class Kernel:
         """Run as plain Python (kernels it calls too), whatever the size."""
         _python_depth[0] += 1
         try:
-            return self.py_func(*(_as_python(a) for a in args))
+            return self.python_twin()(*(_as_python(a) for a in args))
         finally:
             _python_depth[0] -= 1
+
+    def python_twin(self):
+        """``py_func`` with the kernels it names bound to their own twins: a kernel running as
+        Python calls the kernels below it as plain functions, without passing through
+        :meth:`__call__` for each call (a parse makes tens of thousands of such calls)."""
+        twin = self.__dict__.get("_twin")
+        if twin is None:
+            f = self.python_impl or self.py_func
+            names = dict(f.__globals__)
+            twin = types.FunctionType(f.__code__, names, f.__name__, f.__defaults__, f.__closure__)
+            twin.__kwdefaults__ = f.__kwdefaults__
+            self._twin = twin                    # before the callees: kernels may call each other
+            for name in f.__code__.co_names:
+                value = names.get(name)
+                if isinstance(value, Kernel):
+                    names[name] = value.python_twin()
+        return twin
 
     def compiled(self):
         """The numba dispatcher (it compiles, or loads from numba's cache, on first call)."""
@@ -175,8 +193,13 @@ def forced(how: str):
         _forced[0] = previous
 
 
-def jit(func=None, *, python_below: int = 0, **options):
+def jit(func=None, *, python_below: int = 0, python=None, **options):
     """Declare a kernel: ``@jit`` or ``@jit(python_below=N, **numba_options)``.
+
+    ``python`` gives a plain-Python twin that runs instead of the kernel's own code when it
+    runs as Python — for the rare kernel whose numba-friendly form is slow in Python
+    (element-by-element writes into a record array); it must compute the same (tests compare
+    the two paths).
 
     ``cache=True`` is the default (numba's cache folder is set by :mod:`labkit`).
 
@@ -196,7 +219,7 @@ def jit(func=None, *, python_below: int = 0, **options):
     options.setdefault("cache", True)
 
     def wrap(f):
-        kernel = Kernel(f, options, python_below)
+        kernel = Kernel(f, options, python_below, python)
         _registry.setdefault(f.__module__, []).append(kernel)
         return kernel
 

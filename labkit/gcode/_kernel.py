@@ -219,7 +219,30 @@ def _in_range(v):
     return abs(v) < MAX_ABS_VALUE      # False for inf and NaN too
 
 
-@jit
+_ROW_BLANK = BLANK_ROW[0].item()
+_ROW_AT = {name: i for i, name in enumerate(MOVE_ROW.names)}
+
+
+def _put_row_python(rows, i, k, p0, p1, c, plane, feed, power, laser, dwell, line, offs):
+    """:func:`_put_row` for the Python path: one tuple assignment instead of nineteen record
+    field writes (each a slow numpy attribute lookup in Python)."""
+    row = list(_ROW_BLANK)
+    row[_ROW_AT["kind"]] = k
+    row[_ROW_AT["start"]] = (p0[0], p0[1], p0[2])
+    row[_ROW_AT["end"]] = (p1[0], p1[1], p1[2])
+    row[_ROW_AT["centre"]] = (c[0], c[1], c[2])
+    row[_ROW_AT["work_offset"]] = (offs[0], offs[1], offs[2])
+    row[_ROW_AT["plane"]] = plane
+    row[_ROW_AT["feed_mm_min"]] = feed if feed > 0 else np.nan
+    row[_ROW_AT["power_s"]] = power
+    row[_ROW_AT["laser"]] = laser
+    row[_ROW_AT["dwell_s"]] = dwell
+    row[_ROW_AT["line"]] = line
+    rows[i] = tuple(row)
+    return i + 1
+
+
+@jit(python=_put_row_python)
 def _put_row(rows, i, k, p0, p1, c, plane, feed, power, laser, dwell, line, offs):
     """Write move row ``i`` (columns not named here keep their fill); returns ``i + 1``."""
     rows[i] = BLANK_ROW[0]
