@@ -140,8 +140,17 @@ def rasterize_moves(moves: Moves, *, view: str = "xy", pixels: int = IMAGE_PIXEL
     return power, travel, tuple(float(v) for v in extent)
 
 
+def power_colormap():
+    """Laser power colours that read on white: plasma from dark violet (low) to orange (full),
+    without its last, yellow fifth (full-power cuts vanished on a white page)."""
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import ListedColormap
+
+    return ListedColormap(plt.get_cmap("plasma")(np.linspace(0.0, 0.8, 256)), name="labkit-power")
+
+
 def plot_moves(moves: Moves, ax=None, *, view: str = "xy", show_travel: bool = True,
-               cmap: str = "plasma", linewidth: float = 1.2, colorbar: bool = True,
+               cmap=None, linewidth: float = 1.2, colorbar: bool = True,
                title: str | None = None, as_image: bool | None = None):
     """Draw a program: cuts coloured by laser power, travel dashed, start marked.
 
@@ -157,8 +166,9 @@ def plot_moves(moves: Moves, ax=None, *, view: str = "xy", show_travel: bool = T
         Projection.
     show_travel : bool
         Draw rapids (dashed grey) and feed moves with the beam off (thin cyan).
-    cmap : str
-        Colour map of the power (0…100 % of ``moves.s_max``).
+    cmap : str or Colormap, optional
+        Colour map of the power (0…100 % of ``moves.s_max``); default
+        :func:`power_colormap`, which reads on white.
     colorbar : bool
         Add a power colour bar.
     as_image : bool, optional
@@ -172,6 +182,8 @@ def plot_moves(moves: Moves, ax=None, *, view: str = "xy", show_travel: bool = T
     import matplotlib.pyplot as plt
     from matplotlib.collections import LineCollection
 
+    if cmap is None:
+        cmap = power_colormap()
     if view not in _PLANE_VIEW:
         raise ValueError(f"view must be one of {sorted(_PLANE_VIEW)}, got {view!r}")
     if ax is None:
