@@ -9,10 +9,12 @@
 
 static volatile uint16_t laser_duty_now;
 static uint8_t laser_mode;
+static uint8_t laser_override = 100;
 
 void laser_init(void)
 {
   laser_mode = LASER_MODE_CONTINUOUS;
+  laser_override = 100;
   hal_laser_gate(0, 1000);
   laser_off();
 }
@@ -46,6 +48,20 @@ double laser_tick_power_mw(uint8_t laser, double power_mw, uint32_t f_feed, uint
   }
   if (laser == 3) return power_mw < max_power_mw ? power_mw : max_power_mw;
   return 0.0;
+}
+
+void laser_set_override(uint8_t percent)
+{
+  laser_override = percent < 10 ? 10 : percent > 200 ? 200 : percent;
+}
+
+uint8_t laser_get_override(void) { return laser_override; }
+
+double laser_override_mw(double power_mw, double max_power_mw)
+{
+  if (laser_override == 100) return power_mw;
+  double p = power_mw * (double)laser_override / 100.0;
+  return p < max_power_mw ? p : max_power_mw;
 }
 
 uint16_t laser_duty_from_mw(double power_mw, double max_power_mw)

@@ -31,6 +31,14 @@ double laser_tick_power_mw(uint8_t laser, double power_mw, uint32_t f_feed, uint
 /* mW -> duty 0 .. LK_LASER_PWM_TOP, rounded to nearest; a burning tick gets at least 1. */
 uint16_t laser_duty_from_mw(double power_mw, double max_power_mw);
 
+/* Laser-power override (GRBL 1.1's spindle override bytes 0x99..0x9D),
+   10 .. 200 %: scales the power of every tick prepared from now on, capped
+   at the laser maximum. 100 % (the default, and after a reset) changes
+   nothing, so the firmware stays tick-for-tick equal to labkit.motion. */
+void laser_set_override(uint8_t percent);
+uint8_t laser_get_override(void);
+double laser_override_mw(double power_mw, double max_power_mw);
+
 /* Step interrupt: set the output to a prepared duty (no floating point). */
 void laser_output(uint16_t duty);
 uint16_t laser_current_duty(void);

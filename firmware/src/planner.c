@@ -103,6 +103,7 @@ static struct {
   uint8_t current_planned;
   double prev_exit, prev_rest, prev_cap;
   int32_t run_id;             /* junction planner: runs between full stops */
+  uint8_t ovr_feed, ovr_rapid; /* overrides, % */
 } pl;
 
 lk_machine_t *plan_machine(void) { return &pl.m; }
@@ -123,6 +124,7 @@ void plan_init(void)
   machine_load_defaults(&pl.m);
   pl.mode = PLAN_MODE_JUNCTION;
   pl.law = PLAN_LAW_ACCEL;
+  pl.ovr_feed = pl.ovr_rapid = 100;
   pl.depth = (uint32_t)pl.m.buffer_blocks;
   pl.group_id = -1;
   pl.run_id = -1;
@@ -477,6 +479,8 @@ static double sweep_angle(double p0x, double p0y, double p1x, double p1y, double
 
 static const uint8_t plane_axes[3][3] = {{0, 1, 2}, {2, 0, 1}, {1, 2, 0}};
 
+static void apply_overrides(plan_block_t *b);
+
 uint8_t plan_prepare_move(const plan_move_t *mv, plan_block_t *b)
 {
   const lk_machine_t *m = &pl.m;
@@ -565,14 +569,30 @@ uint8_t plan_prepare_move(const plan_move_t *mv, plan_block_t *b)
   }
   b->ticks = ticks;
   b->length_mm = length;
-  b->feed_mm_s = b->rapid ? INFINITY : mv->feed_mm_min / 60.0;
+  b->prog_feed_mm_s = b->rapid ? INFINITY : mv->feed_mm_min / 60.0;
   b->limit_mm_s = limit;
-  b->cap_mm_s = dmin(b->feed_mm_s, limit);
   b->accel_mm_s2 = accel;
-  b->rest_mm_s = ticks > 0 ? dmin((double)m->start_rate_hz * length / (double)ticks, b->cap_mm_s) : 0.0;
+  apply_overrides(b);
   b->laser = mv->laser;
   b->power_mw = mv->power_mw;
   return STATUS_OK;
+}
+
+/* feed_mm_s, cap_mm_s and rest_mm_s of a motion block from its programmed
+   feed, its limit and the overrides (at 100 % exactly labkit.motion's). */
+static void apply_overrides(plan_block_t *b)
+{
+  b->feed_mm_s = b->prog_feed_mm_s;
+  double limit = b->limit_mm_s;
+  if (b->rapid) {
+    if (pl.ovr_rapid != 100) limit = limit * (double)pl.ovr_rapid / 100.0;
+  } else if (pl.ovr_feed != 100) {
+    b->feed_mm_s = b->prog_feed_mm_s * (double)pl.ovr_feed / 100.0;
+  }
+  b->cap_mm_s = dmin(b->feed_mm_s, limit);
+  b->rest_mm_s = b->ticks > 0
+                     ? dmin((double)pl.m.start_rate_hz * b->length_mm / (double)b->ticks, b->cap_mm_s)
+                     : 0.0;
 }
 
 static plan_block_t *slot(uint32_t i) { return &pl.ring[(pl.tail + i) % PLAN_BUFFER_SIZE]; }
@@ -588,6 +608,7 @@ void plan_push_block(const plan_block_t *src)
   memcpy(pl.pos, src->end_steps, sizeof pl.pos);
   if (src->ticks == 0 || plan_is_full()) return;   /* no step: no block (GRBL drops them too) */
   plan_block_t b = *src;
+  apply_overrides(&b);   /* the overrides may have changed since it was prepared */
   if (pl.flushed)
     b.stop_before = PLAN_STOP_START;
   else if (pl.pending_dwell)
@@ -721,7 +742,7 @@ static void set_step_program(plan_block_t *b)
     uint32_t u = sat_u32(floor(b->accel_mm_s2 * scale));
     b->up = b->down = u < 1 ? 1u : u;
   }
-  double feed = isfinite(b->feed_mm_s) ? b->feed_mm_s : 0.0;
+  double feed = isfinite(b->prog_feed_mm_s) ? b->prog_feed_mm_s : 0.0;   /* M4 ratio: as programmed */
   b->f_feed = sat_u32(floor(feed * scale + 1e-9));
 }
 
@@ -838,4 +859,36 @@ void plan_discard_current_block(void)
   pl.tail = (uint8_t)((pl.tail + 1) % PLAN_BUFFER_SIZE);
   pl.count--;
   pl.current_planned = 0;
+}
+
+void plan_set_overrides(uint8_t feed_percent, uint8_t rapid_percent)
+{
+  feed_percent = feed_percent < 10 ? 10 : feed_percent > 200 ? 200 : feed_percent;
+  rapid_percent = rapid_percent >= 100 ? 100 : rapid_percent >= 50 ? 50 : 25;
+  if (feed_percent == pl.ovr_feed && rapid_percent == pl.ovr_rapid) return;
+  pl.ovr_feed = feed_percent;
+  pl.ovr_rapid = rapid_percent;
+  uint32_t first = pl.current_planned ? 1u : 0u;   /* the block in motion keeps its plan */
+  for (uint32_t i = first; i < pl.count; i++) {
+    plan_block_t *o = slot(i);
+    if (o->kind != PLAN_BLOCK_DWELL) apply_overrides(o);
+  }
+  /* fast MBLA: each super block's top from its members in the buffer */
+  for (uint32_t i = first; i < pl.count; i++) {
+    plan_block_t *o = slot(i);
+    if (o->kind == PLAN_BLOCK_DWELL) continue;
+    double top = 0.0;
+    for (uint32_t j = first; j < pl.count; j++) {
+      plan_block_t *q = slot(j);
+      if (q->kind != PLAN_BLOCK_DWELL && q->group == o->group) top = dmax(top, q->cap_mm_s);
+    }
+    o->plan_cap_mm_s = top;
+    if (o->group == pl.group_id) pl.group_top = top;
+  }
+}
+
+void plan_get_overrides(uint8_t *feed_percent, uint8_t *rapid_percent)
+{
+  *feed_percent = pl.ovr_feed;
+  *rapid_percent = pl.ovr_rapid;
 }

@@ -88,7 +88,8 @@ typedef struct {
   uint32_t ticks;
   double length_mm;
   double unit_in[3], unit_out[3];
-  double feed_mm_s;              /* inf for rapids */
+  double prog_feed_mm_s;         /* as programmed; inf for rapids */
+  double feed_mm_s;              /* after the feed override; inf for rapids */
   double limit_mm_s, cap_mm_s, accel_mm_s2, rest_mm_s;
   double power_mw;
   double dwell_s;
@@ -127,6 +128,18 @@ uint8_t plan_is_empty(void);
 uint8_t plan_free_slots(void);
 void plan_get_position(int32_t steps[3]);    /* where the last pushed move ends */
 void plan_sync_position(const int32_t steps[3]);
+
+/* Feed and rapid overrides (GRBL 1.1's 0x90..0x97), in percent: feed
+   10 .. 200, rapid 25, 50 or 100. They set the speed cap of every block not
+   yet taken by the stepper and of every block pushed later: the change shows
+   from the next block on, planned with the new caps (GRBL re-plans the block
+   in motion too; here it finishes at its planned speeds). In fast MBLA a
+   super block's top is recomputed from its members still in the buffer.
+   M4's power/speed ratio keeps the programmed feed, so the energy per
+   millimetre stays what the job asked for. 100 / 100 (the default, and
+   after plan_init) leaves every block as labkit.motion plans it. */
+void plan_set_overrides(uint8_t feed_percent, uint8_t rapid_percent);
+void plan_get_overrides(uint8_t *feed_percent, uint8_t *rapid_percent);
 
 /* Stepper side. */
 plan_block_t *plan_get_current_block(void);  /* NULL when none can be planned yet */

@@ -187,6 +187,10 @@ static void soft_reset(void) {
   line_asm_reset(&rx_line);
   have_pending = 0;
   jog_cancel = 0;
+  serial_overrides_t dropped;
+  serial_take_overrides(&dropped);
+  plan_set_overrides(100, 100);   /* GRBL: a reset restores every override */
+  laser_set_override(100);
   gc_init();
   (void)settings_apply();
   rx_line.crlf_one = settings.dialect == GC_DIALECT_LABKIT;
@@ -404,6 +408,22 @@ void protocol_execute_line(char *line) {
 
 /* ------------------------------------------------- the four machines */
 
+/* GRBL 1.1's override bytes: 0x90 feed 100 %, 0x91/0x92 +-10 %, 0x93/0x94
+   +-1 % (10 .. 200 %); 0x95..0x97 rapid 100/50/25 %; 0x99 laser power 100 %,
+   0x9A/0x9B +-10 %, 0x9C/0x9D +-1 % (10 .. 200 %). */
+static void apply_override_bytes(void) {
+  serial_overrides_t o;
+  serial_take_overrides(&o);
+  uint8_t feed, rapid;
+  plan_get_overrides(&feed, &rapid);
+  int f = (o.feed_reset ? 100 : feed) + o.feed_delta;
+  int p = (o.power_reset ? 100 : laser_get_override()) + o.power_delta;
+  f = f < 10 ? 10 : f > 200 ? 200 : f;
+  p = p < 10 ? 10 : p > 200 ? 200 : p;
+  plan_set_overrides((uint8_t)f, o.rapid ? o.rapid : rapid);
+  laser_set_override((uint8_t)p);
+}
+
 static void system_task(void) {
   uint16_t f = serial_take_flags(RT_RESET | RT_ESTOP | RT_HOLD | RT_DOOR | RT_RESUME |
                                  RT_JOG_CANCEL | RT_STATUS | RT_OVERRIDE);
@@ -415,6 +435,8 @@ static void system_task(void) {
     soft_reset();
     f &= RT_STATUS;
   }
+  if (f & RT_OVERRIDE)           /* before a status report asked for in the same pass */
+    apply_override_bytes();
   if (f & (RT_HOLD | RT_DOOR)) {
     if (!st_is_idle() || !plan_is_empty()) {
       if (state == PROTO_JOG)
@@ -455,8 +477,6 @@ static void system_task(void) {
   }
   if (f & RT_STATUS)
     report_status_report();
-  /* RT_OVERRIDE: overrides are reported as 100 % and otherwise ignored. */
-  serial_ovr_pending = 0;
 }
 
 static void parser_task(void) {

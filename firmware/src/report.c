@@ -170,7 +170,15 @@ void report_status_report(void) {
     serial_write("|Ln:");
     report_uint(ln);
   }
-  serial_write("|Ov:100,100,100>\r\n");
+  uint8_t feed_ov, rapid_ov;
+  plan_get_overrides(&feed_ov, &rapid_ov);
+  serial_write("|Ov:");
+  report_uint(feed_ov);
+  serial_putc(',');
+  report_uint(rapid_ov);
+  serial_putc(',');
+  report_uint(laser_get_override());
+  serial_write(">\r\n");
 }
 
 void report_build_info(void) {

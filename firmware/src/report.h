@@ -38,7 +38,8 @@ void report_status_message(uint8_t status);   /* ok / er:N / error:N */
 void report_alarm(uint8_t alarm);             /* ALARM:N */
 void report_banner(void);                     /* Grbl 1.1h ['$' for help] [labkit-fw ...] */
 void report_feedback(const char *msg);        /* [MSG:msg] */
-void report_status_report(void);              /* <Idle|MPos:..|FS:..|Bf:..|Ov:..> */
+void report_status_report(void);
+double report_feed_mm_min(void);   /* the FS: feed, mm/min, of the running block now */              /* <Idle|MPos:..|FS:..|Bf:..|Ov:..> */
 void report_build_info(void);                 /* $I */
 void report_help(void);                       /* $ */
 void report_gcode_modes(void);                /* $G */

@@ -3,10 +3,12 @@
 */
 #include "serial.h"
 
+#include <string.h>
+
 #include "hal.h"
 
 volatile uint16_t serial_rt_flags;
-volatile uint16_t serial_ovr_pending;
+static serial_overrides_t ovr_pending;   /* written by the RX interrupt */
 
 /* The ring is twice the budget so that it holds all SERIAL_RX_SIZE bytes. */
 #define RX_RING (2u * SERIAL_RX_SIZE)
@@ -24,7 +26,7 @@ void serial_init(void) {
   rx_overruns = 0;
   panel_head = panel_tail = 0;
   serial_rt_flags = 0;
-  serial_ovr_pending = 0;
+  memset(&ovr_pending, 0, sizeof ovr_pending);
 }
 
 void serial_rx_isr(uint8_t byte) {
@@ -46,7 +48,21 @@ void serial_rx_isr(uint8_t byte) {
     return;
   }
   if (byte >= 0x90 && byte <= 0x9D) {
-    serial_ovr_pending |= (uint16_t)(1u << (byte - 0x90));
+    static const int8_t step[5] = {0, 10, -10, 1, -1};
+    serial_overrides_t *o = &ovr_pending;
+    if (byte == 0x90) {
+      o->feed_reset = 1;
+      o->feed_delta = 0;
+    } else if (byte <= 0x94) {
+      if (o->feed_delta > -400 && o->feed_delta < 400) o->feed_delta += step[byte - 0x90];
+    } else if (byte <= 0x97) {
+      o->rapid = byte == 0x95 ? 100 : byte == 0x96 ? 50 : 25;
+    } else if (byte == 0x99) {
+      o->power_reset = 1;
+      o->power_delta = 0;
+    } else if (byte >= 0x9A) {
+      if (o->power_delta > -400 && o->power_delta < 400) o->power_delta += step[byte - 0x99];
+    }
     serial_rt_flags |= RT_OVERRIDE;
     return;
   }
@@ -132,4 +148,12 @@ uint16_t serial_take_flags(uint16_t mask) {
   serial_rt_flags = (uint16_t)(serial_rt_flags & ~mask);
   hal_irq_enable();
   return f;
+}
+
+void serial_take_overrides(serial_overrides_t *out)
+{
+  hal_irq_disable();
+  *out = ovr_pending;
+  memset(&ovr_pending, 0, sizeof ovr_pending);
+  hal_irq_enable();
 }

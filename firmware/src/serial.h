@@ -28,7 +28,7 @@
 #define RT_RESET       0x0008u  /* 0x18 */
 #define RT_DOOR        0x0010u  /* 0x84 (treated as a hold) */
 #define RT_JOG_CANCEL  0x0020u  /* 0x85 */
-#define RT_OVERRIDE    0x0040u  /* 0x90..0x9D: see serial_ovr_pending */
+#define RT_OVERRIDE    0x0040u  /* 0x90..0x9D: see serial_take_overrides */
 #define RT_LINE        0x0080u  /* a line end arrived (wakes the parser) */
 #define RT_ESTOP       0x0100u  /* emergency stop input (board / simulator) */
 #define RT_MENU        0x0200u  /* encoder or button event (menu.h) */
@@ -42,8 +42,6 @@
 #define PANEL_ESTOP 0xB8u   /* emergency stop input */
 
 extern volatile uint16_t serial_rt_flags;
-/* Override bytes received since the main loop last looked, bit (b - 0x90). */
-extern volatile uint16_t serial_ovr_pending;
 
 void serial_init(void);                 /* empty rings, no flags */
 void serial_rx_isr(uint8_t byte);       /* from the RX interrupt only */
@@ -62,6 +60,18 @@ uint16_t serial_tx_count(void);
    pop in the main loop (-1 when none). */
 void serial_panel_event(uint8_t ev);
 int serial_panel_pop(void);
+
+/* Override bytes received since the main loop last looked, summed in the RX
+   interrupt so that none is lost however many arrive between two passes
+   (GRBL keeps one flag per kind and so counts a burst of "+10 %" once):
+   a "100 %" byte clears what came before it. */
+typedef struct {
+  uint8_t feed_reset, power_reset;   /* a 0x90 / 0x99 arrived (before the deltas) */
+  int16_t feed_delta, power_delta;   /* sum of the +-10 / +-1 bytes after it, % */
+  uint8_t rapid;                     /* last rapid byte: 100, 50, 25; 0 none */
+} serial_overrides_t;
+/* Atomically take and clear the pending overrides. */
+void serial_take_overrides(serial_overrides_t *out);
 
 /* Atomically take and clear real-time flags. */
 uint16_t serial_take_flags(uint16_t mask);

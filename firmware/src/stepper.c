@@ -352,7 +352,9 @@ void st_prep_buffer(void)
       prep.last_rate = f;
       t.rate = f;
       t.period = plan_timer_period(f);
-      double p = laser_tick_power_mw(b->laser, b->power_mw, b->f_feed, f, m->laser_max_power_mw);
+      double p = laser_override_mw(
+          laser_tick_power_mw(b->laser, b->power_mw, b->f_feed, f, m->laser_max_power_mw),
+          m->laser_max_power_mw);
       t.duty = laser_duty_from_mw(p, m->laser_max_power_mw);
       prep.k++;
     }
@@ -456,6 +458,7 @@ double st_current_power_mw(void)
 {
   const st_block_info_t *b = st_running_block();
   if (!b || b->kind == PLAN_BLOCK_DWELL) return 0.0;
-  return laser_tick_power_mw(b->laser, b->power_mw, b->f_feed, sti.rate,
-                             plan_machine()->laser_max_power_mw);
+  double max_mw = plan_machine()->laser_max_power_mw;
+  return laser_override_mw(laser_tick_power_mw(b->laser, b->power_mw, b->f_feed, sti.rate, max_mw),
+                           max_mw);
 }

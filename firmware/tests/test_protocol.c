@@ -61,6 +61,64 @@ static void test_line_asm(void) {
   CHECK(st == STATUS_OK && strlen(a.buf) == LINE_BUFFER_SIZE - 1);
 }
 
+/* Stream one line and run it to the end, recording the highest feed (mm/min,
+   as the status report computes it) and laser duty seen on the way. */
+static void run_sampled(const char *line, double *max_feed, uint16_t *max_duty) {
+  for (long i = 0; i < 5000000 && !st_is_idle(); i++) protocol_poll();   /* what came before ends */
+  shell_out_clear();
+  for (const char *p = line; *p; p++)
+    serial_rx_isr((uint8_t)*p);
+  for (int i = 0; i < 20; i++) protocol_poll();
+  shell_advance_ms(100);                    /* quiet: the look-ahead is flushed */
+  *max_feed = 0.0;
+  *max_duty = 0;
+  for (long i = 0; i < 2000000 && !(st_is_idle() && i > 30); i++) {
+    protocol_poll();
+    double f = report_feed_mm_min();
+    if (f > *max_feed) *max_feed = f;
+    if (laser_current_duty() > *max_duty) *max_duty = laser_current_duty();
+  }
+}
+
+static void test_overrides(void) {
+  const char *o = run("?");
+  CHECK_HAS(o, "|Ov:100,100,100>");
+  o = run("\x91\x91\x93?");               /* feed +10 +10 +1 */
+  CHECK_HAS(o, "|Ov:121,100,100>");
+  o = run("\x96?");                        /* rapid 50 % */
+  CHECK_HAS(o, "|Ov:121,50,100>");
+  for (int i = 0; i < 25; i++) run("\x9B"); /* laser power -10 % each: stops at 10 % */
+  o = run("\x92?");
+  CHECK_HAS(o, "|Ov:111,50,10>");
+  for (int i = 0; i < 25; i++) run("\x91"); /* feed stops at 200 % */
+  o = run("?");
+  CHECK_HAS(o, "|Ov:200,50,10>");
+  o = run("\x90\x95\x99?");               /* each back to 100 % */
+  CHECK_HAS(o, "|Ov:100,100,100>");
+  o = run("\x91\x97\x9A\x18");            /* a reset restores every override */
+  o = run("?");
+  CHECK_HAS(o, "|Ov:100,100,100>");
+
+  /* what they do (GRBL dialect): a 600 mm/min cut at 100 %, then with feed 50 % and power 50 % */
+  double feed100, feed50;
+  uint16_t duty100, duty50;
+  run("G90 G0 X0\n");
+  run_sampled("G1 X20 F600 S300 M3\n", &feed100, &duty100);
+  CHECK(feed100 > 595.0 && feed100 < 605.0);
+  run("\x92\x92\x92\x92\x92\x9B\x9B\x9B\x9B\x9B");
+  run_sampled("G1 X0 F600 S300 M3\n", &feed50, &duty50);
+  CHECK(feed50 > 297.0 && feed50 < 303.0);
+  CHECK(duty50 > 0 && (duty50 == duty100 / 2 || duty50 == (duty100 + 1) / 2));
+  CHECK(laser_current_duty() == 0);
+  /* M4: the power follows the speed against the programmed feed, so at 50 %
+     feed it halves as well (the energy per millimetre is kept) */
+  run("\x99");
+  uint16_t duty_m4;
+  run_sampled("G1 X20 F600 S300 M4\n", &feed50, &duty_m4);
+  CHECK(duty_m4 == duty50);
+  run("\x90\x99");
+}
+
 int main(int argc, char **argv) {
   (void)argc; (void)argv;
   test_line_asm();
@@ -202,6 +260,8 @@ int main(int argc, char **argv) {
     o = run("?");
     CHECK_HAS(o, "<Idle|MPos:5.000,");
   }
+
+  test_overrides();
 
   /* $RST=* restores the defaults (dialect included) */
   o = run("$RST=*\n");
