@@ -691,6 +691,8 @@ static double block_cap(const plan_block_t *b)
   return b->cap_mm_s;
 }
 
+static double block_floor(const plan_block_t *b) { return dmin(b->rest_mm_s, block_cap(b)); }
+
 static double slope_up(const plan_block_t *b)
 {
   return pl.law == PLAN_LAW_LINEAR ? (double)pl.m.accel_hz_per_step : b->accel_mm_s2;
@@ -819,9 +821,13 @@ plan_block_t *plan_get_current_block(void)
   double vb = jrest[e];
   if (e < cnt)   /* the block past the window may have to stop within itself */
     vb = dmin(vb, reach(dmin(win[e]->rest_mm_s, vb), win[e]->length_mm, slope_down(win[e]), pl.law));
+  /* a block runs no slower than its floor (its rest speed): below it the
+     speed changes at once, so a block only has to slow down to its floor and
+     the junction takes the rest (labkit.motion._planner.windowed_passes) */
   for (uint32_t j = e - 1; j >= 1 && j < e; j--)
-    vb = dmin(jcap[j], reach(vb, win[j]->length_mm, slope_down(win[j]), pl.law));
-  double exitv = dmin(vb, reach(entry, b->length_mm, slope_up(b), pl.law));
+    vb = dmin(jcap[j], reach(dmax(vb, block_floor(win[j])), win[j]->length_mm, slope_down(win[j]), pl.law));
+  double exitv = dmin(vb, reach(dmax(entry, block_floor(b)), b->length_mm, slope_up(b), pl.law));
+  b->junction_exit_mm_s = exitv;   /* the next block's entry */
 
   if (pl.mode == PLAN_MODE_JUNCTION) {
     if (entry <= entry_rest * (1 + 1e-12)) pl.run_id++;
@@ -829,6 +835,8 @@ plan_block_t *plan_get_current_block(void)
   } else {
     b->super_block = b->group;
   }
+  entry = dmax(entry, block_floor(b));   /* the profile: from and to the floor at least */
+  exitv = dmax(exitv, block_floor(b));
   /* profile peak (profile.block_profiles) */
   double vc = block_cap(b), L = b->length_mm, a = slope_up(b), d = slope_down(b), v_meet;
   if (pl.law == PLAN_LAW_LINEAR) {
@@ -852,7 +860,7 @@ void plan_discard_current_block(void)
   if (pl.count == 0) return;
   plan_block_t *b = slot(0);
   if (b->kind != PLAN_BLOCK_DWELL && pl.current_planned) {
-    pl.prev_exit = b->exit_mm_s;
+    pl.prev_exit = b->junction_exit_mm_s;
     pl.prev_rest = b->rest_mm_s;
     pl.prev_cap = b->plan_cap_mm_s;
   }

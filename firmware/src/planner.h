@@ -96,7 +96,8 @@ typedef struct {
   int32_t group;                 /* MBLA super block id (set when buffered) */
   plan_arc_t arc;                /* initial walk state (arcs) */
   /* set by plan_get_current_block(): */
-  double entry_mm_s, peak_mm_s, exit_mm_s, plan_cap_mm_s;
+  double entry_mm_s, peak_mm_s, exit_mm_s, plan_cap_mm_s;   /* the profile (no slower than the floor) */
+  double junction_exit_mm_s;     /* planned speed at the end junction: the next block's entry */
   int32_t super_block;
   uint32_t f_entry, f_peak, f_exit, f_min, up, down, f_feed;
   uint64_t dwell_cycles;

@@ -8,8 +8,10 @@ look-ahead depths on both machines, then runs ``build/tests/test_vectors`` on th
     cd firmware && make build/tests/test_vectors
     PYTHONPATH=.. ../.venv/bin/python tests/random_vectors.py --seeds 1 2 3
 
-Jobs that the reference itself refuses (``MotionError``: a helix steeper than its arc, or
-an entry speed a short block cannot shed within a small window) are skipped and counted.
+Jobs that the reference itself refuses (``MotionError``: a helix steeper than its arc) are
+skipped and counted. Seeds 1–8: 473 jobs equal, 7 refused, all helices (before blocks were
+planned down to their floor only, 38 of 322 on seeds 1–6 were refused: short blocks whose
+window ended lower than a later window could keep).
 """
 
 from __future__ import annotations

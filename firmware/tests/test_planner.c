@@ -188,9 +188,16 @@ static void check_job(uint8_t law, const double end_mm[3])
     CHECK(b->entry_mm_s <= b->peak_mm_s * (1 + 1e-12) && b->exit_mm_s <= b->peak_mm_s * (1 + 1e-12),
           "block %u entry %g peak %g exit %g", i, b->entry_mm_s, b->peak_mm_s, b->exit_mm_s);
     if (law == PLAN_LAW_LINEAR) CHECK(b->entry_mm_s > 0 && b->exit_mm_s > 0, "block %u stops at 0 on a linear ramp", i);
-    if (prev && prev->kind != PLAN_BLOCK_DWELL)
-      CHECK(prev->exit_mm_s == b->entry_mm_s, "block %u enters at %.17g, the previous left at %.17g", i,
-            b->entry_mm_s, prev->exit_mm_s);
+    /* one planned junction speed; each block runs it no slower than its own floor (rest
+       speed, f_min): the speed may change at a junction only below the larger floor */
+    if (prev && prev->kind != PLAN_BLOCK_DWELL) {
+      double fp = (prev->f_min + 1.0) * prev->length_mm / prev->ticks;   /* floor, one Hz up */
+      double fb = (b->f_min + 1.0) * b->length_mm / b->ticks;
+      double top = fp > fb ? fp : fb;
+      CHECK(prev->exit_mm_s == b->entry_mm_s || (prev->exit_mm_s <= top && b->entry_mm_s <= top),
+            "block %u enters at %.17g, the previous left at %.17g (floors %g, %g)", i, b->entry_mm_s,
+            prev->exit_mm_s, fp, fb);
+    }
     prev = b;
   }
   (void)cap_of;

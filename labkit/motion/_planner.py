@@ -10,17 +10,21 @@ from labkit.motion._ramp import reach_nb
 
 
 @jit
-def windowed_passes(length, up, down, jcap, jrest, rest, window, law):
+def windowed_passes(length, up, down, jcap, jrest, rest, floor, window, law):
     """Junction speeds (n + 1) of n blocks planned through a buffer of ``window`` blocks.
 
     ``jcap[j]`` caps the speed at junction j (entry of block j; j = n is the
-    end), ``jrest[j]`` is the rest speed there. Block k's entry is fixed when
-    it starts running; its exit is the smaller of (a) the backward pass over
-    the blocks k+1 … k+window−1 from a stop at the end of the buffer (at the
-    rest speed there, or lower: at most what the block past the buffer can
-    slow down from to its own rest speed ``rest[j]`` within its length, since
-    a later window can end there) and
-    (b) what accelerating from the entry over block k reaches (forward pass).
+    end), ``jrest[j]`` is the rest speed there. ``floor[k]`` is the speed block
+    k never runs below (its rest speed): below it the speed changes at once, so
+    a block has to slow down only to its floor and the junction takes the rest.
+    Block k's entry is fixed when it starts running; its exit is the smaller of
+    (a) the backward pass over the blocks k+1 … k+window−1 from a stop at the
+    end of the buffer (at the rest speed there, or lower: at most what the
+    block past the buffer can slow down from to its own rest speed ``rest[j]``
+    within its length, since a later window can end there) and
+    (b) what accelerating from the entry (or the floor) over block k reaches
+    (forward pass). Every later window then finds a feasible plan: whatever it
+    asks at a junction, the block before it can reach it or its floor.
     """
     n = length.shape[0]
     v = np.empty(n + 1)
@@ -33,8 +37,8 @@ def windowed_passes(length, up, down, jcap, jrest, rest, window, law):
             # window can end lower than this rest speed): start no faster than that
             vb = min(vb, reach_nb(min(rest[j_end], vb), length[j_end], down[j_end], law))
         for j in range(j_end - 1, k, -1):
-            vb = min(jcap[j], reach_nb(vb, length[j], down[j], law))
-        v[k + 1] = min(vb, reach_nb(v[k], length[k], up[k], law))
+            vb = min(jcap[j], reach_nb(max(vb, floor[j]), length[j], down[j], law))
+        v[k + 1] = min(vb, reach_nb(max(v[k], floor[k]), length[k], up[k], law))
     return v
 
 

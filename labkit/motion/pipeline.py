@@ -303,8 +303,9 @@ def plan(moves: Moves | Blocks, machine: MachineSpec | str | None = None, *, pla
                    junction_deviation_mm=m.junction_deviation_mm, axis_accel_mm_s2=m.accel_mm_s2,
                    up=up, down=down, stop_before=stop)
     if len(mb):
-        prof = block_profiles(mb.length_mm, la.speed_mm_s[:-1], la.cap_mm_s, la.speed_mm_s[1:],
-                              up, down, law)
+        floor = np.minimum(mb.rest_mm_s, la.cap_mm_s)
+        prof = block_profiles(mb.length_mm, np.maximum(la.speed_mm_s[:-1], floor), la.cap_mm_s,
+                              np.maximum(la.speed_mm_s[1:], floor), up, down, law)
     else:
         prof = block_profiles(np.ones(0), np.ones(0), np.ones(0), np.ones(0), np.ones(0), np.ones(0), law)
     return Plan(machine=m, blocks=blocks, motion=motion, lookahead=la, profiles=prof)

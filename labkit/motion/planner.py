@@ -258,7 +258,8 @@ def lookahead(blocks: Blocks, *, planner: str = "junction", law: str = "accel",
     jrest[1:-1] = np.minimum(np.maximum(rest[:-1], rest[1:]), np.minimum(cap[:-1], cap[1:]))
     jcap = np.where(stops, jrest, np.maximum(jcap, jrest))
     v = K.windowed_passes(blocks.length_mm.astype(float), np.ascontiguousarray(up),
-                          np.ascontiguousarray(down), jcap, jrest, rest.astype(float), window,
+                          np.ascontiguousarray(down), jcap, jrest, rest.astype(float),
+                          np.minimum(rest, cap).astype(float), window,
                           RAMP_LAWS[law])
     if group is None:   # runs between full stops
         stopped = v <= jrest * (1 + 1e-12)      # junction 0 always is

@@ -62,6 +62,46 @@ CASES = {
         machine="grbl-diode", planner="fast", buffer_blocks=1,
         gcode="G21 G90\nM3 S583\nG1 X0 Y0 F600\nG1 X-0.0554 Y-0.0073 F8070\n"
               "G1 X-0.0361 Y-0.0211 F8406 S470\nG1 X0.0488 Y0.0710 S248\nG1 X0.0183 Y0.0907 F2100\n"),
+    "slow_neighbour_depth3_fast": dict(
+        description="Short blocks at feeds from 12 to 140 mm/s through a three-block look-ahead, "
+                    "fast MBLA on the GRBL diode machine: a block has to slow only to its floor "
+                    "(rest speed), below which the junction changes speed at once; before, the "
+                    "window ended lower than a later window could keep, and the reference refused "
+                    "the job (block 19: 5.02 → 4.33 mm/s within 0.018 mm)",
+        machine="grbl-diode", planner="fast", buffer_blocks=3,
+        gcode="G21 G90\nM3 S231\nG1 X0 Y0 F600\nG1 X0.0104 Y0.0291 F6771\nG1 X-0.0111 Y0.0150\n"
+              "G1 X0.0176 Y0.0190 F717\nG1 X0.0109 Y0.0384 F2199 S320\nG0 X0.0375 Y0.0496\n"
+              "G1 X0.0219 Y0.0725 S312\nG1 X0.0512 Y0.0741\nG1 X0.0639 Y0.0746 F8238\n"
+              "G1 X0.0504 Y0.0902 F5295 S852\nG1 X0.0626 Y0.1054 F1953\nG1 X0.0849 Y0.0856\n"
+              "G0 X-0.0476 Y0.0079\nG0 X-0.0458 Y0.0097\nG1 X-0.0436 Y-0.0035\n"
+              "G1 X-0.0250 Y-0.0168 S389\nG1 X-0.0245 Y-0.0019 S842\nG0 X-0.0242 Y0.0272\n"
+              "G1 X-0.0209 Y0.0483\nG0 X0.0353 Y-0.0319\nG1 X0.0129 Y-0.0086 F7116 S448\n"
+              "G1 X-0.0026 Y-0.0001\nG1 X-0.0024 Y0.0116 F7329\nG0 X0.0226 Y0.0343\n"
+              "G1 X0.0109 Y0.0345\nG1 X-0.0079 Y0.0574 F7386\nM5\n"),
+    "slow_neighbour_depth1_fast_3d": dict(
+        description="Short 3-D blocks, dwells, feeds from 5 to 124 mm/s, one-block look-ahead: "
+                    "a block next to a slower one exits at its own floor and the slower one "
+                    "enters at its own (the reference refused it: block 12 from 3.38 to 1.95 mm/s "
+                    "within 0.0125 mm)",
+        machine="grbl-diode", planner="fast", buffer_blocks=1,
+        gcode="G21 G90\nM3 S163\nG1 X0 Y0 F600\nG1 X-0.0102 Y0.0235 Z-0.0013 F753 S911\n"
+              "G1 X0.0081 Y0.0425 Z-0.0051 S433\nG1 X-0.0024 Y0.0553 Z-0.0028 F7431\n"
+              "G1 X-0.0282 Y0.0568 Z-0.0059 S671\nG1 X-0.0021 Y0.0763 Z-0.0053 F4785 S703\n"
+              "G1 X0.0166 Y0.0570 Z-0.0024\nG1 X0.0394 Y0.0361 Z-0.0068\nG4 P0.001\n"
+              "G1 X0.0679 Y0.0560 Z-0.0059\nG1 X0.0420 Y0.0363 Z-0.0034 F570 S262\n"
+              "G1 X0.0307 Y0.0421 Z-0.0015\nG1 X0.0040 Y0.0521 Z-0.0017 F309\n"
+              "G1 X-0.0146 Y0.0246 Z-0.0011 F618\nG1 X-0.0156 Y0.0437 Z-0.0011\n"
+              "G1 X-0.0146 Y0.0269 Z-0.0047 F1275 S957\nG1 X0.0066 Y0.0116 Z-0.0049 F1566\n"
+              "G1 X-0.0040 Y-0.0092 Z-0.0034 F2187\nG1 X0.0233 Y-0.0101 Z-0.0030 F6153 S247\n"
+              "G4 P0.010\nG4 P0.002\nG1 X0.0455 Y-0.0243 Z0.0016\nG1 X0.0457 Y-0.0101 Z0.0037 F5811\n"
+              "G1 X0.0163 Y-0.0268 Z0.0069 F1149\nG4 P0.000\nG1 X0.0417 Y-0.0496 Z0.0032 F7425 S780\n"
+              "G1 X0.0379 Y-0.0446 Z0.0012 F3627\nG1 X0.0585 Y-0.0480 Z0.0021 F6987\n"
+              "G1 X0.0342 Y-0.0322 Z0.0019 F2934 S231\nG1 X0.0234 Y-0.0225 Z-0.0012\n"
+              "G1 X0.0295 Y-0.0319 Z-0.0008 S423\nG1 X0.0303 Y-0.0184 Z0.0016 F792\n"
+              "G1 X0.0112 Y-0.0450 Z0.0029\nG1 X0.0398 Y-0.0682 Z-0.0010\n"
+              "G1 X0.0595 Y-0.0800 Z-0.0048 F4590 S74\nG1 X0.0464 Y-0.1042 Z-0.0005 F1692 S265\n"
+              "G0 X-0.0180 Y-0.0035\nG1 X-0.0151 Y0.0232 Z-0.0014 F2493 S201\nG0 X0.0228 Y-0.0050\n"
+              "G1 X0.0337 Y-0.0012 Z-0.0049\nG1 X0.0633 Y0.0150 Z-0.0075 F990\nM5\n"),
 }
 
 
