@@ -390,6 +390,9 @@ int plan_arc_next(plan_arc_t *a, int32_t *px, int32_t *py)
     arc_start_tail(a);
   }
   if (a->phase == 1) {
+    /* the tail is a short straight piece to the end point; a long one means the walk
+       never met the end (a start off the arc's circle): fail instead of walking it */
+    if (a->t_k == 0 && a->max_ticks > 0 && (int64_t)a->n + a->t_n > (int64_t)a->max_ticks) return -1;
     if (a->t_k >= a->t_n) {
       a->phase = 2;
       return 0;

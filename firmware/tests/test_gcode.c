@@ -350,6 +350,17 @@ static void semantic_cases(void)
   CHECK(run("G2 I290 F10") == STATUS_INVALID_ARC && plan_is_empty(), "a 290 mm circle accepted");
   CHECK(run("G2 I280 F10") == STATUS_OK, "a 280 mm circle refused");
 
+  /* a start off the arc's circle (planner and parser out of step, as the line fuzzer once
+     left them) fails at once instead of walking a 2-million-tick straight tail to the end */
+  reset(GC_DIALECT_GRBL);
+  CHECK(run("G1 X1000 F600") == STATUS_OK, "a 1 m line");
+  {
+    int32_t origin[3] = {0, 0, 0};
+    plan_reset();
+    plan_sync_position(origin);
+  }
+  CHECK(run("G2 X1000 Y5 R5") == STATUS_INVALID_ARC, "an arc whose start is 1 m off its circle accepted");
+
   /* an absurd feed saturates the programmed rate instead of overflowing it */
   reset(GC_DIALECT_GRBL);
   CHECK(run("M4 S500 G1 X1 F6152222222222") == STATUS_OK, "huge feed");

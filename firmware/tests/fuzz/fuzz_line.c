@@ -67,6 +67,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
       st_reset();
       plan_reset();
       (void)st_take_abort();
+      gc_sync_position();   /* as the firmware after a reset: the parser starts where the machine is */
     }
   }
   return 0;
