@@ -148,7 +148,8 @@ def path_distance(paths: PathLike, points) -> np.ndarray:
 def _densify(pts: np.ndarray, step_mm: float) -> np.ndarray:
     seg = np.diff(pts, axis=0)
     n = np.maximum(np.ceil(np.hypot(*seg.T) / step_mm).astype(np.int64), 1)
-    t = np.concatenate([np.arange(k) / k for k in n])
+    first = np.repeat(np.cumsum(n) - n, n)                   # index of each piece's first point
+    t = (np.arange(int(n.sum())) - first) / np.repeat(n, n)   # k / n_k, k = 0 … n_k − 1
     base = np.repeat(pts[:-1], n, axis=0)
     return np.vstack([base + np.repeat(seg, n, axis=0) * t[:, None], pts[-1:]])
 
