@@ -119,3 +119,21 @@ def test_an_overdrawn_job_is_drawn_on_a_coarser_grid(monkeypatch):
     coarse, _, extent = vg.rasterize_moves(m, pixels=1001)
     assert coarse.shape[1] == 100 and extent[0] < 0 < 10 < extent[1]
     assert np.isfinite(coarse).any(axis=0).all()          # still every column of the line
+
+
+def test_playground_report_wraps_between_words():
+    """The playground's report fits its column without the browser breaking a word: every line
+    is at most PLAYGROUND_COLUMNS characters, and joining the lines gives back every word."""
+    from labkit.viz.gcode import PLAYGROUND_COLUMNS, gcode_playground
+
+    text = "G21 G90\nG1 X10 Y10\nG2 X30 Y10 R4 F600\nG1 X1.2.5\n"
+    panel = gcode_playground(text)
+    report = panel.children[0].children[0].children[2]
+    shown = "".join(o["text"] for o in report.outputs if o.get("output_type") == "stream")
+    lines = shown.rstrip("\n").split("\n")
+    assert len(lines) > 10 and max(map(len, lines)) <= PLAYGROUND_COLUMNS
+    words = " ".join(shown.split())
+    for expected in ("error 22: feed motion without a feed rate", "error 33:", "(got 'X1.2.5';",
+                     "estimated time"):
+        assert expected in words
+    plt.close("all")

@@ -369,6 +369,29 @@ def arc_explorer(start=(0.0, 0.0), end=(30.0, 10.0), radius=25.0):
     return w.VBox([w.HBox([end_x, end_y, r_abs]), w.HBox([sign, direction]), out])
 
 
+PLAYGROUND_COLUMNS = 60
+"""Characters per line of the playground's report: what its 460 px column shows in JupyterLab's
+13 px monospace font without the browser breaking a word."""
+
+
+def _wrap_report(lines, width=PLAYGROUND_COLUMNS):
+    """Wrap report lines at spaces (never inside a word), continuation lines indented.
+
+    >>> print(_wrap_report(["a:1:2: error 22: feed motion without a feed rate"], width=24))
+    a:1:2: error 22: feed
+        motion without a feed
+        rate
+    """
+    import textwrap
+
+    out = []
+    for line in lines:
+        out.extend(textwrap.wrap(line, width, subsequent_indent="    ", break_long_words=False,
+                                 break_on_hyphens=False, replace_whitespace=False,
+                                 drop_whitespace=True) or [""])
+    return "\n".join(out)
+
+
 def gcode_playground(text: str = "G21 G90\nM3 S600\nG0 X10 Y10\nG1 X40 F1200\nG2 X40 Y40 I0 J15\n"
                      "G1 X10\nG3 X10 Y10 R15\nM5\n", dialect: str = "grbl"):
     """An ipywidgets panel: edit G-code, see its diagnostics, summary and preview as you type.
@@ -386,13 +409,13 @@ def gcode_playground(text: str = "G21 G90\nM3 S600\nG0 X10 Y10\nG1 X40 F1200\nG2
 
     editor = w.Textarea(value=text, layout=w.Layout(width="420px", height="260px"))
     choose = w.Dropdown(options=list(DIALECTS), value=dialect, description="dialect")
-    report = w.Output(layout=w.Layout(width="420px"))
+    report = w.Output(layout=w.Layout(width="460px"))
     picture = w.Output()
 
     def redraw(*_):
         moves = parse(editor.value, dialect=choose.value, lenient=True)
         lines = [err.format() for err in moves.diagnostics] or ["no errors"]
-        show(report, text="\n".join(lines + [summarize(moves).format()]))
+        show(report, text=_wrap_report(lines + summarize(moves).format().splitlines()))
         fig, ax = plt.subplots(figsize=(5, 4.5))
         plot_moves(moves, ax, colorbar=False, title="preview")
         show(picture, figure=fig)
