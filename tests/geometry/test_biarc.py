@@ -21,8 +21,8 @@ point = st.tuples(coord, coord)
 def _dense(ctrls, n=4001):
     out = []
     for c in ctrls:
-        b = se.CubicBezier(*[complex(*p) for p in c])
-        out.append(np.array([[p.x, p.y] for p in (b.point(t) for t in np.linspace(0, 1, n))]))
+        # svgelements evaluates the curve itself (npoint: the same points as point(t) one by one)
+        out.append(se.CubicBezier(*[complex(*p) for p in c]).npoint(np.linspace(0, 1, n)))
     return np.vstack(out)
 
 
