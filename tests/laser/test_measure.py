@@ -88,3 +88,30 @@ def test_scale_from_a_marked_reference_length(grid):
         measure_lines(img, layout, dpi=found * 1.5)
     with pytest.raises(InputError, match="reference"):
         scale_from_reference((0, 0), (10, 0), 0.0)
+
+
+def test_render_scan_equals_the_whole_image_formula(grid):
+    """render_scan computes each stroke only near it; every pixel must still equal the coverage
+    formula evaluated over the whole image (a rotated scan at 200 dpi, compared exactly)."""
+    from labkit.laser.measure import _segments
+
+    layout, truth = grid
+    dpi, rot = 200.0, 7.0
+    got = render_scan(layout, truth, dpi=dpi, rotation_deg=rot)
+    px = 25.4 / dpi
+    x_lo, y_lo, x_hi, y_hi = layout["bounds_mm"]
+    cx, cy = (x_lo + x_hi) / 2, (y_lo + y_hi) / 2
+    half = np.hypot(x_hi - x_lo, y_hi - y_lo) / 2 + 5.0
+    n = int(np.ceil(2 * half / px))
+    u = (np.arange(n) + 0.5) * px - half
+    uu, vv = np.meshgrid(u, -u)
+    t = np.deg2rad(rot)
+    x, y = cx + np.cos(t) * uu + np.sin(t) * vv, cy - np.sin(t) * uu + np.cos(t) * vv
+    dark = np.zeros((n, n))
+    for x0, y0, x1, y1, w in _segments(layout, np.asarray(truth, float), 0.3):
+        if w > 0:
+            d = np.array([x1 - x0, y1 - y0]); L = np.hypot(*d); d /= L
+            along = np.clip((x - x0) * d[0] + (y - y0) * d[1], 0, L)
+            dist = np.hypot(x - (x0 + along * d[0]), y - (y0 + along * d[1]))
+            dark = np.maximum(dark, np.clip(0.5 + (w / 2 - dist) / px, 0, 1))
+    np.testing.assert_array_equal(got, np.clip(0.9 - 0.8 * dark, 0, 1))
