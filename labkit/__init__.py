@@ -15,6 +15,7 @@ viz       matplotlib plots and ipywidgets (imported lazily)
 
 import importlib
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -48,20 +49,87 @@ def __dir__():
     return sorted(__all__)
 
 
+_IMPORT = re.compile(r"^\s*(?:from\s+(\.*)([\w.]*)\s+import\s+([\w\s,()*]+)|import\s+([\w.]+))", re.M)
+
+
+_DECLARES_KERNEL = re.compile(r"^\s*@jit\b|\bjit\(", re.M)
+
+
+def _kernel_sources(root: Path) -> list[Path]:
+    """The source files compiled kernels depend on: every module that declares a kernel
+    (``@jit``), and every module of the package those import, transitively.
+
+    numba compiles a module's globals into its kernels and inlines the kernels they
+    call, so these files — and only these — decide what a cached kernel contains.
+
+    Examples
+    --------
+    >>> here = Path(__file__).resolve().parent
+    >>> names = {p.relative_to(here).as_posix() for p in _kernel_sources(here)}
+    >>> "_jit.py" in names and "gcode/_kernel.py" in names, "viz/gcode.py" in names
+    (True, False)
+    """
+    package = root.name
+
+    def module_file(dotted: str) -> Path | None:
+        parts = dotted.split(".")
+        if parts[0] != package:
+            return None
+        base = root.joinpath(*parts[1:])
+        for candidate in (base.with_suffix(".py"), base / "__init__.py"):
+            if candidate.is_file():
+                return candidate
+        return None
+
+    def imported(path: Path) -> set[Path]:
+        text = path.read_text(encoding="utf-8", errors="replace")
+        here = [package, *path.relative_to(root).with_suffix("").parts]
+        if here[-1] == "__init__":
+            here = here[:-1]
+        else:
+            here = here[:-1]                 # the package the module is in
+        found = set()
+        for dots, name, names, plain in _IMPORT.findall(text):
+            if plain:
+                targets = [plain]
+            else:
+                base = here[:len(here) - (len(dots) - 1)] if dots else []
+                mod = ".".join(base + ([name] if name else [])) if dots else name
+                words = [w for w in re.split(r"[\s,()]+", names) if w and w != "*"]
+                targets = [mod] + [f"{mod}.{w}" for w in words if w != "as"]
+            for target in targets:
+                f = module_file(target)
+                if f is not None:
+                    found.add(f)
+        return found
+
+    todo = [p for p in root.rglob("*.py")
+            if _DECLARES_KERNEL.search(p.read_text(encoding="utf-8", errors="replace"))]
+    seen: set[Path] = set()
+    while todo:
+        path = todo.pop()
+        if path not in seen:
+            seen.add(path)
+            todo.extend(imported(path) - seen)
+    return sorted(seen)
+
+
 def _numba_cache_dir(root: Path | None = None, base: Path | None = None) -> Path:
-    """Where compiled kernels are cached: one folder per state of labkit's sources.
+    """Where compiled kernels are cached: one folder per state of the kernels' sources.
 
     numba's own cache is keyed by the file of each compiled function, so it keeps
-    serving a kernel after a kernel it calls in another module has changed. Keying
-    the whole cache by every source file's size and modification time makes any
-    edit start from a fresh cache. Older folders beyond the last few are removed.
+    serving a kernel after a kernel or a constant it uses in another module has changed.
+    Keying the cache by the size and modification time of every file a kernel depends
+    on (:func:`_kernel_sources`) makes such an edit start from a fresh cache, while an
+    edit anywhere else (a command, a plot, a docstring outside the kernels' modules)
+    keeps every compiled kernel. Older folders beyond the last few are removed.
     """
     import hashlib
     import shutil
 
     root = root or Path(__file__).resolve().parent
     digest = hashlib.sha1()
-    for path in sorted(root.rglob("*.py")):
+    for path in _kernel_sources(root):
         st = path.stat()
         digest.update(f"{path.relative_to(root)}:{st.st_size}:{st.st_mtime_ns};".encode())
     if base is None:
@@ -79,8 +147,10 @@ def _numba_cache_dir(root: Path | None = None, base: Path | None = None) -> Path
 
 
 def _configure_numba_cache() -> None:
+    """Point numba's cache at :func:`_numba_cache_dir` (called by :mod:`labkit._jit` just
+    before a kernel first compiles, so that importing labkit reads no source files)."""
     if os.environ.get("NUMBA_CACHE_DIR"):
-        return                                   # the user chose a cache folder
+        return                                   # the user (or an earlier call) chose a folder
     try:
         folder = str(_numba_cache_dir())
     except OSError:
@@ -88,6 +158,3 @@ def _configure_numba_cache() -> None:
     os.environ["NUMBA_CACHE_DIR"] = folder
     if "numba" in sys.modules:                   # numba read its settings already
         sys.modules["numba"].config.CACHE_DIR = folder
-
-
-_configure_numba_cache()

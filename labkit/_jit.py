@@ -169,6 +169,9 @@ class Kernel:
                 if self.dispatcher is None:
                     global _hooks_installed
                     if not _hooks_installed:
+                        from labkit import _configure_numba_cache
+
+                        _configure_numba_cache()     # before numba reads its settings
                         _install_numba_hooks()
                         _hooks_installed = True
                     import numba

@@ -43,7 +43,7 @@ def test_unit_conversions():
         units.mw_to_s(1, max_power_mw=0)
 
 
-def test_kernel_cache_folder_follows_every_source_edit(tmp_path):
+def test_kernel_cache_folder_follows_the_kernels_sources_only(tmp_path):
     import os
     import time
 
@@ -51,19 +51,26 @@ def test_kernel_cache_folder_follows_every_source_edit(tmp_path):
 
     src = tmp_path / "pkg"
     (src / "sub").mkdir(parents=True)
-    (src / "a.py").write_text("x = 1\n")
+    (src / "a.py").write_text("from pkg.sub import b\n\n\n@jit\ndef f(x):\n    return x + b.y\n")
     (src / "sub" / "b.py").write_text("y = 2\n")
+    (src / "c.py").write_text("z = 1\n")                      # no kernel uses it
     cache = tmp_path / "cache"
+
+    def touch(path, text, k):
+        path.write_text(text)
+        os.utime(path, ns=(time.time_ns(), time.time_ns() + k * 10**9))
+
+    assert {p.name for p in labkit._kernel_sources(src)} == {"a.py", "b.py"}
     first = labkit._numba_cache_dir(src, cache)
     assert first == labkit._numba_cache_dir(src, cache) and first.is_dir()
-    # an edit in any module, even one a kernel only calls into, gives a new folder
-    (src / "sub" / "b.py").write_text("y = 3\n")
-    os.utime(src / "sub" / "b.py", ns=(time.time_ns(), time.time_ns() + 10**9))
+    # an edit in a module a kernel only imports gives a new folder ...
+    touch(src / "sub" / "b.py", "y = 3\n", 1)
     second = labkit._numba_cache_dir(src, cache)
     assert second != first
+    # ... an edit in a module no kernel depends on keeps the compiled kernels
+    touch(src / "c.py", "z = 2\n", 2)
+    assert labkit._numba_cache_dir(src, cache) == second
     for k in range(6):                      # old folders are pruned to the last few
-        (src / "a.py").write_text(f"x = {k + 10}\n")
-        os.utime(src / "a.py", ns=(time.time_ns(), time.time_ns() + (k + 2) * 10**9))
+        touch(src / "a.py", f"@jit\ndef f(x):\n    return x + {k}\n", k + 3)
         labkit._numba_cache_dir(src, cache)
     assert len(list(cache.iterdir())) <= 4
-    assert os.environ["NUMBA_CACHE_DIR"]    # set when labkit was imported
