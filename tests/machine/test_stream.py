@@ -90,17 +90,19 @@ def test_send_response_keeps_one_line_in_flight():
 
 
 def test_counting_is_faster_than_send_response_in_real_time():
-    # a slow link answer (3 ms per reply) makes send-response starve the planner
+    # a slow link answer (10 ms per reply, 0.2 s of machine time at time_scale 20) makes
+    # send-response starve the planner; counting keeps the buffer full (a clear margin even
+    # on a loaded machine: at 3 ms the two came within 0.5 % under a parallel test run)
     text = raster_text(rows=6)
     times = {}
     for mode in ("counting", "send-response"):
         job = Job.from_text(text, machine=MACHINE)
-        vm, g = machine(lambda v: FaultyPort(v, delay_s=0.003), time_scale=20)
+        vm, g = machine(lambda v: FaultyPort(v, delay_s=0.01), time_scale=20)
         rep = run_job(g, job, mode=mode)
         assert rep.ok
         times[mode] = vm.sim_time_s
         g.close()
-    assert times["counting"] < times["send-response"]
+    assert times["counting"] < 0.8 * times["send-response"]
 
 
 @pytest.mark.parametrize("mode", ["counting", "send-response"])
