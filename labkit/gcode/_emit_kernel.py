@@ -38,9 +38,10 @@ EmitRows = namedtuple("EmitRows", ["kind", "end", "centre", "plane", "feed", "po
 
 #: How numbers and lines are written: coordinate ``decimals``, ``value_decimals`` (F S P),
 #: ``inline_power`` (S on the motion line), ``rapid_laser_off`` (the controller switches the
-#: beam off on G0 itself), ``numbered`` (N words) and ``checksums`` (``*`` checksums).
+#: beam off on G0 itself), ``numbered`` (N words), ``checksums`` (``*`` checksums) and
+#: ``modal_motion`` (False: the G0-G3 word on every motion line, as stock Marlin needs).
 EmitFormat = namedtuple("EmitFormat", ["decimals", "value_decimals", "inline_power",
-                                       "rapid_laser_off", "numbered", "checksums"])
+                                       "rapid_laser_off", "numbered", "checksums", "modal_motion"])
 
 #: Lines kept from the source (system lines, pauses, program ends): ``row[j]`` the row before
 #: which line j goes (n = after the last), its text ``text[span[j, 0]:span[j, 1]]``,
@@ -249,7 +250,7 @@ def write_moves(rows, start, fmt, first_number, records):
             number += 1
             cur_plane = pl
         ls = used
-        if k != cur_motion:
+        if k != cur_motion or not fmt.modal_motion:
             used = _put(out, used, 71)
             used = _put(out, used, _G_DIGIT[k])
             cur_motion = k

@@ -73,6 +73,10 @@ class Dialect:
     rapids_beam_off : bool
         The controller keeps the beam off during G0 by itself (GRBL laser
         mode); otherwise the emitter writes M5 before travel and M3/M4 after.
+    modal_motion : bool
+        A line of axis words alone continues the last G0–G3 (GRBL, labkit-fw).
+        Marlin builds without ``GCODE_MOTION_MODES`` (the default) need the G
+        word on every motion line, so the emitter repeats it.
     full_circle_without_axes : bool
         ``G2 I… J…`` with no end-point words is a full circle (GRBL instead
         rejects it: error 32).
@@ -116,6 +120,7 @@ class Dialect:
     extra_letters: str = ""
     inline_power: bool = True
     rapids_beam_off: bool = True
+    modal_motion: bool = True
     full_circle_without_axes: bool = True
     require_axis_words: bool = False
     g_codes: tuple[float, ...] = (0, 1, 2, 3, 4, 17, 18, 19, 20, 21, 40, 49, 54, 61, 90, 91, 90.1,
@@ -186,6 +191,7 @@ DIALECTS: dict[str, Dialect] = {
         home_is_origin=True,
         inline_power=False,
         rapids_beam_off=False,
+        modal_motion=False,
         description="Marlin 2 laser: F mm/min, G4 P ms, S 0-255, M3/M4/M5 and M106/M107, N + checksum",
     ),
 }

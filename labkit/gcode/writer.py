@@ -1,7 +1,8 @@
 """Moves → G-code text, in the dialect of the machine that will run it.
 
 The writer keeps the modal state the controller will have and writes only
-what changes: the motion word when the motion mode changes, an axis only
+what changes: the motion word when the motion mode changes (on every motion line for a
+controller without modal motion, such as stock Marlin), an axis only
 when its written coordinate changes, F and S only when they change.
 Numbers get the decimals the tolerance needs ([MicroCAM] §6.1.5: the
 generator works out the digits from the tolerance) and no trailing zeros.
@@ -212,7 +213,8 @@ def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001
     fmt = EK.EmitFormat(decimals=decimals, value_decimals=VALUE_DECIMALS,
                         inline_power=bool(d.inline_power),
                         rapid_laser_off=bool(beam_off_by_controller),
-                        numbered=bool(d.line_numbers), checksums=bool(d.checksums))
+                        numbered=bool(d.line_numbers), checksums=bool(d.checksums),
+                        modal_motion=bool(d.modal_motion))
     records = EK.EmitRecords(row=np.asarray(rec_rows, np.int64), text=rec_text, span=rec_span,
                              reset=np.asarray(rec_reset, np.bool_))
     body, number = EK.write_moves(rows, start_i, fmt, number, records)

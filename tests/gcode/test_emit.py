@@ -81,6 +81,22 @@ def test_dialects_convert_units():
     assert lines == ["M3 S255", "G1 X5 F600", "M5", "G0 X10 Y10", "M3 S255", "G1 X15"]
 
 
+def test_marlin_motion_lines_carry_their_g_word():
+    """Stock Marlin (GCODE_MOTION_MODES off) ignores a line of axis words alone, so every
+    motion line repeats its G0-G3; GRBL continues the last motion and gets the short form."""
+    b = MovesBuilder(feed_mm_min=1200, power_s=300, laser=LaserMode.CONSTANT)
+    b.rapid(x=5, y=5); b.line(x=15); b.line(y=15); b.line(x=5); b.arc_ccw(x=5, y=5, i=0, j=-5)
+    m = b.build()
+    marlin = [line.split(" ", 1)[1].split("*")[0] for line in
+              emit(m, dialect="marlin", header=False, footer=False).splitlines()]
+    motion = [line for line in marlin if line[0] in "XYZ" or line.startswith(("G0", "G1", "G2", "G3"))]
+    assert all(line.startswith(("G0 ", "G1 ", "G2 ", "G3 ")) for line in motion) and len(motion) == 5
+    grbl = emit(m, dialect="grbl", header=False, footer=False).splitlines()
+    assert "Y15" in grbl and "X5" in grbl                   # continuation lines
+    back = parse("\n".join(marlin), dialect="marlin")
+    np.testing.assert_allclose(back.end, m.end, atol=1e-3)
+
+
 def test_records_are_written_back_in_place():
     src = "$H\nG1 X1 F100\nM0\nG1 X2\nM8\nM2\nG0 X0"
     back = parse(emit(parse(src), header=False, footer=False))
