@@ -17,7 +17,7 @@ def _drain(vm, rounds=5):
 
 
 def _sim_time_of(job: bytes, overrides: bytes = b"") -> float:
-    vm = VirtualMachine("grbl-diode", time_scale=0, tick_s=0.05, banner=False)
+    vm = VirtualMachine("grbl-diode", time_scale=0, tick_s=0.01, banner=False)
     vm.write(overrides)
     vm.write(job)
     for _ in range(100_000):
