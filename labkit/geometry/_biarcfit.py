@@ -363,29 +363,23 @@ def _inflections(c, out):
 
 
 @jit
-def _chain_point(ctrl, T, linear):
-    m = ctrl.shape[0]
+def _chain_point(shape, T):
+    """The point of the chain ``shape`` at global parameter T (cubic i spans [i, i + 1])."""
+    m = shape.shape[0]
     i = min(int(math.floor(T)), m - 1)
-    return _at(ctrl[i], T - i, linear)
+    return _point(shape[i], T - i)
 
 
 @jit
-def _at(c, t, linear):
-    """The curve at t: the cubic, or (``linear``) its chord — a polyline whose cubics carry
-    only the tangent estimates."""
-    if linear:
-        return c[0, 0] + t * (c[3, 0] - c[0, 0]), c[0, 1] + t * (c[3, 1] - c[0, 1])
-    return _point(c, t)
-
-
-@jit
-def _sample_chain(ctrl, Ta, Tb, p0x, p0y, buf, tbuf, linear):
-    """Samples of the chain between global parameters Ta < Tb into buf (their parameters in
-    tbuf); returns (count, buf, tbuf).
+def _sample_chain(shape, Ta, Tb, p0x, p0y, buf, tbuf, per_cubic):
+    """Samples of the chain ``shape`` between global parameters Ta < Tb into buf (their
+    parameters in tbuf); returns (count, buf, tbuf).
 
     Cubic i covers T in [i, i + 1]. The first sample is the given start point
-    (the previous piece's end) so pieces join exactly."""
-    m = ctrl.shape[0]
+    (the previous piece's end) so pieces join exactly. Each cubic's part gets
+    ``per_cubic`` evenly spaced samples, ending on its end; 0 samples by density
+    (``_PER_CUBIC`` per whole cubic, at least ``_MIN_SAMPLES`` per piece)."""
+    m = shape.shape[0]
     span = Tb - Ta
     dens = max(float(_PER_CUBIC), _MIN_SAMPLES / span)
     i0 = min(int(math.floor(Ta)), m - 1)
@@ -402,10 +396,10 @@ def _sample_chain(ctrl, Ta, Tb, p0x, p0y, buf, tbuf, linear):
         hi = min(Tb - i, 1.0)
         if hi <= lo:
             continue
-        k = 2 if linear else max(1, int(math.ceil(dens * (hi - lo))))
+        k = per_cubic if per_cubic > 0 else max(1, int(math.ceil(dens * (hi - lo))))
         for j in range(1, k + 1):
             t = hi if j == k else lo + (hi - lo) * j / k
-            x, y = _at(ctrl[i], t, linear)
+            x, y = _point(shape[i], t)
             buf[n, 0], buf[n, 1] = x, y
             tbuf[n] = i + t
             n += 1
@@ -413,7 +407,7 @@ def _sample_chain(ctrl, Ta, Tb, p0x, p0y, buf, tbuf, linear):
 
 
 @jit
-def _curve_joint(ctrl, buf, tbuf, n, p0x, p0y, t0x, t0y, p1x, p1y, t1x, t1y, ba, linear):
+def _curve_joint(shape, buf, tbuf, n, p0x, p0y, t0x, t0y, p1x, p1y, t1x, t1y, ba):
     """The biarc whose joint is where the curve crosses the joint circle (the crossing nearest
     the middle sample, refined on the cubic); the equal-tangent-length biarc when the
     curve does not cross it."""
@@ -434,7 +428,7 @@ def _curve_joint(ctrl, buf, tbuf, n, p0x, p0y, t0x, t0y, p1x, p1y, t1x, t1y, ba,
     jx, jy = buf[best, 0], buf[best, 1]
     for _ in range(40):
         tm = 0.5 * (ta + tb)
-        jx, jy = _chain_point(ctrl, tm, linear)
+        jx, jy = _chain_point(shape, tm)
         fm = _joint_side(jx, jy, p0x, p0y, p1x, p1y, cx, cy, r)
         if (fm < 0.0) == (fa < 0.0):
             ta, fa = tm, fm
@@ -448,12 +442,12 @@ def _curve_joint(ctrl, buf, tbuf, n, p0x, p0y, t0x, t0y, p1x, p1y, t1x, t1y, ba,
 
 
 @jit
-def _chain_fit(ctrl, Ta, Tb, p0x, p0y, t0x, t0y, single, kink, tol, buf, tbuf, ba, linear):
+def _chain_fit(ctrl, shape, Ta, Tb, p0x, p0y, t0x, t0y, single, kink, tol, buf, tbuf, ba, per_cubic):
     """Error over the chain piece [Ta, Tb] of one arc leaving p0 along t0 (``single``), or of
-    the biarc from (p0, t0) to the curve's end point and tangent; inf when none exists.
-    Fills ba; returns (error, end x, end y, buf, tbuf)."""
+    the biarc from (p0, t0) to the curve's end point and tangent (``ctrl``'s); inf when none
+    exists. Fills ba; returns (error, end x, end y, buf, tbuf)."""
     m = ctrl.shape[0]
-    n, buf, tbuf = _sample_chain(ctrl, Ta, Tb, p0x, p0y, buf, tbuf, linear)
+    n, buf, tbuf = _sample_chain(shape, Ta, Tb, p0x, p0y, buf, tbuf, per_cubic)
     p1x, p1y = buf[n - 1, 0], buf[n - 1, 1]
     ba2 = np.empty(8)
     if single:
@@ -461,8 +455,8 @@ def _chain_fit(ctrl, Ta, Tb, p0x, p0y, t0x, t0y, single, kink, tol, buf, tbuf, b
             # turn the start tangent (by at most kink) toward the circle through the piece's
             # ends and middle sample
             q = n // 2
-            if linear and q % 2 == 1:
-                q -= 1                            # a vertex, not a chord midpoint
+            if per_cubic > 0:
+                q -= q % per_cubic                # a cubic's end (a vertex), not a sample inside
             ux, uy, _ = _unit(p1x - p0x, p1y - p0y)
             mx, my = buf[q, 0] - p0x, buf[q, 1] - p0y
             vx, vy = p1x - p0x, p1y - p0y
@@ -485,7 +479,7 @@ def _chain_fit(ctrl, Ta, Tb, p0x, p0y, t0x, t0y, single, kink, tol, buf, tbuf, b
     t1x, t1y = _piece_tangent(ctrl[ib], max(Ta - ib, 0.0), Tb - ib, True)
     if t1x == 0.0 and t1y == 0.0:
         return math.inf, p1x, p1y, buf, tbuf
-    if not _curve_joint(ctrl, buf, tbuf, n, p0x, p0y, t0x, t0y, p1x, p1y, t1x, t1y, ba, linear):
+    if not _curve_joint(shape, buf, tbuf, n, p0x, p0y, t0x, t0y, p1x, p1y, t1x, t1y, ba):
         e = math.inf
     else:
         e = _biarc_error(buf, n, p0x, p0y, p1x, p1y, ba, tol)
@@ -548,21 +542,22 @@ def _end_tangent(ba, p0x, p0y, p1x, p1y):
 
 
 @jit
-def _search(ctrl, Ta, rem, guess, p0x, p0y, t0x, t0y, single, kink, tol, buf, tbuf, ba, best, linear):
+def _search(ctrl, shape, Ta, rem, guess, p0x, p0y, t0x, t0y, single, kink, tol, buf, tbuf, ba, best,
+            per_cubic):
     """Longest piece from Ta (at most rem) that fits: try guess, double or halve, bisect.
     Returns (length, bracket end or -1, error, end x, end y, buf, tbuf); best holds the fit."""
     step = min(guess, rem)
     lo, hi = 0.0, -1.0
     best_e, bx, by = math.inf, 0.0, 0.0
-    e, ex, ey, buf, tbuf = _chain_fit(ctrl, Ta, Ta + step, p0x, p0y, t0x, t0y, single, kink, tol, buf,
-                                              tbuf, ba, linear)
+    e, ex, ey, buf, tbuf = _chain_fit(ctrl, shape, Ta, Ta + step, p0x, p0y, t0x, t0y, single, kink, tol, buf,
+                                              tbuf, ba, per_cubic)
     if e <= tol:
         lo, best_e, bx, by = step, e, ex, ey
         best[:] = ba
         while lo < rem:
             s2 = min(2.0 * lo, rem)
-            e, ex, ey, buf, tbuf = _chain_fit(ctrl, Ta, Ta + s2, p0x, p0y, t0x, t0y, single, kink, tol, buf,
-                                              tbuf, ba, linear)
+            e, ex, ey, buf, tbuf = _chain_fit(ctrl, shape, Ta, Ta + s2, p0x, p0y, t0x, t0y, single, kink, tol, buf,
+                                              tbuf, ba, per_cubic)
             if e <= tol:
                 lo, best_e, bx, by = s2, e, ex, ey
                 best[:] = ba
@@ -573,8 +568,8 @@ def _search(ctrl, Ta, rem, guess, p0x, p0y, t0x, t0y, single, kink, tol, buf, tb
         hi = step
         while hi * 0.5 >= _MIN_STEP:
             s2 = 0.5 * hi
-            e, ex, ey, buf, tbuf = _chain_fit(ctrl, Ta, Ta + s2, p0x, p0y, t0x, t0y, single, kink, tol, buf,
-                                              tbuf, ba, linear)
+            e, ex, ey, buf, tbuf = _chain_fit(ctrl, shape, Ta, Ta + s2, p0x, p0y, t0x, t0y, single, kink, tol, buf,
+                                              tbuf, ba, per_cubic)
             if e <= tol:
                 lo, best_e, bx, by = s2, e, ex, ey
                 best[:] = ba
@@ -583,8 +578,8 @@ def _search(ctrl, Ta, rem, guess, p0x, p0y, t0x, t0y, single, kink, tol, buf, tb
     if lo > 0.0 and hi > 0.0:
         for _ in range(_BISECT):
             mid = 0.5 * (lo + hi)
-            e, ex, ey, buf, tbuf = _chain_fit(ctrl, Ta, Ta + mid, p0x, p0y, t0x, t0y, single, kink, tol, buf,
-                                              tbuf, ba, linear)
+            e, ex, ey, buf, tbuf = _chain_fit(ctrl, shape, Ta, Ta + mid, p0x, p0y, t0x, t0y, single, kink, tol, buf,
+                                              tbuf, ba, per_cubic)
             if e <= tol:
                 lo, best_e, bx, by = mid, e, ex, ey
                 best[:] = ba
@@ -608,9 +603,15 @@ def _grow(verts, centres, sweeps, k, need):
 
 
 @jit
-def fit_cubic_chain(ctrl, tol, kink_rad, closed, extra_breaks, a_factor, g1_tol, linear):
+def fit_cubic_chain(ctrl, shape, tol, kink_rad, closed, extra_breaks, a_factor, g1_tol, per_cubic):
     """Tangent-continuous arcs for a chain of cubics (m, 4, 2), each starting where the
     previous ends.
+
+    ``ctrl`` gives the tangents the pieces follow (and the corners, cusps and
+    inflections); ``shape`` (m, 4, 2) is the curve the pieces are measured
+    against, sampled ``per_cubic`` times per cubic (0: by density) — ``ctrl``
+    itself for a Bézier chain; for a polyline, its straight segments as cubics
+    while ``ctrl`` carries the tangents estimated at its vertices.
 
     The chain is cut into runs at corners — joints between cubics whose
     tangents differ by more than ``kink_rad`` — and cusps (pieces run on
@@ -698,16 +699,16 @@ def fit_cubic_chain(ctrl, tol, kink_rad, closed, extra_breaks, a_factor, g1_tol,
         while Rb - Ta > _MIN_STEP:
             p0x, p0y = verts[k, 0], verts[k, 1]
             rem = Rb - Ta
-            lo_a, hi_a, e_a, ax, ay, buf, tbuf = _search(ctrl, Ta, rem, guess_a, p0x, p0y, tx, ty, True,
+            lo_a, hi_a, e_a, ax, ay, buf, tbuf = _search(ctrl, shape, Ta, rem, guess_a, p0x, p0y, tx, ty, True,
                                                          math.pi if free else g1_tol, tol,
-                                                         buf, tbuf, ba, best_a, linear)
+                                                         buf, tbuf, ba, best_a, per_cubic)
             if lo_a > 0.0:
                 guess_a = lo_a
             a_ok = lo_a > 0.0 and not (last_closing and lo_a >= rem)   # a closing piece needs a biarc
             lo_b = 0.0
             if not (a_ok and lo_a >= rem):
-                lo_b, hi_b, e_b, bx, by, buf, tbuf = _search(ctrl, Ta, rem, guess_b, p0x, p0y, tx, ty, False,
-                                                             0.0, tol, buf, tbuf, ba, best_b, linear)
+                lo_b, hi_b, e_b, bx, by, buf, tbuf = _search(ctrl, shape, Ta, rem, guess_b, p0x, p0y, tx, ty, False,
+                                                             0.0, tol, buf, tbuf, ba, best_b, per_cubic)
                 if lo_b > 0.0:
                     guess_b = lo_b
             if lo_b >= rem:
@@ -717,7 +718,7 @@ def fit_cubic_chain(ctrl, tol, kink_rad, closed, extra_breaks, a_factor, g1_tol,
             if lo_a == 0.0 and lo_b == 0.0:
                 # nothing fits even the shortest piece (a degenerate spot): a straight chord
                 step = min(rem, 4.0 * _MIN_STEP)
-                n, buf, tbuf = _sample_chain(ctrl, Ta, Ta + step, p0x, p0y, buf, tbuf, linear)
+                n, buf, tbuf = _sample_chain(shape, Ta, Ta + step, p0x, p0y, buf, tbuf, per_cubic)
                 ex, ey = buf[n - 1, 0], buf[n - 1, 1]
                 for q in range(n):
                     d = math.hypot(buf[q, 0] - p0x, buf[q, 1] - p0y)

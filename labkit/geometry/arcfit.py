@@ -146,6 +146,10 @@ METHODS = ("greedy", "biarc")
 #: Largest kink the fit leaves between two of its own segments where the curve is smooth (rad).
 G1_TOL_RAD = math.radians(1.0)
 _NO_BREAKS = np.empty(0)
+#: Samples per segment when fitting a polyline: its midpoint and its end vertex.
+_POLYLINE_SAMPLES = 2
+
+
 def _check_method(method):
     if method not in METHODS:
         raise GeometryError(f"method must be one of {METHODS}, got {method!r}")
@@ -217,7 +221,7 @@ def fit_arcs(points, tol_mm, *, arcs=True, closed=False, base_deviation_mm=0.0, 
         seg = np.hypot(*np.diff(p, axis=0).T)
         ctrl = hermite_chain(p, loop, CORNER_RAD, max(4.0 * float(tol_mm), 2.0 * float(np.median(seg))))
         half = np.array([float((len(p) - 1) // 2)]) if loop else _NO_BREAKS
-        return _fit(ctrl, tol_mm, loop, half, linear=True, closed=closed,
+        return _fit(ctrl, tol_mm, loop, half, shape=_straight_cubics(p), closed=closed,
                     base_deviation_mm=base_deviation_mm, **meta)
     if closed and len(p) >= 5:
         # fit the two halves of a loop apart, so that a circle becomes two half arcs
@@ -234,18 +238,32 @@ def fit_arcs(points, tol_mm, *, arcs=True, closed=False, base_deviation_mm=0.0, 
                 deviation_mm=float(worst) + base_deviation_mm, **meta)
 
 
-def _fit(ctrl, tol_mm, closed_loop, breaks, *, linear=False, base_deviation_mm=0.0, closed=False,
+def _straight_cubics(p: np.ndarray) -> np.ndarray:
+    """The polyline ``p`` (n, 2) as n − 1 straight cubics (control points at the thirds),
+    each of which traces its segment at uniform speed."""
+    a, b = p[:-1], p[1:]
+    return np.ascontiguousarray(np.stack([a, a + (b - a) / 3.0, b - (b - a) / 3.0, b], axis=1))
+
+
+def _fit(ctrl, tol_mm, closed_loop, breaks, *, shape=None, base_deviation_mm=0.0, closed=False,
          **meta) -> Path:
+    """Fit the cubic chain ``ctrl``; with ``shape`` (a polyline as straight cubics), fit that
+    polyline, following the tangents ``ctrl`` estimates at its vertices. A polyline is measured
+    at each vertex and segment midpoint; a curve by density, then re-measured where its
+    samples may misjudge it."""
     ctrl = np.ascontiguousarray(ctrl)
+    polyline = shape is not None
+    shape = shape if polyline else ctrl
+    per_cubic = _POLYLINE_SAMPLES if polyline else 0
     share = SAMPLE_SHARE
     for _ in range(VERIFY_ROUNDS):
         # the kernel turns tangents by up to its limit; 2 % headroom keeps the joints that
         # the written arcs actually make within G1_TOL_RAD
-        v, cen, sw, worst, _ = fit_cubic_chain(ctrl, share * float(tol_mm), KINK_RAD,
-                                               closed_loop, breaks, 2.0, 0.98 * G1_TOL_RAD, linear)
+        v, cen, sw, worst, _ = fit_cubic_chain(ctrl, shape, share * float(tol_mm), KINK_RAD,
+                                               closed_loop, breaks, 2.0, 0.98 * G1_TOL_RAD, per_cubic)
         if len(sw) == 0:                               # the chain is a single point
             v, cen, sw = np.vstack([ctrl[0, :1], ctrl[-1, 3:]]), None, None
-        coarse = None if linear else _samples_may_hide(ctrl, float(tol_mm))
+        coarse = None if polyline else _samples_may_hide(ctrl, float(tol_mm))
         if coarse is None or not coarse.any():
             break                                      # the kernel's samples resolve the curve
         path = Path(v, cen, sw, closed=closed, **meta)
