@@ -207,6 +207,33 @@ def test_polyline_circle_and_polygon():
     assert h.n_segments == 6 and not h.is_arc.any()
 
 
+def test_a_polyline_is_measured_on_its_own_segments():
+    """The biarc fit of a polyline measures against the polyline itself (its segments as
+    straight cubics, which trace each segment at uniform speed), not against the curved
+    chain that carries its tangents: a zig-zag whose tangent chain bulges is still fitted
+    within tolerance of the zig-zag, checked by an independent distance measure."""
+    from labkit.geometry import _biarcfit
+    from labkit.geometry.arcfit import _straight_cubics
+
+    rng = np.random.default_rng(7)
+    p = np.cumsum(rng.uniform(-5, 5, (40, 2)), axis=0)
+    cubics = _straight_cubics(p)
+    t = rng.uniform(0, 1, (len(p) - 1, 1))
+    u = 1 - t
+    on_cubic = (u ** 3 * cubics[:, 0] + 3 * u * u * t * cubics[:, 1] + 3 * u * t * t * cubics[:, 2]
+                + t ** 3 * cubics[:, 3])
+    np.testing.assert_allclose(on_cubic, p[:-1] + t * (p[1:] - p[:-1]), atol=1e-12)
+    fit = fit_arcs(p, 0.05, method="biarc")
+    polyline = Path(p)
+    assert hausdorff(fit, polyline) <= 0.05 + 1e-9
+    assert fit.deviation_mm <= 0.05
+    # the kernels take the curve and the tangent chain as two arrays, never a mode flag
+    import inspect
+    for name in ("fit_cubic_chain", "_search", "_chain_fit", "_sample_chain"):
+        params = inspect.signature(getattr(_biarcfit, name).py_func).parameters
+        assert "linear" not in params and "shape" in params, name
+
+
 def test_errors():
     with pytest.raises(GeometryError, match="end points coincide"):
         biarc((1, 1), (1, 0), (1, 1), (0, 1))
