@@ -44,6 +44,11 @@ def test_index_links_every_chapter():
     linked = set(_links(ROOT / "notebooks" / "00-index.ipynb"))
     chapters = {p.name for p in (ROOT / "notebooks").glob("[0-9][0-9]-*.ipynb")} - {"00-index.ipynb"}
     assert chapters <= linked, f"chapters missing from the index: {sorted(chapters - linked)}"
+    # and each with its expected run time, as "(NN-name.ipynb) [≈ N s]"
+    cells = json.loads((ROOT / "notebooks" / "00-index.ipynb").read_text())["cells"]
+    text = "\n".join("".join(c["source"]) for c in cells if c["cell_type"] == "markdown")
+    timed = set(re.findall(r"\]\(([0-9][0-9]-[\w-]+\.ipynb)\) \[≈ \d+ s\]", text))
+    assert chapters <= timed, f"chapters without a run time in the index: {sorted(chapters - timed)}"
 
 
 def test_notebooks_are_stored_with_outputs():

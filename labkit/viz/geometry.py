@@ -148,6 +148,10 @@ def bezier_explorer(ctrl=((0, 0), (10, 40), (50, -20), (60, 20))):
     return w.VBox([w.HBox([t, tol]), method, out])
 
 
+#: How the chapters name ``ellipse_to_arcs``' choices of third point.
+THIRD_POINT_NAMES = {"midpoint": "midpoint", "seed": "[LaserApp]'s"}
+
+
 def plot_ellipse_arcs(rx=20.0, ry=10.0, n=3, method="midpoint", ax=None, *, centres=True):
     """An ellipse, its arcs (alternating colours), hand-over points and arc centres."""
     from labkit.geometry.ellipse import ellipse_point, ellipse_to_arcs
@@ -166,8 +170,10 @@ def plot_ellipse_arcs(rx=20.0, ry=10.0, n=3, method="midpoint", ax=None, *, cent
     if centres:
         ax.plot(*p.centres.T, "x", color="tab:red", ms=5, label="arc centres")
     ax.set_aspect("equal")
-    ax.set_title(f"{n} arcs per quadrant ({method}): max deviation {p.deviation_mm:.4f} mm")
-    ax.legend(loc="upper right", fontsize="small")
+    ax.set_title(f"{n} arcs per quadrant, {THIRD_POINT_NAMES.get(method, method)} third point\n"
+                 f"max deviation {p.deviation_mm:.4f} mm")
+    # below the axes: the arc centres can lie anywhere around the ellipse
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=3, fontsize="small", frameon=False)
     ax.set_xlabel("X (mm)")
     ax.set_ylabel("Y (mm)")
     return ax
@@ -190,8 +196,10 @@ def ellipse_explorer():
 
     ratio = w.FloatSlider(value=2.0, min=1.05, max=5.0, step=0.05, description="rx / ry")
     n = w.IntSlider(value=3, min=1, max=24, description="arcs/quadrant")
-    method = w.ToggleButtons(options=["midpoint", "seed"], description="3rd point")
-    seed_default = w.Button(description="seed default n")
+    # labels name the source ([LaserApp]); the values are ellipse_to_arcs' method names
+    method = w.ToggleButtons(options=[("midpoint", "midpoint"), ("LaserApp's", "seed")],
+                             description="3rd point")
+    seed_default = w.Button(description="LaserApp's n")
     out = w.Output()
 
     def redraw(*_):
