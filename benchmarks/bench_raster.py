@@ -25,6 +25,7 @@ import time
 import numpy as np
 from skimage import data, filters, transform
 
+from _process import process_time
 from labkit.gcode import emit
 from labkit.raster import (SKIMAGE_FACTOR, Segments, connect, mask_job, prewitt, roberts, sobel)
 from labkit.raster.pathing import zigzag_segments
@@ -279,27 +280,8 @@ with open(sys.argv[2], "w") as fh:
 """
 
 
-def _process_time(argv, repeat=2):
-    import os
-    import subprocess
-    import sys
-    from pathlib import Path
-
-    root = Path(__file__).resolve().parents[1]
-    env = dict(os.environ, PYTHONPATH=str(root))
-    best = float("inf")
-    for k in range(repeat + 1):          # the first run fills the caches
-        t = time.perf_counter()
-        done = subprocess.run([sys.executable, *argv], env=env, cwd=root, capture_output=True,
-                              text=True)
-        if done.returncode:
-            raise SystemExit(done.stderr)
-        if k:
-            best = min(best, time.perf_counter() - t)
-    return best
-
-
 def bench_command():
+    import sys
     import tempfile
     from pathlib import Path
 
@@ -311,10 +293,11 @@ def bench_command():
     with tempfile.TemporaryDirectory() as tmp:
         png = str(Path(tmp) / "horse.png")
         Image.fromarray(np.where(mask, 0, 255).astype(np.uint8)).save(png, dpi=(254, 254))
-        t_ours = _process_time(["-m", "labkit", "img2gcode", png, "-o", str(Path(tmp) / "a.gcode"),
-                                "--mode", "zigzag", "--beam", "0.1", "--preview", "none",
-                                "--force"])
-        t_py = _process_time(["-c", PY_ROW_SCAN, png, str(Path(tmp) / "b.gcode")])
+        t_ours = process_time([sys.executable, "-m", "labkit", "img2gcode", png,
+                               "-o", str(Path(tmp) / "a.gcode"), "--mode", "zigzag",
+                               "--beam", "0.1", "--preview", "none", "--force"], repeat=2)
+        t_py = process_time([sys.executable, "-c", PY_ROW_SCAN, png, str(Path(tmp) / "b.gcode")],
+                            repeat=2)
     print(f"   labkit {t_ours:6.2f} s   pure-Python row scan {t_py:6.2f} s   "
           f"speed-up {t_py / t_ours:5.2f}× (want ≥ 2×)")
 

@@ -18,37 +18,16 @@ Run:  .venv/bin/python benchmarks/bench_startup.py [--repeat K]
 from __future__ import annotations
 
 import argparse
-import os
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from _process import ROOT, process_time
+
 SMALL = ROOT / "data" / "gcode" / "cncjs" / "jsdc-laser.gcode"
 BIG = ROOT / "data" / "gcode" / "cncjs" / "tball-pocket-laser.gcode"
 SVG = ROOT / "data" / "gcode" / "cncjs" / "jsdc.svg"
 TARGET_RATIO = 2.0
-
-
-def run_time(argv: list[str], repeat: int) -> float:
-    """Best wall time of ``argv`` as a fresh process, after one warm-up run."""
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    # The warm-up must leave bytecode behind, as on a user's machine; an environment that
-    # forbids it (PYTHONDONTWRITEBYTECODE, set on some CI images) would time compiling
-    # labkit's sources on every run instead.
-    env.pop("PYTHONDONTWRITEBYTECODE", None)
-    best = float("inf")
-    for k in range(repeat + 1):
-        t = time.perf_counter()
-        done = subprocess.run(argv, env=env, cwd=ROOT, capture_output=True, text=True)
-        elapsed = time.perf_counter() - t
-        if done.returncode != 0:
-            raise SystemExit(f"{' '.join(argv)} failed:\n{done.stderr}")
-        if k:
-            best = min(best, elapsed)
-    return best
 
 
 def main() -> int:
@@ -57,11 +36,11 @@ def main() -> int:
     args = ap.parse_args()
     py = sys.executable
     lines = SMALL.read_bytes().count(b"\n")
-    t_pass = run_time([py, "-c", "pass"], args.repeat)
-    reference = run_time([py, "-c", "import sys; from gcodeparser import parse_gcode_lines; "
-                          "list(parse_gcode_lines(open(sys.argv[1]).read()))", str(SMALL)],
-                         args.repeat)
-    t_numpy = run_time([py, "-c", "import numpy"], args.repeat)
+    t_pass = process_time([py, "-c", "pass"], args.repeat)
+    reference = process_time([py, "-c", "import sys; from gcodeparser import parse_gcode_lines; "
+                              "list(parse_gcode_lines(open(sys.argv[1]).read()))", str(SMALL)],
+                             args.repeat)
+    t_numpy = process_time([py, "-c", "import numpy"], args.repeat)
     print(f"python -c pass                              {t_pass * 1e3:7.0f} ms")
     print(f"python + gcodeparser on {SMALL.name} ({lines} lines)"
           f" {reference * 1e3:5.0f} ms   (the reference)")
@@ -74,12 +53,12 @@ def main() -> int:
         cases = [("check", [str(SMALL)]), ("info", [str(SMALL)]),
                  ("svg2gcode", [str(SVG), "-o", out])]
         for name, rest in cases:
-            t = run_time([py, "-m", "labkit", name, *rest], args.repeat)
+            t = process_time([py, "-m", "labkit", name, *rest], args.repeat)
             ratio = t / reference
             worst = max(worst, ratio)
             print(f"labkit {name:<10} {Path(rest[0]).name:<26}      {t * 1e3:7.0f} ms   "
                   f"ratio {ratio:4.2f} (target ≤ {TARGET_RATIO:g})")
-        t_big = run_time([py, "-m", "labkit", "check", str(BIG)], args.repeat)
+        t_big = process_time([py, "-m", "labkit", "check", str(BIG)], args.repeat)
         big_lines = BIG.read_bytes().count(b"\n")
         print(f"labkit check      {BIG.name} ({big_lines} lines, compiled) {t_big * 1e3:7.0f} ms")
     print(f"worst ratio {worst:.2f}: {'met' if worst <= TARGET_RATIO else 'NOT met'}")

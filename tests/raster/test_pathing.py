@@ -45,6 +45,43 @@ def test_zigzag_exact_cover(axis, direction, ends):
         _assert_exact_cover(ordered, mask)
 
 
+def _runs_by_hand(mask, axis):
+    """Every run of marked pixels, line after line, read one pixel at a time."""
+    lines = mask.T if axis == "columns" else mask
+    runs = []
+    for i, line in enumerate(lines):
+        j = 0
+        while j < len(line):
+            if line[j]:
+                j0 = j
+                while j < len(line) and line[j]:
+                    j += 1
+                runs.append((i, j0, j))
+            j += 1
+    return runs
+
+
+@pytest.mark.parametrize("band_pixels", [1, 7, 64, 1 << 22])
+@pytest.mark.parametrize("axis", ["rows", "columns"])
+def test_zigzag_runs_are_the_same_whatever_the_band(monkeypatch, axis, band_pixels):
+    # runs are found a band of rows at a time: a run that crosses a band's edge (columns)
+    # or a band of one row must come out as one run, in scan order
+    from labkit.raster import pathing
+    monkeypatch.setattr(pathing, "_BAND_PIXELS", band_pixels)
+    masks = list(_random_masks(7, n=20)) + [np.zeros((3, 4), bool), np.ones((5, 1), bool),
+                                            np.ones((1, 6), bool)]
+    for mask in masks:
+        segs = zigzag_segments(mask, axis=axis, direction="unidirectional", ends="centre")
+        if axis == "rows":          # half-pixel units: x = 2c + 1, y = 2(H - r) - 1
+            got = [(int(mask.shape[0] - (y + 1) // 2), int(x0 - 1) // 2, int(x1 + 1) // 2)
+                   for (x0, y), (x1, _) in zip(segs.starts, segs.ends)]
+        else:                       # columns run bottom → top: stop row from the start y
+            got = [(int(x - 1) // 2, int(mask.shape[0] - (y1 + 1) // 2),
+                    int(mask.shape[0] - (y0 + 1) // 2) + 1)
+                   for (x, y0), (_, y1) in zip(segs.starts, segs.ends)]
+        assert got == _runs_by_hand(mask, axis)
+
+
 def test_zigzag_edge_runs_are_pixel_long_and_unidirectional_goes_one_way():
     mask = _horse()
     segs = zigzag_segments(mask, axis="rows", direction="unidirectional")
