@@ -20,6 +20,7 @@ Run: .venv/bin/python benchmarks/bench_raster.py   (a few minutes; 2 cores)
 
 from __future__ import annotations
 
+import sys
 import time
 
 import numpy as np
@@ -281,7 +282,6 @@ with open(sys.argv[2], "w") as fh:
 
 
 def bench_command():
-    import sys
     import tempfile
     from pathlib import Path
 
@@ -319,8 +319,6 @@ def bench_preview():
 
 
 if __name__ == "__main__":
-    import sys
-
     only = sys.argv[1:]             # e.g. `bench_raster.py command preview`
     for name, fn in (("edges", bench_edges), ("pipeline", bench_pipeline),
                      ("connection", bench_connection), ("command", bench_command),

@@ -181,9 +181,6 @@ def _runs(mask: np.ndarray, columns: bool) -> tuple[np.ndarray, np.ndarray, np.n
             r, c = np.nonzero(d == 1)
             starts.append((r + a, c))
             stops.append((r + a, np.nonzero(d == -1)[1]))
-    if not starts:
-        empty = np.zeros(0, np.int64)
-        return empty, empty, empty
     line, first = (np.concatenate(x).astype(np.int64) for x in zip(*starts))
     stop_line, stop = (np.concatenate(x).astype(np.int64) for x in zip(*stops))
     if columns:

@@ -229,9 +229,12 @@ def test_a_widget_responds_to_input(lab, browser):
     for key in (Keys.ARROW_LEFT, Keys.ARROW_LEFT):        # microsteps 32 -> 16 -> 8
         handle.send_keys(key)
         time.sleep(0.5)
-    WebDriverWait(browser, 60, poll_frequency=0.5).until(
-        lambda d: d.find_elements(By.CSS_SELECTOR, f"{PANEL} .widget-output img")[0].get_attribute("src") != before,
-        message=f"{name}: moving the slider did not redraw the widget's plot")
+    def redrawn(d):
+        src = d.find_elements(By.CSS_SELECTOR, f"{PANEL} .widget-output img")[0].get_attribute("src")
+        return src if src != before else False
+    after = WebDriverWait(browser, 60, poll_frequency=0.5).until(
+        redrawn, message=f"{name}: moving the slider did not redraw the widget's plot")
+    assert after and after != before
     out_dir = ROOT / "build"
     out_dir.mkdir(exist_ok=True)
     browser.save_screenshot(str(out_dir / "browser-widget-responds.png"))

@@ -116,21 +116,24 @@ def test_fit_of_the_synthetic_file_classifies_cut_through(capsys):
     assert c["ratio50_mw_per_mm_min"] == pytest.approx(2 * threshold_ratio(0.12, 200.0), rel=0.25)
 
 
-def _one_line_error(code, err, *words):
+def _one_line_error(code, err):
+    """The message of a refused command: exit 1, one line, no traceback."""
     assert code == 1
     assert "Traceback" not in err and err.count("\n") == 1
-    for w in words:
-        assert w in err
+    return err
 
 
 def test_a_csv_missing_a_column_is_named(tmp_path, capsys):
     bad = tmp_path / "w.csv"
     bad.write_text("power_mw,width_mm\n1000,0.1\n")
-    _one_line_error(*_run(capsys, "fit", bad)[::2], "speed_mm_min", "missing")
+    err = _one_line_error(*_run(capsys, "fit", bad)[::2])
+    assert "speed_mm_min" in err and "missing" in err
     bad.write_text("power_mw,speed_mm_min,width_mm\n1000,600,wide\n")
-    _one_line_error(*_run(capsys, "fit", bad)[::2], "w.csv:2", "width_mm")
+    err = _one_line_error(*_run(capsys, "fit", bad)[::2])
+    assert "w.csv:2" in err and "width_mm" in err
     bad.write_text("power_mw,speed_mm_min,width_mm\n1000,600,0.1\n-5,600,0.1\n")
-    _one_line_error(*_run(capsys, "fit", bad)[::2], "power_mw", "> 0")
+    err = _one_line_error(*_run(capsys, "fit", bad)[::2])
+    assert "power_mw" in err and "> 0" in err
 
 
 @pytest.mark.parametrize("opt, value", [("--powers", "0:2500:5"), ("--powers", "-500,1000"),
@@ -140,7 +143,7 @@ def test_non_positive_powers_or_speeds_are_refused(tmp_path, capsys, opt, value)
     # "--powers=-500,1000": a value starting with '-' must be attached, as for any argparse option
     code, _, err = _run(capsys, "pattern", f"--powers={args['--powers']}", f"--speeds={args['--speeds']}",
                         "-o", tmp_path / "g.gcode")
-    _one_line_error(code, err, opt)
+    assert opt in _one_line_error(code, err)
     assert not (tmp_path / "g.gcode").exists()
 
 
@@ -148,13 +151,12 @@ def test_a_scan_without_the_grid_is_refused(burned, tmp_path, capsys):
     tmp, _, _ = burned
     blank = tmp_path / "blank.png"
     Image.fromarray(np.full((400, 400), 230, np.uint8)).save(blank)
-    _one_line_error(*_run(capsys, "measure", blank, "--layout", tmp / "GRID.json", "--dpi", 600,
-                          "-o", tmp_path / "w.csv")[::2], "grid")
-    Image.fromarray(np.full((400, 400), 230, np.uint8)).save(blank)
+    assert "grid" in _one_line_error(*_run(capsys, "measure", blank, "--layout", tmp / "GRID.json",
+                                           "--dpi", 600, "-o", tmp_path / "w.csv")[::2])
     noisy = (np.random.default_rng(0).random((400, 400)) * 255).astype(np.uint8)
     Image.fromarray(noisy).save(blank)
-    _one_line_error(*_run(capsys, "measure", blank, "--layout", tmp / "GRID.json", "--dpi", 600,
-                          "-o", tmp_path / "w.csv")[::2], "grid")
+    assert "grid" in _one_line_error(*_run(capsys, "measure", blank, "--layout", tmp / "GRID.json",
+                                           "--dpi", 600, "-o", tmp_path / "w.csv")[::2])
 
 
 def test_measure_with_a_reference_length_instead_of_dpi(burned, tmp_path, capsys):
