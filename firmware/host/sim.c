@@ -3,18 +3,20 @@
   hal whose step timer advances a simulated clock.
 
     labkit-fw-sim [--pty] [--dialect grbl|labkit-fw] [--trace FILE]
-                  [--eeprom FILE] [--stats]
+                  [--eeprom FILE] [--panel PATH] [--beam-log PATH] [--stats]
 
   Serial: stdin/stdout by default; --pty creates a pseudo-terminal and
   prints its path on stderr ("labkit-fw-sim: pty /dev/pts/N"); open it with
   pyserial (any baud rate). The banner is written at start; a host that
-  opened the pty later asks for one with Ctrl-X (0x18), as for GRBL.
+  opened the pty later asks for one with Ctrl-X (0x18), as for GRBL. Bytes
+  above 0x7F that are not GRBL real-time commands are dropped (serial.c).
 
   Time: every step-timer tick adds (period + 1) x (prescaler + 1) timer
   cycles to the simulated clock and calls st_tick(), as the timer interrupt
-  does. Nothing depends on the host's speed except when the look-ahead is
-  flushed because the input went quiet (30 ms of wall time, protocol.c).
-  The simulation runs as fast as the host allows.
+  does; the clock stands still while the timer does. Nothing depends on the
+  host's speed except when the look-ahead is flushed because the input went
+  quiet (30 ms of wall time, protocol.c). The simulation runs as fast as the
+  host allows.
 
   Trace (--trace FILE): one CSV row per tick, the columns of
   `labkit steps` (labkit.motion.timer.StepTrace.to_dataframe):
@@ -22,9 +24,21 @@
   x y z are -1/0/+1 steps, time_s the step pulse at the end of the tick;
   dwell ticks are left out (labkit's trace has none).
 
-  Control panel (menu.c) and e-stop as bytes in the input (serial.h):
-    0xB0 encoder clockwise, 0xB1 counter-clockwise, 0xB2 OK, 0xB8 e-stop.
-  `$LCD` prints the LCD's four lines.
+  Beam log (--beam-log PATH): a CSV with the header
+    time_s,duty,state,line
+  and one row, flushed at once, every time the laser output's duty changes
+  (hal_laser_set with a new value; the duty is 0 at start and gets no row):
+  time_s the simulated time in seconds, duty the raw value written to the
+  output (0 .. LK_LASER_PWM_TOP, 0 = beam off), state the machine state as
+  the status report names it without its sub-state (Idle, Run, Hold, Jog,
+  Alarm, Check), line the source line of the running block or 0.
+
+  Control panel (menu.c) and e-stop (--panel PATH): a file or a FIFO whose
+  bytes are panel events: 0xB0 encoder clockwise, 0xB1 counter-clockwise,
+  0xB2 OK, 0xB8 e-stop; other bytes are ignored. Panel events never come from
+  the serial input. A FIFO stays open for later writers; a file is read to
+  its end. Firing the focus beam takes Laser, a turn to On, OK and OK again
+  (menu.h). `$LCD` prints the LCD's four lines.
 
   At the end of stdin (stdin mode) the look-ahead is flushed, the job runs
   out and the simulator exits; SIGINT/SIGTERM end it at once. --stats
@@ -40,6 +54,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/select.h>
+#include <sys/stat.h>
 #include <termios.h>
 #include <time.h>
 #include <unistd.h>
@@ -49,12 +64,14 @@
 #include "hal.h"
 #include "laser.h"
 #include "planner.h"
+#include "menu.h"
 #include "protocol.h"
+#include "report.h"
 #include "serial.h"
 #include "settings.h"
 #include "stepper.h"
 
-static int fd_in = 0, fd_out = 1, pty_slave = -1;
+static int fd_in = 0, fd_out = 1, pty_slave = -1, fd_panel = -1;
 static int input_eof;
 static volatile sig_atomic_t stop_now;
 
@@ -67,7 +84,8 @@ static uint16_t laser_duty;
 static uint64_t cycles;           /* simulated timer clock cycles since start */
 static uint64_t ticks;
 static uint32_t blocks_seen;
-static FILE *trace;
+static FILE *trace, *beam_log;
+static uint16_t beam_logged;      /* the duty of the beam log's last row */
 static uint32_t tick_block, tick_line;
 static double tick_power_mw;
 static uint8_t tick_dwell;
@@ -111,7 +129,25 @@ void hal_timer_set_period(uint32_t p) {
 }
 void hal_timer_start(void) { timer_on = 1; }
 void hal_timer_stop(void) { timer_on = 0; }
-void hal_laser_set(uint16_t duty) { laser_duty = duty; }
+static void log_beam(uint16_t duty) {
+  char state[16];
+  const char *name = report_state_name();
+  size_t n = strcspn(name, ":");            /* "Hold:0" -> "Hold" */
+  if (n >= sizeof state)
+    n = sizeof state - 1;
+  memcpy(state, name, n);
+  state[n] = 0;
+  fprintf(beam_log, "%.9f,%u,%s,%u\n", (double)cycles / (double)plan_machine()->timer_clock_hz,
+          (unsigned)duty, state, (unsigned)st_current_line());
+  fflush(beam_log);
+  beam_logged = duty;
+}
+
+void hal_laser_set(uint16_t duty) {
+  laser_duty = duty;
+  if (beam_log && duty != beam_logged)
+    log_beam(duty);
+}
 void hal_laser_gate(uint32_t pwm_hz, uint16_t on_permille) { (void)pwm_hz; (void)on_permille; }
 void hal_air_set(uint8_t bits) { (void)bits; }
 void hal_irq_disable(void) {}
@@ -202,10 +238,10 @@ uint8_t hal_storage_write(const void *buf, uint32_t len) {
 static uint8_t inbuf[512];
 static size_t in_len, in_pos;
 
+/* Bytes the RX handler takes without using the ring: real-time commands and
+   every byte above 0x7F (dropped there). */
 static int is_rt(uint8_t b) {
-  return b == '?' || b == '!' || b == '~' || b == 0x18 || b == 0x84 || b == 0x85 ||
-         (b >= 0x90 && b <= 0x9D) || b == PANEL_CW || b == PANEL_CCW || b == PANEL_OK ||
-         b == PANEL_ESTOP;
+  return b == '?' || b == '!' || b == '~' || b == 0x18 || b > 0x7F;
 }
 
 static void deliver(void) {
@@ -223,12 +259,47 @@ static void deliver(void) {
       }
       return;
     }
-    if (b == PANEL_ESTOP)
-      protocol_estop();          /* the input pin's interrupt: motion and beam off now */
     serial_rx_isr(b);
     in_pos++;
   }
   in_len = in_pos = 0;
+}
+
+/* The panel channel: one event per main-loop pass, as a person turns and
+   presses (the menu's queue holds eight). */
+static uint8_t panel_buf[64];
+static size_t panel_len, panel_pos;
+
+static void open_panel(const char *path) {
+  struct stat st;
+  /* a FIFO is opened for writing too, so that it never reads as ended
+     between two writers */
+  int fifo = stat(path, &st) == 0 && S_ISFIFO(st.st_mode);
+  fd_panel = open(path, (fifo ? O_RDWR : O_RDONLY) | O_NONBLOCK);
+  if (fd_panel < 0) {
+    perror(path);
+    exit(1);
+  }
+}
+
+static void poll_panel(void) {
+  if (panel_pos == panel_len && fd_panel >= 0) {
+    ssize_t n = read(fd_panel, panel_buf, sizeof panel_buf);
+    if (n > 0) {
+      panel_len = (size_t)n;
+      panel_pos = 0;
+    } else if (n == 0 || (errno != EAGAIN && errno != EINTR)) {
+      close(fd_panel);           /* a file read to its end */
+      fd_panel = -1;
+    }
+  }
+  if (panel_pos < panel_len) {
+    uint8_t b = panel_buf[panel_pos++];
+    if (b == PANEL_ESTOP)
+      protocol_estop();          /* the input pin's interrupt: motion and beam off now */
+    else if (b == PANEL_CW || b == PANEL_CCW || b == PANEL_OK)
+      serial_panel_event(b);
+  }
 }
 
 static void poll_input(int wait_ms) {
@@ -264,7 +335,8 @@ static void poll_input(int wait_ms) {
 void hal_poll(void) {
   const lk_machine_t *m = plan_machine();
   int idle = !timer_on && serial_tx_count() == 0 && txlen == 0 && serial_rx_count() == 0;
-  poll_input(idle ? 2 : 0);
+  poll_panel();
+  poll_input(idle && panel_pos == panel_len ? 2 : 0);
   for (int i = 0; i < TICKS_PER_POLL && timer_on; i++) {
     cycles += ((uint64_t)period_reg + 1u) * ((uint64_t)m->prescaler + 1u);
     ticks++;
@@ -308,13 +380,13 @@ static int open_pty(void) {
 
 static void usage(void) {
   fprintf(stderr, "usage: labkit-fw-sim [--pty] [--dialect grbl|labkit-fw] [--trace FILE] "
-                  "[--eeprom FILE] [--stats]\n");
+                  "[--eeprom FILE] [--panel PATH] [--beam-log PATH] [--stats]\n");
   exit(2);
 }
 
 int main(int argc, char **argv) {
   int use_pty = 0, stats = 0, dialect = -1;
-  const char *trace_path = 0;
+  const char *trace_path = 0, *beam_log_path = 0, *panel_path = 0;
   for (int i = 1; i < argc; i++) {
     if (!strcmp(argv[i], "--pty"))
       use_pty = 1;
@@ -322,6 +394,10 @@ int main(int argc, char **argv) {
       stats = 1;
     else if (!strcmp(argv[i], "--trace") && i + 1 < argc)
       trace_path = argv[++i];
+    else if (!strcmp(argv[i], "--beam-log") && i + 1 < argc)
+      beam_log_path = argv[++i];
+    else if (!strcmp(argv[i], "--panel") && i + 1 < argc)
+      panel_path = argv[++i];
     else if (!strcmp(argv[i], "--eeprom") && i + 1 < argc)
       eeprom_path = argv[++i];
     else if (!strcmp(argv[i], "--dialect") && i + 1 < argc) {
@@ -355,6 +431,17 @@ int main(int argc, char **argv) {
     setvbuf(trace, 0, _IOFBF, 1 << 20);
     fprintf(trace, "time_s,cycle,block,line,x,y,z,dir,period,power_mw\n");
   }
+  if (beam_log_path) {
+    beam_log = fopen(beam_log_path, "w");
+    if (!beam_log) {
+      perror(beam_log_path);
+      return 1;
+    }
+    fprintf(beam_log, "time_s,duty,state,line\n");
+    fflush(beam_log);
+  }
+  if (panel_path)
+    open_panel(panel_path);
   double t0 = host_seconds();
   if (dialect >= 0) {
     /* choose the dialect before the banner: as if $208 had been stored */
@@ -369,7 +456,7 @@ int main(int argc, char **argv) {
   protocol_startup();
   while (!stop_now) {
     protocol_poll();
-    if (input_eof && in_len == 0 && serial_rx_count() == 0) {
+    if (input_eof && in_len == 0 && serial_rx_count() == 0 && panel_pos == panel_len) {
       /* end of the stream: run out the look-ahead, then stop */
       plan_flush();
       while (!stop_now && (!st_is_idle() || !plan_is_empty())) {
@@ -384,6 +471,8 @@ int main(int argc, char **argv) {
   tx_flush(1);
   if (trace)
     fclose(trace);
+  if (beam_log)
+    fclose(beam_log);
   if (stats) {
     double host = host_seconds() - t0;
     double sim = (double)cycles / (double)plan_machine()->timer_clock_hz;

@@ -36,15 +36,41 @@ static void go(uint8_t obj);
 /* ---- actions */
 
 static void laser_turn(int8_t dir) { (void)dir; laser_choice = !laser_choice; }
+
+/* The beam may be fired for focusing only on a machine at rest that nothing
+   else is commanding: idle, nothing queued, no alarm, check mode or hold. */
+static uint8_t focus_allowed(void) {
+  return st_is_idle() && plan_is_empty() && protocol_state() == PROTO_IDLE &&
+         !protocol_hold_requested();
+}
+
 static void laser_ok(void) {
-  if (laser_choice && st_is_idle() && plan_is_empty() && protocol_state() == PROTO_IDLE) {
-    laser_output(MENU_FOCUS_DUTY);
-    laser_on = 1;
-  } else {
-    laser_off();
-    laser_on = 0;
+  if (!laser_choice)
+    menu_focus_off();
+  else if (!laser_on) {
+    go(MENU_LASER_CONFIRM);        /* "On" asks once more before the beam comes on */
+    return;
   }
   go(MENU_LASER);
+}
+
+static void confirm_cancel(int8_t dir) { (void)dir; go(MENU_LASER_ONOFF); }
+static void confirm_ok(void) {
+  if (!focus_allowed()) {
+    go(MENU_LASER_ONOFF);
+    last_status = STATUS_UNSUPPORTED_COMMAND;   /* shown as "refused: busy" */
+    return;
+  }
+  laser_output(MENU_FOCUS_DUTY);
+  laser_on = 1;
+  go(MENU_LASER);
+}
+
+void menu_focus_off(void) {
+  if (laser_on) {
+    laser_on = 0;
+    laser_off();
+  }
 }
 
 static void jog_axis(char axis, int8_t dir) {
@@ -118,6 +144,8 @@ static void draw_top(char l[LCD_ROWS][LCD_COLS + 1]) {
 static void draw_laser(char l[LCD_ROWS][LCD_COLS + 1]) {
   put(l[1], 7, laser_on ? "ON " : "OFF");
   put(l[2], 0, laser_choice ? "> On    Off" : "  On  > Off");
+  if (last_status != STATUS_OK)
+    put(l[3], 0, "refused: busy   ");
 }
 
 static void draw_jog(char l[LCD_ROWS][LCD_COLS + 1]) {
@@ -164,6 +192,8 @@ static const menu_obj_t menu[MENU_COUNT] = {
                        MENU_JOG_Y, draw_jog},
     [MENU_MBLA_SET] = {{"MBLA MODE", "Now:", "New:", "turn, OK=store"}, mbla_turn, mbla_ok, 0,
                        MENU_MBLA, draw_mbla},
+    [MENU_LASER_CONFIRM] = {{"FIRE FOCUS BEAM?", "low power, idle", "OK again = fire", "turn = cancel"},
+                            confirm_cancel, confirm_ok, 0, MENU_LASER_ONOFF, 0},
 };
 
 static void redraw(void) {
@@ -182,16 +212,16 @@ static void go(uint8_t obj) {
     obj = menu[current].parent;
   current = obj;
   if (current == MENU_LASER_ONOFF)
-    laser_choice = !laser_on;
+    laser_choice = 0;             /* "Off" first: "On" takes a turn and two OKs */
   if (current == MENU_MBLA_SET)
     mbla_choice = mbla_from_settings();
-  if (current == MENU_JOG_X_MM || current == MENU_JOG_Y_MM)
+  if (current == MENU_JOG_X_MM || current == MENU_JOG_Y_MM || current == MENU_LASER_ONOFF)
     last_status = STATUS_OK;
 }
 
 void menu_init(void) {
   current = MENU_LASER;
-  laser_on = 0;
+  laser_on = laser_choice = mbla_choice = 0;
   jog_count = 0;
   last_status = STATUS_OK;
   redraw();
@@ -218,12 +248,10 @@ void menu_task(void) {
   int ev;
   while ((ev = serial_panel_pop()) >= 0)
     menu_event((uint8_t)ev);
-  /* a laser switched on from the panel goes off with any motion or alarm */
-  if (laser_on && (!st_is_idle() || protocol_state() == PROTO_ALARM)) {
-    laser_on = 0;
-    if (protocol_state() == PROTO_ALARM)
-      laser_off();
-  }
+  /* the focus beam goes off as soon as the machine is not at rest (the
+     protocol also switches it off on every host line, hold and stop) */
+  if (laser_on && !focus_allowed())
+    menu_focus_off();
   redraw();
 }
 

@@ -6,14 +6,20 @@
   (four lines of 16 characters) and knows what an encoder turn and an OK
   press do: move to a sibling, change its value, or call another object.
 
-    Laser      --OK-->  On/Off      turn: choose On / Off, OK: apply, back
+    Laser      --OK-->  On/Off      turn: choose On / Off (Off first), OK: Off
+                                    applies, back; On asks:
+                        Confirm     OK: fire the focus beam (only at rest:
+                                    idle, nothing queued, no alarm, check
+                                    mode or hold), back; turn: cancel
     Jog X      --OK-->  Jog X mm    turn: jog +-1 mm, OK: back
     Jog Y      --OK-->  Jog Y mm    turn: jog +-1 mm, OK: back
     MBLA mode  --OK-->  MBLA set    turn: GRBL / Fast / Normal / HQ, OK: store, back
     Status                          position and state; OK: refresh
 
-  Events arrive through serial_panel_event() (encoder / button interrupts,
-  or the simulator's escape bytes 0xB0 / 0xB1 / 0xB2). `$LCD` prints the
+  Events arrive through serial_panel_event() from the panel alone (the
+  board's encoder / button handlers, the simulator's --panel channel with
+  the bytes 0xB0 / 0xB1 / 0xB2), never from the serial line. The focus beam
+  goes off on any host line, hold, reset, alarm or motion. `$LCD` prints the
   four lines as [LCD:...].
 */
 #ifndef LK_MENU_H
@@ -27,7 +33,7 @@
 /* Menu objects. */
 enum {
   MENU_LASER, MENU_JOG_X, MENU_JOG_Y, MENU_MBLA, MENU_STATUS,   /* top level (a ring) */
-  MENU_LASER_ONOFF, MENU_JOG_X_MM, MENU_JOG_Y_MM, MENU_MBLA_SET,
+  MENU_LASER_ONOFF, MENU_JOG_X_MM, MENU_JOG_Y_MM, MENU_MBLA_SET, MENU_LASER_CONFIRM,
   MENU_COUNT
 };
 
@@ -44,5 +50,6 @@ uint8_t menu_current(void);
 const char *menu_lcd_line(uint8_t row);   /* 16 characters, NUL-terminated */
 void menu_report_lcd(void);         /* $LCD */
 uint8_t menu_laser_is_on(void);
+void menu_focus_off(void);          /* the panel's focus beam off (no-op when not on) */
 
 #endif /* LK_MENU_H */

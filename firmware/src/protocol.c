@@ -149,6 +149,7 @@ static void stop_all(void) {
   hold_req = 0;
   st_reset();
   laser_off();
+  menu_focus_off();
   plan_reset();
   (void)st_take_abort();
   sync_positions();
@@ -375,6 +376,7 @@ static uint8_t needs_idle(const char *line) {
 
 void protocol_execute_line(char *line) {
   uint8_t st;
+  menu_focus_off();               /* the host has taken over: no panel beam */
   if (line[0] == 0) {
     /* blank or comment-only: the parser still counts it, so that block
        line numbers are source line numbers (Ln:, traces) */
@@ -438,6 +440,7 @@ static void system_task(void) {
   if (f & RT_OVERRIDE)           /* before a status report asked for in the same pass */
     apply_override_bytes();
   if (f & (RT_HOLD | RT_DOOR)) {
+    menu_focus_off();            /* a hold means "beam off" even at rest */
     if (!st_is_idle() || !plan_is_empty()) {
       if (state == PROTO_JOG)
         jog_cancel = 1;          /* GRBL: a hold during a jog cancels it */
@@ -535,6 +538,7 @@ void protocol_init(void) {
   have_pending = 0;
   state = PROTO_IDLE;
   jog_cancel = 0;
+  hold_req = 0;
   flushed = 1;
   last_rx_ms = hal_millis();
   empty_slots = plan_free_slots();

@@ -39,6 +39,7 @@ void report_alarm(uint8_t alarm);             /* ALARM:N */
 void report_banner(void);                     /* Grbl 1.1h ['$' for help] [labkit-fw ...] */
 void report_feedback(const char *msg);        /* [MSG:msg] */
 void report_status_report(void);
+const char *report_state_name(void);          /* Idle, Run, Hold:0, Hold:1, Jog, Alarm, Check */
 double report_feed_mm_min(void);   /* the FS: feed, mm/min, of the running block now */              /* <Idle|MPos:..|FS:..|Bf:..|Ov:..> */
 void report_build_info(void);                 /* $I */
 void report_help(void);                       /* $ */

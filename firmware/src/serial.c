@@ -39,14 +39,6 @@ void serial_rx_isr(uint8_t byte) {
   case 0x85: serial_rt_flags |= RT_JOG_CANCEL; return;
   default: break;
   }
-  if (byte == PANEL_CW || byte == PANEL_CCW || byte == PANEL_OK) {
-    serial_panel_event(byte);
-    return;
-  }
-  if (byte == PANEL_ESTOP) {
-    serial_rt_flags |= RT_ESTOP;
-    return;
-  }
   if (byte >= 0x90 && byte <= 0x9D) {
     static const int8_t step[5] = {0, 10, -10, 1, -1};
     serial_overrides_t *o = &ovr_pending;
@@ -66,6 +58,11 @@ void serial_rx_isr(uint8_t byte) {
     serial_rt_flags |= RT_OVERRIDE;
     return;
   }
+  /* Any other byte above 0x7F is dropped, as GRBL does: no G-code word is made of
+     it, and the panel's events never come from the host (a UTF-8 '\xc2\xb2' in a
+     comment once pressed OK twice on the menu). */
+  if (byte > 0x7F)
+    return;
   uint16_t next = (uint16_t)((rx_head + 1u) & (RX_RING - 1u));
   if (serial_rx_count() >= SERIAL_RX_SIZE) { /* full: the host broke its character count */
     rx_overruns++;

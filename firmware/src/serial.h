@@ -7,6 +7,10 @@
   counting) and sets flags. Real-time bytes ('?' '!' '~' 0x18 0x84 0x85 and
   the override bytes 0x90..0x9D) are picked out there, set a bit in
   serial_rt_flags and are never buffered; the main loop acts on the flags.
+  Every other byte above 0x7F is dropped (GRBL's rule), so nothing the host
+  sends can reach the control panel: panel events come from the panel alone
+  (the board's button and encoder handlers, the simulator's --panel channel)
+  through serial_panel_event(), and the e-stop input calls protocol_estop().
 
   Replies go to the TX ring; the hal drains it (the board's TXE interrupt,
   the simulator's writer) through serial_tx_pop(). serial_write() never
@@ -33,9 +37,9 @@
 #define RT_ESTOP       0x0100u  /* emergency stop input (board / simulator) */
 #define RT_MENU        0x0200u  /* encoder or button event (menu.h) */
 
-/* Control-panel bytes, picked out like the real-time ones (the simulator's
-   documented escapes; the board's encoder interrupt calls serial_panel_event
-   directly): */
+/* Control-panel events (serial_panel_event; never read from the RX line). The
+   simulator's --panel channel carries them as these bytes, 0xB8 being its
+   e-stop input: */
 #define PANEL_CW    0xB0u   /* encoder one detent clockwise */
 #define PANEL_CCW   0xB1u   /* encoder one detent counter-clockwise */
 #define PANEL_OK    0xB2u   /* OK button */
@@ -56,8 +60,9 @@ void serial_write(const char *s);       /* (main) */
 int serial_tx_pop(void);                /* next byte to send, -1 when empty (hal) */
 uint16_t serial_tx_count(void);
 
-/* Panel events (PANEL_CW/CCW/OK) for the menu: push from an interrupt,
-   pop in the main loop (-1 when none). */
+/* Panel events (PANEL_CW/CCW/OK) for the menu: pushed by the panel's own
+   interrupt handlers (never by serial_rx_isr), popped in the main loop (-1
+   when none). */
 void serial_panel_event(uint8_t ev);
 int serial_panel_pop(void);
 

@@ -168,7 +168,8 @@ static int load_tick(void)
     sti.dir_out = dir;
     hal_set_dir(dir);
   }
-  laser_output(t->duty);
+  /* beam off from the moment a hold is taken: the deceleration is not a cut */
+  laser_output(sti.state == ST_HOLDING ? 0 : t->duty);
   sti.rate = t->rate;
   sti.done_cycles += (t->period + 1u) * sti.pre1;
   /* a tick longer than the period register runs as several periods; its
@@ -457,7 +458,7 @@ uint32_t st_current_line(void)
 double st_current_power_mw(void)
 {
   const st_block_info_t *b = st_running_block();
-  if (!b || b->kind == PLAN_BLOCK_DWELL) return 0.0;
+  if (!b || b->kind == PLAN_BLOCK_DWELL || sti.state == ST_HOLDING || sti.state == ST_HELD) return 0.0;
   double max_mw = plan_machine()->laser_max_power_mw;
   return laser_override_mw(laser_tick_power_mw(b->laser, b->power_mw, b->f_feed, sti.rate, max_mw),
                            max_mw);

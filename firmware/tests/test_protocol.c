@@ -223,8 +223,17 @@ int main(int argc, char **argv) {
   o = run("$J=G90 X-1 F100\n");
   CHECK(!strcmp(o, "error:102\r\n"));
 
-  /* emergency stop input */
-  o = run("\xB8");
+  /* emergency stop input (the board's pin, the simulator's panel channel);
+     its byte on the serial line is dropped like every byte above 0x7F
+     that is not a real-time command */
+  o = run("\xB8\xB2\xB0\xFF\n");
+  CHECK(!strcmp(o, "ok\r\n"));
+  CHECK(protocol_state() == PROTO_IDLE);
+  o = run("G4 P1\xC2\xB2\n");
+  CHECK(!strcmp(o, "ok\r\n"));
+  shell_out_clear();
+  protocol_estop();
+  o = run("");
   CHECK_HAS(o, "[MSG:E-stop]");
   CHECK_HAS(o, "ALARM:3");
   o = run("$X\n");

@@ -1,8 +1,11 @@
 /*
   fuzz_protocol.c - libFuzzer target: bytes through the RX interrupt into
-  the whole shell (real-time bytes, panel bytes, $ commands, settings,
-  jogs, check mode, alarms, the menu) and the core behind it, the main loop
-  polled in between. The machine starts from power-on for every input.
+  the whole shell (real-time bytes, $ commands, settings, jogs, check
+  mode, alarms, the menu's $LCD) and the core behind it, the main loop
+  polled in between. Every input starts from power-on with erased storage
+  (fuzz_power_on), so what one input stores cannot refuse the next one's
+  setup. Panel events have their own channel (fuzz_beam drives it): bytes
+  0xB0..0xB8 here are serial bytes like any other.
 */
 #include <stdint.h>
 #include <stdlib.h>
@@ -13,19 +16,10 @@
 #include "serial.h"
 #include "settings.h"
 #include "stepper.h"
-
-/* 100 steps/mm instead of 2133: the core walks every arc once in the parser
-   (core_api.md, "Limits"), and a fuzzed 4 m circle would cost seconds;
-   coarse steps keep every input fast without changing any code path. */
-static void coarse_machine(void) {
-  static char s0[] = "100=100", s1[] = "101=100", s2[] = "102=100";
-  if (settings_store_setting(s0) || settings_store_setting(s1) || settings_store_setting(s2))
-    abort();
-}
+#include "fuzz_util.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
-  protocol_startup();
-  coarse_machine();
+  fuzz_power_on();
   for (size_t i = 0; i < size; i++) {
     serial_rx_isr(data[i]);
     if ((i & 7u) == 7u || serial_rx_count() > 100)

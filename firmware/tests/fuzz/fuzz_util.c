@@ -3,15 +3,23 @@
   in RAM, a clock that moves 1 ms per poll; the step timer of hal_null.c
   never ticks. When the planner is nearly full the machine is reset
   (st_reset + plan_reset), so that no input can make the loop wait for
-  motion the fuzzer never finishes.
+  motion the fuzzer never finishes. fuzz_power_on() starts every input from
+  an erased storage and a fresh firmware.
 */
+#include "fuzz_util.h"
+
 #include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
+#include "laser.h"
+#include "menu.h"
 #include "planner.h"
 #include "protocol.h"
 #include "serial.h"
 #include "settings.h"
+#include "status_codes.h"
 #include "stepper.h"
 
 static uint8_t storage[4096];
@@ -45,5 +53,35 @@ void hal_poll(void) {
   if (plan_free_slots() < 4) {
     st_reset();
     plan_reset();
+  }
+}
+
+void fuzz_fail(const char *what) {
+  fprintf(stderr, "fuzz harness: %s\n", what);
+  abort();
+}
+
+void fuzz_power_on(void) {
+  memset(storage, 0, sizeof storage);
+  storage_len = 0;
+  now_ms = 0;
+  protocol_startup();
+  if (protocol_state() != PROTO_IDLE || !st_is_idle() || !plan_is_empty() ||
+      laser_current_duty() != 0 || menu_laser_is_on() || serial_rx_count() != 0)
+    fuzz_fail("power-on did not leave the machine idle, empty and dark");
+  static const char *const coarse[] = {"100=100", "101=100", "102=100"};
+  for (unsigned i = 0; i < 3; i++) {
+    char cmd[16];
+    strcpy(cmd, coarse[i]);
+    uint8_t st = settings_store_setting(cmd);
+    if (st != STATUS_OK) {
+      char msg[96];
+      snprintf(msg, sizeof msg, "setup command $%s refused with status %u", coarse[i], (unsigned)st);
+      fuzz_fail(msg);
+    }
+  }
+  if (plan_machine()->steps_per_mm[0] != 100.0 || settings.machine.steps_per_mm[2] != 100.0)
+    fuzz_fail("setup: 100 steps/mm not in effect after $100-$102");
+  while (serial_tx_pop() >= 0) {   /* the banner and the settings message */
   }
 }
