@@ -26,7 +26,9 @@ def add_img2gcode_arguments(parser: argparse.ArgumentParser) -> None:
     size = parser.add_mutually_exclusive_group()
     size.add_argument("--width", type=positive, metavar="MM", help="engraved width, mm")
     size.add_argument("--height", type=positive, metavar="MM", help="engraved height, mm")
-    size.add_argument("--dpi", type=positive, help="image resolution (default: the file's, else 96)")
+    size.add_argument("--dpi", type=positive,
+                      help="image resolution across (default: the file's, else 96; non-square pixels keep "
+                           "the file's aspect)")
     parser.add_argument("--resample", choices=("bicubic", "nearest"), default="bicubic",
                         help="resampling to the beam (nearest for pixel art)")
     parser.add_argument("--feed", type=FEED, default=1000.0, metavar="MM_MIN", help="feed, 1…1000000 mm/min")
@@ -93,7 +95,8 @@ def run_img2gcode(args) -> int:
     img = read_image(args.input)
     rows, cols = img.pixels.shape[:2]
     width_mm, height_mm, size, source = placed_size(img.pixels.shape, width_mm=args.width, height_mm=args.height,
-                                                    dpi=args.dpi, file_dpi=img.dpi)
+                                                    dpi=args.dpi, file_dpi=img.dpi,
+                                                    pixel_aspect=img.pixel_aspect)
     print(f"job size {width_mm:.1f} × {height_mm:.1f} mm from {source}")
     check_fits(args, (width_mm, height_mm), what="the engraving")
     # Estimate the resampled size before resampling: one pixel per beam diameter.
@@ -109,7 +112,7 @@ def run_img2gcode(args) -> int:
         min_power=args.min_power, max_power=args.max_power, overscan_mm=args.overscan,
         skip_white_mm=args.skip_white, dither=args.dither if args.mode == "dither" else None)
     try:
-        job = image_to_job(img.pixels, settings)
+        job = image_to_job(img, settings)     # the file's pixel aspect and transparency with it
     except MemoryError:
         # image_to_job estimates its memory first (budget raster_bytes); a machine with
         # less free memory than the budget still gets a sentence, not a traceback.

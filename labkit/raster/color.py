@@ -18,6 +18,7 @@ __all__ = [
     "GRAY_WEIGHTS",
     "SEED_DEPTHS",
     "to_gray",
+    "blank_mask",
     "threshold",
     "depth_to_level",
     "threshold_depths",
@@ -114,6 +115,42 @@ def to_gray(image, weights="seed") -> np.ndarray:
     if chans.shape[2] == 1:
         return chans[:, :, 0]
     return chans @ w
+
+
+def blank_mask(image) -> np.ndarray | None:
+    """Where an image has nothing: its fully transparent pixels (alpha 0).
+
+    The one rule of transparency in labkit: these pixels are never burned, in any mode
+    and whatever the colour stored under them (:func:`~labkit.raster.engrave.image_to_job`
+    honours it after inverting, filtering and resampling). Partly transparent pixels are
+    not blank: :func:`to_gray` composites them onto white, as a viewer shows them.
+
+    Parameters
+    ----------
+    image : array_like
+        An image :func:`to_gray` takes; 3-D with 2 (gray + alpha) or 4 (RGBA) channels
+        carries transparency (:func:`~labkit.raster.io.read_image` turns every kind —
+        alpha, ``tRNS`` colour keys, palette transparency — into that channel).
+
+    Returns
+    -------
+    ndarray of bool, shape (rows, columns), or None
+        True = nothing here; None when the image has no alpha channel or no pixel is
+        fully transparent.
+
+    Examples
+    --------
+    >>> la = np.array([[[0, 255], [0, 0], [200, 7]]], dtype=np.uint8)    # gray, alpha
+    >>> blank_mask(la).tolist()
+    [[False, True, False]]
+    >>> blank_mask(np.zeros((2, 3))) is None
+    True
+    """
+    arr = np.asarray(image)
+    if arr.ndim != 3 or arr.shape[2] not in (2, 4):
+        return None
+    blank = arr[:, :, -1] == 0
+    return blank if blank.any() else None
 
 
 def threshold(gray, level: float = 128) -> np.ndarray:

@@ -22,7 +22,7 @@ from labkit.budget import check_budget
 from labkit.errors import RasterError
 from labkit.raster import _scanlines
 from labkit.raster._border import check_image_2d, check_mask
-from labkit.raster.color import adjust_gamma, invert as _invert, threshold, to_gray
+from labkit.raster.color import adjust_gamma, blank_mask, invert as _invert, threshold, to_gray
 from labkit.raster.diffusion import DIFFUSION, dither as _dither
 from labkit.raster.edges import detect_edges
 from labkit.raster.filters import blur as _blur, sharpen as _sharpen
@@ -304,7 +304,7 @@ def gray_job(gray, *, pixel_mm: float, feed_mm_min: float = 3000.0, s_max: float
              min_power: float = 0.0, max_power: float = 1.0, white_level: float = 255.0,
              dither: str | None = None, serpentine: bool = False, overscan_mm: float = 2.0,
              skip_white_mm: float = 5.0, bidirectional: bool = True, laser=LaserMode.DYNAMIC,
-             rapid_mm_min: float | None = None, size_error_mm=(0.0, 0.0)) -> RasterJob:
+             rapid_mm_min: float | None = None, size_error_mm=(0.0, 0.0), blank=None) -> RasterJob:
     """Line-by-line gray engraving: power follows darkness, or dithered dots at full power.
 
     Parameters
@@ -333,6 +333,9 @@ def gray_job(gray, *, pixel_mm: float, feed_mm_min: float = 3000.0, s_max: float
         Alternate the scan direction line by line.
     laser : LaserMode
         M4 (dynamic, default: power scales with the actual speed) or M3.
+    blank : ndarray of bool, optional
+        Pixels with nothing here (:func:`~labkit.raster.color.blank_mask`): never
+        burned; the dithering sees them as white.
 
     Returns
     -------
@@ -353,16 +356,23 @@ def gray_job(gray, *, pixel_mm: float, feed_mm_min: float = 3000.0, s_max: float
     _check_positive("feed_mm_min", feed_mm_min)
     if not (overscan_mm >= 0 and skip_white_mm >= 0):
         raise RasterError(f"overscan_mm and skip_white_mm must be >= 0, got {overscan_mm!r}, {skip_white_mm!r}")
+    if blank is not None:
+        blank = np.asarray(blank)
+        if blank.dtype != bool or blank.shape != arr.shape:
+            raise RasterError(f"blank must be a boolean array (True = nothing here) of the gray image's "
+                              f"shape {arr.shape}, got {blank.dtype} {blank.shape}")
     if dither is not None:
         if dither not in DIFFUSION:
             raise RasterError(f"dither must be one of {sorted(DIFFUSION)} or None, got {dither!r}")
-        dots = _dither(arr, dither, serpentine=serpentine)
+        dots = _dither(arr if blank is None else np.where(blank, 255.0, arr), dither, serpentine=serpentine)
         power = np.where(dots, int(round(s_max * max_power)), 0).astype(np.int64)
         if not 0 < max_power <= 1:
             raise RasterError(f"max_power must be in (0, 1] for dithering, got {max_power!r}")
     else:
         power = power_map(arr, s_max=s_max, min_power=min_power, max_power=max_power,
                           white_level=white_level)
+    if blank is not None:
+        power[blank] = 0
     overscan_px = overscan_mm / pixel_mm
     skip_px = max(skip_white_mm, 2.0 * overscan_mm) / pixel_mm
     args = (power, bool(bidirectional), float(skip_px), float(overscan_px))
@@ -419,13 +429,15 @@ def working_bytes(source_shape, beam_shape, mode: str, *, banded: bool = False) 
 
 
 def _mask_in_bands(image: np.ndarray, weights, invert: bool, level: float) -> np.ndarray:
-    """``threshold(to_gray(image))`` (inverted first if asked), computed in bands of rows."""
+    """``threshold(to_gray(image))`` (inverted first if asked) without the blank pixels,
+    computed in bands of rows."""
     rows, cols = image.shape[:2]
     mask = np.empty((rows, cols), bool)
     step = max(1, BAND_PIXELS // max(cols, 1))
     for r0 in range(0, rows, step):
-        gray = to_gray(image[r0:r0 + step], weights)
-        mask[r0:r0 + step] = threshold(_invert(gray) if invert else gray, level)
+        band = image[r0:r0 + step]
+        gray = to_gray(band, weights)
+        mask[r0:r0 + step] = _not_blank(threshold(_invert(gray) if invert else gray, level), blank_mask(band))
     return mask
 
 
@@ -449,6 +461,10 @@ class RasterSettings:
     width_mm, height_mm, pixel_mm, dpi : float, optional
         The engraved size: exactly one, or none to keep one input pixel per beam
         (:func:`~labkit.raster.resample.resample_to_beam`).
+    pixel_aspect : float, optional
+        Height / width of one image pixel (non-square pixels are engraved at the true
+        aspect ratio); None: the image's own (a :class:`~labkit.raster.io.RasterImage`)
+        or 1.
     resample : {"bicubic", "nearest"}
     weights : str
         Gray weights (:data:`~labkit.raster.color.GRAY_WEIGHTS`).
@@ -482,6 +498,7 @@ class RasterSettings:
     height_mm: float | None = None
     pixel_mm: float | None = None
     dpi: float | None = None
+    pixel_aspect: float | None = None
     resample: str = "bicubic"
     weights: str = "seed"
     level: float = 128
@@ -520,14 +537,19 @@ class RasterSettings:
             raise RasterError(f"gamma must be > 0, got {self.gamma!r}")
         if self.edge_path not in ("spiral", "zigzag"):
             raise RasterError(f"edge_path must be 'spiral' or 'zigzag', got {self.edge_path!r}")
+        if self.pixel_aspect is not None and not (self.pixel_aspect > 0 and math.isfinite(self.pixel_aspect)):
+            raise RasterError(f"pixel_aspect must be a finite number > 0, got {self.pixel_aspect!r}")
 
     @property
     def gray_mode(self) -> bool:
         return self.mode in ("gray", "dither")
 
-    def size(self) -> dict:
-        """The size fields given (for :func:`~labkit.raster.resample.resample_to_beam`)."""
-        return dict(width_mm=self.width_mm, height_mm=self.height_mm, pixel_mm=self.pixel_mm, dpi=self.dpi)
+    def size(self, pixel_aspect: float = 1.0) -> dict:
+        """The size fields given and the pixel aspect (this record's, else ``pixel_aspect``),
+        for :func:`~labkit.raster.resample.resample_to_beam`."""
+        aspect = self.pixel_aspect if self.pixel_aspect is not None else pixel_aspect
+        return dict(width_mm=self.width_mm, height_mm=self.height_mm, pixel_mm=self.pixel_mm, dpi=self.dpi,
+                    pixel_aspect=aspect)
 
     def burn_options(self) -> dict:
         """Keywords of :func:`mask_job` or :func:`gray_job` for this mode (the mode's defaults
@@ -554,7 +576,7 @@ _SETTING_NAMES = tuple(f.name for f in fields(RasterSettings))
 DEFAULT_DPI = 96.0
 
 
-def placed_size(shape, *, width_mm=None, height_mm=None, dpi=None, file_dpi=None):
+def placed_size(shape, *, width_mm=None, height_mm=None, dpi=None, file_dpi=None, pixel_aspect=1.0):
     """How large an image will be engraved, and where that size came from.
 
     Parameters
@@ -568,6 +590,9 @@ def placed_size(shape, *, width_mm=None, height_mm=None, dpi=None, file_dpi=None
         :data:`DEFAULT_DPI`.
     file_dpi : float, optional
         The resolution stated in the file.
+    pixel_aspect : float
+        Height / width of one pixel (:attr:`~labkit.raster.io.RasterImage.pixel_aspect`):
+        the dpi is the horizontal resolution and the height follows the true aspect.
 
     Returns
     -------
@@ -586,18 +611,24 @@ def placed_size(shape, *, width_mm=None, height_mm=None, dpi=None, file_dpi=None
     (158.75, 'no resolution in the file: 96 dpi assumed (96 dpi)')
     >>> placed_size((300, 600), width_mm=100)[:2]
     (100, 50.0)
+    >>> placed_size((300, 600), file_dpi=200, pixel_aspect=2.0)[::3]
+    (76.2, "the file's resolution (200 dpi across, 100 dpi down)")
     """
     rows, cols = int(shape[0]), int(shape[1])
+    if not (pixel_aspect > 0 and math.isfinite(pixel_aspect)):
+        raise RasterError(f"pixel_aspect must be a finite number > 0, got {pixel_aspect!r}")
     if width_mm is not None:
         w, size, source = width_mm, dict(width_mm=width_mm), "--width"
     elif height_mm is not None:
-        w, size, source = height_mm * cols / rows, dict(height_mm=height_mm), "--height"
+        w, size, source = height_mm * cols / rows / pixel_aspect, dict(height_mm=height_mm), "--height"
     else:
         res = dpi or file_dpi or DEFAULT_DPI
         w, size = cols * 25.4 / res, dict(dpi=res)
+        density = (f"{res:g} dpi" if pixel_aspect == 1 else      # PNG stores whole dots per metre
+                   f"{res:.5g} dpi across, {res / pixel_aspect:.5g} dpi down")
         source = ("--dpi" if dpi else "the file's resolution" if file_dpi
-                  else f"no resolution in the file: {DEFAULT_DPI:g} dpi assumed") + f" ({res:g} dpi)"
-    return w, w * rows / cols, size, source
+                  else f"no resolution in the file: {DEFAULT_DPI:g} dpi assumed") + f" ({density})"
+    return w, w * rows / cols * pixel_aspect, size, source
 
 
 def image_to_job(image, settings: RasterSettings | None = None, **changes) -> RasterJob:
@@ -606,13 +637,16 @@ def image_to_job(image, settings: RasterSettings | None = None, **changes) -> Ra
     gray → (invert, sharpen, blur, gamma) → resample to the beam → then by mode:
     ``zigzag``/``spiral`` threshold at ``level`` and path; ``edges`` runs an
     edge detector and paths the edge pixels (``edge_path``); ``gray`` maps
-    darkness to power; ``dither`` diffuses to full-power dots.
+    darkness to power; ``dither`` diffuses to full-power dots. In every mode the
+    image's blank pixels (fully transparent, :func:`~labkit.raster.color.blank_mask`)
+    are never burned, whatever the colour under them and whatever the filters.
 
     Parameters
     ----------
-    image : array_like
+    image : array_like or RasterImage
         Any image :func:`~labkit.raster.color.to_gray` takes (a bool mask
-        is used as is, True = burn).
+        is used as is, True = burn), or a file read by
+        :func:`~labkit.raster.io.read_image` (its pixel aspect is used).
     settings : RasterSettings, optional
         Every choice of the job (default: :class:`RasterSettings`'s defaults).
     **changes
@@ -640,17 +674,23 @@ def image_to_job(image, settings: RasterSettings | None = None, **changes) -> Ra
     ...
     labkit.errors.RasterError: image_to_job: unknown setting(s) speed; expected fields of RasterSettings: mode, beam_mm, ...
     """
+    from labkit.raster.io import RasterImage
+
     unknown = sorted(set(changes) - set(_SETTING_NAMES))
     if unknown:
         raise RasterError(f"image_to_job: unknown setting(s) {', '.join(unknown)}; "
                           f"expected fields of RasterSettings: {', '.join(_SETTING_NAMES)}")
     cfg = replace(settings or RasterSettings(), **changes)
+    if isinstance(image, RasterImage):
+        size = cfg.size(image.pixel_aspect)
+        image = image.pixels
+    else:
+        size = cfg.size()
     arr = np.asarray(image)
     is_mask = arr.dtype == bool and arr.ndim == 2
     if is_mask and (cfg.mode in ("gray", "dither", "edges") or cfg.blur or cfg.sharpen):
         arr = np.where(arr, 0, 255).astype(np.uint8)     # a mask means True = burn = black
         is_mask = False
-    size = cfg.size()
     if arr.ndim in (2, 3) and arr.size:
         out_shape = beam_shape(arr.shape, cfg.beam_mm, **size)
         banded = (cfg.mode in ("zigzag", "spiral") and not (cfg.blur or cfg.sharpen) and arr.dtype.kind == "u"
@@ -662,6 +702,7 @@ def image_to_job(image, settings: RasterSettings | None = None, **changes) -> Ra
                      option="the size (width, height, dpi) or raise the beam diameter")
     else:
         banded = False
+    blank = None
     if is_mask:
         arr = ~arr if cfg.invert else arr
     elif banded:
@@ -669,6 +710,7 @@ def image_to_job(image, settings: RasterSettings | None = None, **changes) -> Ra
         # so the whole image is never held as float64 gray (8 bytes a pixel), only the mask.
         arr, is_mask = _mask_in_bands(arr, cfg.weights, cfg.invert, cfg.level), True
     else:
+        blank = blank_mask(arr)
         arr = to_gray(arr, cfg.weights)
         if cfg.invert:
             arr = _invert(arr)
@@ -678,11 +720,14 @@ def image_to_job(image, settings: RasterSettings | None = None, **changes) -> Ra
             arr = _blur(arr)
     res = resample_to_beam(arr, beam_mm=cfg.beam_mm, **size, method=cfg.resample, level=cfg.level)
     img = res.image
+    if blank is not None:
+        # Blank where most of the beam pixel is blank (the same resampling as the image).
+        blank = resample_to_beam(blank, beam_mm=cfg.beam_mm, **size, method=cfg.resample, level=128).image
     common = dict(pixel_mm=cfg.beam_mm, size_error_mm=res.error_mm)
     if cfg.gray_mode:
         if cfg.gamma != 1.0:
             img = adjust_gamma(img, cfg.gamma)
-        return gray_job(img, **common, **cfg.burn_options())
+        return gray_job(img, **common, **cfg.burn_options(), blank=blank)
     if cfg.mode == "edges":
         if img.shape[0] > arr.shape[0] or img.shape[1] > arr.shape[1]:
             # Upscaling spreads a sharp edge over several beam pixels, so no gradient
@@ -691,7 +736,12 @@ def image_to_job(image, settings: RasterSettings | None = None, **changes) -> Ra
             img = np.where(img < cfg.level, 0.0, 255.0)
         mask = detect_edges(img, cfg.edge_operator, threshold=cfg.edge_threshold, pseudo=cfg.edge_pseudo,
                             level=cfg.level)
-        return mask_job(mask, mode=cfg.edge_path, report_mode="edges", **common, **cfg.burn_options())
+        return mask_job(_not_blank(mask, blank), mode=cfg.edge_path, report_mode="edges", **common,
+                        **cfg.burn_options())
     mask = img if is_mask else threshold(img, cfg.level)
-    return mask_job(mask, mode=cfg.mode, **common, **cfg.burn_options())
+    return mask_job(_not_blank(mask, blank), mode=cfg.mode, **common, **cfg.burn_options())
 
+
+def _not_blank(mask: np.ndarray, blank: np.ndarray | None) -> np.ndarray:
+    """The burn mask without the blank pixels."""
+    return mask if blank is None else mask & ~blank

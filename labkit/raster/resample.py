@@ -56,11 +56,17 @@ class Resampled:
         return self.image.shape
 
 
-def physical_size_mm(shape, *, width_mm=None, height_mm=None, pixel_mm=None, dpi=None):
+def physical_size_mm(shape, *, width_mm=None, height_mm=None, pixel_mm=None, dpi=None,
+                     pixel_aspect: float = 1.0):
     """The (width, height) in mm an image of ``shape`` should be engraved at.
 
     Give exactly one of ``width_mm``, ``height_mm`` (the other follows the
-    aspect ratio), ``pixel_mm`` (size of one source pixel) or ``dpi``.
+    aspect ratio), ``pixel_mm`` (width of one source pixel) or ``dpi``
+    (horizontal resolution).
+
+    ``pixel_aspect`` is the height / width of one source pixel (1 for square
+    pixels; a file with 200 dpi across and 100 dpi down has 2): the engraved
+    image keeps the true aspect ratio, as a viewer shows it.
 
     Examples
     --------
@@ -68,6 +74,8 @@ def physical_size_mm(shape, *, width_mm=None, height_mm=None, pixel_mm=None, dpi
     (50.0, 25.0)
     >>> physical_size_mm((100, 200), dpi=254)
     (20.0, 10.0)
+    >>> physical_size_mm((100, 200), dpi=254, pixel_aspect=2.0)
+    (20.0, 20.0)
     """
     rows, cols = int(shape[0]), int(shape[1])
     given = {k: v for k, v in dict(width_mm=width_mm, height_mm=height_mm, pixel_mm=pixel_mm,
@@ -77,15 +85,17 @@ def physical_size_mm(shape, *, width_mm=None, height_mm=None, pixel_mm=None, dpi
     (name, value), = given.items()
     if not (value > 0 and math.isfinite(value)):
         raise RasterError(f"{name} must be a finite number > 0, got {value!r}")
+    if not (pixel_aspect > 0 and math.isfinite(pixel_aspect)):
+        raise RasterError(f"pixel_aspect must be a finite number > 0, got {pixel_aspect!r}")
     if name == "width_mm":
         px = value / cols
     elif name == "height_mm":
-        px = value / rows
+        px = value / rows / pixel_aspect
     elif name == "pixel_mm":
         px = value
     else:
         px = 25.4 / value
-    return (cols * px, rows * px)
+    return (cols * px, rows * px * pixel_aspect)
 
 
 def _nearest(image: np.ndarray, rows: int, cols: int) -> np.ndarray:
@@ -100,7 +110,7 @@ def _beam_shape(target_mm, beam_mm: float) -> tuple[int, int]:
 
 
 def beam_shape(shape, beam_mm: float, *, width_mm=None, height_mm=None, pixel_mm=None,
-               dpi=None) -> tuple[int, int]:
+               dpi=None, pixel_aspect: float = 1.0) -> tuple[int, int]:
     """(rows, columns) of the image once resampled to one pixel per beam diameter.
 
     What :func:`resample_to_beam` makes, known before any pixel is touched (for memory
@@ -112,12 +122,13 @@ def beam_shape(shape, beam_mm: float, *, width_mm=None, height_mm=None, pixel_mm
     if not (beam_mm > 0 and math.isfinite(beam_mm)):
         raise RasterError(f"beam_mm must be a finite number > 0, got {beam_mm!r}")
     target = physical_size_mm(tuple(shape)[:2], width_mm=width_mm, height_mm=height_mm,
-                              pixel_mm=pixel_mm, dpi=dpi)
+                              pixel_mm=pixel_mm, dpi=dpi, pixel_aspect=pixel_aspect)
     return _beam_shape(target, beam_mm)
 
 
 def resample_to_beam(image, *, beam_mm: float, width_mm=None, height_mm=None, pixel_mm=None,
-                     dpi=None, method: str = "bicubic", level: float = 128) -> Resampled:
+                     dpi=None, method: str = "bicubic", level: float = 128,
+                     pixel_aspect: float = 1.0) -> Resampled:
     """Resample so that one pixel is one beam diameter.
 
     Parameters
@@ -135,6 +146,10 @@ def resample_to_beam(image, *, beam_mm: float, width_mm=None, height_mm=None, pi
         then re-thresholded at ``level`` on the 0…255 scale.
     level : float
         Re-threshold level for masks resampled bicubically.
+    pixel_aspect : float
+        Height / width of one source pixel (see :func:`physical_size_mm`); the
+        new pixels are square, so non-square source pixels are resampled to the
+        true aspect ratio.
 
     Returns
     -------
@@ -158,7 +173,7 @@ def resample_to_beam(image, *, beam_mm: float, width_mm=None, height_mm=None, pi
     if method not in _METHODS:
         raise RasterError(f"method must be one of {_METHODS}, got {method!r}")
     target = physical_size_mm(arr.shape, width_mm=width_mm, height_mm=height_mm,
-                              pixel_mm=pixel_mm, dpi=dpi)
+                              pixel_mm=pixel_mm, dpi=dpi, pixel_aspect=pixel_aspect)
     rows, cols = _beam_shape(target, beam_mm)
     if (rows, cols) == arr.shape:
         # Already one pixel per beam: both methods give the pixels back (cubic splines

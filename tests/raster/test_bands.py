@@ -27,6 +27,8 @@ def test_banded_threshold_gives_the_whole_image_job(kind, inverted, mode, monkey
     job = image_to_job(img, mode=mode, beam_mm=0.2, pixel_mm=0.2, invert=inverted, level=100)
     gray = to_gray(img)
     mask = threshold(invert(gray) if inverted else gray, 100)
+    if kind == "RGBA":
+        mask &= img[:, :, 3] != 0          # fully transparent: nothing here, even inverted
     ref = mask_job(mask, pixel_mm=0.2, mode=mode)
     assert job.report.shape == mask.shape
     for name in ref.moves.column_names():
