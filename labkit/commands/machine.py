@@ -44,7 +44,7 @@ def _settings(args):
     return port, baud, protocol, cfg
 
 
-def _connect(args):
+def _connect(args, transcript=None):
     from labkit.machine.link import open_link, save_config
 
     port, baud, protocol, cfg = _settings(args)
@@ -56,7 +56,7 @@ def _connect(args):
         from labkit.machine.labkitfw import LabkitFirmware as cls
     else:
         from labkit.machine.grbl import Grbl as cls
-    machine = cls(link)
+    machine = cls(link, transcript=transcript)
     try:
         machine.connect()
     except BaseException:
@@ -160,21 +160,65 @@ def run_stream(args) -> int:
 
     dialect = args.dialect or ("labkit-fw" if protocol == "labkit-fw" else "grbl")
     job = Job.from_file(args.file, dialect=dialect, machine=args.machine or "grbl-diode")
-    machine = _connect(args)
-    progress = _Progress(len(job.source_lines))
+    log = _open_transcript(args.log)         # before the first byte goes out
     try:
-        report = run_job(machine, job, mode=args.mode, on_error=args.on_error,
-                         check_first=args.check_first, resume_from=args.resume_from,
-                         progress=progress, allow_spindle_mode=args.allow_spindle_mode)
+        machine = _connect(args, transcript=log)
+        progress = _Progress(len(job.source_lines))
+        try:
+            report = run_job(machine, job, mode=args.mode, on_error=args.on_error,
+                             check_first=args.check_first, resume_from=args.resume_from,
+                             progress=progress, allow_spindle_mode=args.allow_spindle_mode,
+                             machine=args.machine)
+        finally:
+            progress.close()
+            machine.close()
+        text = report.summary(command=_stream_command(args))
+        if log is not None:
+            for line in text.splitlines():
+                log.append((log[-1][0] if log else 0.0, "#", line))
     finally:
-        progress.close()
-        if args.log:
-            with open(args.log, "w", encoding="utf-8") as fh:
-                for t, direction, text in machine.transcript:
-                    fh.write(f"{t:10.4f} {direction} {text}\n")
-        machine.close()
-    print(report.summary())
+        if log is not None:
+            log.fh.close()
+    print(text)
     return 0 if report.ok else 1
+
+
+def _open_transcript(path):
+    """The ``--log`` file, opened (and so checked) before anything is sent; every line is
+    written and flushed as it happens, so the transcript survives any end of the stream."""
+    if not path:
+        return None
+    from labkit.errors import InputError
+    from labkit.machine.grbl import Transcript
+
+    try:
+        fh = open(path, "w", encoding="utf-8")
+    except OSError as exc:
+        raise InputError(f"--log {path}: cannot write the transcript there ({exc.strerror}); "
+                         f"nothing was sent") from None
+    return Transcript(fh)
+
+
+def _stream_command(args) -> list:
+    """The command line that runs this job again, for the resume advice (``--resume-from``
+    is added by the report)."""
+    cmd = ["labkit", "stream", args.file]
+    for flag, value in (("--port", args.port), ("--baud", args.baud),
+                        ("--protocol", args.protocol), ("--machine", args.machine),
+                        ("--dialect", args.dialect)):
+        if value is not None:
+            cmd += [flag, str(value)]
+    if args.virtual_speed:
+        cmd += ["--virtual-speed", f"{args.virtual_speed:g}"]
+    if args.mode != "counting":
+        cmd += ["--mode", args.mode]
+    if args.on_error != "stop":
+        cmd += ["--on-error", args.on_error]
+    if args.allow_spindle_mode:
+        cmd.append("--allow-spindle-mode")
+    if args.log:
+        cmd += ["--log", args.log + ".resume"]
+    return cmd
 
 
 # -- console ------------------------------------------------------------------------------------
@@ -187,28 +231,52 @@ _REALTIME_WORDS = {"?": "status", "!": "feed_hold", "~": "cycle_start", "ctrl-x"
                    "reset": "soft_reset", "jog-cancel": "jog_cancel"}
 
 
+class _ConsoleInterrupted(Exception):
+    """SIGINT or SIGTERM in the console: leave the input loop for the safe stop."""
+
+
 def run_console(args) -> int:
+    """Every end of the console — quit, end of input, Ctrl-C, SIGTERM, a lost link, an
+    error — stops the machine (feed hold, soft reset, M5 S0) before the port closes, and
+    prints what was sent and what was confirmed."""
     import time
+
+    from labkit.errors import LabkitError
+    from labkit.machine.stream import StopSignals
+
+    def interrupted(name):
+        raise _ConsoleInterrupted(name)
 
     machine = _connect(args)
     machine.log_status = True
     print(f"connected: {machine.info.banner} (RX {machine.info.rx_bytes} bytes, planner "
           f"{machine.info.planner_blocks} blocks). '?' status, '!' hold, '~' resume, 'ctrl-x' "
-          f"reset, 'quit' to leave.")
+          f"reset, 'quit' to leave (the machine is stopped and the laser switched off first).")
     machine.add_listener(lambda text: print(f"< {text}"))
-    try:
-        for raw in sys.stdin:
-            line = raw.strip()
-            if line in ("quit", "exit"):
-                break
-            if not line:
-                continue
-            if line in _REALTIME_WORDS:
-                machine.realtime(_REALTIME_WORDS[line])
-            else:
-                machine.send_line(line)
-            time.sleep(0.15)
-            machine.drain_events()
-    finally:
-        machine.close()
-    return 0
+    code = 0
+    with StopSignals(interrupted) as signals:
+        try:
+            for raw in sys.stdin:
+                line = raw.strip()
+                if line in ("quit", "exit"):
+                    break
+                if not line:
+                    continue
+                if line in _REALTIME_WORDS:
+                    machine.realtime(_REALTIME_WORDS[line])
+                else:
+                    machine.send_line(line)
+                time.sleep(0.15)
+                machine.drain_events()
+        except _ConsoleInterrupted as exc:
+            print(f"interrupted by {exc}: stopping the machine", file=sys.stderr)
+            code = 1
+        except LabkitError as exc:
+            print(f"labkit console: {exc}", file=sys.stderr)
+            code = 1
+        finally:
+            signals.stopping()
+            stop = machine.stop_safely()
+            machine.close()
+            print("safe stop: " + "; ".join(stop.steps), file=sys.stderr)
+    return code

@@ -33,7 +33,8 @@ from labkit.errors import MachineError, status_code
 from labkit.machine.link import Link
 
 __all__ = ["Grbl", "Status", "parse_status", "error_message", "alarm_message", "Event",
-           "REALTIME", "DEFAULT_RX_BYTES", "DEFAULT_PLANNER_BLOCKS"]
+           "SafeStop", "Transcript", "REALTIME", "DEFAULT_RX_BYTES", "DEFAULT_PLANNER_BLOCKS",
+           "NOT_TOLD"]
 
 #: GRBL 1.1's serial RX buffer (bytes) and planner depth (blocks) when ``$I`` does not say.
 DEFAULT_RX_BYTES = 128
@@ -241,6 +242,71 @@ _SETTING = re.compile(r"^\$(\d+)=(.*)$")
 _BANNER = re.compile(r"^(Grbl|GrblHAL|labkit)\b.*", re.IGNORECASE)
 
 
+#: What a report says when the link is gone before labkit could stop the machine.
+NOT_TOLD = ("the controller was not told to stop: its own buffer-empty/alarm behaviour is all "
+            "that applies")
+
+
+class Transcript(list):
+    """A transcript that is also written to a text file as it grows, one flushed line per entry.
+
+    Each entry ``(seconds since connect, direction, text)`` becomes the line
+    ``"   12.3456 > G1X10"``; the file is flushed after every line, so whatever
+    ends the session (a fault, a signal, a lost link) leaves every line sent and
+    received so far on disk. A write that fails (a full disk) does not stop the
+    session: the first failure is kept in :attr:`error` and the rest are dropped.
+
+    Parameters
+    ----------
+    fh : text file
+        Open for writing.
+    """
+
+    def __init__(self, fh):
+        super().__init__()
+        self.fh = fh
+        self.error: str | None = None
+
+    def append(self, entry) -> None:
+        super().append(entry)
+        if self.error is not None:
+            return
+        t, direction, text = entry
+        try:
+            self.fh.write(f"{t:10.4f} {direction} {text}\n")
+            self.fh.flush()
+        except (OSError, ValueError) as exc:
+            self.error = f"the transcript stopped being written: {exc}"
+
+
+@dataclass
+class SafeStop:
+    """What :meth:`Grbl.stop_safely` sent and what the controller confirmed.
+
+    Attributes
+    ----------
+    steps : list of str
+        One entry per step, saying whether it was confirmed (see :meth:`Grbl.stop_safely`).
+    told : bool
+        False when nothing could be sent (the link was already gone).
+    beam_off_confirmed : bool
+        The controller confirmed the beam off: ``ok`` to ``M5 S0``, or the start-up
+        banner after the soft reset (GRBL's reset switches the spindle/laser off).
+    stopped_status : Status or None
+        The status report taken once motion had stopped (before the reset): the
+        planner occupancy in it tells which lines ran.
+    events : list of Event
+        Answers and interruptions that arrived before ``M5 S0`` was sent, for the
+        caller's line accounting.
+    """
+
+    steps: list = dataclasses.field(default_factory=list)
+    told: bool = True
+    beam_off_confirmed: bool = False
+    stopped_status: Status | None = None
+    events: list = dataclasses.field(default_factory=list)
+
+
 @dataclass
 class MachineInfo:
     """What ``$I`` and the banner said."""
@@ -296,6 +362,8 @@ class Grbl:
         self.info = MachineInfo()
         self.alarm: int | None = None
         self.disconnected: str | None = None
+        self.warnings: list[str] = []          #: what the reader noticed (absurd status reports)
+        self._warned: set = set()
         self._wco = None
         self._t0 = time.monotonic()
         self._status_cond = threading.Condition()
@@ -311,6 +379,28 @@ class Grbl:
 
     def _log(self, direction: str, text: str) -> None:
         self.transcript.append((round(time.monotonic() - self._t0, 4), direction, text))
+
+    def _warn(self, text: str, key: str) -> None:
+        """Keep a warning, once per ``key`` (a flood of bad reports stays one line)."""
+        if key not in self._warned:
+            self._warned.add(key)
+            self.warnings.append(text)
+        self._log("<", f"[{text}]")
+
+    #: Largest coordinate a status report may give, mm (100 m: beyond any laser's travel).
+    _MAX_POSITION_MM = 1e5
+
+    def _absurd_fields(self, st: Status) -> str | None:
+        """Why a parsed status report cannot be used for accounting (None when it can)."""
+        if st.planner_free is not None and not 0 <= st.planner_free <= self.info.planner_blocks:
+            return (f"Bf planner blocks {st.planner_free} outside 0…{self.info.planner_blocks} "
+                    f"(the planner's depth)")
+        if st.rx_free is not None and not 0 <= st.rx_free <= self.info.rx_bytes:
+            return f"Bf RX bytes {st.rx_free} outside 0…{self.info.rx_bytes} (the RX buffer's size)"
+        for name, pos in (("MPos", st.mpos), ("WPos", st.wpos), ("WCO", st.wco)):
+            if pos is not None and (len(pos) < 2 or max(abs(v) for v in pos) > self._MAX_POSITION_MM):
+                return f"{name} {pos} is not a position on a machine"
+        return None
 
     def add_listener(self, fn) -> None:
         """Call ``fn(line)`` for every line received (the notebook console uses this)."""
@@ -352,10 +442,20 @@ class Grbl:
         if text.startswith("<"):
             try:
                 st = parse_status(text, self._wco, received_s=now)
-            except MachineError:
-                self._log("<", text + "   [garbled status ignored]")
-                return
-            self._wco = st.wco
+                absurd = self._absurd_fields(st)
+            except MachineError as exc:
+                name = text[1:].split("|")[0].split(":")[0].rstrip(">")
+                if name not in _STATES:
+                    self._log("<", text + "   [garbled status ignored]")
+                    return
+                # a live controller with a field that makes no sense: the report still counts
+                # as a sign of life and its state is kept, but none of its numbers are used
+                st, absurd = Status(name, raw=text, received_s=now), str(exc)
+            if absurd:
+                self._warn(f"status report {text!r} ignored for accounting: {absurd}",
+                           absurd.split(" ")[0])
+                st = Status(st.state, substate=st.substate, raw=text, received_s=now)
+            self._wco = st.wco if st.wco is not None else self._wco
             st = dataclasses.replace(st, answers_before=self.answer_count)
             with self._status_cond:
                 self.status = st
@@ -652,6 +752,87 @@ class Grbl:
         if not self._banner.wait(timeout_s):
             raise MachineError(f"no start-up banner after a soft reset of {self.link.name}")
         time.sleep(0.05)                     # let the lines after the banner arrive
+
+    def stop_safely(self, *, hold: bool = True, reset: bool = True, hold_timeout_s: float = 3.0,
+                    reset_timeout_s: float = 3.0, answer_timeout_s: float = 2.0) -> SafeStop:
+        """Stop the machine and switch the beam off; say what was sent and what was confirmed.
+
+        The one way every stream, console and panel session ends: feed hold ``!``,
+        wait (bounded) for the motion to stop, soft reset 0x18 (GRBL and the labkit
+        firmware: every buffered line flushed, the spindle/laser off), then
+        ``M5 S0`` (the modal laser state off too, so that nothing sent later burns).
+        Each step is attempted even when the one before was not confirmed; nothing
+        here raises. Where the link is gone nothing can be sent, and the record says
+        so (:data:`NOT_TOLD`).
+
+        Parameters
+        ----------
+        hold : bool
+            Send ``!`` and wait for the stop (False: the machine is known to be idle,
+            e.g. after a job that completed).
+        reset : bool
+            Send the soft reset (False after a completed job: a reset would clear the
+            G92 offset the user may rely on; nothing is buffered then).
+        hold_timeout_s, reset_timeout_s, answer_timeout_s : float
+            How long to wait for the stop, for the banner after the reset and for the
+            answer to ``M5 S0``, s.
+
+        Returns
+        -------
+        SafeStop
+            ``steps`` reads e.g. ``["feed hold", "stopped (Hold:0)", "soft reset (buffers
+            flushed, laser off)", "M5 S0"]``; a step that was sent but not confirmed says so.
+        """
+        rec = SafeStop()
+        self.disconnected = self.disconnected or self.link.lost
+        if self.disconnected or self.link.closed:
+            rec.told = False
+            rec.steps.append(f"link lost ({self.disconnected or 'closed'}): {NOT_TOLD}")
+            self._log("#", rec.steps[-1])
+            return rec
+        try:
+            if hold:
+                self.feed_hold()
+                rec.steps.append("feed hold")
+                try:
+                    st = self.wait_status(lambda s: s.state in ("Hold", "Idle", "Alarm", "Check")
+                                          and (s.state != "Hold" or s.substate in (0, None)),
+                                          hold_timeout_s)
+                    rec.stopped_status = st
+                    rec.steps.append(f"stopped ({st.state}"
+                                     + (f":{st.substate}" if st.substate is not None else "") + ")")
+                except MachineError as exc:
+                    rec.steps.append(f"stop not confirmed ({exc})")
+            else:
+                try:
+                    rec.stopped_status = self.get_status(1.0)
+                except MachineError as exc:
+                    rec.steps.append(f"no status ({exc})")
+            if reset:
+                try:
+                    self.soft_reset(reset_timeout_s)
+                    rec.steps.append("soft reset (buffers flushed, laser off)")
+                    rec.beam_off_confirmed = True
+                except MachineError as exc:
+                    rec.steps.append(f"soft reset sent, not confirmed ({exc})")
+            rec.events = self.drain_events()
+            try:
+                self.command("M5 S0", answer_timeout_s)
+                rec.steps.append("M5 S0")
+                rec.beam_off_confirmed = True
+            except MachineError as exc:
+                why = str(exc)
+                if "error:9" in why or "ALARM" in why:
+                    why += " (the controller is in alarm: the reset had already switched the beam off)"
+                rec.steps.append(f"M5 S0 sent, not confirmed: {why}")
+        except MachineError as exc:              # a write failed: the link went during the stop
+            self.disconnected = self.disconnected or str(exc)
+            rec.told = bool(rec.steps)
+            rec.steps.append(f"link lost while stopping ({exc})"
+                             + ("" if rec.told else f": {NOT_TOLD}"))
+        for step in rec.steps:
+            self._log("#", f"safe stop: {step}")
+        return rec
 
     def laser_mode(self) -> bool:
         """True when ``$32=1`` (laser mode: beam off on rapids and when stopped)."""

@@ -136,6 +136,7 @@ class Link:
         self.port = port
         self.name = name
         self.closed = False
+        self.lost: str | None = None     #: why the link failed (a read or write error), or None
 
     def write(self, data: bytes) -> None:
         """Send bytes; a vanished port raises :class:`MachineError` (disconnect)."""
@@ -147,6 +148,7 @@ class Link:
             if flush is not None:
                 flush()
         except (OSError, ValueError) as exc:     # SerialException is an OSError
+            self.lost = self.lost or f"disconnected from {self.name}: {exc}"
             raise MachineError(f"disconnected from {self.name}: {exc}") from exc
 
     def write_line(self, line: str) -> None:
@@ -171,6 +173,7 @@ class Link:
         except (OSError, ValueError, TypeError, AttributeError) as exc:
             if self.closed:
                 return b""
+            self.lost = self.lost or f"disconnected from {self.name}: {exc}"
             raise MachineError(f"disconnected from {self.name}: {exc}") from exc
 
     def close(self) -> None:

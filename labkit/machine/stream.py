@@ -24,9 +24,11 @@ line runs exactly once.
 
 from __future__ import annotations
 
+import atexit
 import bisect
 import math
 import re
+import threading
 import time
 from collections import deque
 from dataclasses import dataclass, field
@@ -34,9 +36,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from labkit.errors import InputError, LabkitError, MachineError
-from labkit.machine.grbl import Grbl, alarm_message, error_message
+from labkit.machine.grbl import NOT_TOLD, Grbl, alarm_message, error_message
 
-__all__ = ["Job", "JobReport", "run_job", "resume_text", "frame_text", "strip_line", "Controls"]
+__all__ = ["Job", "JobReport", "run_job", "resume_text", "frame_text", "strip_line", "Controls",
+           "StopSignals", "preflight_check", "check_job"]
 
 _COMMENT = re.compile(r"\([^)]*\)|;.*$")
 
@@ -160,10 +163,15 @@ class Job:
 
 @dataclass
 class Controls:
-    """Pause, resume and cancel a running job from another thread (a notebook button)."""
+    """Pause, resume and cancel a running job from another thread (a notebook button).
+
+    ``stop_reason`` (set by :meth:`cancel`'s ``reason``) is what the report calls the
+    cancel: the notebook's exit hook uses it when the kernel closes under a job.
+    """
 
     pause_requested: bool = False
     cancel_requested: bool = False
+    stop_reason: str | None = None
 
     def pause(self):
         self.pause_requested = True
@@ -171,7 +179,8 @@ class Controls:
     def resume(self):
         self.pause_requested = False
 
-    def cancel(self):
+    def cancel(self, reason: str | None = None):
+        self.stop_reason = self.stop_reason or reason
         self.cancel_requested = True
 
 
@@ -192,15 +201,30 @@ class JobReport:
     elapsed_s: float = 0.0
     planned_s: float = 0.0
     max_rx_used: int = 0
-    safe_actions: list = field(default_factory=list)
+    safe_actions: list = field(default_factory=list)   #: each step of the safe stop, sent / confirmed
     warnings: list = field(default_factory=list)
     answers_lost: int = 0                  #: ok/error answers the link lost (re-synchronised)
+    refused: bool = False                  #: stopped before anything was sent (pre-flight check)
+    controller_told: bool = True           #: False: the link was gone before the stop could be sent
+    exception: BaseException | None = None  #: what raised inside the run, when that ended it
 
-    def summary(self) -> str:
+    def summary(self, command: list | None = None) -> str:
+        """The report in words.
+
+        Parameters
+        ----------
+        command : list of str, optional
+            The command line that ran the job (without ``--resume-from``): the
+            resume advice then gives the whole command to type.
+        """
         state = "completed" if self.ok else ("completed over a faulty link" if self.answers_lost
                                              and not self.fault and not self.errors else "STOPPED")
+        if self.refused:
+            state = "STOPPED before anything was sent"
+        lost = (f" ({self.answers_lost} of them without an answer, re-synchronised from the "
+                f"controller's buffer report)" if self.answers_lost else "")
         lines = [f"{state}: {self.lines_acknowledged}/"
-                 f"{self.lines_total} lines acknowledged in {self.elapsed_s:.1f} s "
+                 f"{self.lines_total} lines acknowledged{lost} in {self.elapsed_s:.1f} s "
                  f"(planned {self.planned_s:.1f} s)"]
         for ln, code, msg in self.errors:
             lines.append(f"  line {ln}: error:{code}: {msg}")
@@ -211,12 +235,32 @@ class JobReport:
                          + (f", stopped at {_fmt_xyz(self.stop_position)}" if self.stop_position
                             else ""))
             if self.safe_actions:
-                lines.append(f"  safe actions: {', '.join(self.safe_actions)}")
+                lines.append(f"  safe stop: {'; '.join(self.safe_actions)}")
             if self.resume_line:
-                lines.append(f"  resume with --resume-from {self.resume_line}")
+                if command:
+                    import shlex
+
+                    cmd = _without_resume(list(command)) + ["--resume-from", str(self.resume_line)]
+                    lines.append(f"  resume with: {shlex.join(cmd)}")
+                else:
+                    lines.append(f"  resume with --resume-from {self.resume_line}")
         for w in self.warnings:
             lines.append(f"  {w}")
         return "\n".join(lines)
+
+
+def _without_resume(argv: list) -> list:
+    out, skip = [], False
+    for a in argv:
+        if skip:
+            skip = False
+            continue
+        if a == "--resume-from":
+            skip = True
+            continue
+        if not a.startswith("--resume-from="):
+            out.append(a)
+    return out
 
 
 def _fmt_xyz(p) -> str:
@@ -230,12 +274,109 @@ class _Fault(Exception):
         self.hold = hold
 
 
+# -- signals and the end of the process ------------------------------------------------------
+
+class StopSignals:
+    """SIGINT and SIGTERM ask for a safe stop instead of ending the program at once.
+
+    Installed for the duration of a stream (``with StopSignals(): …``) and restored
+    after, in the main thread only (Python delivers signals there; elsewhere this does
+    nothing). The first signal is recorded in :attr:`name` and passed to ``on_signal``
+    (which may raise to leave a blocking read, as the console does); every later one
+    only prints that the safe stop is still running — it never skips it.
+
+    Parameters
+    ----------
+    on_signal : callable, optional
+        ``on_signal(name)`` on the first signal.
+    """
+
+    def __init__(self, on_signal=None):
+        self.on_signal = on_signal
+        self.name: str | None = None
+        self._stopping = False
+        self._old: dict = {}
+
+    def stopping(self) -> None:
+        """The safe stop has begun: from now on a signal only says it is still running."""
+        self._stopping = True
+
+    def _handler(self, signum, frame):
+        import signal
+        import sys
+
+        name = signal.Signals(signum).name
+        if self.name is None and not self._stopping:
+            self.name = name
+            if self.on_signal is not None:
+                self.on_signal(name)
+            return
+        self.name = self.name or name
+        try:
+            sys.stderr.write(f"\nlabkit: {name} again — still stopping the machine safely (feed "
+                             f"hold, soft reset, laser off; at most about 10 s); the port closes "
+                             f"after that. To cut the power at once use the machine's emergency "
+                             f"stop.\n")
+            sys.stderr.flush()
+        except (OSError, ValueError):
+            pass
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                try:
+                    self._old[sig] = signal.signal(sig, self._handler)
+                except (ValueError, OSError):        # an embedded interpreter without signals
+                    pass
+        return self
+
+    def __exit__(self, *exc):
+        import signal
+
+        for sig, old in self._old.items():
+            signal.signal(sig, old)
+        self._old.clear()
+        return False
+
+
+#: Jobs running now (a key → their Controls and an Event set once the job has stopped safely),
+#: so that a process that exits under a running job (a notebook kernel closed while the panel
+#: streams) stops the machine first.
+_RUNNING: dict = {}
+_EXIT_WAIT_S = 15.0
+
+
+def _stop_running_jobs_at_exit() -> None:
+    """At interpreter exit: cancel every job still running in a thread and wait (bounded) until
+    each has stopped its machine (daemon threads still run while exit hooks do)."""
+    running = list(_RUNNING.values())
+    for controls, _ in running:
+        controls.cancel("the Python process is exiting (a closed notebook kernel or the end of "
+                        "the program) while the job ran")
+    deadline = time.monotonic() + _EXIT_WAIT_S
+    for _, done in running:
+        done.wait(max(0.0, deadline - time.monotonic()))
+
+
+atexit.register(_stop_running_jobs_at_exit)
+
+
 def run_job(grbl: Grbl, job: Job, *, mode: str = "counting", on_error: str = "stop",
             check_first: bool = False, resume_from: int | None = None,
             resume_position=None, progress=None, controls: Controls | None = None,
             status_interval_s: float = 0.1, watchdog_s: float = 3.0, stall_s: float = 2.0,
-            allow_spindle_mode: bool = False) -> JobReport:
+            allow_spindle_mode: bool = False, preflight: bool = True, machine=None,
+            handle_signals: bool = True) -> JobReport:
     """Stream a job; return a report (a fault never raises: it is in the report).
+
+    Every way the run ends — done, ``error:N``, alarm, reset, cancel, a lost link, a
+    protocol mismatch, SIGINT/SIGTERM, an exception (a progress callback's included),
+    the process exiting under it — goes through :meth:`Grbl.stop_safely` before this
+    returns: feed hold, wait for the stop, soft reset, ``M5 S0`` (after a job that
+    completed, only ``M5 S0``). The report says what was sent and what was confirmed.
 
     Parameters
     ----------
@@ -263,53 +404,214 @@ def run_job(grbl: Grbl, job: Job, *, mode: str = "counting", on_error: str = "st
     stall_s : float
         Stop when lines stay unanswered this long while the machine idles with
         an empty RX buffer (a lost byte: character counting would wait forever).
+    preflight : bool
+        Check the job against the controller first (:func:`preflight_check`);
+        a job that would alarm or burn where it should not is refused before
+        anything is sent (``report.refused``).
+    machine : str or MachineSpec, optional
+        The machine description the user named: its travel bounds the job's size.
+    handle_signals : bool
+        In the main thread, SIGINT and SIGTERM stop the job safely (see
+        :class:`StopSignals`) instead of ending the program under it.
 
     Raises
     ------
     MachineError
         Before anything is sent: a burning job with ``$32=0`` (unless
-        ``allow_spindle_mode``), a bad option.
+        ``allow_spindle_mode``).
+    InputError
+        A bad option, or something that is not a machine or a job where one is expected.
     """
     if mode not in ("counting", "send-response"):
         raise InputError(f"mode must be 'counting' or 'send-response', got {mode!r}")
     if on_error not in ("stop", "skip"):
         raise InputError(f"on_error must be 'stop' or 'skip', got {on_error!r}")
+    if not isinstance(grbl, Grbl):
+        raise InputError(f"run_job: grbl must be a connected labkit.machine.Grbl, got "
+                         f"{type(grbl).__name__}")
+    if not isinstance(job, Job):
+        raise InputError(f"run_job: job must be a labkit.machine.Job (Job.from_file or "
+                         f"Job.from_text), got {type(job).__name__}")
     controls = controls or Controls()
     report = JobReport(ok=False, lines_total=len(job.source_lines), planned_s=job.job_time_s)
     warn = grbl.check_laser_job(job.burns, allow_spindle_mode=allow_spindle_mode)
     if warn:
         report.warnings.append(warn)
-    if check_first:
-        bad = check_job(grbl, job)
-        if bad:
-            report.errors.extend(bad)
-            report.fault = f"check mode ($C) rejected {len(bad)} line(s); nothing was cut"
-            return report
+    warnings_seen = len(grbl.warnings)
+    done = threading.Event()
+    key = object()
+    _RUNNING[key] = (controls, done)
+    t0 = time.monotonic()
+    try:
+        with StopSignals() if handle_signals else _no_signals() as signals:
+            _stream(grbl, job, report, controls, signals, mode=mode, on_error=on_error,
+                    check_first=check_first, resume_from=resume_from,
+                    resume_position=resume_position, progress=progress,
+                    status_interval_s=status_interval_s, watchdog_s=watchdog_s, stall_s=stall_s,
+                    preflight=preflight, machine=machine)
+    finally:
+        _RUNNING.pop(key, None)
+        done.set()
+    for w in grbl.warnings[warnings_seen:]:
+        report.warnings.append("warning: " + w)
+    transcript_error = getattr(grbl.transcript, "error", None)
+    if transcript_error:
+        report.warnings.append("warning: " + transcript_error)
+    report.elapsed_s = time.monotonic() - t0
+    return report
+
+
+class _no_signals:
+    name = None
+
+    def stopping(self) -> None:
+        pass
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+
+def _stream(grbl: Grbl, job: Job, report: JobReport, controls: Controls, signals, *, mode,
+            on_error, check_first, resume_from, resume_position, progress, status_interval_s,
+            watchdog_s, stall_s, preflight, machine) -> None:
+    """The run itself: pre-flight, sending, accounting; every end through :func:`_make_safe`."""
+    # before anything is sent: the controller's state, and answers that no line asked for
+    try:
+        st0 = grbl.get_status(max(2.0, watchdog_s))
+    except MachineError as exc:
+        report.refused = True
+        report.fault = f"no status report before the job ({exc}); nothing was sent"
+        return
+    stray = [ev for ev in grbl.drain_events() if ev.kind in ("ok", "error")]
+    if stray:
+        report.refused = True
+        report.fault = (f"protocol error: {len(stray)} answer(s) ('{stray[0].text}') arrived that "
+                        f"no line asked for, before the job started — another program may be "
+                        f"sending to this controller, or an earlier job is still running; "
+                        f"nothing was sent")
+        return
+    if preflight:
+        problems, notes = preflight_check(grbl, job, machine=machine, status=st0)
+        report.warnings.extend(notes)
+        if problems:
+            report.refused = True
+            report.fault = ("refused before anything was sent (pre-flight check against the "
+                            "controller): " + " · ".join(problems))
+            return
     send = list(job.send)
     if resume_from is not None:
         send = _resume_send(job, int(resume_from), resume_position)
     rx_limit = grbl.info.rx_bytes - 1 if mode == "counting" else 10 ** 9
     inflight: deque = deque()          # (source line, bytes)
+    acked: list[tuple[int, int]] = []  # (source line, blocks) of acknowledged motion lines
+    try:
+        if check_first:
+            bad = check_job(grbl, job, stop=lambda: _requested_stop(controls, signals))
+            if bad:
+                report.errors.extend(bad)
+                report.fault = f"check mode ($C) rejected {len(bad)} line(s); nothing was cut"
+                return
+        _send_all(grbl, job, report, controls, signals, send, inflight, acked, mode=mode,
+                  on_error=on_error, rx_limit=rx_limit, progress=progress,
+                  status_interval_s=status_interval_s, watchdog_s=watchdog_s, stall_s=stall_s)
+        # everything acknowledged and executed: the beam off whatever the file's last lines did
+        signals.stopping()
+        stop = grbl.stop_safely(hold=False, reset=False)
+        if not stop.beam_off_confirmed:
+            report.warnings.append("warning: the job completed but the laser-off that follows it "
+                                   "was not confirmed: " + "; ".join(stop.steps))
+    except _Fault as fault:
+        signals.stopping()
+        report.fault = str(fault)
+        _make_safe(grbl, fault, report, acked, inflight, job)
+    except MachineError as exc:
+        signals.stopping()
+        if grbl.disconnected or grbl.link.lost or grbl.link.closed:   # a write failed: the link is gone
+            grbl.disconnected = grbl.disconnected or grbl.link.lost or str(exc)
+            report.fault = f"link lost: {exc}"
+            _make_safe(grbl, _Fault(str(exc), reset=False, hold=False), report, acked, inflight,
+                       job)
+        else:
+            report.fault = str(exc)
+            _make_safe(grbl, _Fault(str(exc)), report, acked, inflight, job)
+    except Exception as exc:                # a bug (ours or a callback's): stop, then say so
+        signals.stopping()
+        report.exception = exc
+        report.fault = (f"stopped by an exception during the run: {type(exc).__name__}: {exc}")
+        _make_safe(grbl, _Fault(report.fault), report, acked, inflight, job)
+    except BaseException as exc:            # KeyboardInterrupt without our handler, SystemExit
+        signals.stopping()
+        report.exception = exc
+        report.fault = f"interrupted ({type(exc).__name__})"
+        _make_safe(grbl, _Fault(report.fault), report, acked, inflight, job)
+        raise
+
+
+def _requested_stop(controls: Controls, signals) -> str | None:
+    """Why the user (a signal, a cancel, the exit hook) wants the job stopped, or None."""
+    if signals.name:
+        return (f"interrupted by {signals.name}" + (" (Ctrl-C)" if signals.name == "SIGINT"
+                                                     else ""))
+    if controls.cancel_requested:
+        return controls.stop_reason or "cancelled by the user"
+    return None
+
+
+def _send_all(grbl: Grbl, job: Job, report: JobReport, controls: Controls, signals, send: list,
+              inflight: deque, acked: list, *, mode, on_error, rx_limit, progress,
+              status_interval_s, watchdog_s, stall_s) -> None:
+    """Send every line and account for every answer; raise :class:`_Fault` on any fault."""
     used = 0
     i = 0
-    t0 = time.monotonic()
     last_poll = 0.0
     last_status_seen = grbl.status_count
     last_status_t = time.monotonic()
     stall_since = None
-    acked: list[tuple[int, int]] = []  # (source line, blocks) of acknowledged motion lines
     paused = False
-    grbl.drain_events()
     # Re-synchronisation after a lost answer (character counting): the bytes sent before each '?'
     # are in the controller (one ordered link), so bytes sent − its RX fill is a lower bound on what
     # it has consumed; every consumed line but the one it may be blocked on has been answered.
+    # The bytes sent by the time a report is read, minus its RX fill, bound it from above: more
+    # answers than lines it can have read is a surplus (an unsolicited or doubled 'ok').
     answers_base = grbl.answer_count
     answers_start = answers_base
     events_taken = 0                   # ok/error events taken from the queue
     line_ends: list[int] = []          # cumulative bytes at the end of each line sent
     sent_texts: list[str] = []
+    sent_lines: list[int] = []         # source line of each line sent
     sent_bytes = 0
     q_marks: deque = deque()           # sent_bytes when each '?' went out
+    synced = 0                         # lines sent whose answers are known to be theirs
+
+    def _in_doubt(last=None) -> tuple[int, int]:
+        """First and last source line acknowledged since the count was last known to be right."""
+        first = sent_lines[synced] if synced < len(sent_lines) else report.last_acknowledged_line
+        return first, max(last or report.last_acknowledged_line, first)
+
+    def _surplus(what: str, last=None) -> _Fault:
+        first, last = _in_doubt(last)
+        report.resume_line = first
+        return _Fault(f"protocol error: {what} — the controller has answered more lines than it "
+                      f"can have read (an unsolicited or doubled 'ok'), so answers no longer match "
+                      f"lines: lines {first}…{last} were acknowledged by answers that may not be "
+                      f"theirs; check the work from line {first}")
+
+    def _check_count(st, snap) -> None:
+        """A fresh status report: surplus answers are a protocol fault; equal bounds re-sync."""
+        nonlocal synced
+        if st is None or st.rx_free is None:
+            return
+        rx_used = max(0, grbl.info.rx_bytes - 1 - st.rx_free)
+        answered = st.answers_before - answers_base
+        upper = bisect.bisect_right(line_ends, sent_bytes - rx_used)
+        if answered > upper:
+            raise _surplus(f"{answered} answers before a status report that shows at most "
+                           f"{upper} lines read")
+        if snap is not None and bisect.bisect_right(line_ends, snap - rx_used) == upper == answered:
+            synced = answered
 
     def _drop_lost(lost: int, *, ran: bool = True) -> int:
         """Count the oldest ``lost`` lines in flight as answered (``ran``: as executed too);
@@ -329,181 +631,209 @@ def run_job(grbl: Grbl, job: Job, *, mode: str = "counting", on_error: str = "st
                 f"the work there (a lost line end merges two lines)")
         return freed
 
-    try:
-        while i < len(send) or inflight:
-            now = time.monotonic()
-            if controls.cancel_requested:
-                raise _Fault("cancelled by the user")
-            if controls.pause_requested and not paused:
-                grbl.feed_hold()
-                paused = True
-            elif paused and not controls.pause_requested:
-                grbl.resume()
-                paused = False
-            if now - last_poll >= status_interval_s:
-                q_marks.append(sent_bytes)
-                grbl.realtime("status")
-                last_poll = now
-            if grbl.status_count != last_status_seen:
-                fresh = grbl.status_count - last_status_seen
-                last_status_seen = grbl.status_count
-                last_status_t = now
-                snap = None
-                for _ in range(min(fresh, len(q_marks))):
-                    snap = q_marks.popleft()
-                st = grbl.status
-                # only once every answer before this report has been taken: an error among them
-                # must first be named (below), not skipped over
-                if (mode == "counting" and st is not None
-                        and st.answers_before - answers_start == events_taken):
-                    lost = _answers_lost(grbl, snap, line_ends, sent_texts, answers_base)
-                    used -= _drop_lost(lost)
-                    answers_base -= lost
-            elif now - last_status_t > watchdog_s:
-                raise _Fault(f"watchdog: no status report for {watchdog_s:g} s; stopped sending",
-                             reset=True)
-            # send what fits
-            sent_any = False
-            while i < len(send) and not paused:
-                ln, text = send[i]
-                n = len(text) + 1
-                settings_line = text.startswith("$")
-                if inflight and (mode == "send-response" or settings_line
-                                 or inflight[0][1] < 0 or used + n > rx_limit):
-                    break
-                grbl.send_line(text)
-                inflight.append((ln, -n if settings_line else n))
-                sent_bytes += n
-                line_ends.append(sent_bytes)
-                sent_texts.append(text)
-                used += n
-                report.max_rx_used = max(report.max_rx_used, used)
-                report.lines_sent += 1
-                i += 1
-                sent_any = True
-                if settings_line or mode == "send-response":
-                    break
-            ev = grbl.next_event(0.0 if sent_any else 0.01)
-            if ev is None:
-                st = grbl.status
-                if (inflight and st is not None and st.state == "Idle" and st.rx_free is not None
-                        and st.rx_free >= grbl.info.rx_bytes - 1 and st.received_s > now - 0.5):
-                    stall_since = stall_since or now
-                    if now - stall_since > stall_s:
-                        raise _Fault(f"no answer for line {inflight[0][0]} while the machine is "
-                                     f"idle with an empty buffer (a byte was lost on the link)")
-                else:
-                    stall_since = None
-                continue
-            stall_since = None
-            if ev.kind in ("ok", "error"):
-                if not inflight:
-                    report.warnings.append(f"unexpected '{ev.text}' with no line in flight")
-                    continue
-                if ev.kind == "error" and mode == "counting":
-                    # before naming the line: ask for a report after this error, in case an
-                    # earlier answer was lost and the oldest line in flight is not this one
-                    # (a full planner leaves one line possibly unanswered for a while: wait for a
-                    # free block so that the report tells a blocked line from a lost answer)
-                    snap = None
-                    deadline = time.monotonic() + 1.0
-                    while True:
-                        q_marks.append(sent_bytes)
-                        grbl.realtime("status")
-                        wanted = last_status_seen + len(q_marks)      # every '?' in flight answered
-                        while grbl.status_count < wanted and time.monotonic() < deadline:
-                            time.sleep(0.005)
-                        for _ in range(min(grbl.status_count - last_status_seen, len(q_marks))):
-                            snap = q_marks.popleft()
-                        last_status_seen = grbl.status_count
-                        st = grbl.status
-                        if (time.monotonic() >= deadline or st is None or not st.planner_free == 0
-                                or st.state not in ("Run", "Jog")):
-                            break
-                    lost = min(_answers_lost(grbl, snap, line_ends, sent_texts, answers_base),
-                                len(inflight) - 1)
-                else:
-                    lost = 0
-                events_taken += 1
+    def _too_many_lost(lost: int) -> None:
+        """A controller that takes lines without answering is not streamed to further: one lost
+        answer now and then is a noisy link, more is a controller that does not answer."""
+        if lost > 1 or report.answers_lost + lost > _MAX_LOST_ANSWERS:
+            first = inflight[0][0] if inflight else report.last_acknowledged_line
+            last = inflight[min(lost, len(inflight)) - 1][0] if inflight else first
+            raise _Fault(f"protocol error: the controller took lines {first}…{last} from its "
+                         f"buffer without answering ({report.answers_lost + lost} answers missing "
+                         f"in this job); a controller that does not answer cannot be streamed to "
+                         f"safely — check the link (baud rate, cable) and the controller")
+
+    while i < len(send) or inflight:
+        now = time.monotonic()
+        why = _requested_stop(controls, signals)
+        if why:
+            raise _Fault(why)
+        if controls.pause_requested and not paused:
+            grbl.feed_hold()
+            paused = True
+        elif paused and not controls.pause_requested:
+            grbl.resume()
+            paused = False
+        if now - last_poll >= status_interval_s:
+            q_marks.append(sent_bytes)
+            grbl.realtime("status")
+            last_poll = now
+        if grbl.status_count != last_status_seen:
+            fresh = grbl.status_count - last_status_seen
+            last_status_seen = grbl.status_count
+            last_status_t = now
+            snap = None
+            for _ in range(min(fresh, len(q_marks))):
+                snap = q_marks.popleft()
+            st = grbl.status
+            _check_count(st, snap)
+            # only once every answer before this report has been taken: an error among them
+            # must first be named (below), not skipped over
+            if (mode == "counting" and st is not None
+                    and st.answers_before - answers_start == events_taken):
+                lost = _answers_lost(grbl, snap, line_ends, sent_texts, answers_base)
                 if lost:
-                    # An answer was lost just before this error: the error belongs to one of the
-                    # oldest lost + 1 lines in flight (a lost 'ok': the later one; a lost line
-                    # end merging two lines: the earlier). Name the earliest, so that a resume
-                    # from it runs every line at least once, and say so.
-                    first, last = inflight[0][0], inflight[lost][0]
-                    report.warnings.append(
-                        f"an answer was lost on the link just before this error: it rejected one "
-                        f"of lines {first}…{last}; reported on line {first}, the earliest, so a "
-                        f"resume from it runs every line at least once — check the work near "
-                        f"lines {first}…{last} before resuming")
-                ln, n = inflight.popleft()
-                used -= abs(n)
-                report.lines_acknowledged += 1
-                report.last_acknowledged_line = ln
-                if ev.kind == "ok" and ln in job.blocks_per_line:   # a rejected line plans nothing
-                    acked.append((ln, job.blocks_per_line[ln]))
-                if lost:
-                    # the later candidates: answered, but not known to have run (a resume from
-                    # the named line runs them again rather than skip one)
-                    used -= _drop_lost(lost, ran=False)
-                    answers_base -= lost
-                if ev.kind == "error":
-                    report.errors.append((ln, ev.code, error_message(ev.code)))
-                    if on_error == "stop":
-                        raise _Fault(f"line {ln} rejected: error:{ev.code}: "
-                                     f"{error_message(ev.code)}")
-                if progress is not None:
-                    ex = _executed_line(grbl, acked, report.last_acknowledged_line)
-                    progress(ex, ln, len(job.source_lines), job.eta_s(ex))
-            elif ev.kind == "alarm":
-                raise _Fault(f"ALARM:{ev.code}: {alarm_message(ev.code)}", reset=True)
-            elif ev.kind == "reset":
-                raise _Fault("the machine reset during the job (power, cable, or a reset)",
-                             reset=False, hold=False)
-            elif ev.kind == "disconnect":
-                raise _Fault(f"link lost: {ev.text}", reset=False, hold=False)
-        # everything acknowledged: wait for the motion to finish
-        deadline_idle = time.monotonic() + max(10.0, 3 * job.job_time_s + 10.0)
-        while True:
-            if controls.cancel_requested:
-                raise _Fault("cancelled by the user")
-            try:
-                st = grbl.get_status(watchdog_s)
-            except MachineError as exc:
-                raise _Fault(f"watchdog: {exc}") from exc
-            ev = grbl.next_event(0.0)
-            if ev is not None and ev.kind == "alarm":
-                raise _Fault(f"ALARM:{ev.code}: {alarm_message(ev.code)}")
-            if ev is not None and ev.kind in ("reset", "disconnect"):
-                raise _Fault(f"link lost or machine reset: {ev.text}", reset=False, hold=False)
-            if st.state in ("Idle", "Check") and (st.planner_free is None
-                                                  or st.planner_free >= grbl.info.planner_blocks):
+                    _too_many_lost(lost)
+                used -= _drop_lost(lost)
+                answers_base -= lost
+        elif now - last_status_t > watchdog_s:
+            raise _Fault(f"watchdog: no status report for {watchdog_s:g} s; stopped sending",
+                         reset=True)
+        # send what fits
+        sent_any = False
+        while i < len(send) and not paused:
+            ln, text = send[i]
+            n = len(text) + 1
+            settings_line = text.startswith("$")
+            if inflight and (mode == "send-response" or settings_line
+                             or inflight[0][1] < 0 or used + n > rx_limit):
                 break
-            if st.state == "Alarm":
-                raise _Fault(f"machine in alarm: {alarm_message(grbl.alarm or 0)}")
-            if time.monotonic() > deadline_idle:
-                raise _Fault("the machine never finished the job (still running long after the "
-                             "planned time)")
-            if controls.pause_requested and st.state == "Run":
-                grbl.feed_hold()
-            elif not controls.pause_requested and st.state == "Hold":
-                grbl.resume()
-            time.sleep(min(0.05, status_interval_s))
-        # A link that lost bytes is not a clean run, even when every line was answered.
-        report.ok = not report.errors and not report.answers_lost
-        report.last_executed_line = report.last_acknowledged_line
-        if progress is not None:
-            progress(report.last_executed_line, report.last_acknowledged_line,
-                     len(job.source_lines), 0.0)
-    except _Fault as fault:
-        report.fault = str(fault)
-        _make_safe(grbl, fault, report, acked, inflight, job)
-    except MachineError as exc:             # a write failed: the link is gone
-        grbl.disconnected = grbl.disconnected or str(exc)
-        report.fault = f"link lost: {exc}"
-        _make_safe(grbl, _Fault(str(exc), reset=False, hold=False), report, acked, inflight, job)
-    report.elapsed_s = time.monotonic() - t0
-    return report
+            grbl.send_line(text)
+            inflight.append((ln, -n if settings_line else n))
+            sent_bytes += n
+            line_ends.append(sent_bytes)
+            sent_texts.append(text)
+            sent_lines.append(ln)
+            used += n
+            report.max_rx_used = max(report.max_rx_used, used)
+            report.lines_sent += 1
+            i += 1
+            sent_any = True
+            if settings_line or mode == "send-response":
+                break
+        ev = grbl.next_event(0.0 if sent_any else 0.01)
+        if ev is None:
+            st = grbl.status
+            if (inflight and st is not None and st.state == "Idle" and st.rx_free is not None
+                    and st.rx_free >= grbl.info.rx_bytes - 1 and st.received_s > now - 0.5):
+                stall_since = stall_since or now
+                if now - stall_since > stall_s:
+                    raise _Fault(f"no answer for line {inflight[0][0]} while the machine is "
+                                 f"idle with an empty buffer (a byte was lost on the link)")
+            else:
+                stall_since = None
+            continue
+        stall_since = None
+        if ev.kind in ("ok", "error"):
+            if not inflight:
+                raise _surplus(f"'{ev.text}' arrived with no line awaiting an answer")
+            lost = 0
+            if ev.kind == "error":
+                # before naming the line: ask for a report after this error, in case an
+                # earlier answer was lost (or one was doubled) and the oldest line in flight is
+                # not this one (a full planner leaves one line possibly unanswered for a while:
+                # wait for a free block so that the report tells a blocked line from a lost answer)
+                snap = None
+                deadline = time.monotonic() + 1.0
+                while True:
+                    q_marks.append(sent_bytes)
+                    grbl.realtime("status")
+                    wanted = last_status_seen + len(q_marks)      # every '?' in flight answered
+                    while grbl.status_count < wanted and time.monotonic() < deadline:
+                        time.sleep(0.005)
+                    for _ in range(min(grbl.status_count - last_status_seen, len(q_marks))):
+                        snap = q_marks.popleft()
+                    last_status_seen = grbl.status_count
+                    st = grbl.status
+                    if (time.monotonic() >= deadline or st is None or not st.planner_free == 0
+                            or st.state not in ("Run", "Jog")):
+                        break
+                # answers that came after the error and before that report: more answers than
+                # lines sent means one of those before it was not owed, and this error may
+                # belong to an earlier line
+                if grbl.answer_count - answers_base > len(line_ends):
+                    first, last = _in_doubt(inflight[0][0])
+                    report.errors.append((first, ev.code, f"{error_message(ev.code)} — on one of "
+                                          f"lines {first}…{last} (the answers were out of step)"))
+                    raise _surplus(f"error:{ev.code} ({error_message(ev.code)}) came among "
+                                   f"{grbl.answer_count - answers_base} answers to "
+                                   f"{len(line_ends)} lines sent; it rejected one of the lines "
+                                   f"in doubt", inflight[0][0])
+                _check_count(st, snap)
+                if mode == "counting":
+                    lost = min(_answers_lost(grbl, snap, line_ends, sent_texts, answers_base),
+                               len(inflight) - 1)
+            events_taken += 1
+            if lost:
+                # An answer was lost just before this error: the error belongs to one of the
+                # oldest lost + 1 lines in flight (a lost 'ok': the later one; a lost line
+                # end merging two lines: the earlier). Name the earliest, so that a resume
+                # from it runs every line at least once, and say so.
+                first, last = inflight[0][0], inflight[lost][0]
+                report.warnings.append(
+                    f"an answer was lost on the link just before this error: it rejected one "
+                    f"of lines {first}…{last}; reported on line {first}, the earliest, so a "
+                    f"resume from it runs every line at least once — check the work near "
+                    f"lines {first}…{last} before resuming")
+            ln, n = inflight.popleft()
+            used -= abs(n)
+            report.lines_acknowledged += 1
+            report.last_acknowledged_line = ln
+            if ev.kind == "ok" and ln in job.blocks_per_line:   # a rejected line plans nothing
+                acked.append((ln, job.blocks_per_line[ln]))
+            if lost:
+                # the later candidates: answered, but not known to have run (a resume from
+                # the named line runs them again rather than skip one)
+                used -= _drop_lost(lost, ran=False)
+                answers_base -= lost
+            if ev.kind == "error":
+                report.errors.append((ln, ev.code, error_message(ev.code)))
+                if on_error == "stop":
+                    raise _Fault(f"line {ln} rejected: error:{ev.code}: "
+                                 f"{error_message(ev.code)}")
+            ex = _executed_line(grbl, acked, report.last_acknowledged_line)
+            report.last_executed_line = max(report.last_executed_line, ex)
+            if progress is not None:
+                progress(ex, ln, len(job.source_lines), job.eta_s(ex))
+        elif ev.kind == "alarm":
+            raise _Fault(f"ALARM:{ev.code}: {alarm_message(ev.code)}", reset=True)
+        elif ev.kind == "reset":
+            raise _Fault("the machine reset during the job (power, cable, or a reset)",
+                         reset=False, hold=False)
+        elif ev.kind == "disconnect":
+            raise _Fault(f"link lost: {ev.text}", reset=False, hold=False)
+    # everything acknowledged: wait for the motion to finish; answers still arriving are a surplus
+    deadline_idle = time.monotonic() + max(10.0, 3 * job.job_time_s + 10.0)
+    while True:
+        why = _requested_stop(controls, signals)
+        if why:
+            raise _Fault(why)
+        try:
+            st = grbl.get_status(watchdog_s)
+        except MachineError as exc:
+            if grbl.disconnected:
+                raise _Fault(f"link lost: {grbl.disconnected}", reset=False, hold=False) from exc
+            raise _Fault(f"watchdog: {exc}") from exc
+        ev = grbl.next_event(0.0)
+        if ev is not None and ev.kind in ("ok", "error"):
+            raise _surplus(f"'{ev.text}' arrived after every line had its answer")
+        if ev is not None and ev.kind == "alarm":
+            raise _Fault(f"ALARM:{ev.code}: {alarm_message(ev.code)}")
+        if ev is not None and ev.kind in ("reset", "disconnect"):
+            raise _Fault(f"link lost or machine reset: {ev.text}", reset=False, hold=False)
+        if st.state in ("Idle", "Check") and (st.planner_free is None
+                                              or st.planner_free >= grbl.info.planner_blocks):
+            break
+        if st.state == "Alarm":
+            raise _Fault(f"machine in alarm: {alarm_message(grbl.alarm or 0)}")
+        if time.monotonic() > deadline_idle:
+            raise _Fault("the machine never finished the job (still running long after the "
+                         "planned time)")
+        if controls.pause_requested and st.state == "Run":
+            grbl.feed_hold()
+        elif not controls.pause_requested and st.state == "Hold":
+            grbl.resume()
+        time.sleep(min(0.05, status_interval_s))
+    # A link that lost bytes is not a clean run, even when every line was answered.
+    report.ok = not report.errors and not report.answers_lost
+    report.last_executed_line = report.last_acknowledged_line
+    if progress is not None:
+        progress(report.last_executed_line, report.last_acknowledged_line,
+                 len(job.source_lines), 0.0)
+
+
+#: Answers a job may lose (each re-synchronised from a buffer report) before the link is
+#: judged unfit: a controller that answers nothing would otherwise "complete" every job.
+_MAX_LOST_ANSWERS = 3
 
 
 #: Lines GRBL may still be executing, unanswered, after taking them from its RX buffer: it waits for
@@ -535,13 +865,19 @@ def _answers_lost(grbl: Grbl, sent_at_query, line_ends: list, sent_texts: list, 
 
 
 def _executed_line(grbl: Grbl, acked: list, last_ack: int) -> int:
-    """The last source line whose motion has completed, from the planner occupancy."""
+    """The last source line whose motion has completed, from the planner occupancy.
+
+    Without a buffer report (``Bf``) the planner is taken as full: GRBL answers a line
+    when it is planned, so every acknowledged block but the last ``planner_blocks``
+    has run — a bound that never claims a line that may not have run.
+    """
     st = grbl.status
-    if st is None or st.planner_free is None:
-        return acked[-1][0] if acked else last_ack
-    if st.line is not None and st.line > 0:
+    if st is not None and st.line is not None and st.line > 0:
         return st.line - 1
-    in_planner = max(0, grbl.info.planner_blocks - st.planner_free)
+    if st is None or st.planner_free is None:
+        in_planner = grbl.info.planner_blocks
+    else:
+        in_planner = max(0, grbl.info.planner_blocks - st.planner_free)
     remaining = in_planner
     for idx in range(len(acked) - 1, -1, -1):
         if remaining <= 0:
@@ -562,38 +898,22 @@ def _first_unfinished(acked: list, in_planner: int) -> int | None:
 
 def _make_safe(grbl: Grbl, fault: _Fault, report: JobReport, acked: list, inflight: deque,
                job: Job) -> None:
-    """Feed hold, note where motion stopped, soft reset (beam off, buffers flushed), M5 S0.
+    """Stop the machine (:meth:`Grbl.stop_safely`), then work out which lines ran.
 
-    Which lines ran is worked out in wire order: the status report taken in
-    hold counts the blocks still in the planner, and only the answers that
-    arrived before that report are matched to the lines in flight.
+    Which lines ran is worked out in wire order: the status report taken once
+    motion stopped counts the blocks still in the planner, and only the answers
+    that arrived before that report are matched to the lines in flight.
     """
-    st = None
-    if grbl.disconnected:
-        report.safe_actions.append("link lost: the controller's own buffer-empty laser-off is "
-                                   "all that applies")
-    else:
-        try:
-            if fault.hold:
-                grbl.feed_hold()
-                report.safe_actions.append("feed hold")
-                st = grbl.wait_status(lambda s: s.state in ("Hold", "Idle", "Alarm", "Check")
-                                      and (s.state != "Hold" or s.substate in (0, None)), 3.0)
-            else:
-                st = grbl.get_status(1.0)
-            report.stop_position = _job_position(st)
-        except MachineError as exc:
-            report.safe_actions.append(f"no status after the hold ({exc})")
-            st = None
-        if fault.reset:
-            try:
-                grbl.soft_reset()
-                report.safe_actions.append("soft reset (buffers flushed, laser off)")
-            except MachineError as exc:
-                report.safe_actions.append(f"soft reset unanswered ({exc})")
-    # answers that arrived before the hold's status report retire lines in flight
+    doubt_resume = report.resume_line            # a protocol fault names where the doubt starts
+    stop = grbl.stop_safely(hold=fault.hold, reset=fault.reset)
+    report.safe_actions.extend(stop.steps)
+    report.controller_told = stop.told
+    st = stop.stopped_status
+    if st is not None:
+        report.stop_position = _job_position(st)
+    # answers that arrived before the stopped status report retire lines in flight
     limit = st.answers_before if st is not None else grbl.answer_count
-    for ev in grbl.drain_events():
+    for ev in stop.events:
         if ev.kind in ("ok", "error") and ev.seq < limit and inflight:
             ln, n = inflight.popleft()
             report.lines_acknowledged += 1
@@ -602,16 +922,19 @@ def _make_safe(grbl: Grbl, fault: _Fault, report: JobReport, acked: list, inflig
                 acked.append((ln, job.blocks_per_line[ln]))
             if ev.kind == "error":
                 report.errors.append((ln, ev.code, error_message(ev.code)))
-    if not grbl.disconnected:
+    if report.stop_position is None and not grbl.disconnected:
         try:
-            st2 = grbl.get_status(1.0)
-            if st2.state != "Alarm":
-                grbl.command("M5 S0", 2.0)
-                report.safe_actions.append("M5 S0")
-            if report.stop_position is None:
-                report.stop_position = _job_position(st2)
+            report.stop_position = _job_position(grbl.get_status(1.0))
         except MachineError:
             pass
+    if doubt_resume is not None:
+        report.resume_line = doubt_resume
+        report.last_executed_line = min(report.last_executed_line,
+                                        max((ln for ln, _ in acked if ln < doubt_resume), default=0))
+        return
+    if not stop.told or (st is None and grbl.disconnected):
+        _after_link_loss(grbl, report, acked, job)
+        return
     if st is None or st.planner_free is None:
         report.resume_line = None          # unknown: the position must be checked by hand
         return
@@ -620,8 +943,7 @@ def _make_safe(grbl: Grbl, fault: _Fault, report: JobReport, acked: list, inflig
         report.warnings.append("the alarm flushed the machine's buffers: check the position "
                                "and choose the resume line by hand (--resume-from)")
         return
-    else:
-        in_planner = max(0, grbl.info.planner_blocks - st.planner_free)
+    in_planner = max(0, grbl.info.planner_blocks - st.planner_free)
     first = _first_unfinished(acked, in_planner)
     if first is None:
         report.last_executed_line = report.last_acknowledged_line
@@ -643,12 +965,42 @@ def _make_safe(grbl: Grbl, fault: _Fault, report: JobReport, acked: list, inflig
             break
 
 
-def check_job(grbl: Grbl, job: Job) -> list:
-    """Run the job in check mode (``$C``): every line parsed by the controller, nothing moves."""
+def _after_link_loss(grbl: Grbl, report: JobReport, acked: list, job: Job) -> None:
+    """The link went mid-job: what is known from the last status report before it went.
+
+    The controller keeps running what it had buffered, so the last executed line is a
+    lower bound and the resume line the first line not known to have run: resuming
+    from it may burn again what ran after the last report, never skip a line.
+    """
+    executed = _executed_line(grbl, acked, report.last_acknowledged_line)
+    report.last_executed_line = executed
+    later = [ln for ln, _ in job.send if ln > executed]
+    report.resume_line = later[0] if later else None
+    doubt = (f"lines {report.resume_line}…{report.last_acknowledged_line} were acknowledged and "
+             f"may have run after the last status report; resuming from line "
+             f"{report.resume_line} burns again whatever of them ran — check the work there first"
+             if report.resume_line and report.last_acknowledged_line >= report.resume_line
+             else "")
+    report.warnings.append(
+        f"the link went after line {report.last_acknowledged_line} was acknowledged; "
+        f"{NOT_TOLD}. " + (doubt + ". " if doubt else "") +
+        "After reconnecting, check the position (a controller reset while moving loses it: "
+        "home with $H or set the origin again)")
+
+
+def check_job(grbl: Grbl, job: Job, *, stop=None) -> list:
+    """Run the job in check mode (``$C``): every line parsed by the controller, nothing moves.
+
+    ``stop()``, when given, is asked before each line; a reason it returns ends the check
+    (leaving check mode) with a :class:`MachineError`.
+    """
     grbl.check_mode(True)
     bad = []
     try:
         for ln, text in job.send:
+            why = stop() if stop is not None else None
+            if why:
+                raise MachineError(f"check mode stopped at line {ln}: {why}")
             grbl.send_line(text)
             while True:
                 ev = grbl.next_event(5.0)
@@ -664,6 +1016,218 @@ def check_job(grbl: Grbl, job: Job) -> list:
     finally:
         grbl.check_mode(False)
     return bad
+
+
+# -- pre-flight ---------------------------------------------------------------------------------
+
+_G_WORD = re.compile(r"G0*(\d+(?:\.\d+)?)")
+_MOTION = re.compile(r"[XYZ][-+.\d]")
+_OWN_OFFSETS = re.compile(r"G10|G92|G0*53(?![.\d])|G0*28(?![.\d])|G0*30(?![.\d])")
+
+
+def _modes_before_motion(job: Job) -> set:
+    """G numbers the job states before (or on) its first line with coordinates."""
+    seen = set()
+    for _, text in job.send:
+        if text.startswith("$"):
+            continue
+        seen.update(float(g) for g in _G_WORD.findall(text))
+        if _MOTION.search(text):
+            break
+    return seen
+
+
+def _virtual_machine(link):
+    """The :class:`~labkit.machine.virtual.VirtualMachine` behind a link (through a test
+    wrapper's ``vm``), or None for a real controller."""
+    from labkit.machine.virtual import VirtualMachine
+
+    port = getattr(link, "port", None)
+    for _ in range(3):
+        if isinstance(port, VirtualMachine):
+            return port
+        port = getattr(port, "vm", None)
+    return None
+
+
+def _job_extents(moves) -> tuple:
+    """Per motion row (lo, hi, line) of the job, mm, without the first row's start (that is
+    where the head happens to be, not part of the job)."""
+    keep = np.flatnonzero(moves.is_motion)
+    if len(keep) == 0:
+        return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, int)
+    rows = moves[keep]
+    lo, hi = rows.extents()
+    lo, hi = lo.copy(), hi.copy()
+    if not rows.is_arc[0]:
+        lo[0] = hi[0] = rows.end[0]
+    return lo, hi, np.asarray(rows.line)
+
+
+def _work_offset(grbl: Grbl, job: Job, parser: list, status) -> tuple:
+    """The offset the controller will add to the job's coordinates (mm), and how it was found;
+    None when the job sets or selects offsets of its own (then the travel is not checked)."""
+    if any(_OWN_OFFSETS.search(t) for _, t in job.send if not t.startswith("$")):
+        return None, "the job sets its own offsets (G10, G92, G53, G28/G30)"
+    chosen = {f"G{int(g)}" for _, t in job.send for g in map(float, _G_WORD.findall(t))
+              if 54 <= g <= 59 and g == int(g)}
+    active = next((w for w in parser if w in ("G54", "G55", "G56", "G57", "G58", "G59")), None)
+    if len(chosen) > 1:
+        return None, f"the job uses several coordinate systems ({', '.join(sorted(chosen))})"
+    system = next(iter(chosen)) if chosen else active
+    try:
+        offsets = grbl.offsets()
+    except MachineError as exc:
+        if status is not None and status.wco is not None and not chosen:
+            return np.asarray(status.wco[:3], float), "WCO in the status report"
+        return None, f"the offsets could not be read ($#: {exc})"
+
+    def triple(key):
+        vals = [float(v) for v in offsets.get(key, "0,0,0").split(":")[0].split(",")[:3]]
+        return np.array(vals + [0.0] * (3 - len(vals)))
+
+    try:
+        wco = triple(system or "G54") + triple("G92")
+        wco[2] += float(offsets.get("TLO", "0") or 0)
+    except ValueError:
+        return None, f"the offsets ($#) did not read as numbers: {offsets}"
+    return wco, f"{system or 'G54'} + G92 + TLO from $#"
+
+
+def preflight_check(grbl: Grbl, job: Job, *, machine=None, status=None) -> tuple[list, list]:
+    """Check a job against what the controller says, before anything is sent.
+
+    Reads the status, ``$G`` (units, distance mode, coordinate system) and ``$#``
+    (work offsets), with ``$$`` as :meth:`Grbl.connect` read it, and finds what would
+    alarm or burn where it should not:
+
+    * the controller's state: in alarm, busy, held, asleep or in check mode;
+    * power: an S above ``$30`` (GRBL clamps it: full power where the job asked less);
+    * units and distance mode: a job that does not say them before its first move on a
+      controller left in G20 (inches) or G91 (relative);
+    * travel: the job's extent (arcs exact) plus the work offset, against the travel
+      where it is known — soft limits on (``$20=1``: GRBL would stop with ALARM:2 at the
+      first line outside, after burning the lines before it), or the machine description
+      (``machine``, or the virtual machine's own) for the job's size.
+
+    Laser mode (``$32``) is :meth:`Grbl.check_laser_job`, which :func:`run_job` calls
+    first. ``--check-first`` (:func:`check_job`) stays the deeper check: every line
+    parsed by the controller itself.
+
+    Parameters
+    ----------
+    grbl : Grbl
+    job : Job
+    machine : str or MachineSpec, optional
+        The machine description the user named (its travel bounds the job's size).
+    status : Status, optional
+        A status report just taken (one is asked for otherwise).
+
+    Returns
+    -------
+    problems : list of str
+        Each a reason to refuse the job, with the fix named.
+    notes : list of str
+        Warnings and what could not be checked.
+    """
+    problems: list[str] = []
+    notes: list[str] = []
+    st = status if status is not None else grbl.get_status()
+    if st.state == "Alarm":
+        problems.append("the controller is in alarm" + (f" (ALARM:{grbl.alarm}: "
+                        f"{alarm_message(grbl.alarm)})" if grbl.alarm else "") +
+                        ": check the machine, then unlock it with $X (or home it with $H)")
+    elif st.state in ("Run", "Jog", "Home", "Hold", "Door"):
+        problems.append(f"the controller is busy ({st.state}): let it finish or stop it, then "
+                        f"start the job from Idle")
+    elif st.state == "Check":
+        problems.append("the controller is in check mode ($C): nothing would be cut; send $C to "
+                        "leave it (--check-first runs the check and leaves it by itself)")
+    elif st.state == "Sleep":
+        problems.append("the controller is asleep: wake it with a soft reset (ctrl-x) first")
+    m = job.moves
+    burning = np.asarray(m.laser_on, bool)
+    s30 = grbl.setting(30)
+    if burning.any() and math.isfinite(s30) and s30 > 0:
+        powers = np.asarray(m.power_s, float)[burning]
+        k = int(np.argmax(powers))
+        s_job, ln = float(powers[k]), int(np.asarray(m.line)[burning][k])
+        if s_job > s30 * (1 + 1e-6):
+            problems.append(f"the job's power goes up to S{s_job:g} (line {ln}) but the "
+                            f"controller's $30 is {s30:g}: GRBL clamps every higher S to full "
+                            f"power; send '$30={s_job:g}' if the job was written for that range, "
+                            f"or scale the job's S to 0…{s30:g}")
+        elif s_job * 4 <= s30:
+            notes.append(f"note: the job's highest power is S{s_job:g}, {100 * s_job / s30:.0f} % "
+                         f"of $30={s30:g}: was it written for $30={s_job:g}?")
+    try:
+        parser = grbl.parser_state().split()
+    except MachineError as exc:
+        parser = []
+        notes.append(f"note: the parser state ($G) could not be read ({exc}): units and "
+                     f"distance mode not checked")
+    modes = _modes_before_motion(job)
+    first_move = next((ln for ln, t in job.send if not t.startswith("$") and _MOTION.search(t)),
+                      None)
+    if "G20" in parser and not modes & {20.0, 21.0}:
+        problems.append(f"the controller is in inches (G20) and the job does not say its units "
+                        f"before its first move (line {first_move}): every coordinate would be "
+                        f"read in inches, 25.4 times too far; add G21 at the top of the job")
+    if "G91" in parser and not modes & {90.0, 91.0}:
+        problems.append(f"the controller is in relative mode (G91) and the job does not say its "
+                        f"distance mode before its first move (line {first_move}): add G90 at "
+                        f"the top of the job")
+    lo, hi, lines = _job_extents(m)
+    if len(lines) == 0:
+        return problems, notes
+    spec = machine
+    vm = _virtual_machine(grbl.link)
+    if spec is None and vm is not None:
+        spec = vm.machine
+    if spec is not None:
+        from labkit.motion.machine import check_job_fits
+
+        try:
+            msg = check_job_fits(hi.max(axis=0) - lo.min(axis=0), spec, force=True)
+        except LabkitError as exc:
+            msg = None
+            notes.append(f"note: the machine description could not be read: {exc}")
+        if msg:
+            problems.append(msg + "; scale the job down, or name the right machine (--machine)")
+    if grbl.setting(20, 0.0) != 1.0:
+        return problems, notes
+    travel = np.array([grbl.setting(130 + a) for a in range(3)])
+    if not np.all(np.isfinite(travel)):
+        notes.append("note: soft limits are on but $130-$132 were not read: travel not checked")
+        return problems, notes
+    if vm is not None:
+        box_lo, box_hi, rule = np.zeros(3), travel, "0…$130-$132, the virtual machine's travel"
+    else:
+        # GRBL's soft limits: −$13x…0 per axis; positive on an axis whose position is
+        # positive (a build that sets the origin at home, HOMING_FORCE_SET_ORIGIN)
+        positive = np.asarray(st.mpos[:3], float) > 1e-3 if st.mpos is not None else np.zeros(3, bool)
+        box_lo, box_hi = np.where(positive, 0.0, -travel), np.where(positive, travel, 0.0)
+        rule = "GRBL's −$130…0 per axis (0…$130 where the position is positive)"
+    wco, how = _work_offset(grbl, job, parser, st)
+    if wco is None:
+        notes.append(f"note: the travel was not checked: {how}; --check-first lets the "
+                     f"controller check it")
+        return problems, notes
+    mlo, mhi = lo + wco, hi + wco
+    out = (mlo < box_lo - 1e-3) | (mhi > box_hi + 1e-3)
+    bad = np.flatnonzero(out.any(axis=1))
+    if len(bad):
+        r = int(bad[0])
+        a = int(np.flatnonzero(out[r])[0])
+        v = mlo[r, a] if mlo[r, a] < box_lo[a] - 1e-3 else mhi[r, a]
+        text = dict(job.send).get(int(lines[r]), "")
+        problems.append(
+            f"line {int(lines[r])} ({text}) would take {'XYZ'[a]} to {v:.3f} mm in machine "
+            f"coordinates (work offset {_fmt_xyz(wco)}, {how}), outside the travel "
+            f"{box_lo[a]:g}…{box_hi[a]:g} mm ({rule}): with soft limits on ($20=1) GRBL stops "
+            f"there with ALARM:2, after burning the lines before it; move the work origin "
+            f"(jog to where the job's 0,0 belongs and send 'G10 L20 P0 X0 Y0') or move the job")
+    return problems, notes
 
 
 # -- resume -------------------------------------------------------------------------------------

@@ -14,11 +14,28 @@ virtual machine.
 
 from __future__ import annotations
 
+import atexit
 import threading
+import weakref
 
 __all__ = ["ControlPanel", "plot_rx_fill", "plot_annulus"]
 
 DISCONNECTED, MANUAL, PRINTING = "disconnected", "manual control", "printing"
+
+#: Panels alive in this process: when it exits (a closed notebook kernel), each one's job is
+#: cancelled and its machine stopped safely before the port closes.
+_PANELS: "weakref.WeakSet" = weakref.WeakSet()
+
+
+def _close_panels_at_exit() -> None:
+    for panel in list(_PANELS):
+        try:
+            panel.disconnect(reason="the notebook kernel is closing")
+        except Exception:                 # one panel's failure must not skip the others
+            pass
+
+
+atexit.register(_close_panels_at_exit)
 
 
 class ControlPanel:
@@ -123,6 +140,7 @@ class ControlPanel:
             w.HBox([self.progress, self.progress_text]),
         ])
         self._set_state(DISCONNECTED)
+        _PANELS.add(self)
 
     def _ipython_display_(self):
         from IPython.display import display
@@ -182,8 +200,18 @@ class ControlPanel:
         self._set_state(MANUAL)
         self.refresh()
 
-    def disconnect(self) -> None:
+    def disconnect(self, *, reason: str = "disconnected from the panel",
+                   wait_s: float = 15.0) -> None:
+        """Stop a running job (it ends through its own safe stop), then stop the machine
+        (feed hold, soft reset, ``M5 S0``) and close the port; the console log says what
+        was sent and confirmed."""
+        if self._thread is not None and self._thread.is_alive():
+            if self.controls is not None:
+                self.controls.cancel(reason)
+            self._thread.join(wait_s)
         if self.machine is not None:
+            stop = self.machine.stop_safely()
+            self._log("safe stop: " + "; ".join(stop.steps))
             self.machine.close()
         self.machine = None
         self._set_state(DISCONNECTED)
@@ -266,13 +294,17 @@ class ControlPanel:
             self.progress_text.value = f"line {acked}/{total}, done {executed}, ETA {eta_s:.0f} s"
 
         def work():
+            # run_job stops the machine on every end (in this thread signals are the kernel's:
+            # an interrupt does not reach it; the stop button, disconnect and the kernel's exit
+            # cancel it instead)
             try:
                 self.report = run_job(self.machine, self.job, progress=progress,
                                       controls=self.controls, **options)
                 self._log(self.report.summary())
             finally:
-                self._set_state(MANUAL)
-                self.refresh()
+                if self.machine is not None:
+                    self._set_state(MANUAL)
+                    self.refresh()
 
         self._thread = threading.Thread(target=work, name="labkit-job", daemon=True)
         self._thread.start()
