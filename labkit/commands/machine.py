@@ -110,6 +110,9 @@ def add_stream_arguments(parser):
                         help="how the file is read (default: the protocol's)")
     parser.add_argument("--allow-spindle-mode", action="store_true",
                         help="stream a burning job even when the machine's $32 is 0 (a warning)")
+    parser.add_argument("--s-max", type=number(0, 1e9, lo_open=True), default=None, metavar="S",
+                        help="Dobot only: the S of full laser power, 100 %% PWM duty (default: "
+                             "the dialect's, GRBL 1000, labkit-fw 255); a higher S is refused")
 
 
 class _Progress:

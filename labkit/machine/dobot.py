@@ -17,11 +17,29 @@ and rapids, SetARCCmd (101) with [DobotLaser]'s mid-arc point
 X = −y′ + x0, Y = −x′ + y0 with the origin (x0, y0) = (300, 100) mm, and
 every point the arm would pass is checked against the reachable annulus of
 170–320 mm around its base **before anything is sent**.
+
+What the arm would not draw as written is refused before anything is sent,
+naming the source line, never flattened or clamped: a move that changes Z and
+an arc in the XZ or YZ plane (the arm draws in one plane, at the laser's
+focus), and a burning S above full power (``--s-max``: a PWM duty above 100 %
+is not a power anyone asked for).
+
+Every end of a job but completion — a fault, a protocol error (a short answer,
+a queue index that goes back or beyond the last one queued), a cancel, an
+exception, Ctrl-C, SIGTERM (a notebook server closing a kernel interrupts it,
+then sends SIGTERM) — runs :meth:`Dobot.safe_stop` before the port closes:
+force-stop the queue, laser off, PWM 0 %, clear the queue, each sent whatever
+became of the one before, and a :class:`StopReport` says which were sent and
+which the arm confirmed. When the link itself is gone it says "the controller
+was not told to stop" and what that leaves.
 """
 
 from __future__ import annotations
 
+import bisect
+import signal
 import struct
+import threading
 import time
 from dataclasses import dataclass
 
@@ -30,7 +48,8 @@ import numpy as np
 from labkit.errors import MachineError
 
 __all__ = ["frame", "checksum", "FrameReader", "Frame", "canvas_to_robot", "check_reach",
-           "job_commands", "Dobot", "DobotEmulator", "CMD", "ORIGIN_MM", "REACH_MM"]
+           "check_drawable", "job_commands", "Dobot", "DobotEmulator", "StopReport", "StopStep",
+           "CMD", "ORIGIN_MM", "REACH_MM", "STOP_TIMEOUT_S"]
 
 HEADER = b"\xAA\xAA"
 
@@ -213,20 +232,101 @@ def pwm_params(duty_percent: float, address: int = LASER_PWM_ADDRESS,
     return struct.pack("<Bff", address, freq_hz, duty_percent)
 
 
-def job_commands(moves, *, origin=ORIGIN_MM, z_mm: float = 0.0) -> list[tuple[int, bytes, int]]:
+def _where(moves, i: int) -> str:
+    return f"{moves.source or '<string>'}:{int(moves.line[i])}"
+
+
+def check_drawable(moves, *, s_max: float | None = None) -> float:
+    """Refuse what the arm would not draw as written, before anything moves.
+
+    The Dobot path draws in one plane (the arm's Z stays where the laser is
+    focused), so a move that changes Z and an arc in the XZ (G18) or YZ (G19)
+    plane are refused rather than flattened; a burning move whose S is above
+    full power is refused rather than sent as a PWM duty above 100 %.
+
+    Parameters
+    ----------
+    moves : Moves
+        The job.
+    s_max : float, optional
+        The S value that means full laser power (100 % PWM duty); default
+        ``moves.s_max`` (the dialect's: GRBL's ``$30`` default 1000, 255 for
+        labkit-fw and [DobotLaser]'s programs).
+
+    Returns
+    -------
+    float
+        The ``s_max`` in use.
+
+    Raises
+    ------
+    MachineError
+        Naming the source line, what it asks for and what the arm can do.
+
+    Examples
+    --------
+    >>> from labkit.gcode import parse
+    >>> check_drawable(parse("M3 S500\\nG1 X10 F600\\n"))
+    1000.0
+    >>> check_drawable(parse("G0 X10\\nG0 Z5\\n"))
+    Traceback (most recent call last):
+    ...
+    labkit.errors.MachineError: <string>:2: the Dobot draws in one plane ...
+    """
+    s_max = float(moves.s_max if s_max is None else s_max)
+    if not (np.isfinite(s_max) and s_max > 0):
+        raise MachineError(f"s_max must be a finite number > 0 (the S of full laser power), "
+                           f"got {s_max!r}")
+    on = moves.laser_on
+    for i in range(len(moves)):
+        if moves.kind[i] == 4:
+            continue
+        if moves.is_arc[i] and int(moves.plane[i]) != 17:
+            name = {18: "XZ (G18)", 19: "YZ (G19)"}.get(int(moves.plane[i]), "?")
+            raise MachineError(f"{_where(moves, i)}: an arc in the {name} plane leaves the "
+                               f"drawing plane; the Dobot draws arcs in XY only (G17): select "
+                               f"G17 or write the arc as XY moves")
+        z0, z1 = float(moves.start[i, 2]), float(moves.end[i, 2])
+        if abs(z1 - z0) > 1e-9:
+            raise MachineError(f"{_where(moves, i)}: the Dobot draws in one plane (the arm's Z "
+                               f"stays where the laser is focused); this move goes from Z{z0:g} "
+                               f"to Z{z1:g} mm: remove the Z words from the program")
+        s = float(moves.power_s[i])
+        if on[i] and not s <= s_max * (1 + 1e-9):
+            raise MachineError(f"{_where(moves, i)}: S{s:g} is above full laser power "
+                               f"S{s_max:g}: it would be sent as a PWM duty of "
+                               f"{s * 100 / s_max:.0f} %; lower S, or give the S of full power "
+                               f"the program was written for (--s-max)")
+    return s_max
+
+
+def job_commands(moves, *, origin=ORIGIN_MM, z_mm: float = 0.0,
+                 s_max: float | None = None) -> list[tuple[int, bytes, int]]:
     """The queued commands that draw ``moves``: (command id, params, source line).
 
-    Reach is checked first (:func:`check_reach`). The laser is switched off
-    before every rapid and on (with its PWM duty) before a burning move whose
-    power changed; the job ends with the laser off.
+    Before anything is made, :func:`check_drawable` (one plane, S within full
+    power) and :func:`check_reach`. The laser is switched off before every
+    rapid and on (with its PWM duty, S × 100 / ``s_max`` %) before a burning
+    move whose power changed; the job ends with the laser off.
+
+    Parameters
+    ----------
+    moves : Moves
+        The job, in canvas millimetres.
+    origin : (float, float)
+        The canvas origin on the arm's table, mm.
+    z_mm : float
+        The drawing plane's Z in the arm's frame, mm.
+    s_max : float, optional
+        The S of full laser power (default ``moves.s_max``).
     """
     from labkit.geometry.circle import mid_arc_point
 
+    s_max = check_drawable(moves, s_max=s_max)
     check_reach(moves, origin)
     out = []
     beam = None
     duty = None
-    s_max = float(moves.s_max) or 255.0
     on = moves.laser_on
     for i in range(len(moves)):
         k = int(moves.kind[i])
@@ -245,7 +345,7 @@ def job_commands(moves, *, origin=ORIGIN_MM, z_mm: float = 0.0) -> list[tuple[in
                 out.append((CMD["laser"], laser_params(True), ln))
                 beam = True
         ex, ey = canvas_to_robot(moves.end[i, 0], moves.end[i, 1], origin)
-        if moves.is_arc[i] and int(moves.plane[i]) == 17:
+        if moves.is_arc[i]:
             s2, e2, c2 = moves.start[i, :2], moves.end[i, :2], moves.centre[i, :2]
             cw = k == 2
             if np.allclose(s2, e2):                  # a full circle: two half arcs
@@ -265,89 +365,305 @@ def job_commands(moves, *, origin=ORIGIN_MM, z_mm: float = 0.0) -> list[tuple[in
     return out
 
 
+#: How long each step of the safe stop waits for the Dobot's answer, s. Short enough that all
+#: four fit before a notebook server, having interrupted a kernel, sends it SIGTERM (2.5 s).
+STOP_TIMEOUT_S = 0.5
+
+#: The safe stop, in order: the queue first (a queued laser-on cannot follow), then the beam.
+_STOP_STEPS = (("force-stop", CMD["queue_force_stop"], b""),
+               ("laser off", CMD["laser"], laser_params(False)),
+               ("PWM 0 %", CMD["io_pwm"], pwm_params(0.0)),
+               ("queue clear", CMD["queue_clear"], b""))
+
+
+class _LinkGone(MachineError):
+    """The port itself failed (unplugged cable, closed device): nothing more can be sent."""
+
+
+@dataclass
+class StopStep:
+    """One command of the safe stop and what became of it."""
+
+    what: str
+    sent: bool
+    confirmed: bool
+    problem: str = ""        #: why it was not sent, or not confirmed
+
+    def state(self, timeout_s: float) -> str:
+        if self.confirmed:
+            return "confirmed"
+        if self.sent:
+            return f"sent, {self.problem or f'no answer within {timeout_s:g} s'}"
+        return f"not sent ({self.problem})"
+
+
+@dataclass
+class StopReport:
+    """What the safe stop sent and what the Dobot confirmed (:meth:`Dobot.safe_stop`)."""
+
+    steps: list[StopStep]
+    timeout_s: float
+    queued_line: int | None = None       #: source line of the last command queued
+    executed_line: int | None = None     #: source line of the last command reported executed
+    held_signals: tuple[str, ...] = ()   #: signals that arrived during the stop (held)
+
+    def step(self, what: str) -> StopStep:
+        return next(s for s in self.steps if s.what == what)
+
+    @property
+    def told_to_stop(self) -> bool:
+        """At least one stop command reached the port."""
+        return any(s.sent for s in self.steps)
+
+    @property
+    def laser_off_confirmed(self) -> bool:
+        """The Dobot answered the (immediate) laser-off command."""
+        return self.step("laser off").confirmed
+
+    def summary(self) -> str:
+        """One paragraph that claims nothing that did not happen."""
+        lines = []
+        if self.queued_line is not None:
+            ran = ("none reported executed" if self.executed_line is None
+                   else f"last reported executed: source line {self.executed_line}")
+            lines.append(f"last queued: source line {self.queued_line}, {ran}")
+        if not self.told_to_stop:
+            why = self.steps[0].problem if self.steps else "no stop was attempted"
+            return "; ".join([f"the controller was not told to stop: {why}; its own behaviour "
+                              f"is all that applies: the Dobot goes on executing the commands "
+                              f"already in its queue and leaves the laser as they leave it — "
+                              f"switch the arm off at its power switch"] + lines)
+        states = ", ".join(f"{s.what} {s.state(self.timeout_s)}" for s in self.steps)
+        laser = self.step("laser off")
+        if laser.confirmed:
+            verdict = "the Dobot acknowledged the laser-off command"
+        elif laser.sent:
+            verdict = ("the laser-off command was sent but not acknowledged: check the beam and "
+                       "switch the arm off if it is still on")
+        else:
+            verdict = "the laser-off command was NOT sent: switch the arm off at its power switch"
+        if self.held_signals:
+            lines.append(f"{' and '.join(self.held_signals)} during the stop was held until it "
+                         f"was done")
+        return "; ".join([f"safe stop: {states} — {verdict}"] + lines)
+
+
+class _JobSignals:
+    """SIGINT and SIGTERM while a job runs (installed from the main thread only).
+
+    Until the safe stop begins they raise — KeyboardInterrupt, and SystemExit(143) for SIGTERM,
+    which otherwise ends Python without running any cleanup — so the stop runs. Once it has
+    begun (``stopping``) they are held and named, so a second Ctrl-C cannot cut it short."""
+
+    def __init__(self):
+        self.stopping = False
+        self.held: list[str] = []
+        self.saved = {}
+
+    def _handle(self, signum, _frame):
+        if self.stopping:
+            self.held.append(signal.Signals(signum).name)
+            return
+        if signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        raise SystemExit(128 + signum)
+
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                self.saved[sig] = signal.signal(sig, self._handle)
+        return self
+
+    def __exit__(self, *exc):
+        for sig, handler in self.saved.items():
+            signal.signal(sig, signal.SIG_DFL if handler is None else handler)
+
+
 class Dobot:
-    """A Dobot Magician on a pyserial-like port."""
+    """A Dobot Magician on a pyserial-like port.
+
+    Parameters
+    ----------
+    port : serial-like
+        An open object with ``write(bytes)``, ``read(n)`` and ``in_waiting``
+        (pyserial's ``Serial``, or :class:`DobotEmulator`).
+    timeout_s : float
+        How long a request waits for its answer, s.
+    """
 
     def __init__(self, port, *, timeout_s: float = 2.0):
         self.port = port
         self.timeout_s = timeout_s
         self.reader = FrameReader()
-        self.pending: list[Frame] = []
         self.sent_frames = 0
+        self.last_stop: StopReport | None = None
 
-    def request(self, cmd_id: int, params: bytes = b"", *, write=False, queued=False) -> Frame:
-        """Send a frame and wait for the reply with the same id (other frames are dropped)."""
-        self.port.write(frame(cmd_id, params, write=write, queued=queued))
+    def _send(self, data: bytes) -> None:
+        try:
+            self.port.write(data)
+        except (OSError, ValueError) as exc:     # pyserial's SerialException is an OSError
+            raise _LinkGone(f"the link to the Dobot is gone: {exc}") from exc
         self.sent_frames += 1
-        deadline = time.monotonic() + self.timeout_s
+
+    def _answer(self, cmd_id: int, timeout_s: float) -> Frame:
+        deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
-            data = self.port.read(max(1, getattr(self.port, "in_waiting", 0) or 1))
+            try:
+                data = self.port.read(max(1, getattr(self.port, "in_waiting", 0) or 1))
+            except (OSError, ValueError, TypeError) as exc:
+                raise _LinkGone(f"the link to the Dobot is gone: {exc}") from exc
             for f in self.reader.feed(data):
                 if f.cmd_id == cmd_id:
                     return f
         raise MachineError(f"no answer from the Dobot to command {cmd_id} within "
-                           f"{self.timeout_s:g} s (cable, power, 115200 baud?)")
+                           f"{timeout_s:g} s (cable, power, 115200 baud?)")
+
+    def request(self, cmd_id: int, params: bytes = b"", *, write=False, queued=False,
+                timeout_s: float | None = None) -> Frame:
+        """Send a frame and wait for the reply with the same id (other frames are dropped)."""
+        self._send(frame(cmd_id, params, write=write, queued=queued))
+        return self._answer(cmd_id, self.timeout_s if timeout_s is None else timeout_s)
+
+    def _reply(self, cmd_id: int, params: bytes = b"", size: int = 0, what: str = "",
+               **kw) -> bytes:
+        """A request whose answer must carry ``size`` parameter bytes (a protocol error if not)."""
+        f = self.request(cmd_id, params, **kw)
+        if len(f.params) != size:
+            raise MachineError(f"protocol error: the Dobot answered command {cmd_id} with "
+                               f"{len(f.params)} parameter bytes, expected {size} ({what})")
+        return f.params
 
     def queued(self, cmd_id: int, params: bytes) -> int:
         """Send a queued write; returns its queue index (uint64)."""
-        f = self.request(cmd_id, params, write=True, queued=True)
-        if len(f.params) != 8:
-            raise MachineError(f"queued command {cmd_id} answered {len(f.params)} bytes, "
-                               f"expected an 8-byte queue index")
-        return struct.unpack("<Q", f.params)[0]
+        got = self._reply(cmd_id, params, 8, "its uint64 queue index", write=True, queued=True)
+        return struct.unpack("<Q", got)[0]
 
     def current_index(self) -> int:
-        f = self.request(CMD["queue_index"])
-        return struct.unpack("<Q", f.params[:8])[0]
+        """The queue index of the last command the arm executed (uint64)."""
+        got = self._reply(CMD["queue_index"], b"", 8, "the uint64 index of the executed command")
+        return struct.unpack("<Q", got)[0]
 
     def pose(self) -> tuple:
-        f = self.request(CMD["get_pose"])
-        return struct.unpack("<8f", f.params[:32])
+        """X, Y, Z, R (mm, degrees) and the four joint angles (degrees)."""
+        return struct.unpack("<8f", self._reply(CMD["get_pose"], b"", 32, "eight float32"))
 
     def queue(self, what: str) -> None:
         """``start``, ``stop``, ``force_stop`` or ``clear`` the command queue."""
         self.request(CMD[f"queue_{what}"], write=True)
 
-    def laser_off_now(self) -> None:
-        """Laser off immediately (not queued): force-stop the queue, then switch it off."""
-        self.queue("force_stop")
-        self.request(CMD["laser"], laser_params(False), write=True)
+    def safe_stop(self, timeout_s: float = STOP_TIMEOUT_S) -> StopReport:
+        """Stop the arm and the beam now: force-stop the queue, laser off, PWM 0 %, clear.
+
+        Every step is tried whatever became of the one before (a force-stop
+        without an answer does not skip the laser-off frame), each waiting at
+        most ``timeout_s`` for its answer.
+
+        Returns
+        -------
+        StopReport
+            Which commands were sent and which the Dobot confirmed.
+        """
+        steps = []
+        for what, cmd_id, params in _STOP_STEPS:
+            try:
+                self._send(frame(cmd_id, params, write=True))
+            except _LinkGone as exc:
+                steps.append(StopStep(what, False, False, str(exc)))
+                continue
+            try:
+                self._answer(cmd_id, timeout_s)
+                steps.append(StopStep(what, True, True))
+            except _LinkGone as exc:
+                steps.append(StopStep(what, True, False, f"then {exc}"))
+            except MachineError:
+                steps.append(StopStep(what, True, False))
+        return StopReport(steps, timeout_s)
+
+    def _executed(self, indices: list[int], done: int) -> int:
+        """The executed queue index, checked against what this job queued."""
+        now = self.current_index()
+        if now > indices[-1]:
+            raise MachineError(f"protocol error: the Dobot reports queue index {now} executed, "
+                               f"but the last command queued has index {indices[-1]}: its "
+                               f"answers cannot be trusted")
+        if now < done:
+            raise MachineError(f"protocol error: the Dobot's executed queue index went back "
+                               f"from {done} to {now} (did it restart?)")
+        return now
 
     def run(self, commands, *, ahead: int = 20, progress=None, cancel=None,
-            timeout_s: float = 600.0) -> int:
+            timeout_s: float = 600.0, stop_timeout_s: float = STOP_TIMEOUT_S) -> int:
         """Queue the commands, at most ``ahead`` beyond the executed one; returns the last index.
 
-        Any fault or a cancel stops the queue and switches the laser off.
+        Any end but completion — a fault, a protocol error, ``cancel()``
+        returning true, an exception from ``progress``, Ctrl-C or SIGTERM
+        (handled while the job runs, from the main thread) — runs
+        :meth:`safe_stop` before the exception goes on; its report is kept in
+        :attr:`last_stop` and added as a note to the exception.
+
+        Parameters
+        ----------
+        commands : list of (int, bytes, int)
+            :func:`job_commands`'s output.
+        ahead : int
+            How many commands may wait in the arm's queue.
+        progress : callable, optional
+            ``progress(source_line, n_queued, n_total)`` after each command.
+        cancel : callable, optional
+            Polled while waiting; true stops the job.
+        timeout_s : float
+            The whole job's time limit, s.
+        stop_timeout_s : float
+            How long each step of the safe stop waits for its answer, s.
         """
-        self.queue("stop")
-        self.queue("clear")
-        indices = []
-        try:
-            self.queue("start")
-            done = -1
-            deadline = time.monotonic() + timeout_s
-            for n, (cmd_id, params, line) in enumerate(commands):
-                while indices and indices[-1] - done >= ahead:
-                    done = self.current_index()
-                    if time.monotonic() > deadline:
-                        raise MachineError("the Dobot queue stopped advancing")
-                    if cancel is not None and cancel():
-                        raise MachineError("cancelled by the user")
-                indices.append(self.queued(cmd_id, params))
-                if progress is not None:
-                    progress(line, n + 1, len(commands))
-            last = indices[-1] if indices else 0
-            while done < last:
-                done = self.current_index()
-                if time.monotonic() > deadline:
-                    raise MachineError("the Dobot queue stopped advancing")
-            return last
-        except BaseException:
+        self.last_stop = None
+        indices: list[int] = []
+        lines: list[int] = []
+        done = -1
+        with _JobSignals() as signals:
             try:
-                self.laser_off_now()
-            except MachineError:
-                pass
-            raise
+                self.queue("stop")
+                self.queue("clear")
+                self.queue("start")
+                deadline = time.monotonic() + timeout_s
+
+                def wait(until) -> None:
+                    nonlocal done
+                    while until():
+                        before, done = done, self._executed(indices, done)
+                        if done == before:
+                            time.sleep(0.002)           # poll a busy arm at most ~500 times/s
+                        if time.monotonic() > deadline:
+                            raise MachineError(f"the Dobot job took longer than {timeout_s:g} s "
+                                               f"(its queue is at index {done})")
+                        if cancel is not None and cancel():
+                            raise MachineError("cancelled by the user")
+
+                for n, (cmd_id, params, line) in enumerate(commands):
+                    wait(lambda: indices and indices[-1] - done >= ahead)
+                    index = self.queued(cmd_id, params)
+                    if indices and index <= indices[-1]:
+                        raise MachineError(f"protocol error: the Dobot gave queue index {index} "
+                                           f"after {indices[-1]}: indices must increase")
+                    indices.append(index)
+                    lines.append(line)
+                    if progress is not None:
+                        progress(line, n + 1, len(commands))
+                wait(lambda: indices and done < indices[-1])
+                return indices[-1] if indices else 0
+            except BaseException as exc:
+                signals.stopping = True
+                report = self.safe_stop(stop_timeout_s)
+                report.held_signals = tuple(signals.held)
+                # the closing laser-off has no source line (0): name the last line that has one
+                named = [ln for ln in lines if ln > 0]
+                if named:
+                    report.queued_line = named[-1]
+                    ran = [ln for ln in lines[:bisect.bisect_right(indices, done)] if ln > 0]
+                    report.executed_line = ran[-1] if ran else None
+                self.last_stop = report
+                exc.add_note(report.summary())
+                raise
 
 
 class DobotEmulator:
@@ -365,8 +681,10 @@ class DobotEmulator:
         self.per_poll = per_poll
         self.pose = [200.0, 0.0, 0.0, 0.0]
         self.laser_on = False
+        self.pwm_duty = 0.0
         self.laser_on_while_stopped = 0
         self.frames = 0
+        self.received: list[Frame] = []        #: every frame, in order of arrival
         self.timeout = 0.05
 
     @property
@@ -380,6 +698,7 @@ class DobotEmulator:
     def write(self, data: bytes) -> int:
         for f in self.reader.feed(bytes(data)):
             self.frames += 1
+            self.received.append(f)
             if f.queued:
                 self.queue.append((self.next_index, f))
                 self._answer(f, struct.pack("<Q", self.next_index))
@@ -403,6 +722,9 @@ class DobotEmulator:
             elif f.cmd_id == CMD["laser"]:
                 self.laser_on = bool(f.params[1])
                 self._answer(f)
+            elif f.cmd_id == CMD["io_pwm"]:
+                self.pwm_duty = struct.unpack("<Bff", f.params)[2]
+                self._answer(f)
             else:
                 self._answer(f)
         return len(data)
@@ -420,6 +742,8 @@ class DobotEmulator:
             self.done_index = idx
             if f.cmd_id == CMD["laser"]:
                 self.laser_on = bool(f.params[1])
+            elif f.cmd_id == CMD["io_pwm"]:
+                self.pwm_duty = struct.unpack("<Bff", f.params)[2]
             elif f.cmd_id == CMD["ptp"]:
                 self.pose[:2] = struct.unpack("<B4f", f.params)[1:3]
             elif f.cmd_id == CMD["arc"]:
@@ -439,24 +763,43 @@ class DobotEmulator:
 
 
 def stream_file(args, port, baud) -> int:
-    """``labkit stream --protocol dobot``: draw a G-code file with the arm (or its emulator)."""
+    """``labkit stream --protocol dobot``: draw a G-code file with the arm (or its emulator).
+
+    Everything the arm cannot draw as written is refused before the first frame
+    (:func:`job_commands`). Any end but completion prints what the safe stop sent
+    and what the Dobot confirmed; the exit status is 1, 130 after Ctrl-C and 143
+    after SIGTERM.
+    """
     from labkit.gcode import parse_file
 
     moves = parse_file(args.file, dialect=args.dialect or "grbl")
-    commands = job_commands(moves)            # reach checked before anything moves
+    commands = job_commands(moves, s_max=getattr(args, "s_max", None))
+    link = None
     if port is None or port.startswith("virtual://"):
         dev = DobotEmulator()
     else:
         from labkit.machine.link import open_link
 
-        dev = open_link(port, baud).port
+        link = open_link(port, baud)
+        dev = link.port
     bot = Dobot(dev)
     t0 = time.monotonic()
     try:
         last = bot.run(commands)
-    except MachineError as exc:
-        print(f"STOPPED: {exc}; the queue was force-stopped and the laser switched off")
-        return 1
+    except (MachineError, KeyboardInterrupt, SystemExit) as exc:
+        if isinstance(exc, KeyboardInterrupt):
+            why, status = "interrupted (Ctrl-C)", 130
+        elif isinstance(exc, SystemExit):
+            why, status = "terminated (SIGTERM)", exc.code if isinstance(exc.code, int) else 1
+        else:
+            why, status = str(exc), 1
+        print(f"STOPPED: {why}")
+        if bot.last_stop is not None:
+            print(bot.last_stop.summary())
+        return status
+    finally:
+        if link is not None:
+            link.close()
     print(f"completed: {len(commands)} commands queued and executed (last queue index {last}) "
           f"in {time.monotonic() - t0:.1f} s")
     return 0

@@ -131,3 +131,130 @@ def test_cli_dobot_on_the_emulator(tmp_path, capsys):
     p.write_text("G0 X0 Y0\nM3 S500\nG1 X20 Y0 F600\nG2 X20 Y20 I0 J10\nM5\n")
     assert main(["stream", str(p), "--protocol", "dobot"]) == 0
     assert "completed" in capsys.readouterr().out
+
+
+# -- issue 25 §5: what the arm would not draw as written is refused, naming the line ------------
+
+def test_s_above_full_power_is_refused_before_anything_moves():
+    text = "G0 X0 Y20\nM3 S800\nG1 X10 F600\nG1 X20 S5000\nM5\n"
+    # grbl's full power is S1000 ($30's default): S5000 would be a PWM duty of 500 %
+    with pytest.raises(MachineError, match=r"^<string>:4: S5000 is above full laser power "
+                                           r"S1000: it would be sent as a PWM duty of 500 %"):
+        job_commands(parse(text))
+    # the S of full power the program was written for: S5000 is then 100 %
+    cmds = job_commands(parse(text), s_max=5000)
+    duties = [struct.unpack("<Bff", p)[2] for c, p, _ in cmds if c == CMD["io_pwm"]]
+    assert duties == pytest.approx([16.0, 100.0])
+    with pytest.raises(MachineError, match="s_max must be a finite number > 0"):
+        job_commands(parse(text), s_max=float("nan"))
+
+
+def test_s_above_full_power_off_the_beam_is_not_refused():
+    # S is only sent while burning: a rapid carrying S5000 with M5 in effect burns nothing
+    job_commands(parse("G0 X0 Y20 S5000\nM3 S100\nG1 X10 F600\nM5\n"))
+
+
+def test_z_motion_is_refused_naming_the_line():
+    with pytest.raises(MachineError, match=r"^<string>:3: the Dobot draws in one plane .* from "
+                                           r"Z0 to Z5 mm: remove the Z words"):
+        job_commands(parse("G0 X0 Y20\nM3 S100\nG1 X10 Z5 F600\n"))
+
+
+def test_real_router_file_with_z_plunges_is_refused_at_its_first_plunge():
+    # a Shapeoko calibration file from cncjs (a real tool's output): its line N4 is G1 Z-1. Its
+    # first 300 lines (line 624 is an arc GRBL itself refuses with error 33)
+    from pathlib import Path
+
+    name = "Circle_Diamond_Square_Calibration.gcode"
+    corpus = Path(__file__).resolve().parents[2] / "data" / "gcode" / "cncjs"
+    text = (corpus / name).read_text().splitlines(keepends=True)[:300]
+    with pytest.raises(MachineError, match=rf"^{name}:4: the Dobot draws in one plane .* from "
+                                           r"Z0 to Z-1 mm"):
+        job_commands(parse("".join(text), filename=name))
+
+
+@pytest.mark.parametrize("plane, arc, name", [("G18", "X20 I5 K0", r"XZ \(G18\)"),
+                                              ("G19", "Y30 J5 K0", r"YZ \(G19\)")])
+def test_arcs_outside_the_xy_plane_are_refused(plane, arc, name):
+    # half circles that start and end at Z0 but leave the drawing plane on the way
+    text = f"G0 X10 Y20\nM3 S100\n{plane}\nG2 {arc} F600\n"
+    with pytest.raises(MachineError, match=rf"^<string>:4: an arc in the {name} plane leaves the "
+                                           r"drawing plane"):
+        job_commands(parse(text))
+
+
+class _Liar(DobotEmulator):
+    """The emulator with one answer changed: ``short`` answers GetQueuedCmdCurrentIndex with two
+    bytes; ``ahead_by`` reports that many commands more executed than were queued; ``repeat``
+    gives every queued command the same index."""
+
+    def __init__(self, *, short=False, ahead_by=0, repeat=False):
+        super().__init__(per_poll=1)
+        self.short, self.ahead_by, self.repeat = short, ahead_by, repeat
+
+    def _answer(self, f, params=b""):
+        if f.cmd_id == CMD["queue_index"] and self.short:
+            params = params[:2]
+        elif f.cmd_id == CMD["queue_index"] and self.ahead_by:
+            params = struct.pack("<Q", self.next_index - 1 + self.ahead_by)
+        elif f.queued and self.repeat:
+            params = struct.pack("<Q", 7)
+        super()._answer(f, params)
+
+
+def _job():
+    return job_commands(parse("G0 X0 Y20\nM3 S200\n" + "".join(
+        f"G1 X{10 * (k % 2)} Y{20 + k} F600\n" for k in range(30)) + "M5\n"))
+
+
+@pytest.mark.parametrize("liar, words", [
+    (dict(short=True), r"^protocol error: the Dobot answered command 246 with 2 parameter bytes, "
+                       r"expected 8"),
+    (dict(ahead_by=3), r"^protocol error: the Dobot reports queue index \d+ executed, but the "
+                       r"last command queued has index \d+"),
+])
+def test_bad_queue_index_answers_are_protocol_errors_and_the_arm_is_stopped(liar, words):
+    # a 2-byte index reply used to raise struct.error; an index beyond the last one queued
+    # used to count as completion
+    arm = _Liar(**liar)
+    bot = Dobot(arm)
+    with pytest.raises(MachineError, match=words):
+        bot.run(_job(), ahead=4)
+    assert bot.last_stop.laser_off_confirmed and not arm.laser_on and arm.queue == []
+
+
+def test_queue_indices_must_increase():
+    with pytest.raises(MachineError, match="gave queue index 7 after 7: indices must increase"):
+        Dobot(_Liar(repeat=True)).run(_job(), ahead=100)
+
+
+def test_cli_reports_the_protocol_error_not_completed(tmp_path, capsys, monkeypatch):
+    from labkit.cli import main
+    from labkit.machine import dobot
+
+    monkeypatch.setattr(dobot, "DobotEmulator", lambda: _Liar(ahead_by=50))
+    p = tmp_path / "draw.gcode"
+    p.write_text("G0 X0 Y20\nM3 S200\nG1 X20 F600\nG1 Y40\nM5\n")
+    assert main(["stream", str(p), "--protocol", "dobot"]) == 1
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("STOPPED: protocol error: the Dobot reports queue index")
+    assert out[1].startswith("safe stop: force-stop confirmed, laser off confirmed")
+    assert not any("completed" in line for line in out)
+
+
+def test_cli_refuses_s_above_s_max_before_any_frame(tmp_path, capsys, monkeypatch):
+    from labkit.cli import main
+    from labkit.machine import dobot
+
+    arms = []
+    monkeypatch.setattr(dobot, "DobotEmulator", lambda: arms.append(DobotEmulator()) or arms[-1])
+    p = tmp_path / "draw.gcode"
+    p.write_text("G0 X0 Y20\nM3 S300\nG1 X20 F600\nM5\n")
+    assert main(["stream", str(p), "--protocol", "dobot", "--dialect", "labkit-fw"]) == 1
+    err = capsys.readouterr().err
+    assert f"{p}:3: S300 is above full laser power S255" in err and "118 %" in err
+    assert arms == []                                  # no arm was even opened
+    assert main(["stream", str(p), "--protocol", "dobot", "--dialect", "labkit-fw",
+                 "--s-max", "300"]) == 0
+    assert [struct.unpack("<Bff", f.params)[2] for f in arms[0].executed
+            if f.cmd_id == CMD["io_pwm"]] == [100.0]
