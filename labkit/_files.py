@@ -1,20 +1,29 @@
-"""Opening the files a user names: only regular files, never an input as output.
+"""Opening the files a user names: only regular files, never an input as output, never half a file.
 
 Every reader (G-code, SVG, DXF, images) and every command that writes a result
-goes through these two checks, so that a FIFO with no writer cannot hang a
+goes through these checks, so that a FIFO with no writer cannot hang a
 command, a directory or a device gives a clear error instead of a traceback, and
 ``svg2gcode a.svg -o a.svg`` cannot destroy the artwork it reads.
+
+Every file labkit writes goes through :func:`atomic_output` (or
+:func:`write_figure` for plots): the bytes go to a temporary file in the target's
+folder, which replaces the target only once it is complete and on disk. A full
+disk, Ctrl-C or an exception leaves the old file or no file — never a truncated
+program whose last line leaves the beam on.
 """
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import os
 import stat
+import tempfile
 from pathlib import Path
 
 from labkit.errors import InputError
 
-__all__ = ["check_input_file", "check_output_file"]
+__all__ = ["check_input_file", "check_output_file", "atomic_output", "write_figure"]
 
 
 def check_input_file(path, *, what: str = "input file") -> Path:
@@ -92,3 +101,156 @@ def check_output_file(path, *inputs) -> Path:
             raise InputError(f"{out}: is also the input file {src}; "
                              "expected a different output name (-o), the input is left untouched")
     return out
+
+
+def _new_file_mode() -> int:
+    """Permission bits a plain ``open(path, "w")`` gives a new file: 0o666 less the umask."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
+@contextlib.contextmanager
+def atomic_output(path, mode: str = "w", *, encoding: str | None = None, newline: str | None = None,
+                  errors: str | None = None):
+    """Open a temporary file beside ``path``; it replaces ``path`` only when the block completes.
+
+    On leaving the block normally the file is flushed, ``fsync``-ed and renamed over
+    ``path`` (an atomic step on one file system), then the folder is synced. On any
+    exception — ``KeyboardInterrupt`` from Ctrl-C included — or a failed write
+    (``ENOSPC``: disk full) the temporary file is removed and ``path`` is left as it
+    was: the old file, or no file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file to write.
+    mode : {"w", "wb"}
+        Text or binary.
+    encoding, newline, errors : str, optional
+        As for :func:`open` (text mode only).
+
+    Yields
+    ------
+    file object
+        Open for writing on the temporary file (``.NAME.XXXX.part`` in the same folder).
+
+    Raises
+    ------
+    InputError
+        When the file cannot be written (folder missing or read-only, disk full):
+        the message names the file, the reason, and that nothing was replaced.
+
+    Notes
+    -----
+    A file that existed keeps its permission bits; a new one gets those ``open``
+    would give it (0o666 less the umask). A symbolic link at ``path`` is replaced
+    by the new file and the file it pointed to is left untouched: writing through
+    a link could overwrite a file the user never named as output.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> out = pathlib.Path(tempfile.mkdtemp()) / "job.gcode"
+    >>> with atomic_output(out) as fh:
+    ...     _ = fh.write("G0 X0\\n")
+    >>> out.read_text()
+    'G0 X0\\n'
+    >>> try:
+    ...     with atomic_output(out) as fh:
+    ...         _ = fh.write("G1 X10 S1000")
+    ...         raise KeyboardInterrupt
+    ... except KeyboardInterrupt:
+    ...     pass
+    >>> out.read_text(), sorted(p.name for p in out.parent.iterdir())
+    ('G0 X0\\n', ['job.gcode'])
+    """
+    if mode not in ("w", "wb"):
+        raise ValueError(f"mode must be 'w' or 'wb', got {mode!r}")
+    target = Path(os.fspath(path))
+    if target.is_dir():
+        raise InputError(f"{target}: is a directory; expected a file name to write")
+    folder = target.parent
+    try:
+        st = target.lstat()
+        perm = stat.S_IMODE(st.st_mode) if stat.S_ISREG(st.st_mode) else _new_file_mode()
+        existed = True
+    except FileNotFoundError:
+        perm, existed = _new_file_mode(), False
+    except OSError as exc:
+        raise _not_written(target, exc, existed=False) from None
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=folder)
+    except OSError as exc:
+        raise _not_written(target, exc, existed=existed) from None
+    try:
+        try:
+            os.fchmod(fd, perm)
+            kw = {} if "b" in mode else dict(encoding=encoding or "utf-8", newline=newline, errors=errors)
+            fh = os.fdopen(fd, mode, **kw)
+        except BaseException:
+            os.close(fd)
+            raise
+        with fh:
+            yield fh
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, target)
+    except BaseException as exc:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+        if isinstance(exc, OSError) and not isinstance(exc, (FileNotFoundError, IsADirectoryError)):
+            raise _not_written(target, exc, existed=existed) from None
+        raise
+    _sync_folder(folder)
+
+
+def _not_written(target: Path, exc: OSError, *, existed: bool) -> InputError:
+    reason = exc.strerror or str(exc)
+    if exc.errno == errno.ENOSPC:
+        reason = "the disk is full"
+    kept = "the previous file is left as it was" if existed else "no file was written"
+    return InputError(f"{target}: cannot be written ({reason}); {kept}")
+
+
+def _sync_folder(folder: Path) -> None:
+    """Make the rename itself durable (best effort: not every system opens folders)."""
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def write_figure(fig, path, **savefig_options) -> None:
+    """Save a matplotlib figure to ``path`` through :func:`atomic_output`.
+
+    The format is the file name's suffix (PNG when it has none): a temporary name
+    says nothing about the format, so matplotlib is told it.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    path : str or os.PathLike
+        Where to save: ``.png``, ``.svg``, ``.pdf`` or any format the figure's canvas supports.
+    **savefig_options
+        Passed to :meth:`~matplotlib.figure.Figure.savefig` (``dpi``, ``bbox_inches``, …).
+
+    Raises
+    ------
+    InputError
+        The suffix names no format matplotlib writes, or the file cannot be written.
+    """
+    target = Path(os.fspath(path))
+    fmt = target.suffix.lstrip(".").lower() or "png"
+    supported = fig.canvas.get_supported_filetypes()
+    if fmt not in supported:
+        raise InputError(f"{target}: cannot draw a '.{fmt}' file; expected one of "
+                         f"{', '.join('.' + k for k in sorted(supported))}")
+    with atomic_output(target, "wb") as fh:
+        fig.savefig(fh, format=fmt, **savefig_options)

@@ -65,10 +65,15 @@ def _hms(seconds: float) -> str:
 
 
 def run_plan(args) -> int:
+    from labkit._files import atomic_output, check_output_file
+
+    if args.trace:
+        check_output_file(args.trace, args.file)
     p = _plan(args)
     s = p.summary()
     if args.trace:
-        p.trace().to_csv(args.trace, index=False, float_format="%.9g")
+        with atomic_output(args.trace, newline="") as fh:
+            p.trace().to_csv(fh, index=False, float_format="%.9g")
     if args.json:
         out = s.as_dict()
         out["file"] = args.file
@@ -107,12 +112,14 @@ def add_steps_arguments(parser):
 
 
 def run_steps(args) -> int:
+    from labkit._files import atomic_output, check_output_file
     from labkit.motion.timer import iter_step_chunks
 
+    check_output_file(args.output, args.file)
     p = _plan(args)
     ticks = 0
     last_t = 0.0
-    with open(args.output, "w", newline="") as fh:
+    with atomic_output(args.output, newline="") as fh:
         header = True
         for chunk in iter_step_chunks(p, max_ticks=500_000):
             chunk.to_dataframe().to_csv(fh, index=False, header=header, float_format="%.9f")

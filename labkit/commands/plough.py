@@ -36,10 +36,13 @@ def run_plough(args) -> int:
     """Simulate and print the totals (and write the CSV)."""
     import numpy as np
 
+    from labkit._files import atomic_output, check_output_file
     from labkit.gcode import parse_file
     from labkit.micromachining.chipvolume import stock_extent
     from labkit.micromachining.dexel import plough
 
+    if args.csv:
+        check_output_file(args.csv, args.file)
     moves = parse_file(args.file)
     lower, upper = stock_extent(moves, args.tool_d, args.stock)
     res = plough(moves, lower, upper, resolution_mm=args.resolution, tool_diameter_mm=args.tool_d,
@@ -51,7 +54,8 @@ def run_plough(args) -> int:
     print(f"chip {chip:.6f} mm², ploughing {pl:.6f} mm² ({100 * pl / chip if chip else 0:.1f} % of the chip)")
     if args.csv:
         data = np.c_[res.xyz[:, :2], res.chip_mm2, res.plough_mm2]
-        np.savetxt(args.csv, data, delimiter=",", header="x_mm,y_mm,chip_mm2,plough_mm2", comments="",
-                   fmt="%.9g")
+        with atomic_output(args.csv) as fh:
+            np.savetxt(fh, data, delimiter=",", header="x_mm,y_mm,chip_mm2,plough_mm2", comments="",
+                       fmt="%.9g")
         print(f"{args.csv}: {len(data)} rows")
     return 0

@@ -79,6 +79,7 @@ def _calibrate(args) -> int:
 def _scan(args) -> int:
     import numpy as np
 
+    from labkit._files import atomic_output
     from labkit.errors import InputError
     from labkit.micromachining.probe import (ProbeSettings, circle_part, fit_circle, profile_error_mm,
                                              rounded_square_part, scan_errors, scan_xy)
@@ -108,8 +109,9 @@ def _scan(args) -> int:
                   f"centre ({centre[0]:+.5f}, {centre[1]:+.5f}) mm")
         if args.csv:
             data = np.c_[res.contacts, res.profile, err]
-            np.savetxt(args.csv, data, delimiter=",", fmt="%.9g", comments="",
-                       header="contact_x_mm,contact_y_mm,profile_x_mm,profile_y_mm,error_mm")
+            with atomic_output(args.csv) as fh:
+                np.savetxt(fh, data, delimiter=",", fmt="%.9g", comments="",
+                           header="contact_x_mm,contact_y_mm,profile_x_mm,profile_y_mm,error_mm")
             print(f"{args.csv}: {len(data)} rows")
         return 0
     df = scan_errors(part, start, (1.0, 0.0), step_overs_mm=args.step, feeds_per_rev_mm=args.feed_per_rev,
@@ -119,6 +121,7 @@ def _scan(args) -> int:
     cols = ["step_mm", "feed_per_rev_mm", "contacts", "max_error_um", "mean_error_um", "rms_error_um"]
     print(shown[cols].to_string(index=False, float_format=lambda v: f"{v:.4g}"))
     if args.csv:
-        df.to_csv(args.csv, index=False)
+        with atomic_output(args.csv, newline="") as fh:
+            df.to_csv(fh, index=False)
         print(f"{args.csv}: {len(df)} rows")
     return 0

@@ -75,7 +75,7 @@ def run_img2gcode(args) -> int:
     from labkit.raster.engrave import RasterSettings, image_to_job, placed_size
     from labkit.raster.io import read_image
 
-    from labkit._files import check_output_file
+    from labkit._files import atomic_output, check_output_file
     from labkit.budget import check_budget
     from labkit.commands._args import check_fits
     from labkit.errors import InputError
@@ -131,7 +131,8 @@ def run_img2gcode(args) -> int:
                           f"expected an image with dark content — try {hint}")
     text = emit(job.moves, dialect=args.dialect, travel_beam_off=args.travel_beam_off or None,
                 comment=f"img2gcode {Path(args.input).name}: mode {args.mode}, beam {args.beam:g} mm")
-    output.write_text(text, encoding="ascii")
+    with atomic_output(output, encoding="ascii") as fh:
+        fh.write(text)
     report = job.report.with_gcode(text)
     print(report.format())
     print(f"{'G-code':<{_label_width(report)}}  {args.output}")

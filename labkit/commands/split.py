@@ -29,7 +29,7 @@ def run_split(args) -> int:
     """Split, verify, write the parts, print one line per part and a summary."""
     from pathlib import Path
 
-    from labkit._files import check_input_file
+    from labkit._files import atomic_output, check_input_file
     from labkit.errors import InputError
     from labkit.toolpath.split import split_program
 
@@ -48,7 +48,8 @@ def run_split(args) -> int:
         path = out_dir / f"{src.stem}.part{k:0{width}d}.gcode"
         if path.resolve() == src.resolve():
             raise InputError(f"{path}: is the input file; expected another folder (-o)")
-        path.write_text(part.text, encoding="utf-8", errors="surrogateescape")
+        with atomic_output(path, encoding="utf-8", errors="surrogateescape") as fh:
+            fh.write(part.text)
         note = "" if part.safe else "  (split inside a cut: no safe point within the limit)"
         print(f"{path}: lines {part.first_line}-{part.last_line}, {part.n_lines} lines, "
               f"{part.n_bytes} bytes{note}")

@@ -122,7 +122,7 @@ def add_dxf2gcode_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _run(args, drawing) -> int:
-    from labkit._files import check_output_file
+    from labkit._files import atomic_output, check_output_file
     from labkit.commands._args import check_fits
     from labkit.errors import GeometryError, InputError
     from labkit.gcode.simulate import summarize
@@ -158,7 +158,8 @@ def _run(args, drawing) -> int:
     text = job.gcode(args.dialect, travel_beam_off=args.travel_beam_off or None,
                      comment=f"{FilePath(args.input).name}: tol {args.tol:g} mm, "
                              f"{'arcs' if args.arcs else 'lines'}")
-    output.write_text(text, encoding="ascii")
+    with atomic_output(output, encoding="ascii") as fh:
+        fh.write(text)
     opts = {} if args.rapid is None else {"rapid_mm_min": args.rapid}
     summary = summarize(moves, source_lines=text.count("\n"), **opts)
     lines, arcs = count_segments(paths)

@@ -29,7 +29,6 @@ G3 X5 Y15 I-5 J0
 from __future__ import annotations
 
 import math
-import os
 
 import numpy as np
 
@@ -207,7 +206,9 @@ def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001
 
     pre, number = _header_lines(d, comment, beam_off_by_controller) if header else ([], 1)
     rows = EK.EmitRows(kind=moves.kind.astype(np.int64), end=end_i,
-                       centre=np.nan_to_num(moves.centre), plane=moves.plane.astype(np.int64),
+                       # only arcs read their centre: no NaN-free copy of it without arcs
+                       centre=np.nan_to_num(moves.centre) if is_arc.any() else np.ascontiguousarray(moves.centre),
+                       plane=moves.plane.astype(np.int64),
                        feed=feed_i, power=power_i, laser=moves.laser.astype(np.int64),
                        dwell=dwell_i, r_mode=r_mode)
     fmt = EK.EmitFormat(decimals=decimals, value_decimals=VALUE_DECIMALS,
@@ -218,6 +219,7 @@ def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001
     records = EK.EmitRecords(row=np.asarray(rec_rows, np.int64), text=rec_text, span=rec_span,
                              reset=np.asarray(rec_reset, np.bool_))
     body, number = EK.write_moves(rows, start_i, fmt, number, records)
+    del rows, end_i, feed_i, power_i, dwell_i, r_mode     # the text needs them no more (memory)
     post = ["M5", "M2"] if footer else []
     return _number_lines(pre, d, 1) + body.tobytes().decode("ascii") + _number_lines(post, d, number)
 
@@ -301,8 +303,14 @@ def _number_lines(lines, d: Dialect, first: int) -> str:
 
 
 def write_gcode(path, moves: Moves, **options) -> int:
-    """Write :func:`emit` ``(moves, **options)`` to ``path``; returns the number of lines."""
+    """Write :func:`emit` ``(moves, **options)`` to ``path``; returns the number of lines.
+
+    The text goes to a temporary file that replaces ``path`` only when complete
+    (:func:`labkit._files.atomic_output`): a full disk or Ctrl-C leaves the old file or none.
+    """
+    from labkit._files import atomic_output
+
     text = emit(moves, **options)
-    with open(os.fspath(path), "w", encoding="ascii", newline="\n") as fh:
+    with atomic_output(path, "w", encoding="ascii", newline="\n") as fh:
         fh.write(text)
     return text.count("\n")

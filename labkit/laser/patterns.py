@@ -13,6 +13,7 @@ next to the G-code.
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -315,6 +316,11 @@ def grid_pattern(powers_mw, speeds_mm_min, *, line_mm: float = 10.0, gap_mm: flo
 def write_pattern(gcode_path, pattern: GridPattern, *, dialect: str = "grbl", **options) -> Path:
     """Write the G-code and the layout JSON beside it (same name, ``.json``).
 
+    Both go to temporary files first (:func:`labkit._files.atomic_output`) and replace
+    the old pair only when both are complete, the layout last: a full disk or Ctrl-C
+    leaves the old pair (or nothing), never a program without its layout. An existing
+    symbolic link at either name is replaced, not written through.
+
     Parameters
     ----------
     gcode_path : str or Path
@@ -332,7 +338,14 @@ def write_pattern(gcode_path, pattern: GridPattern, *, dialect: str = "grbl", **
     json_path = gcode_path.with_suffix(".json")
     if json_path == gcode_path:
         raise InputError(f"the G-code file must not end in .json: {gcode_path}")
-    gcode_path.write_text(pattern.gcode(dialect, **options))
+    from labkit._files import atomic_output
+
+    text = pattern.gcode(dialect, **options)
     layout = dict(pattern.layout, dialect=str(dialect), gcode=gcode_path.name)
-    json_path.write_text(json.dumps(layout, indent=1))
+    with atomic_output(json_path) as layout_file:
+        json.dump(layout, layout_file, indent=1)
+        layout_file.flush()         # a full disk shows here, before the G-code is replaced
+        os.fsync(layout_file.fileno())
+        with atomic_output(gcode_path, encoding="ascii") as gcode_file:
+            gcode_file.write(text)
     return json_path

@@ -271,7 +271,9 @@ def save_preview(moves: Moves, path, *, dpi: int = 120, **options) -> None:
     fig, ax = plt.subplots(figsize=(8, 7))
     plot_moves(moves, ax, **options)
     fig.tight_layout()
-    fig.savefig(path, dpi=dpi)
+    from labkit._files import write_figure    # a temporary file renamed when complete
+
+    write_figure(fig, path, dpi=dpi)
     plt.close(fig)
 
 

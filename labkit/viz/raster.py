@@ -194,5 +194,7 @@ def save_job_preview(job, path, *, dpi: int = 110, max_path_moves: int = 200_000
     if draw_path:
         plot_job(job, axes[0, 1])
     fig.tight_layout()
-    fig.savefig(path, dpi=dpi)
+    from labkit._files import write_figure    # a temporary file renamed when complete
+
+    write_figure(fig, path, dpi=dpi)
     plt.close(fig)
