@@ -158,15 +158,22 @@ def _pattern(args) -> int:
 def _measure(args) -> int:
     from pathlib import Path
 
+    from labkit._files import atomic_output, check_output_file
     from labkit.errors import InputError
-    from labkit.laser.measure import measure_lines, register, scale_from_reference
+    from labkit.laser.measure import check_layout, measure_lines, register, scale_from_reference
     from labkit.raster.color import to_gray
     from labkit.raster.io import read_image
     from labkit.viz.laser import plot_scan_annotations
 
-    layout = _read_json(args.layout, "layout")
-    if not isinstance(layout, dict) or "lines" not in layout:
-        raise InputError(f"{args.layout}: not a cut-width layout (no 'lines'); write one with 'labkit cutwidth pattern'")
+    # outputs checked before any work: neither may be an input, nor the other output
+    check_output_file(args.output, args.scan, args.layout)
+    png = args.annotated or str(Path(args.output).with_suffix(".png"))
+    if not args.annotated and Path(png).resolve() == Path(args.scan).resolve():
+        png = str(Path(args.output).with_suffix(".annotated.png"))       # never the scan itself
+    check_output_file(png, args.scan, args.layout)
+    if Path(png).resolve() == Path(args.output).resolve():
+        raise InputError(f"{png}: is also the widths CSV (-o); expected another name for --annotated")
+    layout = check_layout(_read_json(args.layout, "layout"), source=args.layout)
     im = read_image(args.scan)
     img = to_gray(im.pixels) / 255.0
     if args.reference is not None:
@@ -176,14 +183,18 @@ def _measure(args) -> int:
         dpi = args.dpi
     else:
         dpi = im.dpi            # None: the corner crosses' known spacing gives the scale
-    df = measure_lines(img, layout, dpi=dpi)
+    import numpy as np
+
     tf = register(img, layout)
+    df = measure_lines(img, layout, dpi=dpi, transform=tf)
+    # the transform maps layout (y flipped to rows) to pixels: its rotation is clockwise as seen
+    turn = round(-float(np.degrees(tf.rotation)) / 90.0) * 90 % 360
     out = df.assign(material=args.material, thickness_mm=args.thickness, machine=args.machine,
                     beam_mm=args.beam, cut_through="", notes=args.notes or f"measured from {Path(args.scan).name}")
     cols = ["material", "thickness_mm", "machine", "beam_mm", "power_mw", "power_s", "speed_mm_min",
             "width_mm", "cut_through", "repeat", "notes", "row", "col", "width_sd_mm", "burned_fraction", "burned"]
-    out[cols].to_csv(args.output, index=False, float_format="%.6g")
-    png = args.annotated or str(Path(args.output).with_suffix(".png"))
+    with atomic_output(args.output, newline="") as fh:
+        out[cols].to_csv(fh, index=False, float_format="%.6g")
     _save(lambda ax: plot_scan_annotations(img, layout, df, ax, transform=tf), png,
            size=(9, 9 * img.shape[0] / img.shape[1]))
     burned = df.burned.to_numpy()
@@ -191,13 +202,22 @@ def _measure(args) -> int:
     print(f"{args.output}: {len(df)} lines at {tf.scale * 25.4:.0f} dpi (registered), {int(burned.sum())} burned"
           + (f", widths {w.min():.3f}…{w.max():.3f} mm" if len(w) else "")
           + f", {int((~burned).sum())} flagged as not burned")
+    if turn:
+        how = "180° (upside down)" if turn == 180 else f"{turn}° counter-clockwise"
+        print(f"{args.scan}: the piece lies turned {how} on the scan (its engraved numbers say so); "
+              "every line was measured in its own cell")
+    elif not (layout.get("labels") and layout.get("label_mm", 0) > 0):
+        print(f"{args.scan}: the layout has no engraved numbers, so the scan's orientation was not checked: "
+              "it was taken as upright (row numbers on the left)")
     print(f"{png}: annotated scan")
     return 0
 
 
 def _save(draw, path, *, size=(7, 5)):
-    """Draw on a fresh headless figure and write it as PNG."""
+    """Draw on a fresh headless figure and write it (PNG, or the format of the suffix)."""
     import matplotlib
+
+    from labkit._files import write_figure
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
@@ -206,7 +226,7 @@ def _save(draw, path, *, size=(7, 5)):
     try:
         draw(ax)
         fig.tight_layout()
-        fig.savefig(path, dpi=120)
+        write_figure(fig, path, dpi=120)
     finally:
         plt.close(fig)
 
@@ -296,12 +316,16 @@ def fit_table(df, *, model: str = "both", degree: int = 2, level: float = 0.95, 
 
 
 def _fit(args) -> int:
+    from labkit._files import atomic_output, check_output_file
     from labkit.laser.measure import read_widths
+
+    if args.output:
+        check_output_file(args.output, args.csv)
 
     res = fit_table(read_widths(args.csv), model=args.model, degree=args.degree, level=args.level,
                     source=str(args.csv))
     if args.output:
-        with open(args.output, "w") as fh:
+        with atomic_output(args.output) as fh:
             json.dump(res, fh, indent=1)
     if args.json:
         print(json.dumps(res, indent=1))
@@ -354,6 +378,22 @@ def load_fit(path, model=None):
     return res, Fit.from_dict(res["models"][name])
 
 
+def _check_reach(fit, res, width, given, value, *, solve_for):
+    """Refuse a setting the model gives only far outside what was measured (or not at all)."""
+    from labkit.errors import InputError
+    from labkit.laser.models import width_reach
+
+    key, unit, other = (("power_mw", "mW", "mm/min") if solve_for == "power" else ("speed_mm_min", "mm/min", "mW"))
+    (w_lo, w_hi), (s_lo, s_hi) = width_reach(fit, given, solve_for=solve_for, span=res["data"][key])
+    if value is not None and s_lo <= value <= s_hi:
+        return
+    reach = ("burns no line there" if w_lo != w_lo else
+             f"reaches {w_lo:.4g}…{w_hi:.4g} mm there")
+    raise InputError(f"--width {width:g}: the {fit.model} model gives no {solve_for} for it at {given:g} {other} "
+                     f"within {s_lo:.4g}…{s_hi:.4g} {unit} (the measured {solve_for}s widened by half their span); "
+                     f"it {reach}; expected a width in that range")
+
+
 def _settings(args) -> int:
     import numpy as np
 
@@ -362,7 +402,10 @@ def _settings(args) -> int:
     res, fit = load_fit(args.fit, args.model)
     pct = round(100 * fit.level)
     if args.speed is not None:
-        power, lo, hi = (np.atleast_1d(a) for a in power_band(fit, args.width, np.asarray(args.speed)))
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            power, lo, hi = (np.atleast_1d(a) for a in power_band(fit, args.width, np.asarray(args.speed)))
+        for v, p in zip(args.speed, power):
+            _check_reach(fit, res, args.width, v, float(p) if np.isfinite(p) else None, solve_for="power")
         pmax = res["data"]["power_mw"][1]
         for v, p, a, b in zip(args.speed, power, lo, hi):
             note = "" if np.isfinite(p) and p <= pmax else "  (outside the measured powers)"
@@ -371,14 +414,20 @@ def _settings(args) -> int:
                   f" ({fit.model}); P/v = {p / v:.4g} mW per mm/min{note}")
     else:
         for p in args.power:
+            with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+                v = float(speed_for_width(fit, args.width, p))
+            _check_reach(fit, res, args.width, p, v if np.isfinite(v) else None, solve_for="speed")
+        for p in args.power:
             v = float(speed_for_width(fit, args.width, p))
             print(f"width {args.width:g} mm at {p:g} mW: speed {v:.0f} mm/min ({fit.model})")
     return 0
 
 
 def _window(args) -> int:
+    from labkit._files import check_output_file
     from labkit.viz.laser import process_window
 
+    check_output_file(args.output, args.fit)
     res, fit = load_fit(args.fit, args.model)
     from labkit.laser.models import Fit
 
@@ -391,8 +440,11 @@ def _window(args) -> int:
 
 
 def _source(args) -> int:
+    from labkit._files import check_output_file
     from labkit.laser.source import fit_source, label_ratio, read_source_csv
 
+    if args.output:
+        check_output_file(args.output, args.csv)
     df = read_source_csv(args.csv)
     volts = df["voltage_v"].to_numpy() if "voltage_v" in df.columns else None
     f = fit_source(df["current_a"].to_numpy(), df["optical_mw"].to_numpy(), volts)

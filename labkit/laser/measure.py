@@ -4,10 +4,13 @@ The scan is a grey image (paper light, burn dark) at a known dpi. The four corne
 crosses of :func:`labkit.laser.patterns.grid_pattern` are the dark blobs
 furthest towards the image's corners; a similarity transform (rotation, scale,
 shift — :class:`skimage.transform.SimilarityTransform`) from their layout
-positions to their centroids places every line. Across each line, at many
-stations along it, the darkness (0 paper … 1 burn) is integrated over the
-row pitch: the integral is the width, and it does not depend on blur or
-anti-aliasing, which only move darkness sideways.
+positions to their centroids places every line. The crosses alone are symmetric:
+a piece turned 180° on the scanner fits them as well as an upright one. The
+engraved row and column numbers are not (rows on the left, columns on top), so
+the orientation is the one that finds them where the layout puts them.
+Across each line, at many stations along it, the darkness (0 paper … 1 burn) is
+integrated over the row pitch: the integral is the width, and it does not depend
+on blur or anti-aliasing, which only move darkness sideways.
 """
 
 from __future__ import annotations
@@ -19,7 +22,8 @@ from skimage import filters, measure, transform
 
 from labkit.errors import InputError
 
-__all__ = ["render_scan", "register", "measure_lines", "scale_from_reference", "read_widths", "read_table", "REQUIRED"]
+__all__ = ["render_scan", "register", "measure_lines", "scale_from_reference", "read_widths", "read_table",
+           "check_layout", "REQUIRED"]
 
 #: Columns a widths table must have to be fitted (the tidy format of ``data/cutwidth/README.md``).
 REQUIRED = ("power_mw", "speed_mm_min", "width_mm")
@@ -32,7 +36,133 @@ def _segments(layout, widths_mm, fiducial_width_mm):
     h = layout["fiducial_mm"]
     for fx, fy in layout["fiducials_mm"]:
         segs += [(fx - h, fy, fx + h, fy, fiducial_width_mm), (fx, fy - h, fx, fy + h, fiducial_width_mm)]
+    segs += [(*s, fiducial_width_mm) for s in _label_strokes(layout)]
     return np.asarray(segs, float)
+
+
+def _label_strokes(layout, kind: str | None = None) -> np.ndarray:
+    """The engraved numbers (of one ``kind``, "row" or "col", or all) as strokes (x0, y0, x1, y1), mm."""
+    from labkit.laser.patterns import stroke_digits
+
+    h = layout.get("label_mm", 0.0)
+    strokes = []
+    for lab in layout.get("labels", []) if h > 0 else []:
+        if kind is not None and lab.get("kind") != kind:
+            continue
+        for poly in stroke_digits(lab["text"], x_mm=lab["x_mm"], y_mm=lab["y_mm"], height_mm=h):
+            strokes += [(*a, *b) for a, b in zip(poly[:-1], poly[1:])]
+    return np.asarray(strokes, float).reshape(-1, 4)
+
+
+def _what(value) -> str:
+    return f"{value!r} (text)" if isinstance(value, str) else repr(value)
+
+
+def _field_number(obj, key, name, where, *, lo=None, lo_open=False, whole=False):
+    """``obj[key]`` as a finite float (within the bound), or an InputError naming ``name``."""
+    if key not in obj:
+        raise InputError(f"{where}{name} is missing; expected a number")
+    v = obj[key]
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
+        raise InputError(f"{where}{name} is {_what(v)}; expected a finite number")
+    if whole and v != int(v):
+        raise InputError(f"{where}{name} is {v!r}; expected a whole number")
+    if lo is not None and (v <= lo if lo_open else v < lo):
+        raise InputError(f"{where}{name} is {v!r}; expected a number {'>' if lo_open else '>='} {lo:g}")
+    return float(v)
+
+
+def check_layout(layout, *, source=None) -> dict:
+    """Return ``layout`` if it is a usable test-grid layout, else name the field that is not.
+
+    A layout is written by :func:`labkit.laser.patterns.write_pattern`; a hand-edited
+    one may miss fields, hold numbers as text, NaN or an empty line list: each is
+    refused here, before any of it is used.
+
+    Parameters
+    ----------
+    layout : dict
+        The parsed layout JSON.
+    source : str or os.PathLike, optional
+        The file it came from, for the message.
+
+    Returns
+    -------
+    dict
+        ``layout`` itself.
+
+    Raises
+    ------
+    InputError
+        Naming the field (``lines[3].x1_mm``, ``pitch_mm``, ``fiducials_mm[2]`` …),
+        what it holds and what was expected.
+
+    Examples
+    --------
+    >>> check_layout({"lines": []}, source="GRID.json")
+    Traceback (most recent call last):
+    ...
+    labkit.errors.InputError: GRID.json: lines is empty; expected at least one burned line
+    """
+    where = f"{source}: " if source is not None else "layout: "
+    if not isinstance(layout, dict):
+        raise InputError(f"{where}not a cut-width layout (a JSON object with 'lines'); "
+                         "write one with 'labkit cutwidth pattern'")
+    if "lines" not in layout:
+        raise InputError(f"{where}not a cut-width layout (no 'lines'); write one with 'labkit cutwidth pattern'")
+    lines = layout["lines"]
+    if not isinstance(lines, list):
+        raise InputError(f"{where}lines is {_what(lines)}; expected a list of burned lines")
+    if not lines:
+        raise InputError(f"{where}lines is empty; expected at least one burned line")
+    for i, d in enumerate(lines):
+        name = f"lines[{i}]"
+        if not isinstance(d, dict):
+            raise InputError(f"{where}{name} is {_what(d)}; expected an object with x0_mm, x1_mm, y_mm, "
+                             "power_mw, speed_mm_min, …")
+        x0 = _field_number(d, "x0_mm", f"{name}.x0_mm", where)
+        x1 = _field_number(d, "x1_mm", f"{name}.x1_mm", where)
+        _field_number(d, "y_mm", f"{name}.y_mm", where)
+        if not x1 > x0:
+            raise InputError(f"{where}{name}: x1_mm ({x1:g}) is not beyond x0_mm ({x0:g}); "
+                             "expected a line burned in +X")
+        for key in ("power_mw", "speed_mm_min"):
+            _field_number(d, key, f"{name}.{key}", where, lo=0, lo_open=True)
+        _field_number(d, "power_s", f"{name}.power_s", where, lo=0)
+        for key in ("row", "col", "repeat"):
+            _field_number(d, key, f"{name}.{key}", where, lo=0, whole=True)
+    _field_number(layout, "pitch_mm", "pitch_mm", where, lo=0, lo_open=True)
+    _field_number(layout, "fiducial_mm", "fiducial_mm", where, lo=0)
+    fid = layout.get("fiducials_mm")
+    if not isinstance(fid, list) or len(fid) != 4:
+        raise InputError(f"{where}fiducials_mm is {'missing' if fid is None else _what(fid)}; "
+                         "expected the four corner crosses as [[x, y], …] in mm")
+    for k, f in enumerate(fid):
+        if not isinstance(f, list) or len(f) != 2:
+            raise InputError(f"{where}fiducials_mm[{k}] is {_what(f)}; expected [x, y] in mm")
+        for j, axis in enumerate("xy"):
+            _field_number(dict(enumerate(f)), j, f"fiducials_mm[{k}] {axis}", where)
+    if "bounds_mm" in layout:
+        b = layout["bounds_mm"]
+        if not isinstance(b, list) or len(b) != 4:
+            raise InputError(f"{where}bounds_mm is {_what(b)}; expected [x_min, y_min, x_max, y_max] in mm")
+        for j in range(4):
+            _field_number(dict(enumerate(b)), j, f"bounds_mm[{j}]", where)
+    labels = layout.get("labels", [])
+    if not isinstance(labels, list):
+        raise InputError(f"{where}labels is {_what(labels)}; expected a list of engraved numbers")
+    if labels:
+        _field_number(layout, "label_mm", "label_mm", where, lo=0)
+    for k, lab in enumerate(labels):
+        if not isinstance(lab, dict):
+            raise InputError(f"{where}labels[{k}] is {_what(lab)}; expected an object with text, x_mm, y_mm")
+        text = lab.get("text")
+        if not (isinstance(text, str) and text.isdigit() and text.isascii()):
+            raise InputError(f"{where}labels[{k}].text is {'missing' if text is None else _what(text)}; "
+                             "expected digits")
+        for key in ("x_mm", "y_mm"):
+            _field_number(lab, key, f"labels[{k}].{key}", where)
+    return layout
 
 
 def render_scan(layout: dict, widths_mm, *, dpi: float = 600.0, rotation_deg: float = 0.0,
@@ -57,7 +187,7 @@ def render_scan(layout: dict, widths_mm, *, dpi: float = 600.0, rotation_deg: fl
     blur_px : float
         Gaussian blur sigma, pixels.
     fiducial_width_mm : float
-        Line width of the corner crosses, mm.
+        Line width of the corner crosses and the engraved numbers, mm.
     seed : int
         Noise generator seed.
 
@@ -65,6 +195,7 @@ def render_scan(layout: dict, widths_mm, *, dpi: float = 600.0, rotation_deg: fl
     -------
     ndarray, shape (rows, cols), float in [0, 1]
     """
+    check_layout(layout)
     px = _MM_PER_INCH / dpi
     segs = _segments(layout, np.asarray(widths_mm, float), fiducial_width_mm)
     x_lo, y_lo, x_hi, y_hi = layout["bounds_mm"]
@@ -111,15 +242,35 @@ def render_scan(layout: dict, widths_mm, *, dpi: float = 600.0, rotation_deg: fl
 def register(image, layout: dict) -> transform.SimilarityTransform:
     """Layout mm (x, y up) → image pixels (column, row), from the four corner fiducials.
 
+    The four crosses are the dark blobs furthest towards the image's corners. The
+    piece may lie on the scanner turned by any multiple of 90° (plus a small skew):
+    each turn that fits the crosses is a candidate, and the engraved row and column
+    numbers decide — the right turn finds their strokes dark where the layout puts
+    them. The transform's ``rotation`` then says how the scan was turned (about π
+    for a piece upside down).
+
+    Parameters
+    ----------
+    image : ndarray
+        Grey scan (paper light, burn dark).
+    layout : dict
+        From :func:`labkit.laser.patterns.grid_pattern` (checked by :func:`check_layout`).
+
+    Returns
+    -------
+    skimage.transform.SimilarityTransform
+
     Raises
     ------
     InputError
-        When the image does not show four separate dark blobs at its corners.
+        When the image does not show four separate dark blobs at its corners, they
+        do not form the layout's rectangle, or the engraved numbers are not found
+        at any turn (a mirrored scan, or another grid's). A layout without
+        numbers (``label_mm`` 0) cannot be checked: its scan is taken as upright.
     """
+    check_layout(layout)
     img = np.asarray(image, float)
-    fid = np.asarray(layout.get("fiducials_mm", []), float)
-    if fid.shape != (4, 2):
-        raise InputError("the layout has no four corner fiducials to register on")
+    fid = np.asarray(layout["fiducials_mm"], float)
     dark = img < filters.threshold_otsu(img)
     props = measure.regionprops(measure.label(dark))
     if len(props) < 4:
@@ -131,13 +282,45 @@ def register(image, layout: dict) -> transform.SimilarityTransform:
         # the fiducial towards this corner is the blob furthest along the corner's direction
         s = np.sign(f - mm.mean(axis=0))
         found.append(cent[np.argmax(cent @ s)])
-    tf = transform.SimilarityTransform.from_estimate(fid * [1, -1], np.array(found))
-    if not tf:
-        raise InputError("the grid's corners could not be registered")
-    resid = np.hypot(*(tf(fid * [1, -1]) - np.array(found)).T)
-    if resid.max() > 0.02 * np.hypot(*img.shape):
+    found = np.array(found)
+    # the row numbers (left) and the column numbers (top) are checked apart: a mirrored scan
+    # can put one set back in place, never both
+    strokes = [s for s in (_label_strokes(layout, "row"), _label_strokes(layout, "col")) if len(s)]
+    fits = []
+    # the fiducials go round the grid (lower left, lower right, upper right, upper left):
+    # a piece turned by k quarter turns puts layout corner i where blob i + k was found
+    for turn in range(4) if len(strokes) else (0,):
+        tf = transform.SimilarityTransform.from_estimate(mm, np.roll(found, -turn, axis=0))
+        if tf and np.hypot(*(tf(mm) - np.roll(found, -turn, axis=0)).T).max() <= 0.02 * np.hypot(*img.shape):
+            fits.append(tf)
+    if not fits:
         raise InputError("the corner crosses do not form the layout's rectangle; the grid was not found")
-    return tf
+    if not len(strokes):
+        return fits[0]
+    seen = [min(_share_dark(dark, tf, s) for s in strokes) for tf in fits]
+    best = int(np.argmax(seen))
+    others = max(seen[:best] + seen[best + 1:], default=0.0)
+    if seen[best] < 0.6 or others > 0.5 * seen[best]:
+        raise InputError(f"the engraved row and column numbers are not where the layout puts them, whichever "
+                         f"way the scan is turned (at most {100 * seen[best]:.0f} % of either's strokes found); "
+                         "expected a scan of this layout's grid, not mirrored (scanned through the back)")
+    return fits[best]
+
+
+def _share_dark(dark, tf, strokes) -> float:
+    """Share of points along ``strokes`` (mm) that ``tf`` puts on dark pixels (or next to one)."""
+    step = 0.5 / tf.scale                                        # half a pixel, mm
+    pts = []
+    for x0, y0, x1, y1 in strokes:
+        n = max(2, int(np.hypot(x1 - x0, y1 - y0) / step))
+        t = np.linspace(0.0, 1.0, n)[:, None]
+        pts.append(np.column_stack([x0 + t[:, 0] * (x1 - x0), y0 + t[:, 0] * (y1 - y0)]))
+    px = np.floor(tf(np.vstack(pts) * [1, -1])).astype(int)     # pixel (col, row) holding each point
+    near = ndimage.binary_dilation(dark, np.ones((3, 3), bool))  # a pixel of registration error is allowed
+    inside = (px[:, 0] >= 0) & (px[:, 0] < dark.shape[1]) & (px[:, 1] >= 0) & (px[:, 1] < dark.shape[0])
+    hit = np.zeros(len(px), bool)
+    hit[inside] = near[px[inside, 1], px[inside, 0]]
+    return float(hit.mean())
 
 
 def scale_from_reference(p0_px, p1_px, length_mm: float) -> float:
@@ -171,6 +354,32 @@ def scale_from_reference(p0_px, p1_px, length_mm: float) -> float:
     return d / length_mm * _MM_PER_INCH
 
 
+def _median_level(values) -> float:
+    """The median grey level, read between the grey steps of an 8-bit scan.
+
+    An 8-bit scan's plain median is a whole step (1/255), up to half a step off
+    the level it estimates; that offset moved paper or burn alike under every
+    line, and every width with it (−3.5 µm at 600 dpi on a rotated, noisy
+    round trip). Where the values sit on the 1/255 grid, the median is
+    interpolated within its step as for grouped data (the step's lower edge
+    plus the share of the step's count needed to reach half the pixels); other
+    images take the plain median.
+
+    >>> _median_level(np.array([0, 1, 1, 1, 2]) / 255) * 255
+    1.0
+    >>> round(_median_level(np.array([1, 1, 2, 2, 2, 2]) / 255) * 255, 6)
+    1.75
+    """
+    v = np.asarray(values, float).ravel()
+    steps = np.rint(v * 255.0)
+    if not np.allclose(v * 255.0, steps, rtol=0, atol=1e-6):
+        return float(np.median(v))
+    levels, counts = np.unique(steps, return_counts=True)
+    below = np.cumsum(counts) - counts                           # pixels under each step
+    k = int(np.searchsorted(np.cumsum(counts), len(v) / 2.0))    # the step holding the middle pixel
+    return float((levels[k] - 0.5 + (len(v) / 2.0 - below[k]) / counts[k]) / 255.0)
+
+
 def _ink_level(img):
     """Grey level of a full burn: the darkest median over the dark pixels k pixels inside a burn.
 
@@ -189,12 +398,12 @@ def _ink_level(img):
         region = ndimage.binary_erosion(region)
         if region.sum() < 200:
             break
-        medians.append(float(np.median(img[region])))
+        medians.append(_median_level(img[region]))
     return min(medians) if medians else float(np.percentile(img[dark], 10))
 
 
 def measure_lines(image, layout: dict, *, dpi: float | None = None, stations: int = 40,
-                  min_burned: float = 0.5):
+                  min_burned: float = 0.5, transform=None):
     """Width profile of every layout line in a scan.
 
     Parameters
@@ -212,6 +421,8 @@ def measure_lines(image, layout: dict, *, dpi: float | None = None, stations: in
         Profiles taken along each line (its central 80 %).
     min_burned : float
         Fraction of stations that must show a burn for the line to count as burned.
+    transform : skimage.transform.SimilarityTransform, optional
+        Layout → pixels, from :func:`register` (default: registered here).
 
     Returns
     -------
@@ -219,6 +430,7 @@ def measure_lines(image, layout: dict, *, dpi: float | None = None, stations: in
         One row per line: its layout fields, ``width_mm`` (mean, 0 when not
         burned), ``width_sd_mm``, ``burned_fraction``, ``burned``.
     """
+    check_layout(layout)
     img = np.asarray(image, float)
     if img.ndim == 3:
         img = img[..., :3].mean(axis=2)
@@ -226,10 +438,10 @@ def measure_lines(image, layout: dict, *, dpi: float | None = None, stations: in
         raise InputError("the scan is blank: the grid cannot be found")
     # paper is most of the image; the burn level is the darkest tenth of the dark class.
     # Darkness is not clipped: noise must average out across the profile, not add up.
-    paper = float(np.median(img))
+    paper = _median_level(img)
     ink = _ink_level(img)
     darkness = (paper - img) / (paper - ink)
-    tf = register(img, layout)
+    tf = register(img, layout) if transform is None else transform
     px_per_mm = tf.scale
     if dpi is not None and abs(px_per_mm / (dpi / _MM_PER_INCH) - 1) > 0.2:
         raise InputError(f"the registered scale ({px_per_mm * _MM_PER_INCH:.0f} dpi) disagrees with dpi={dpi:g}")

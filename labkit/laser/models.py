@@ -33,7 +33,7 @@ from labkit.units import mm_min_to_mm_s
 __all__ = ["peak_fluence", "lateral_fluence", "dose_width", "threshold_ratio", "Fit",
            "fit_dose", "fit_power_law", "power_law_width", "power_for_width", "speed_for_width",
            "fit_empirical", "empirical_width", "cross_validate", "fit_cut_through", "cut_probability",
-           "power_band", "FITTERS"]
+           "power_band", "width_reach", "FITTERS"]
 
 _GAUSS = np.sqrt(2.0 / np.pi)
 
@@ -411,13 +411,67 @@ def fit_empirical(power_mw, speed_mm_min, width_mm, *, degree: int = 2, level: f
     return Fit("empirical", params, ci, level, float(np.sqrt(np.mean(res ** 2))), len(w), cov.tolist())
 
 
+def _search_grid(ln_lo, ln_hi):
+    """ln of the powers (or speeds) an inversion searches: the data's span widened by half its
+    length each side (at least 0.2, a factor 1.22) on the log scale, 801 points."""
+    pad = max(0.5 * (ln_hi - ln_lo), 0.2)
+    return np.linspace(ln_lo - pad, ln_hi + pad, 801)
+
+
+def width_reach(fit: Fit, given, *, solve_for: str, span):
+    """The widths ``fit`` can give with one setting fixed, the other within the searched span.
+
+    An inversion (:func:`power_for_width`, :func:`speed_for_width`) trusted only where
+    the model is not extrapolated far: over the measured span widened by half its
+    length each side on a log scale — the span the empirical model's inversion searches.
+
+    Parameters
+    ----------
+    fit : Fit
+    given : float
+        The fixed setting: speed (mm/min) when ``solve_for`` is "power", power (mW) when "speed".
+    solve_for : {"power", "speed"}
+    span : (float, float)
+        The measured range of the solved-for setting (mW or mm/min). For an
+        empirical fit its own recorded range is used instead, as its inversion does.
+
+    Returns
+    -------
+    widths : (float, float)
+        Smallest and largest width > 0 reached, mm (NaN, NaN when none burns).
+    settings : (float, float)
+        The searched span of the solved-for setting, mW or mm/min.
+
+    Examples
+    --------
+    >>> f = Fit("dose", dict(w0_mm=0.1, fth_mj_mm2=300.0), {}, 0.95, 0.0, 0)
+    >>> (lo, hi), (p_lo, p_hi) = width_reach(f, 600.0, solve_for="power", span=(500.0, 2000.0))
+    >>> round(p_lo), round(p_hi), round(hi, 4) == round(float(f.width(p_hi, 600.0)), 4)
+    (250, 4000, True)
+    """
+    if solve_for not in ("power", "speed"):
+        raise InputError(f"solve_for must be 'power' or 'speed', got {solve_for!r}")
+    if fit.model == "empirical":
+        ln_span = fit.params["ln_p_range" if solve_for == "power" else "ln_v_range"]
+    else:
+        lo, hi = (float(s) for s in span)
+        if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo <= hi):
+            raise InputError(f"span must be two values 0 < lo <= hi, got {span!r}")
+        ln_span = (np.log(lo), np.log(hi))
+    grid = np.exp(_search_grid(*ln_span))
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        w = fit.width(grid, given) if solve_for == "power" else fit.width(given, grid)
+    w = np.asarray(w, float)
+    w = w[np.isfinite(w) & (w > 0)]
+    widths = (float(w.min()), float(w.max())) if len(w) else (float("nan"), float("nan"))
+    return widths, (float(grid[0]), float(grid[-1]))
+
+
 def _invert_empirical(params, width_mm, given, *, solve_for):
     """Power (or speed) where the empirical width equals ``width_mm``: the first crossing found
     along the data's span widened by half its length each side (ln scale), NaN if none."""
     key = "ln_p_range" if solve_for == "power" else "ln_v_range"
-    lo, hi = params[key]
-    pad = max(0.5 * (hi - lo), 0.2)
-    grid = np.linspace(lo - pad, hi + pad, 801)
+    grid = _search_grid(*params[key])
     w, g = np.broadcast_arrays(np.asarray(width_mm, float), np.asarray(given, float))
     out = np.full(w.shape, np.nan)
     for idx in np.ndindex(w.shape):
