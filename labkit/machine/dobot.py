@@ -39,7 +39,6 @@ from __future__ import annotations
 import bisect
 import signal
 import struct
-import threading
 import time
 from dataclasses import dataclass
 
@@ -405,7 +404,6 @@ class StopReport:
     timeout_s: float
     queued_line: int | None = None       #: source line of the last command queued
     executed_line: int | None = None     #: source line of the last command reported executed
-    held_signals: tuple[str, ...] = ()   #: signals that arrived during the stop (held)
 
     def step(self, what: str) -> StopStep:
         return next(s for s in self.steps if s.what == what)
@@ -442,41 +440,15 @@ class StopReport:
                        "switch the arm off if it is still on")
         else:
             verdict = "the laser-off command was NOT sent: switch the arm off at its power switch"
-        if self.held_signals:
-            lines.append(f"{' and '.join(self.held_signals)} during the stop was held until it "
-                         f"was done")
         return "; ".join([f"safe stop: {states} — {verdict}"] + lines)
 
 
-class _JobSignals:
-    """SIGINT and SIGTERM while a job runs (installed from the main thread only).
-
-    Until the safe stop begins they raise — KeyboardInterrupt, and SystemExit(143) for SIGTERM,
-    which otherwise ends Python without running any cleanup — so the stop runs. Once it has
-    begun (``stopping``) they are held and named, so a second Ctrl-C cannot cut it short."""
-
-    def __init__(self):
-        self.stopping = False
-        self.held: list[str] = []
-        self.saved = {}
-
-    def _handle(self, signum, _frame):
-        if self.stopping:
-            self.held.append(signal.Signals(signum).name)
-            return
-        if signum == signal.SIGINT:
-            raise KeyboardInterrupt
-        raise SystemExit(128 + signum)
-
-    def __enter__(self):
-        if threading.current_thread() is threading.main_thread():
-            for sig in (signal.SIGINT, signal.SIGTERM):
-                self.saved[sig] = signal.signal(sig, self._handle)
-        return self
-
-    def __exit__(self, *exc):
-        for sig, handler in self.saved.items():
-            signal.signal(sig, signal.SIG_DFL if handler is None else handler)
+def _raise_for(name: str) -> None:
+    """The first SIGINT or SIGTERM of a job leaves whatever it interrupts, so the safe stop runs:
+    KeyboardInterrupt, and SystemExit(143) for SIGTERM (which otherwise ends Python at once)."""
+    if name == "SIGINT":
+        raise KeyboardInterrupt
+    raise SystemExit(128 + signal.SIGTERM)
 
 
 class Dobot:
@@ -620,7 +592,12 @@ class Dobot:
         indices: list[int] = []
         lines: list[int] = []
         done = -1
-        with _JobSignals() as signals:
+        from labkit.machine.stream import StopSignals
+
+        steps = ", ".join(what for what, _, _ in _STOP_STEPS)
+        signals = StopSignals(_raise_for, stop_steps=f"{steps}; at most about "
+                                                    f"{len(_STOP_STEPS) * stop_timeout_s:g} s")
+        with signals:
             try:
                 self.queue("stop")
                 self.queue("clear")
@@ -652,9 +629,8 @@ class Dobot:
                 wait(lambda: indices and done < indices[-1])
                 return indices[-1] if indices else 0
             except BaseException as exc:
-                signals.stopping = True
+                signals.stopping()
                 report = self.safe_stop(stop_timeout_s)
-                report.held_signals = tuple(signals.held)
                 # the closing laser-off has no source line (0): name the last line that has one
                 named = [ln for ln in lines if ln > 0]
                 if named:

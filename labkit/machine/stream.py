@@ -289,10 +289,14 @@ class StopSignals:
     ----------
     on_signal : callable, optional
         ``on_signal(name)`` on the first signal.
+    stop_steps : str
+        What the safe stop does, for the message a later signal prints.
     """
 
-    def __init__(self, on_signal=None):
+    def __init__(self, on_signal=None, *,
+                 stop_steps: str = "feed hold, soft reset, laser off; at most about 10 s"):
         self.on_signal = on_signal
+        self.stop_steps = stop_steps
         self.name: str | None = None
         self._stopping = False
         self._old: dict = {}
@@ -313,10 +317,9 @@ class StopSignals:
             return
         self.name = self.name or name
         try:
-            sys.stderr.write(f"\nlabkit: {name} again — still stopping the machine safely (feed "
-                             f"hold, soft reset, laser off; at most about 10 s); the port closes "
-                             f"after that. To cut the power at once use the machine's emergency "
-                             f"stop.\n")
+            sys.stderr.write(f"\nlabkit: {name} again — still stopping the machine safely "
+                             f"({self.stop_steps}); the port closes after that. To cut the "
+                             f"power at once use the machine's emergency stop.\n")
             sys.stderr.flush()
         except (OSError, ValueError):
             pass
