@@ -61,8 +61,8 @@ static void confirm_ok(void) {
     last_status = STATUS_UNSUPPORTED_COMMAND;   /* shown as "refused: busy" */
     return;
   }
+  laser_on = 1;                    /* before the output: the beam is never on unaccounted */
   laser_output(MENU_FOCUS_DUTY);
-  laser_on = 1;
   go(MENU_LASER);
 }
 
@@ -88,6 +88,7 @@ static void jog_axis(char axis, int8_t dir) {
     for (const char *p = parts[i]; *p && k + 1 < sizeof words; p++)
       words[k++] = *p;
   words[k] = 0;
+  menu_focus_off();                /* the focus beam is for a machine at rest */
   last_status = protocol_jog(words);
   if (last_status == STATUS_OK)
     jog_count += dir;

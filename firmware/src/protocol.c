@@ -157,6 +157,10 @@ static void stop_all(void) {
 
 void protocol_alarm(uint8_t alarm) {
   stop_all();
+  /* what the host sent before the alarm never runs after it (GRBL resets and
+     drops its input): a '$X' already in the ring would unlock the machine */
+  serial_rx_flush();
+  line_asm_reset(&rx_line);
   have_pending = 0;
   jog_cancel = 0;
   state = PROTO_ALARM;

@@ -1,10 +1,11 @@
 /*
-  fuzz_util.c - the shell's hal for the fuzzers: output discarded, storage
-  in RAM, a clock that moves 1 ms per poll; the step timer of hal_null.c
-  never ticks. When the planner is nearly full the machine is reset
-  (st_reset + plan_reset), so that no input can make the loop wait for
-  motion the fuzzer never finishes. fuzz_power_on() starts every input from
-  an erased storage and a fresh firmware.
+  fuzz_util.c - the shell's hal for the fuzzers and the beam property:
+  output discarded, storage in RAM, a clock that moves 1 ms per poll. With
+  hal_null.c the step timer never ticks, so when the planner is nearly full
+  the machine is reset (st_reset + plan_reset) and no input can make the
+  loop wait for motion that never finishes; beam_property.c ticks the timer
+  instead (fuzz_set_poll). fuzz_power_on() starts every input from an
+  erased storage and a fresh firmware.
 */
 #include "fuzz_util.h"
 
@@ -48,12 +49,20 @@ uint8_t hal_storage_write(const void *buf, uint32_t len) {
 
 uint32_t hal_millis(void) { return now_ms; }
 
-void hal_poll(void) {
-  now_ms++;
+/* hal_null's timer never ticks: a nearly full planner is emptied instead. */
+static void reset_when_full(void) {
   if (plan_free_slots() < 4) {
     st_reset();
     plan_reset();
   }
+}
+static void (*poll_work)(void) = reset_when_full;
+
+void fuzz_set_poll(void (*fn)(void)) { poll_work = fn ? fn : reset_when_full; }
+
+void hal_poll(void) {
+  now_ms++;
+  poll_work();
 }
 
 void fuzz_fail(const char *what) {

@@ -12,6 +12,10 @@
    the firmware, not a finding of the input. */
 void fuzz_power_on(void);
 
+/* The work of hal_poll() after the clock's 1 ms: by default a nearly full
+   planner is emptied (hal_null's timer never ticks); NULL restores that. */
+void fuzz_set_poll(void (*fn)(void));
+
 /* Stop the run: "fuzz harness: <what>" on stderr, then abort(). */
 void fuzz_fail(const char *what);
 
