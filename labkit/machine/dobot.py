@@ -564,11 +564,12 @@ class Dobot:
         return now
 
     def run(self, commands, *, ahead: int = 20, progress=None, cancel=None,
-            timeout_s: float = 600.0, stop_timeout_s: float = STOP_TIMEOUT_S) -> int:
+            timeout_s: float = 600.0, stall_s: float = 20.0,
+            stop_timeout_s: float = STOP_TIMEOUT_S) -> int:
         """Queue the commands, at most ``ahead`` beyond the executed one; returns the last index.
 
-        Any end but completion — a fault, a protocol error, ``cancel()``
-        returning true, an exception from ``progress``, Ctrl-C or SIGTERM
+        Any end but completion — a fault, a protocol error, a queue that
+        stalls, ``cancel()`` returning true, an exception from ``progress``, Ctrl-C or SIGTERM
         (handled while the job runs, from the main thread) — runs
         :meth:`safe_stop` before the exception goes on; its report is kept in
         :attr:`last_stop` and added as a note to the exception.
@@ -585,6 +586,10 @@ class Dobot:
             Polled while waiting; true stops the job.
         timeout_s : float
             The whole job's time limit, s.
+        stall_s : float
+            How long the arm may execute nothing while commands wait, s: an
+            alarm (a limit, a collision) stops its queue and may leave the
+            beam on one spot.
         stop_timeout_s : float
             How long each step of the safe stop waits for its answer, s.
         """
@@ -603,14 +608,23 @@ class Dobot:
                 self.queue("clear")
                 self.queue("start")
                 deadline = time.monotonic() + timeout_s
+                moved = time.monotonic()
 
                 def wait(until) -> None:
-                    nonlocal done
+                    nonlocal done, moved
                     while until():
                         before, done = done, self._executed(indices, done)
-                        if done == before:
+                        now = time.monotonic()
+                        if done != before:
+                            moved = now
+                        else:
                             time.sleep(0.002)           # poll a busy arm at most ~500 times/s
-                        if time.monotonic() > deadline:
+                        if now - moved > stall_s:
+                            raise MachineError(f"the Dobot executed nothing for {stall_s:g} s "
+                                               f"(its queue is at index {done}): an alarm (a "
+                                               f"limit, a collision) stops its queue; check "
+                                               f"the arm")
+                        if now > deadline:
                             raise MachineError(f"the Dobot job took longer than {timeout_s:g} s "
                                                f"(its queue is at index {done})")
                         if cancel is not None and cancel():

@@ -188,13 +188,17 @@ class _Liar(DobotEmulator):
     bytes; ``ahead_by`` reports that many commands more executed than were queued; ``repeat``
     gives every queued command the same index."""
 
-    def __init__(self, *, short=False, ahead_by=0, repeat=False):
+    def __init__(self, *, short=False, ahead_by=0, repeat=False, restart_at=None):
         super().__init__(per_poll=1)
         self.short, self.ahead_by, self.repeat = short, ahead_by, repeat
+        self.restart_at = restart_at
 
     def _answer(self, f, params=b""):
         if f.cmd_id == CMD["queue_index"] and self.short:
             params = params[:2]
+        elif f.cmd_id == CMD["queue_index"] and self.restart_at is not None:
+            if self.done_index >= self.restart_at:
+                params = struct.pack("<Q", 0)      # as if it had been power-cycled
         elif f.cmd_id == CMD["queue_index"] and self.ahead_by:
             params = struct.pack("<Q", self.next_index - 1 + self.ahead_by)
         elif f.queued and self.repeat:
@@ -212,6 +216,8 @@ def _job():
                        r"expected 8"),
     (dict(ahead_by=3), r"^protocol error: the Dobot reports queue index \d+ executed, but the "
                        r"last command queued has index \d+"),
+    (dict(restart_at=12), r"^protocol error: the Dobot's executed queue index went back from "
+                          r"\d+ to 0 \(did it restart\?\)"),
 ])
 def test_bad_queue_index_answers_are_protocol_errors_and_the_arm_is_stopped(liar, words):
     # a 2-byte index reply used to raise struct.error; an index beyond the last one queued
@@ -258,3 +264,30 @@ def test_cli_refuses_s_above_s_max_before_any_frame(tmp_path, capsys, monkeypatc
                  "--s-max", "300"]) == 0
     assert [struct.unpack("<Bff", f.params)[2] for f in arms[0].executed
             if f.cmd_id == CMD["io_pwm"]] == [100.0]
+
+
+class _Jammed(DobotEmulator):
+    """The emulator whose arm stops executing after ``after`` commands, its queue kept (as an
+    alarm leaves it) and the beam as it was."""
+
+    def __init__(self, after):
+        super().__init__(per_poll=1)
+        self.after = after
+
+    def _step(self):
+        if len(self.executed) < self.after:
+            super()._step()
+
+
+def test_a_stalled_queue_is_stopped_and_named():
+    arm = _Jammed(after=12)
+    bot = Dobot(arm)
+    with pytest.raises(MachineError, match=r"the Dobot executed nothing for 0\.3 s \(its queue is "
+                                           r"at index 11\): an alarm"):
+        bot.run(_job(), ahead=4, stall_s=0.3)
+    assert arm.executed[-1].cmd_id == CMD["ptp"] and arm.laser_on is False
+    assert bot.last_stop.laser_off_confirmed
+    # indices 0-11 executed: laser off, the rapid, PWM, laser on and 8 lines (source lines
+    # 3-10); 4 ahead of index 11 were queued: indices 12-15, source lines 11-14
+    assert bot.last_stop.summary().endswith("last queued: source line 14, last reported "
+                                            "executed: source line 10")
