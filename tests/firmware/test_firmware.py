@@ -188,3 +188,102 @@ def test_rejected_line_and_resume(sim, short_job):
         _assert_ends_at(final, job)
     finally:
         s.close()
+
+
+# ------------------------------------------------------------------ the beam (issue 25 §1)
+
+def _beam_rows(path):
+    with open(path, newline="", encoding="ascii") as f:
+        rows = list(csv.reader(f))
+    assert rows and rows[0] == ["time_s", "duty", "state", "line"], rows[:1]
+    return [(float(t), int(d), s, int(n)) for t, d, s, n in rows[1:]]
+
+
+class _Stdin:
+    """The simulator on stdin/stdout (GRBL dialect) with a beam log and optionally a panel file."""
+
+    def __init__(self, sim, tmp_path, panel=None):
+        self.log = tmp_path / "beam.csv"
+        argv = [sim, "--dialect", "grbl", "--beam-log", str(self.log)]
+        if panel is not None:
+            argv += ["--panel", str(panel)]
+        self.proc = subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                     stderr=subprocess.PIPE)
+
+    def send(self, data: bytes):
+        self.proc.stdin.write(data)
+        self.proc.stdin.flush()
+
+    def wait_rows(self, pred, timeout_s=10.0):
+        end = time.monotonic() + timeout_s
+        while time.monotonic() < end:
+            rows = _beam_rows(self.log) if self.log.exists() and self.log.stat().st_size else []
+            if pred(rows):
+                return rows
+            time.sleep(0.01)
+        raise AssertionError(f"beam log never matched: {_beam_rows(self.log)}")
+
+    def finish(self):
+        out, err = self.proc.communicate(timeout=30)
+        assert self.proc.returncode == 0, err
+        return out.decode("ascii", "replace"), _beam_rows(self.log)
+
+
+def test_serial_bytes_never_reach_the_panel(sim, tmp_path):
+    """Two UTF-8 '²' in a comment once pressed OK twice on the menu and fired the beam at duty 10,
+    idle. Now bytes above 0x7F that are not GRBL real-time commands are dropped: the line is
+    answered ok, the beam log stays empty, and a cut then logs exactly its own beam: on at
+    S500 of $30=1000 (duty 500 of 1000) on line 2, off when its 2 mm at 600 mm/min end."""
+    s = _Stdin(sim, tmp_path)
+    s.send("G21 (mm² ²)\n".encode("utf-8") + b"\xb2\xb2\xb0\xb2\xb2\n$LCD\n")
+    s.send(b"G1 X2 F600 S500 M3\nG0 X0\nM5\n")
+    out, rows = s.finish()
+    assert out.count("ok") == 6 and "error" not in out, out
+    assert "[LCD:> Laser" in out                       # the menu was not entered
+    assert [(d, st, n) for _, d, st, n in rows] == [(500, "Run", 3), (0, "Run", 4)], rows
+    assert rows[0][0] == 0.0
+    # 2 mm at 10 mm/s is 0.2 s; the ramps (accel 200 mm/s² ... ) add less than 0.1 s
+    assert 0.2 < rows[1][0] < 0.3, rows
+
+
+def test_panel_channel_fires_focus_only_deliberately(sim, tmp_path):
+    """The panel's own channel (a FIFO): two OKs do nothing; a turn to On, OK, OK fires the
+    focus beam at duty 10 on the idle machine; any host line switches it off."""
+    import os
+
+    fifo = tmp_path / "panel"
+    os.mkfifo(fifo)
+    s = _Stdin(sim, tmp_path, panel=fifo)
+    try:
+        with open(fifo, "wb", buffering=0) as panel:
+            panel.write(b"\xb2\xb2")                       # Laser, then "Off" applied
+            s.send(b"?")
+            time.sleep(0.2)
+            assert not _beam_rows(s.log)
+            panel.write(b"\xb2\xb0\xb2\xb2")               # Laser, turn to On, OK, OK
+            rows = s.wait_rows(lambda r: len(r) >= 1)
+            assert [(d, st, n) for _, d, st, n in rows] == [(10, "Idle", 0)]
+            s.send(b"G4 P0\n")
+            s.wait_rows(lambda r: len(r) >= 2)
+        out, rows = s.finish()
+    finally:
+        if s.proc.poll() is None:
+            s.proc.kill()
+    assert [(d, st) for _, d, st, _ in rows] == [(10, "Idle"), (0, "Idle")], rows
+
+
+def test_hold_switches_the_beam_off_at_once(sim, tmp_path):
+    """'!' in the middle of a long cut: the next row of the beam log is duty 0 in Hold."""
+    s = _Stdin(sim, tmp_path)
+    try:
+        s.send(b"G1 X4000 F100 S300 M3\n")
+        s.wait_rows(lambda r: len(r) >= 1)
+        s.send(b"!")
+        rows = s.wait_rows(lambda r: len(r) >= 2)
+        s.send(b"\x18")
+        out, rows = s.finish()
+    finally:
+        if s.proc.poll() is None:
+            s.proc.kill()
+    assert [(d, st, n) for _, d, st, n in rows[:2]] == [(300, "Run", 1), (0, "Hold", 1)], rows
+    assert len(rows) == 2, rows                          # nothing burned after the hold
