@@ -169,6 +169,26 @@ def test_signal_to_labkit_stream_stops_the_arm_then_the_beam_before_the_port_clo
     assert "last queued: source line" in out and "Traceback" not in err
 
 
+def test_arm_that_stops_answering_mid_job_gets_every_stop_frame_before_the_port_closes(job_file):
+    fake = PtyDobot(SlowArm(mute_after=80))
+    try:
+        proc = labkit_stream(job_file, fake.path)
+        out, err = proc.communicate(timeout=60)
+        fake.wait(lambda: fake.closed_at is not None)
+    finally:
+        fake.stop()
+    assert proc.returncode == 1, err
+    assert bytes(fake.raw).endswith(STOP_BYTES) and fake.closed_at == len(fake.raw)
+    first, second = out.splitlines()[:2]
+    assert first.startswith("STOPPED: no answer from the Dobot to command ")
+    assert second.startswith("safe stop: force-stop sent, no answer within 0.5 s, laser off sent, "
+                             "no answer within 0.5 s, PWM 0 % sent, no answer within 0.5 s, "
+                             "queue clear sent, no answer within 0.5 s — the laser-off command "
+                             "was sent but not acknowledged: check the beam")
+    assert "the laser switched off" not in out and "acknowledged the" not in out
+    assert not fake.arm.laser_on          # this arm acts on what it hears, it only never answers
+
+
 def test_second_ctrl_c_during_the_stop_is_held_until_the_laser_is_off(job_file):
     # force-stop goes unanswered, so the stop takes its 0.5 s timeout: the second Ctrl-C lands
     # inside it
