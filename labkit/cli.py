@@ -45,6 +45,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "ports": ("machine", "list serial ports and what each looks like (CH340, FTDI, CP210x, …)"),
     "stream": ("machine", "send a G-code job to a machine (the virtual one by default), safely"),
     "console": ("machine", "talk to a machine line by line"),
+    "safety-check": ("safety", "check that the beam is off on every stop, reset, alarm and end"),
 }
 
 

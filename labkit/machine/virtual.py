@@ -54,14 +54,35 @@ __all__ = ["VirtualMachine", "Piece", "burn_coverage"]
 
 _ALARMED = -1      # _gcode's answer when the line raised an alarm instead of ok/error
 
-_REALTIME = {0x3F: "status", 0x21: "hold", 0x7E: "start", 0x18: "reset", 0x85: "jog_cancel"}
+_REALTIME = {0x3F: "status", 0x21: "hold", 0x7E: "start", 0x18: "reset", 0x84: "door",
+             0x85: "jog_cancel"}
 
-#: GRBL 1.1 settings the virtual machine reports and obeys (number → default text).
+#: GRBL 1.1's default settings (its DEFAULTS_GENERIC, as ``$$`` prints them): soft limits, hard
+#: limits, homing and laser mode off, status reports with MPos and without the buffer state.
+#: The machine description replaces $11, $12 and $100-$132, and its ``grbl_settings`` any other.
 _DEFAULT_SETTINGS = {
     0: "10", 1: "25", 2: "0", 3: "0", 4: "0", 5: "0", 6: "0", 10: "1", 11: "0.010", 12: "0.002",
-    13: "0", 20: "1", 21: "0", 22: "1", 23: "0", 24: "25.000", 25: "500.000", 26: "250",
-    27: "1.000", 30: "1000", 31: "0", 32: "1",
+    13: "0", 20: "0", 21: "0", 22: "0", 23: "0", 24: "25.000", 25: "500.000", 26: "250",
+    27: "1.000", 30: "1000", 31: "0", 32: "0",
+    100: "250.000", 101: "250.000", 102: "250.000", 110: "500.000", 111: "500.000",
+    112: "500.000", 120: "10.000", 121: "10.000", 122: "10.000", 130: "200.000", 131: "200.000",
+    132: "200.000",
 }
+
+#: How GRBL prints each setting: on/off flags as 0/1, bytes as integers, $30/$31 (rpm) without
+#: decimals, every other number with three.
+_FLAG_SETTINGS = {4, 5, 6, 13, 20, 21, 22, 32}
+_BYTE_SETTINGS = {0, 1, 2, 3, 10, 23, 26}
+_RPM_SETTINGS = {30, 31}
+
+
+def _setting_text(number: int, value: float) -> str:
+    """A setting's value as GRBL 1.1 stores and prints it (``$$``)."""
+    if number in _FLAG_SETTINGS:
+        return "1" if int(value) else "0"
+    if number in _BYTE_SETTINGS:
+        return str(int(value) & 0xFF)
+    return f"{value:.0f}" if number in _RPM_SETTINGS else f"{value:.3f}"
 
 
 @dataclass(frozen=True)
@@ -136,16 +157,9 @@ class VirtualMachine:
         self.planner_blocks = int(planner_blocks or self.machine.buffer_blocks)
         self.timeout = 0.05
         self.is_open = True
-        self.settings = dict(_DEFAULT_SETTINGS)
-        self.settings[11] = f"{self.machine.junction_deviation_mm:.3f}"
+        self.settings = self._initial_settings(self.machine)
         self.overrides = (100, 100, 100)     # feed, rapid, laser power (%), GRBL's Ov: field
         self._ov_changed = False
-        self.settings[12] = f"{self.machine.arc_tolerance_mm:.3f}"
-        for axis in range(3):
-            self.settings[110 + axis] = f"{self.machine.max_rate_mm_min[axis]:.3f}"
-            self.settings[120 + axis] = f"{self.machine.accel_mm_s2[axis]:.3f}"
-            self.settings[130 + axis] = f"{self.machine.travel_mm[axis]:.3f}"
-            self.settings[100 + axis] = f"{self.machine.steps_per_mm[axis]:.3f}"
         self._lock = threading.RLock()
         self._out = bytearray()
         self._rx = bytearray()
@@ -162,14 +176,49 @@ class VirtualMachine:
         self.unsafe_stops: list[tuple[float, str, float]] = []
         self.overflows = 0
         self.rx_fill: list[tuple[float, int]] = []
+        #: every change of the beam: (simulated s, power as a fraction of full, state, line),
+        #: the rows of the firmware simulator's --beam-log
+        self.beam_log: list[tuple[float, float, str, int]] = []
+        self._beam_level = 0.0
         self._status_count = 0
         self._wco_sent = np.zeros(3)
         self._speed = 0.0           # mm/s at the end of the last block executed
         self._hold_v = 0.0          # mm/s while braking for a feed hold
         self.coord_origins = np.zeros((6, 3))    # G54…G59, machine mm: GRBL keeps them in EEPROM
         self._reset_parser()
+        if self._flag(22):                  # GRBL's HOMING_INIT_LOCK: homing first, or $X
+            self.state, self.alarm_code = "Alarm", 0
         if banner:
             self._emit("\r\nGrbl 1.1h ['$' for help]")
+            if self.state == "Alarm":
+                self._emit("[MSG:'$H'|'$X' to unlock]")
+
+    @staticmethod
+    def _initial_settings(machine) -> dict:
+        """GRBL 1.1's defaults, then what the machine description says."""
+        from labkit.errors import MachineError
+
+        settings = dict(_DEFAULT_SETTINGS)
+        settings[11] = _setting_text(11, machine.junction_deviation_mm)
+        settings[12] = _setting_text(12, machine.arc_tolerance_mm)
+        for axis in range(3):
+            settings[100 + axis] = _setting_text(100, machine.steps_per_mm[axis])
+            settings[110 + axis] = _setting_text(110, machine.max_rate_mm_min[axis])
+            settings[120 + axis] = _setting_text(120, machine.accel_mm_s2[axis])
+            settings[130 + axis] = _setting_text(130, machine.travel_mm[axis])
+        for number, value in machine.grbl_settings:
+            if number not in settings:
+                raise MachineError(f"machine {machine.name!r}: grbl_settings ${number} is not a "
+                                   f"GRBL 1.1 setting (known: {', '.join(f'${k}' for k in sorted(settings))})")
+            settings[number] = _setting_text(number, value)
+        if settings[20] == "1" and settings[22] != "1":
+            raise MachineError(f"machine {machine.name!r}: grbl_settings $20=1 (soft limits) needs "
+                               f"$22=1 (homing), as GRBL refuses it otherwise (error:10)")
+        return settings
+
+    def _flag(self, number: int) -> bool:
+        """An on/off setting ($20 soft limits, $22 homing, $32 laser mode …)."""
+        return self.settings.get(number, "0") not in ("0", "")
 
     # -- pyserial-like surface ----------------------------------------------------------------
 
@@ -195,6 +244,7 @@ class VirtualMachine:
                 else:
                     self.overflows += 1
             self._take_lines()
+            self._log_beam()
         return len(data)
 
     def read(self, size: int = 1) -> bytes:
@@ -233,13 +283,28 @@ class VirtualMachine:
         return len(self._rx)
 
     def laser_output(self) -> float:
-        """Beam power now, as a fraction of full."""
-        moving = (self.state in ("Run", "Jog") or (self.state == "Hold" and self.substate == 1)) \
-            and self._blocks
-        if self.settings[32] != "0":                    # laser mode: beam only while cutting
+        """Beam power now, as a fraction of full.
+
+        In laser mode (``$32=1``) the beam is on only while a burning block moves (braking in a
+        hold included), as GRBL's M4 does; GRBL's M3 would also keep it on while stopped in
+        G1-G3 mode (constant power), which this simulation does not model.
+        """
+        with self._lock:
+            return self._laser_output()
+
+    def _laser_output(self) -> float:
+        moving = (self.state in ("Run", "Jog") or self._braking) and self._blocks
+        if self.state == "Door" and self.substate != 2:
+            return 0.0                                  # GRBL de-energizes once the door hold stops
+        if self._flag(32):                              # laser mode: beam only while cutting
             return self._blocks[0].power if moving else 0.0
         # spindle mode ($32=0): the beam follows M3/M4 S whatever the motion
         return self._beam_fraction(self.laser_mode_word, self.s_word) if self.laser_mode_word else 0.0
+
+    @property
+    def _braking(self) -> bool:
+        """Decelerating along the path after a feed hold (Hold:1) or a door (Door:2)."""
+        return (self.state, self.substate) in (("Hold", 1), ("Door", 2))
 
     # -- internals --------------------------------------------------------------------------------
 
@@ -263,6 +328,16 @@ class VirtualMachine:
         s_max = float(self.settings[30]) or 1000.0
         return max(0.0, min(1.0, s / s_max)) if laser in (3, 4) else 0.0
 
+    def _log_beam(self) -> None:
+        """Append a :attr:`beam_log` row when the beam changed."""
+        level = self.laser_output()
+        if level != self._beam_level:
+            self._beam_level = level
+            line = self._blocks[0].line if self._blocks else 0
+            self.beam_log.append((self._sim_t, level, self.state, line))
+            if len(self.beam_log) > 1_000_000:
+                del self.beam_log[:500_000]
+
     def _note_stop(self, why: str) -> None:
         power = self.laser_output()
         if power > 0:
@@ -279,8 +354,20 @@ class VirtualMachine:
             elif self.state == "Jog":
                 self._blocks.clear()
                 self.state = "Idle"
+        elif kind == "door":
+            # GRBL 1.1 without a door switch: a feed hold that de-energizes the spindle/laser once
+            # stopped (Door:2 while it does, Door:0 after: closed, ready to resume with '~')
+            if self.state in ("Run", "Hold"):
+                braking = self.state == "Run" or self.substate == 1
+                if self.state == "Run":
+                    self._hold_v = self._current_speed()
+                self.state, self.substate = "Door", 2 if braking else 0
+            elif self.state in ("Idle", "Jog"):
+                if self.state == "Jog":
+                    self._blocks.clear()
+                self.state, self.substate = "Door", 0
         elif kind == "start":
-            if self.state == "Hold":
+            if self.state == "Hold" or (self.state == "Door" and self.substate == 0):
                 if self.substate == 1 and self._blocks:    # resumed while still braking
                     self._rearm(self._hold_v)
                 self.state = "Run" if self._blocks else "Idle"
@@ -290,8 +377,7 @@ class VirtualMachine:
                 self._blocks.clear()
                 self.state = "Idle"
         elif kind == "reset":
-            moving = (self.state in ("Run", "Jog", "Home") or (self.state == "Hold" and self.substate == 1)) \
-                and bool(self._blocks)
+            moving = (self.state in ("Run", "Jog", "Home") or self._braking) and bool(self._blocks)
             self._rx.clear()
             self._blocks.clear()
             self._speed = 0.0
@@ -325,7 +411,6 @@ class VirtualMachine:
         self._ov_changed = True
 
     def _status_report(self) -> str:
-        x, y, z = (float(v) for v in self.pos)
         st = self.state + (f":{self.substate}" if self.state in ("Hold", "Door") else "")
         if self.check_mode and self.state == "Idle":
             st = "Check"
@@ -333,14 +418,24 @@ class VirtualMachine:
         s = self.s_word if self.laser_output() > 0 else 0.0
         free_blocks = self.planner_blocks - len(self._blocks)
         free_rx = self.rx_bytes - 1 - len(self._rx)
-        text = f"<{st}|MPos:{x:.3f},{y:.3f},{z:.3f}|Bf:{free_blocks},{free_rx}|FS:{feed:.0f},{s:.0f}"
         wco = self.work_offset
+        mask = int(self.settings[10])
+        # $10 bit 0: MPos (1) or WPos (0); bit 1: the buffer state Bf
+        if mask & 1:
+            text = "<{}|MPos:{:.3f},{:.3f},{:.3f}".format(st, *(float(v) for v in self.pos))
+        else:
+            text = "<{}|WPos:{:.3f},{:.3f},{:.3f}".format(st, *(float(v) for v in self.pos - wco))
+        if mask & 2:
+            text += f"|Bf:{free_blocks},{free_rx}"
+        text += f"|FS:{feed:.0f},{s:.0f}"
         if self._status_count % 10 == 0 or not np.array_equal(wco, self._wco_sent):
             text += "|WCO:{:.3f},{:.3f},{:.3f}".format(*wco)       # GRBL: now and then, and on change
             self._wco_sent = wco
         if self._ov_changed or self._status_count % 10 == 1:     # GRBL: on change, else now and then
             text += "|Ov:{},{},{}".format(*self.overrides)
             self._ov_changed = False
+            if self.laser_output() > 0:                 # GRBL: A:S (M3) or A:C (M4) while the PWM is on
+                text += "|A:" + ("S" if self.laser_mode_word == 3 else "C")
         self._status_count += 1
         if self._blocks and self._blocks[0].n_word >= 0:
             text += f"|Ln:{self._blocks[0].n_word}"
@@ -355,6 +450,7 @@ class VirtualMachine:
         self._wall = now
         self._run_for(dt)
         self._take_lines()
+        self._log_beam()
         self.rx_fill.append((self._sim_t, len(self._rx)))
         if len(self.rx_fill) > 200_000:
             del self.rx_fill[:100_000]
@@ -411,12 +507,12 @@ class VirtualMachine:
             if self._blocks and not self._blocks[0].is_dwell:
                 self._rearm(0.0)
             self._speed = 0.0
-            self._note_stop("feed hold")
+            self._note_stop("safety door" if self.state == "Door" else "feed hold")
         return dt
 
     def _run_for(self, dt: float) -> None:
         while dt > 0:
-            if self.state == "Hold" and self.substate == 1:
+            if self._braking:
                 dt = self._brake(dt)
                 continue
             if self.state not in ("Run", "Jog") or not self._blocks:
@@ -437,6 +533,7 @@ class VirtualMachine:
             dt -= step
             self.executed.append(Piece(b.line, b.n_word, b.text, tuple(start), tuple(self.pos),
                                        b.power, b.rapid, self._sim_t))
+            self._log_beam()
             if b.done_s >= b.duration_s - 1e-12:
                 self.pos = b.end.copy()
                 self._speed = b.exit_mm_s
@@ -444,6 +541,7 @@ class VirtualMachine:
                 if not self._blocks:
                     self.state = "Idle"
                     self._note_stop("buffer empty")
+                self._log_beam()
 
     def _take_lines(self) -> None:
         while True:
@@ -533,7 +631,7 @@ class VirtualMachine:
         elif "=" in cmd and cmd.split("=")[0].isdigit():
             key, _, value = cmd.partition("=")
             try:
-                float(value)
+                number = float(value)
             except ValueError:
                 self._emit("error:2")
                 return
@@ -543,7 +641,16 @@ class VirtualMachine:
             if self._blocks:
                 self._emit("error:8")
                 return
-            self.settings[int(key)] = value
+            if number < 0:
+                self._emit("error:4")                 # GRBL: negative value
+                return
+            key = int(key)
+            if key == 20 and int(number) and not self._flag(22):
+                self._emit("error:10")                # soft limits need homing enabled
+                return
+            self.settings[key] = _setting_text(key, number)
+            if key == 22 and not int(number):
+                self.settings[20] = "0"               # GRBL: homing off forces soft limits off
         else:
             self._emit("error:3")
             return
@@ -595,7 +702,7 @@ class VirtualMachine:
         lo = np.zeros(3)
         hi = np.asarray(self.machine.travel_mm, float)
         target_ok = bool(np.all(new_pos >= lo - 1e-6) and np.all(new_pos <= hi + 1e-6))
-        if not target_ok:
+        if not target_ok and self._flag(20):          # soft limits ($20, GRBL: off by default)
             if jog:
                 return 15
             # soft limit: GRBL holds, resets and raises ALARM:2; the line is not executed

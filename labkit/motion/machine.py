@@ -43,6 +43,39 @@ def _triple(name: str, value) -> tuple[float, float, float]:
     return tuple(float(v) for v in arr)
 
 
+#: GRBL settings a machine description gives through its own fields ($11, $12, $100-$132).
+_GRBL_FROM_FIELDS = {11: "junction_deviation_mm", 12: "arc_tolerance_mm",
+                     **{100 + a: "steps_per_mm" for a in range(3)},
+                     **{110 + a: "max_rate_mm_min" for a in range(3)},
+                     **{120 + a: "accel_mm_s2" for a in range(3)},
+                     **{130 + a: "travel_mm" for a in range(3)}}
+
+
+def _grbl_settings(machine: str, value) -> tuple:
+    """``grbl_settings`` as sorted ``(N, number)`` pairs; a dict (from TOML) or pairs."""
+    items = value.items() if isinstance(value, dict) else value
+    out = {}
+    try:
+        pairs = [(k, v) for k, v in items]
+    except (TypeError, ValueError):
+        raise MotionError(f"machine {machine!r}: grbl_settings must map setting numbers to "
+                          f"values, e.g. {{32 = 1}}; got {value!r}") from None
+    for key, v in pairs:
+        text = str(key).lstrip("$")
+        if not text.isdigit():
+            raise MotionError(f"machine {machine!r}: grbl_settings key {key!r} is not a GRBL "
+                              f"setting number (expected e.g. 32 for $32)")
+        number = int(text)
+        if number in _GRBL_FROM_FIELDS:
+            raise MotionError(f"machine {machine!r}: grbl_settings gives ${number}, which the "
+                              f"description's {_GRBL_FROM_FIELDS[number]} already says")
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise MotionError(f"machine {machine!r}: grbl_settings ${number} must be a finite "
+                              f"number, got {v!r}")
+        out[number] = v
+    return tuple(sorted(out.items()))
+
+
 @dataclass(frozen=True)
 class MachineSpec:
     """A laser CNC machine as the motion planner sees it.
@@ -85,6 +118,11 @@ class MachineSpec:
     step_pulse_us : float
         Width of each step pulse, µs ([CBR40]: 5 µs); the fastest tick must
         hold the pulse high and as long low.
+    grbl_settings : mapping of int to number
+        The GRBL settings (``$N``) the machine's controller holds where they
+        differ from GRBL 1.1's defaults, other than those the fields above give
+        (``$11``, ``$12``, ``$100``–``$132``): e.g. ``{32: 1}``, laser mode. The
+        virtual machine starts with them. Kept as sorted ``(N, value)`` pairs.
     description : str
         One line for people.
 
@@ -114,6 +152,7 @@ class MachineSpec:
     prescaler: int = 0
     timer_bits: int = 16
     step_pulse_us: float = 5.0
+    grbl_settings: tuple = ()
     description: str = dataclasses.field(default="", compare=False)
 
     def __post_init__(self):
@@ -145,6 +184,7 @@ class MachineSpec:
             ("timer_bits", self.timer_bits in (16, 32), "16 or 32"),
             ("step_pulse_us", self.step_pulse_us > 0, "> 0 µs"),
         ]
+        set_(self, "grbl_settings", _grbl_settings(self.name, self.grbl_settings))
         for name, ok, allowed in checks:
             if not ok:
                 raise MotionError(f"machine {self.name!r}: {name} must be {allowed}, "
@@ -259,7 +299,7 @@ def load_machine(source: str | Path | MachineSpec | None = None) -> MachineSpec:
         raise MotionError(f"{path}: not valid TOML ({exc})") from None
     flat: dict = {}
     for key, value in data.items():
-        if isinstance(value, dict):
+        if isinstance(value, dict) and key != "grbl_settings":     # a table only groups keys
             for k, v in value.items():
                 if k in flat:
                     raise MotionError(f"{path}: key {k!r} given twice")

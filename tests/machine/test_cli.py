@@ -28,10 +28,12 @@ def test_stream_to_the_virtual_machine(job, tmp_path, capsys):
 
 def test_stream_fault_exits_non_zero(tmp_path, capsys):
     p = tmp_path / "far.gcode"
-    p.write_text("G21 G90\nM4 S100 F600\nG1 X10\nG0 X5000\n")
+    # GRBL ships soft limits off ($20=0), so the default machine takes a move beyond its
+    # travel; a line the controller rejects is the fault here
+    p.write_text("G21 G90\nM4 S100 F600\nG1 X10\n$Q\nG1 X20\n")
     assert main(["stream", str(p)]) == 1
     out = capsys.readouterr().out
-    assert "STOPPED" in out and "ALARM:2" in out and "last executed line" in out
+    assert "STOPPED" in out and "line 4: error:3" in out and "last executed line" in out
 
 
 def test_stream_resume_and_check_first(job, capsys):

@@ -178,6 +178,8 @@ def test_no_banner_is_a_clear_error():
 
 def test_jog_and_soft_limit_alarm_then_unlock():
     g = connect()
+    g.set_setting(22, 1)            # GRBL ships soft limits off; they need homing enabled
+    g.set_setting(20, 1)
     g.jog(x=20, y=5, feed_mm_min=3000)
     st = g.wait_status(lambda s: s.state == "Idle", 5)
     assert st.mpos == (20.0, 5.0, 0.0)

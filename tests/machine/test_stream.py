@@ -191,6 +191,8 @@ def test_alarm_stops_and_names_the_line():
     text = raster_text(rows=3).replace("G0 X0 Y0", "G0 X9999 Y0")
     job = Job.from_text(text, machine=MACHINE)
     vm, g = machine()
+    g.set_setting(22, 1)            # GRBL ships soft limits off; they need homing enabled
+    g.set_setting(20, 1)
     # the pre-flight check would refuse this job (test_preflight.py): here the controller's own
     # alarm mid-job is what is tested
     rep = run_job(g, job, preflight=False)

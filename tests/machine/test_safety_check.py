@@ -1,0 +1,145 @@
+"""labkit safety-check (issue 25 §7): it passes on the virtual machine and on the firmware's host
+simulator, and every scenario fails on a controller that gets that case wrong."""
+
+import json
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from labkit.cli import main
+from labkit.errors import InputError
+from labkit.machine.safety import SCENARIOS, run_safety_check
+from labkit.machine.virtual import VirtualMachine
+
+FW = Path(__file__).resolve().parents[2] / "firmware"
+
+
+@pytest.fixture(scope="module")
+def sim():
+    # the firmware tests' own way to get the simulator (tests/firmware/test_firmware.py)
+    run = subprocess.run(["make", "-C", str(FW), "sim"], capture_output=True, text=True)
+    assert run.returncode == 0, f"make -C firmware sim failed:\n{run.stdout}\n{run.stderr}"
+    return FW / "build/host/labkit-fw-sim"
+
+
+def _verdicts(report):
+    return {r.key: r.verdict for r in report.results}
+
+
+def test_every_scenario_passes_on_the_virtual_machine():
+    report = run_safety_check()
+    assert _verdicts(report) == {k: "PASS" for k in SCENARIOS}, report.format()
+    assert report.ok and report.beam_observed and report.power_s == 10   # 1 % of $30 = 1000
+    # the evidence names what was sent, what came back and what the beam did
+    hold = report.results[0]
+    assert "!" in hold.sent and any(r.startswith("<Hold:0") for r in hold.reported)
+    assert any("FS:300,10" in r for r in hold.reported)      # the control: it burned first
+    assert hold.beam.startswith("now 0.000 of full")
+    g0 = next(r for r in report.results if r.key == "g0_laser_mode")
+    assert "with $32=0 the same rapid burned" in g0.reason    # GRBL's spindle mode, for contrast
+    record = json.loads(report.to_json())
+    assert record["ok"] is True and len(record["results"]) == len(SCENARIOS)
+
+
+def test_every_scenario_passes_on_the_firmware_simulator(sim):
+    report = run_safety_check(sim=sim)
+    verdicts = _verdicts(report)
+    assert report.beam_observed and report.ok, report.format()
+    # the firmware takes 0x84 as a feed hold (no door state): judged all the same
+    assert all(v == "PASS" for v in verdicts.values()), report.format()
+    door = next(r for r in report.results if r.key == "door")
+    assert "takes 0x84 as a feed hold" in door.reason
+    assert "duty now 0" in report.results[0].beam
+
+
+class _Unsafe(VirtualMachine):
+    """A virtual machine that gets one case wrong (each fault keeps the beam on where it must
+    be off, as a faulty controller or a misconfigured one would)."""
+
+    def __init__(self, fault, **kw):
+        self.fault = fault
+        self.stuck = False
+        super().__init__(time_scale=5.0, **kw)
+
+    def _realtime(self, kind):
+        super()._realtime(kind)
+        if (self.fault, kind) in (("soft_reset", "reset"), ("resume", "start")):
+            self.stuck = True
+
+    def _emit(self, text):
+        super()._emit(text)
+        if self.fault == "error_line" and text.startswith("error:"):
+            self.stuck = True
+
+    def _laser_output(self):
+        level = super()._laser_output()
+        fault, state = self.fault, self.state
+        if level > 0 and self.laser_mode_word == 3:
+            self.m3_burned = True
+        on = {
+            "feed_hold": state == "Hold" and bool(self._blocks),
+            "resume": self.stuck and state == "Idle",
+            "soft_reset": self.stuck,
+            "door": state == "Door",
+            "alarm": state == "Alarm",
+            "error_line": self.stuck,
+            "program_end_m2": getattr(self, "m3_burned", False),   # M2 leaves the beam on
+            "program_end_m30": getattr(self, "m3_burned", False),
+            "m5": getattr(self, "m3_burned", False),
+            "g0_laser_mode": bool(self._blocks) and self._blocks[0].rapid and self.laser_mode_word == 3,
+            "disconnect": state == "Idle" and self.laser_mode_word == 4,
+        }[fault]
+        return max(level, 0.01) if on else level
+
+
+@pytest.mark.parametrize("fault", list(SCENARIOS))
+def test_each_scenario_fails_on_a_controller_that_gets_it_wrong(fault):
+    report = run_safety_check(virtual=_Unsafe(fault), scenarios=[fault])
+    (result,) = report.results
+    assert result.verdict == "FAIL", result.line()
+    assert not report.ok
+    assert "on" in result.reason or "burn" in result.reason
+
+
+def test_no_beam_means_nothing_was_checked():
+    """A controller whose beam never comes on cannot pass: the check needs its control."""
+
+    class Dark(VirtualMachine):
+        def _laser_output(self):
+            return 0.0
+
+    report = run_safety_check(virtual=Dark(time_scale=5.0), scenarios=["feed_hold"])
+    assert report.results[0].verdict == "FAIL"
+    assert "never came on" in report.results[0].reason
+
+
+def test_bad_arguments_are_named():
+    with pytest.raises(InputError, match="scenarios: unknown"):
+        run_safety_check(scenarios=["hold"])
+    with pytest.raises(InputError, match=r"power_s: expected 0 < S ≤ \$30 = 1000"):
+        run_safety_check(power_s=5000, scenarios=["m5"])
+    with pytest.raises(InputError, match="cut_mode"):
+        run_safety_check(cut_mode="M7", scenarios=["m5"])
+
+
+def test_command_line(capsys):
+    assert main(["safety-check", "--only", "feed_hold", "--only", "m5", "--power", "20"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("PASS           feed hold during a cut:") and "S20 M4" in out[0]
+    assert out[-1] == "all applicable scenarios passed: 2 passed, 0 failed, 0 not applicable"
+    assert main(["safety-check", "--only", "door", "--json"]) == 0
+    record = json.loads(capsys.readouterr().out)
+    assert record["results"][0]["verdict"] == "PASS" and record["target"] == "virtual://"
+
+
+def test_a_real_port_needs_confirmation(capsys, monkeypatch):
+    import io
+
+    monkeypatch.setattr("sys.stdin", io.StringIO("yes\n"))        # not a terminal: never asked
+    assert main(["safety-check", "--port", "/dev/ttyLABKIT_NONE"]) == 1
+    err = capsys.readouterr().err
+    assert "laser goggles" in err and "nothing was sent" in err
+    # with --yes it goes on and says why the port cannot be used
+    assert main(["safety-check", "--port", "/dev/ttyLABKIT_NONE", "--yes"]) == 1
+    assert "does not exist" in capsys.readouterr().err
