@@ -57,9 +57,35 @@ def burn_map(moves: Moves, shape, pixel_mm: float, *, tol_mm: float = 1e-6):
     if (on & (moves.kind != MoveKind.LINE)).any():
         raise RasterError("burn_map handles straight G1 cuts only; found a laser-on arc")
     idx = np.flatnonzero(on)
+    count = np.zeros(rows * cols, np.int64)
+    power = np.zeros(rows * cols, np.float64)
+    # In chunks of moves, so that a photo's millions of cuts never need a dozen arrays of
+    # their length at once; each chunk also looks at the first move of the next one (a
+    # corner shared across the chunk border).
+    for lo in range(0, len(idx), CHUNK_MOVES):
+        _burn_chunk(moves, idx, lo, min(lo + CHUNK_MOVES, len(idx)), rows, cols, pixel_mm, tol_mm,
+                    count, power)
+    return count.reshape(rows, cols), power.reshape(rows, cols)
+
+
+#: Laser-on moves rasterised at once by :func:`burn_map`.
+CHUNK_MOVES = 1 << 18
+
+
+def _burn_chunk(moves, all_idx, first_move, stop, rows, cols, pixel_mm, tol_mm, count, power):
+    """Add the burns of laser-on moves ``all_idx[first_move:stop]`` to ``count`` and ``power``."""
+    idx = all_idx[first_move:stop + 1]                # one more: a corner shared with the next chunk
+    inner = stop - first_move
     a = moves.start[idx, :2] / pixel_mm - 0.5   # in pixel-centre coordinates: centre c at c
     b = moves.end[idx, :2] / pixel_mm - 0.5
+    s = moves.power_s[idx].astype(np.float64)
     tol = tol_mm / pixel_mm
+    # corners: consecutive laser-on moves meeting at a pixel centre share that pixel
+    joined = (idx[1:] == idx[:-1] + 1) & np.all(np.abs(b[:-1] - a[1:]) <= tol, axis=1)
+    at_centre = joined & np.all(np.abs(b[:-1] - np.rint(b[:-1])) <= tol, axis=1)
+    corners = np.rint(b[:-1][at_centre]).astype(np.int64)
+    corner_s = s[1:][at_centre]                    # the second move gives its pixel back
+    idx, a, b, s = idx[:inner], a[:inner], b[:inner], s[:inner]
     horizontal = np.abs(a[:, 1] - b[:, 1]) <= tol
     vertical = np.abs(a[:, 0] - b[:, 0]) <= tol
     if not (horizontal | vertical).all():
@@ -86,16 +112,12 @@ def burn_map(moves: Moves, shape, pixel_mm: float, *, tol_mm: float = 1e-6):
     x = np.where(horizontal[owner], along, line[owner])
     y = np.where(horizontal[owner], line[owner], along)
     flat = (rows - 1 - y) * cols + x
-    s = moves.power_s[idx].astype(np.float64)
-    count = np.bincount(flat, minlength=rows * cols)
-    power = np.bincount(flat, weights=s[owner], minlength=rows * cols)
-    # consecutive laser-on moves meeting at a pixel centre share that pixel
-    if len(idx) > 1:
-        joined = (idx[1:] == idx[:-1] + 1) & np.all(np.abs(b[:-1] - a[1:]) <= tol, axis=1)
-        at_centre = joined & np.all(np.abs(b[:-1] - np.rint(b[:-1])) <= tol, axis=1)
-        if at_centre.any():
-            pts = np.rint(b[:-1][at_centre]).astype(np.int64)
-            shared = (rows - 1 - pts[:, 1]) * cols + pts[:, 0]
-            np.subtract.at(count, shared, 1)
-            np.subtract.at(power, shared, s[1:][at_centre])
-    return count.reshape(rows, cols), power.reshape(rows, cols)
+    if len(flat):
+        # only the band of pixels this chunk touches
+        base, top = int(flat.min()), int(flat.max()) + 1
+        count[base:top] += np.bincount(flat - base, minlength=top - base)
+        power[base:top] += np.bincount(flat - base, weights=s[owner], minlength=top - base)
+    if len(corners):
+        shared = (rows - 1 - corners[:, 1]) * cols + corners[:, 0]
+        np.subtract.at(count, shared, 1)
+        np.subtract.at(power, shared, corner_s)

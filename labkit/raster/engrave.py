@@ -375,18 +375,8 @@ def gray_job(gray, *, pixel_mm: float, feed_mm_min: float = 3000.0, s_max: float
         power[blank] = 0
     overscan_px = overscan_mm / pixel_mm
     skip_px = max(skip_white_mm, 2.0 * overscan_mm) / pixel_mm
-    args = (power, bool(bidirectional), float(skip_px), float(overscan_px))
-    n = _scanlines.scan_lines(*args, False, *_empty_cut_arrays(0))
-    x0, x1, row, s = _empty_cut_arrays(n)
-    _scanlines.scan_lines(*args, True, x0, x1, row, s)
-    rows = arr.shape[0]
-    y = (rows - row - 0.5) * pixel_mm
-    starts = np.stack([x0 * pixel_mm, y], axis=1)
-    ends = np.stack([x1 * pixel_mm, y], axis=1)
-    if overscan_mm == 0 and n:
-        keep = x0 != x1    # no zero-length lead-ins
-        starts, ends, s = starts[keep], ends[keep], s[keep]
-    moves = Moves.from_cuts(starts, ends, feed_mm_min=feed_mm_min, power_s=s, laser=laser, s_max=s_max)
+    moves = _scan_moves(power, bool(bidirectional), float(skip_px), float(overscan_px), float(pixel_mm),
+                        feed_mm_min=feed_mm_min, laser=laser, s_max=s_max)
     burn_lines = int((power > 0).any(axis=1).sum())
     report = _report("dither" if dither else "gray", moves, shape=arr.shape, pixel_mm=pixel_mm,
                      marked=(power > 0).sum(), before=burn_lines, segments=burn_lines,
@@ -395,9 +385,20 @@ def gray_job(gray, *, pixel_mm: float, feed_mm_min: float = 3000.0, s_max: float
     return RasterJob(moves, report, power)
 
 
-def _empty_cut_arrays(n):
-    return (np.zeros(n, np.float64), np.zeros(n, np.float64), np.zeros(n, np.int64),
-            np.zeros(n, np.int64))
+def _scan_moves(power, bidirectional, skip_px, overscan_px, pixel_mm, *, feed_mm_min, laser, s_max) -> Moves:
+    """The scan lines as Moves, the rows written in place by the kernel: what
+    ``Moves.from_cuts`` makes of the same cuts, without the cuts held in between (a
+    photo has about one cut per pixel)."""
+    args = (power, bidirectional, skip_px, overscan_px, pixel_mm)
+    n = _scanlines.scan_moves(*args, False, *_move_columns(0))
+    kind, start, end, power_s = _move_columns(n)
+    _scanlines.scan_moves(*args, True, kind, start, end, power_s)
+    return Moves(kind=kind, start=start, end=end, feed_mm_min=np.full(n, float(feed_mm_min)),
+                 power_s=power_s, laser=np.full(n, int(laser), np.int8), s_max=s_max)
+
+
+def _move_columns(n):
+    return (np.zeros(n, np.int8), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n, np.float32))
 
 
 #: Pixels per band when an image is thresholded band by band (8 MB of float64 gray).

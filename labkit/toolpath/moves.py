@@ -503,6 +503,12 @@ class Moves:
         keep = self.is_motion if mask is None else (np.asarray(mask, dtype=bool) & self.is_motion)
         if not keep.any():
             return np.full((2, 3), np.nan)
+        if not (keep & self.is_arc).any():      # lines only: the end points' box, no copy of every column
+            rows = keep[:, None]
+            return np.array([np.minimum(self.start.min(0, where=rows, initial=np.inf),
+                                        self.end.min(0, where=rows, initial=np.inf)),
+                             np.maximum(self.start.max(0, where=rows, initial=-np.inf),
+                                        self.end.max(0, where=rows, initial=-np.inf))])
         lo, hi = self[keep].extents()
         return np.array([lo.min(axis=0), hi.max(axis=0)])
 
