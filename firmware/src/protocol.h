@@ -74,7 +74,8 @@ void protocol_main_loop(void);      /* for (;;) protocol_poll() */
 /* One line as the parser/planner machine runs it (tests, fuzzing); writes
    the reply. The line must be assembled (stripped). */
 void protocol_execute_line(char *line);
-/* Raise an alarm: stop motion and laser at once, lock G-code, report. */
+/* Raise an alarm: stop motion and laser at once, drop what the RX ring holds
+   (nothing sent before the alarm runs after it), lock G-code, report. */
 void protocol_alarm(uint8_t alarm);
 /* Emergency stop input (board pin, simulator escape): call from any context. */
 void protocol_estop(void);

@@ -379,10 +379,11 @@ void beam_feed(const uint8_t *data, size_t size) {
       since_pass = 0;
     }
   }
-  /* the host goes quiet: the look-ahead flushes and the job runs out */
+  /* the host goes quiet: the look-ahead flushes (30 quiet passes) and the job
+     runs out, or stays held; 50 passes without a tick end the input */
   for (int quiet = 0, k = 0; quiet < 50 && k < 1000000 && input_ticks < BEAM_MAX_TICKS; k++) {
     pass("running out");
-    quiet = st_is_idle() && plan_is_empty() && serial_rx_count() == 0 ? quiet + 1 : 0;
+    quiet = !timer_on && serial_rx_count() == 0 ? quiet + 1 : 0;
   }
 }
 
