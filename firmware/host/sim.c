@@ -269,13 +269,17 @@ static void deliver(void) {
    presses (the menu's queue holds eight). */
 static uint8_t panel_buf[64];
 static size_t panel_len, panel_pos;
+static int panel_fifo;
+
+/* Nothing more will come from a panel file (a FIFO may always bring more). */
+static int panel_done(void) { return panel_pos == panel_len && (fd_panel < 0 || panel_fifo); }
 
 static void open_panel(const char *path) {
   struct stat st;
   /* a FIFO is opened for writing too, so that it never reads as ended
      between two writers */
-  int fifo = stat(path, &st) == 0 && S_ISFIFO(st.st_mode);
-  fd_panel = open(path, (fifo ? O_RDWR : O_RDONLY) | O_NONBLOCK);
+  panel_fifo = stat(path, &st) == 0 && S_ISFIFO(st.st_mode);
+  fd_panel = open(path, (panel_fifo ? O_RDWR : O_RDONLY) | O_NONBLOCK);
   if (fd_panel < 0) {
     perror(path);
     exit(1);
@@ -283,7 +287,10 @@ static void open_panel(const char *path) {
 }
 
 static void poll_panel(void) {
-  if (panel_pos == panel_len && fd_panel >= 0) {
+  static uint32_t last_read_ms;
+  /* a hand is slow: look at the channel once per millisecond, not per pass */
+  if (panel_pos == panel_len && fd_panel >= 0 && hal_millis() != last_read_ms) {
+    last_read_ms = hal_millis();
     ssize_t n = read(fd_panel, panel_buf, sizeof panel_buf);
     if (n > 0) {
       panel_len = (size_t)n;
@@ -456,7 +463,7 @@ int main(int argc, char **argv) {
   protocol_startup();
   while (!stop_now) {
     protocol_poll();
-    if (input_eof && in_len == 0 && serial_rx_count() == 0 && panel_pos == panel_len) {
+    if (input_eof && in_len == 0 && serial_rx_count() == 0 && panel_done()) {
       /* end of the stream: run out the look-ahead, then stop */
       plan_flush();
       while (!stop_now && (!st_is_idle() || !plan_is_empty())) {
