@@ -59,8 +59,8 @@ void serial_rx_isr(uint8_t byte) {
     return;
   }
   /* Any other byte above 0x7F is dropped, as GRBL does: no G-code word is made of
-     it, and the panel's events never come from the host (a UTF-8 '\xc2\xb2' in a
-     comment once pressed OK twice on the menu). */
+     it, and the panel's events never come from the host (two UTF-8 superscript
+     twos, C2 B2, in a comment once pressed OK twice on the menu). */
   if (byte > 0x7F)
     return;
   uint16_t next = (uint16_t)((rx_head + 1u) & (RX_RING - 1u));
