@@ -48,8 +48,8 @@ def drawing(lines: int = 300) -> str:
 
 class SlowArm(DobotEmulator):
     """The emulator executing one queued command every ``every_s`` seconds of wall time;
-    ``silent`` command ids are recorded but never answered; after ``mute_after`` frames
-    nothing is answered."""
+    ``silent`` command ids, sent unqueued, are recorded but never answered; after
+    ``mute_after`` frames nothing is answered."""
 
     def __init__(self, every_s=0.01, silent=(), mute_after=None):
         super().__init__(per_poll=1)
@@ -65,7 +65,7 @@ class SlowArm(DobotEmulator):
             super()._step()
 
     def _answer(self, f, params=b""):
-        if f.cmd_id in self.silent:
+        if f.cmd_id in self.silent and not f.queued:
             return
         if self.mute_after is not None and self.frames > self.mute_after:
             return
@@ -119,7 +119,7 @@ class PtyDobot:
             if out:
                 os.write(self.master, out)
 
-    def wait(self, what, timeout_s=30.0):
+    def wait(self, what, timeout_s=240.0):      # generous: a cold numba cache compiles first
         deadline = time.monotonic() + timeout_s
         while not what():
             assert time.monotonic() < deadline, "the fake Dobot waited in vain"
@@ -155,7 +155,7 @@ def test_signal_to_labkit_stream_stops_the_arm_then_the_beam_before_the_port_clo
         fake.wait(lambda: fake.queued_frames() >= 60 or proc.poll() is not None)
         assert fake.arm.laser_on and fake.arm.running, "the job should be burning mid-way"
         proc.send_signal(sig)
-        out, err = proc.communicate(timeout=60)
+        out, err = proc.communicate(timeout=240)
         fake.wait(lambda: fake.closed_at is not None)
     finally:
         fake.stop()
@@ -173,7 +173,7 @@ def test_arm_that_stops_answering_mid_job_gets_every_stop_frame_before_the_port_
     fake = PtyDobot(SlowArm(mute_after=80))
     try:
         proc = labkit_stream(job_file, fake.path)
-        out, err = proc.communicate(timeout=60)
+        out, err = proc.communicate(timeout=240)
         fake.wait(lambda: fake.closed_at is not None)
     finally:
         fake.stop()
@@ -190,22 +190,24 @@ def test_arm_that_stops_answering_mid_job_gets_every_stop_frame_before_the_port_
 
 
 def test_second_ctrl_c_during_the_stop_is_held_until_the_laser_is_off(job_file):
-    # force-stop goes unanswered, so the stop takes its 0.5 s timeout: the second Ctrl-C lands
-    # inside it
-    fake = PtyDobot(SlowArm(silent={CMD["queue_force_stop"]}))
+    # force-stop and the immediate PWM 0 go unanswered, so the stop takes two 0.5 s timeouts:
+    # the second Ctrl-C lands inside it
+    fake = PtyDobot(SlowArm(silent={CMD["queue_force_stop"], CMD["io_pwm"]}))
     try:
         proc = labkit_stream(job_file, fake.path)
         fake.wait(lambda: fake.queued_frames() >= 40 or proc.poll() is not None)
         proc.send_signal(signal.SIGINT)
         fake.wait(lambda: FORCE_STOP in fake.raw)
         proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate(timeout=60)
+        out, err = proc.communicate(timeout=240)
         fake.wait(lambda: fake.closed_at is not None)
     finally:
         fake.stop()
     assert proc.returncode == 130, err
     assert bytes(fake.raw).endswith(STOP_BYTES)
-    assert "force-stop sent, no answer within 0.5 s, laser off confirmed" in out
+    assert ("force-stop sent, no answer within 0.5 s, laser off confirmed, PWM 0 % sent, no answer "
+            "within 0.5 s, queue clear confirmed — the Dobot acknowledged the laser-off "
+            "command") in out
     assert ("labkit: SIGINT again — still stopping the machine safely (force-stop, laser off, "
             "PWM 0 %, queue clear; at most about 2 s)") in err
 
@@ -302,7 +304,7 @@ def test_closing_the_notebook_kernel_mid_job_stops_the_arm_and_the_beam():
         kc.start_channels()
         kc.wait_for_ready(timeout=60)
         kc.execute(KERNEL_CELL.format(path=fake.path, text=drawing()))
-        fake.wait(lambda: fake.queued_frames() >= 60, timeout_s=60)
+        fake.wait(lambda: fake.queued_frames() >= 60)
         assert fake.arm.laser_on
         kc.stop_channels()
         km.shutdown_kernel()                   # as JupyterLab's "Shut Down Kernel" does
