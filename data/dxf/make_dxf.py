@@ -30,6 +30,69 @@ def _parts(msp):
     msp.add_text("labkit", dxfattribs={"layer": "notes", "insert": (0, -10)})
 
 
+def odd_entities():
+    """Drawings with the odd entities CAD programs write (issue 27), each in a file of its own."""
+    doc = ezdxf.new("R2004")                          # a floor plan with a stray 1 nm LINE (shorter
+    doc.header["$INSUNITS"] = 4                       # than the join tolerance: joined shut) and
+    msp = doc.modelspace()                            # closed polylines of two vertices
+    msp.add_line((60, 75), (60 + 1e-6, 75), dxfattribs={"layer": "doors"})
+    msp.add_lwpolyline([(0, 0), (200, 0), (200, 150), (0, 150)], close=True, dxfattribs={"layer": "walls"})
+    msp.add_lwpolyline([(40, 0), (70, 0)], close=True, dxfattribs={"layer": "doors"})
+    msp.add_lwpolyline([(120, 150), (150, 150), (150, 150)], close=True, dxfattribs={"layer": "doors"})
+    msp.add_circle((100, 75), 10, dxfattribs={"layer": "fixtures"})
+    doc.saveas(HERE / "degenerate_room_r2004.dxf")
+
+    doc = ezdxf.new("R2010")                          # ratio above 1: the minor axis is the longer
+    doc.header["$INSUNITS"] = 4
+    msp = doc.modelspace()
+    msp.add_ellipse((30, 30), major_axis=(10, 0), ratio=0.5)
+    msp.add_line((0, 0), (60, 0))
+    doc.saveas(HERE / "ellipse_ratio_1.99.dxf")
+    text = (HERE / "ellipse_ratio_1.99.dxf").read_text()       # ezdxf writes no ratio above 1
+    assert text.count("\n 40\n0.5\n") == 1
+    (HERE / "ellipse_ratio_1.99.dxf").write_text(text.replace("\n 40\n0.5\n", "\n 40\n1.99\n"))
+
+    doc = ezdxf.new("R2010")                          # LibreCAD writes z scale 0 for flat inserts
+    doc.header["$INSUNITS"] = 4
+    blk = doc.blocks.new("BOLT")
+    blk.add_circle((0, 0), 3)
+    blk.add_lwpolyline([(-5, -5), (5, -5), (5, 5), (-5, 5)], close=True)
+    msp = doc.modelspace()
+    for x in (10, 40):
+        msp.add_blockref("BOLT", (x, 10), dxfattribs={"xscale": 1.5, "yscale": 1.5, "zscale": 0.0})
+    doc.saveas(HERE / "insert_zscale_0.dxf")
+
+    doc = ezdxf.new("R2010")                          # hatches: a plate with a hole, and one
+    doc.header["$INSUNITS"] = 4                       # associative to a polyline drawn as well
+    msp = doc.modelspace()
+    hatch = msp.add_hatch(dxfattribs={"layer": "engrave"})
+    hatch.paths.add_polyline_path([(0, 0), (50, 0), (50, 30), (0, 30)], is_closed=True)
+    edges = hatch.paths.add_edge_path()
+    edges.add_arc((25, 15), 8, 0, 180)
+    edges.add_line((17, 15), (33, 15))
+    edges = hatch.paths.add_edge_path()
+    edges.add_ellipse((40, 8), major_axis=(5, 0), ratio=0.5)
+    outline = msp.add_lwpolyline([(60, 0), (90, 0), (90, 20, 0.5), (60, 20)], format="xyb", close=True)
+    linked = msp.add_hatch(dxfattribs={"layer": "engrave", "associative": 1})
+    path = linked.paths.add_polyline_path(list(outline.get_points("xyb")), is_closed=True)
+    path.source_boundary_objects = [outline.dxf.handle]
+    doc.saveas(HERE / "hatch_outlines.dxf")
+
+    doc = ezdxf.new("R2010")                          # plan view of entities in other planes
+    doc.header["$INSUNITS"] = 4
+    msp = doc.modelspace()
+    msp.add_polyline3d([(0, 0, 0), (30, 0, 5), (30, 20, 10), (0, 20, 5)], close=True)
+    tilt = (0, -0.5, 0.8660254037844387)             # 30° about x
+    msp.add_circle((50, 15, 3), 10, dxfattribs={"extrusion": tilt})
+    msp.add_arc((80, 10, 0), 8, 20, 250, dxfattribs={"extrusion": (0.6, 0, 0.8)})
+    pl = msp.add_polyline2d([(0, 40), (30, 40), (30, 60)], dxfattribs={"extrusion": tilt})
+    pl.vertices[0].dxf.bulge = 0.4
+    msp.add_lwpolyline([(40, 40, 0.0), (60, 40, -0.6), (60, 55, 0.0)], format="xyb",
+                       dxfattribs={"extrusion": (0, 0.6, 0.8), "elevation": 4})
+    msp.add_circle((100, 0, 0), 5, dxfattribs={"extrusion": (1, 0, 0)})          # seen edge-on
+    doc.saveas(HERE / "plan_view_3d.dxf")
+
+
 def main():
     doc = ezdxf.new("R2010")
     doc.header["$INSUNITS"] = 4                       # mm
@@ -49,6 +112,7 @@ def main():
     msp.add_circle((1, 0.5), 0.25, dxfattribs={"layer": "cut"})
     doc.saveas(HERE / "plate_in.dxf")
     print("wrote", HERE / "parts_mm.dxf", HERE / "plate_in.dxf", math.pi)
+    odd_entities()
 
 
 if __name__ == "__main__":

@@ -226,7 +226,8 @@ def prepare_paths(paths: Sequence[Path], *, join_tol_mm=0.01, kerf_mm=0.0, tol_m
     """
     if kerf_mm < 0 or not math.isfinite(kerf_mm):
         raise GeometryError(f"kerf_mm must be >= 0 mm, got {kerf_mm!r}")
-    chains = join_chains(paths, join_tol_mm)
+    chains = [q for q in (_line_unless_area(p, tol_mm) for p in join_chains(paths, join_tol_mm))
+              if q is not None]
     layers: dict[str, list[Path]] = {}
     for p in chains:
         layers.setdefault(p.layer, []).append(p)
@@ -276,6 +277,22 @@ def _offset_by_source(closed: list[Path], distance_mm: float, *, tol_mm: float, 
                                     deviation_mm=ring.deviation_mm)
         by_layer.setdefault(p.layer, []).append(p)
     return by_layer
+
+
+def _line_unless_area(p: Path, tol_mm: float) -> Path | None:
+    """A closed chain that encloses no area — a line drawn there and back, or a piece shorter
+    than the join tolerance snapped shut (a CAD floor plan's stray sub-micron LINE) — is cut
+    as the open line it is; one of no length is nothing to cut (None). Only closed chains
+    with an area are outlines: offsets, hatching and nesting need a polygon."""
+    if not p.length_mm > 0:
+        return None
+    if not p.closed:
+        return p
+    d = p.sample(tol_mm) - p.vertices[0]
+    far = d[int(np.argmax(np.hypot(d[:, 0], d[:, 1])))]
+    if np.any(d[:, 0] * far[1] - d[:, 1] * far[0] != 0):
+        return p
+    return p.with_geometry(p.vertices, p.centres, p.sweeps, closed=False)
 
 
 def _inner_layers_first(layers: Mapping[str, list[Path]], tol_mm: float) -> list[str]:

@@ -162,3 +162,117 @@ def test_closed_periodic_spline_as_qcad_writes_it(tmp_path):
     u = np.linspace(knots[p], knots[len(ctrl)], 4001)
     ref = np.array([_de_boor(knots, ctrl, p, x) for x in u])
     assert hausdorff(Path(pts), Path(ref)) <= tol
+
+
+# --- issue 27: DXF as the CAD program that wrote it draws it ---------------------------------
+
+def _read(name, **kw):
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return read_dxf(os.path.join(DATA, name), **kw)
+
+
+def test_floor_plan_with_degenerate_closed_paths_builds_a_job():
+    """data/dxf/degenerate_room_r2004.dxf (written by make_dxf.py, the smallest equivalent of
+    an AutoCAD 2004 floor plan that ended in shapely's "A linearring requires at least 4
+    coordinates"): a 1e-6 mm LINE, shorter than the join tolerance, is joined shut into a
+    closed path of no area; two closed polylines of two distinct vertices enclose none either.
+    The job builds with fill and kerf; the doors are cut there and back as drawn (2 × 30 mm
+    each), the stray line is nothing to cut, the walls and fixture are outlines."""
+    from labkit.toolpath.build import prepare_paths
+
+    d = _read("degenerate_room_r2004.dxf")
+    for opts in ({}, {"fill": True, "fill_spacing_mm": 1.0}, {"kerf_mm": 0.2}):
+        out = prepare_paths(d.paths, **opts)
+        doors = [p for p in out if p.layer == "doors"]
+        assert sorted(round(p.length_mm, 9) for p in doors) == [60.0, 60.0]
+        assert not any(p.closed for p in doors)
+        assert {p.layer for p in out if p.closed} == {"walls", "fixtures"}
+
+
+def test_ellipse_ratio_above_one_is_drawn_with_the_longer_minor_axis():
+    """data/dxf/ellipse_ratio_1.99.dxf: major axis (10, 0), ratio 1.99 — the minor axis
+    ratio · (Z × major) = (0, 19.9) is the longer one; ezdxf draws it so, and so does AutoCAD."""
+    d = _read("ellipse_ratio_1.99.dxf")
+    ellipse = next(p for p in d.paths if p.source.startswith("ELLIPSE"))
+    np.testing.assert_allclose(ellipse.bounds(), [[20, 10.1], [40, 49.9]], atol=0.011)
+    doc = ezdxf.readfile(os.path.join(DATA, "ellipse_ratio_1.99.dxf"))
+    ref = [Path.polyline(q) for q in _reference(doc.modelspace().query("ELLIPSE")[0])]
+    assert hausdorff([ellipse], ref) <= 0.01 + 1e-5
+
+
+def test_insert_with_z_scale_zero_is_placed_in_plan():
+    """data/dxf/insert_zscale_0.dxf: two inserts of a 10 mm square with an r = 3 mm circle at
+    scale 1.5 × 1.5 × 0 (as LibreCAD writes flat inserts): the z scale moves nothing in x or
+    y, so each is a 15 mm square around an r = 4.5 mm circle at (10, 10) and (40, 10)."""
+    d = _read("insert_zscale_0.dxf")
+    circles = sorted((p for p in d.paths if p.is_arc.all()), key=lambda p: p.start[0])
+    squares = sorted((p for p in d.paths if not p.is_arc.any()), key=lambda p: p.start[0])
+    for x, circle, square in zip((10, 40), circles, squares):
+        np.testing.assert_allclose(circle.radii_mm(), 4.5, atol=1e-9)
+        np.testing.assert_allclose(circle.bounds(), [[x - 4.5, 5.5], [x + 4.5, 14.5]], atol=1e-9)
+        np.testing.assert_allclose(square.bounds(), [[x - 7.5, 2.5], [x + 7.5, 17.5]], atol=1e-9)
+    assert len(circles) == len(squares) == 2
+
+
+def test_hatch_boundaries_are_closed_outlines_and_fill_when_asked():
+    """data/dxf/hatch_outlines.dxf: a 50 × 30 mm hatch with a half-disc hole (r = 8) and an
+    elliptical hole (5 × 2.5), and an associative hatch whose boundary is a polyline the
+    drawing also holds. The first hatch is three closed outlines of the boundary's lengths;
+    the second is cut once, by its polyline; --fill hatches inside the plate and not in
+    the holes."""
+    import shapely
+
+    from labkit.toolpath.build import prepare_paths
+
+    d = _read("hatch_outlines.dxf")
+    hatch = [p for p in d.paths if p.source.startswith("HATCH")]
+    assert all(p.closed for p in hatch) and len(hatch) == 3
+    ellipse_perimeter = math.pi * (22.5 - math.sqrt(17.5 * 12.5))   # Ramanujan, a = 5, b = 2.5
+    lengths = sorted(p.length_mm for p in hatch)
+    assert lengths == pytest.approx(sorted([160.0, math.pi * 8 + 16, ellipse_perimeter]), abs=0.02)
+    assert sum(p.source.startswith("LWPOLYLINE") for p in d.paths) == 1
+    assert {p.source.split("#")[0] for p in d.paths} == {"HATCH", "LWPOLYLINE"}
+    filled = [p for p in prepare_paths(hatch, fill=True, fill_spacing_mm=0.5) if not p.closed]
+    lines = shapely.MultiLineString([p.vertices for p in filled])
+    holes = shapely.union_all([shapely.Polygon(p.sample(0.001)) for p in hatch[1:]]).buffer(-0.01)
+    assert lines.length > 0.9 * (1500 - 0.5 * math.pi * 64 - math.pi * 12.5) / 0.5
+    assert lines.intersection(holes).length == pytest.approx(0.0, abs=1e-6)
+
+
+def test_entities_in_other_planes_are_cut_as_seen_from_above():
+    """data/dxf/plan_view_3d.dxf: a 3-D POLYLINE is its vertices' x, y; a circle of r = 10 in
+    a plane tilted 30° about x is an ellipse of semi-axes 10 and 10·cos 30°; a circle seen
+    edge-on (extrusion +X: its OCS centre (100, 0, 0) is world (0, 100, 0)) is a 10 mm line."""
+    d = _read("plan_view_3d.dxf")
+    by = {p.source: p for p in d.paths}
+    poly = next(p for s, p in by.items() if s.startswith("POLYLINE"))
+    np.testing.assert_allclose(poly.vertices, [[0, 0], [30, 0], [30, 20], [0, 20], [0, 0]])
+    circles = [p for s, p in by.items() if s.startswith("CIRCLE")]
+    tilted = next(p for p in circles if p.closed)
+    (x0, y0), (x1, y1) = tilted.bounds()
+    assert (x1 - x0, y1 - y0) == pytest.approx((20.0, 20 * math.cos(math.pi / 6)), abs=0.011)
+    edge_on = next(p for p in circles if not p.closed)
+    np.testing.assert_allclose(edge_on.bounds(), [[0, 95], [0, 105]], atol=0.011)
+
+
+def test_lines_under_a_wipeout_are_cut_only_where_drawn(tmp_path):
+    """A 40 mm square, a WIPEOUT covering [10, 20] × [−5, 5] (across the bottom side), then a
+    line drawn after it through the same place: the square loses 10 mm of its bottom side,
+    the later line is kept whole (draw order, as ezdxf's drawing add-on paints it)."""
+    doc = ezdxf.new("R2010")
+    doc.header["$INSUNITS"] = 4
+    msp = doc.modelspace()
+    msp.add_lwpolyline([(0, 0), (40, 0), (40, 40), (0, 40)], close=True)
+    msp.add_wipeout([(10, -5), (20, -5), (20, 5), (10, 5)])
+    msp.add_line((0, 2), (40, 2))
+    doc.saveas(tmp_path / "w.dxf")
+    with pytest.warns(UserWarning, match=r"1 entities lie partly under a WIPEOUT .*LWPOLYLINE#"):
+        d = read_dxf(tmp_path / "w.dxf")
+    square = [p for p in d.paths if p.source.startswith("LWPOLYLINE")]
+    assert sum(p.length_mm for p in square) == pytest.approx(150.0, abs=1e-6)
+    line = next(p for p in d.paths if p.source.startswith("LINE"))
+    assert line.length_mm == 40.0
+    assert d.clipped == [square[0].source]
