@@ -169,6 +169,8 @@ class Moves:
                 arr = np.asarray(columns[name], dtype=dtype)
                 if arr.ndim == 0:
                     arr = np.full((n,) + shape, arr, dtype=dtype)
+            elif fill == 0:      # calloc'd: a column nobody writes takes no memory until written
+                arr = np.zeros((n,) + shape, dtype=dtype)
             else:
                 arr = np.full((n,) + shape, fill, dtype=dtype)
             if arr.shape != (n,) + shape:
