@@ -172,3 +172,116 @@ def test_measure_with_a_reference_length_instead_of_dpi(burned, tmp_path, capsys
     df = pd.read_csv(tmp_path / "w.csv")
     assert np.abs(df.width_mm.to_numpy() - truth).max() < 25.4 / 450
     assert (tmp_path / "w.png").exists()
+
+
+def test_a_scan_turned_upside_down_is_measured_in_its_own_cells(burned, tmp_path, capsys):
+    tmp, layout, truth = burned
+    scan = _scan(tmp_path, layout, truth, rotation_deg=181.0, noise=0.03, blur_px=1.0, seed=8)
+    code, out, err = _run(capsys, "measure", scan, "--layout", tmp / "GRID.json", "-o", tmp_path / "w.csv")
+    assert code == 0, err
+    assert "turned 180° (upside down)" in out and "measured in its own cell" in out
+    df = pd.read_csv(tmp_path / "w.csv")
+    assert np.abs(df.width_mm.to_numpy() - truth).max() < 25.4 / 600
+    mirrored = tmp_path / "mirrored.png"
+    Image.open(scan).transpose(Image.Transpose.FLIP_LEFT_RIGHT).save(mirrored, dpi=(600, 600))
+    err = _one_line_error(*_run(capsys, "measure", mirrored, "--layout", tmp / "GRID.json",
+                                "-o", tmp_path / "m.csv")[::2])
+    assert "not where the layout puts them" in err and "mirrored" in err
+    assert not (tmp_path / "m.csv").exists()
+
+
+@pytest.mark.parametrize("field, text, message", [
+    ("x1_mm", '"x1_mm": 10.0', r"lines\[0\].x1_mm is missing; expected a number"),
+    ("pitch_mm", '"pitch_mm": NaN', "pitch_mm is nan; expected a finite number"),
+    ("lines", '"lines": []', "lines is empty"),
+    ("power_mw", '"power_mw": "500.0"', r"lines\[0\].power_mw is '500.0' \(text\)"),
+])
+def test_a_hand_edited_layout_is_one_line_naming_the_field(burned, tmp_path, capsys, field, text, message):
+    tmp, layout, truth = burned
+    scan = _scan(tmp_path, layout, truth)
+    source = json.dumps(layout, indent=1)
+    if field == "x1_mm":
+        edited = source.replace('"x1_mm": 10.0,', "", 1)
+    elif field == "lines":
+        edited = json.dumps(dict(layout, lines=[]))
+    elif field == "power_mw":
+        edited = source.replace('"power_mw": 500.0', '"power_mw": "500.0"', 1)
+    else:
+        edited = source.replace('"pitch_mm": 2.0', '"pitch_mm": NaN')
+    assert edited != source
+    (tmp_path / "GRID.json").write_text(edited)
+    err = _one_line_error(*_run(capsys, "measure", scan, "--layout", tmp_path / "GRID.json",
+                                "-o", tmp_path / "w.csv")[::2])
+    assert re.search(f"GRID.json: {message}", err), err
+
+
+@pytest.mark.parametrize("width, given, model, solve", [
+    ("1e-12", ("--power", 1000), "empirical", "speed"),       # was "speed nan mm/min", exit 0
+    ("1e-12", ("--speed", 600), "power_law", "power"),        # was "power 0 mW"
+    ("50", ("--speed", 600), "dose", "power"),                # was "power inf mW"
+])
+def test_settings_refuse_a_width_the_model_does_not_reach(burned, capsys, width, given, model, solve):
+    tmp, _, _ = burned
+    err = _one_line_error(*_run(capsys, "settings", "--width", width, *given, "--fit", tmp / "FIT.json",
+                                "--model", model)[::2])
+    assert f"--width {width}: the {model} model gives no {solve} for it" in err
+    lo, hi = map(float, re.search(r"it reaches ([\d.e+-]+)…([\d.e+-]+) mm there", err).groups())
+    s_lo, s_hi = map(float, re.search(r"within ([\d.e+-]+)…([\d.e+-]+) (mW|mm/min)", err).groups()[:2])
+    # the searched span is the measured one (the fit's data) widened by half its length each side, in ln
+    from labkit.commands.cutwidth import load_fit
+
+    res, fit = load_fit(tmp / "FIT.json", model)
+    m_lo, m_hi = res["data"]["power_mw" if solve == "power" else "speed_mm_min"]
+    if model != "empirical":          # the empirical inversion searches its own (burned) data's span
+        pad = 0.5 * np.log(m_hi / m_lo)
+        assert (s_lo, s_hi) == pytest.approx((m_lo * np.exp(-pad), m_hi * np.exp(pad)), rel=1e-3)
+    # the widest width named is the model's at the end of the span where it burns most
+    # (the most power, or the least speed): each model here grows with P/v
+    g = float(given[1])
+    widest = fit.width(s_hi, g) if solve == "power" else fit.width(g, s_lo)
+    assert hi == pytest.approx(float(widest), rel=1e-3)
+    # a width inside the range is still answered
+    mid = 0.5 * (lo + hi)
+    code, out, _ = _run(capsys, "settings", "--width", f"{mid:.4f}", *given, "--fit", tmp / "FIT.json",
+                        "--model", model)
+    assert code == 0 and "nan" not in out and "inf" not in out
+
+
+def test_measure_outputs_never_overwrite_its_inputs(burned, tmp_path, capsys):
+    tmp, layout, truth = burned
+    scan = _scan(tmp_path, layout, truth)
+    grid = tmp_path / "GRID.json"
+    grid.write_text((tmp / "GRID.json").read_text())
+    before = scan.read_bytes(), grid.read_text()
+    for extra, what in (([ "-o", tmp_path / "w.csv", "--annotated", scan], "SCAN.png: is also the input file"),
+                        (["-o", grid], "GRID.json: is also the input file"),
+                        (["-o", tmp_path / "w.csv", "--annotated", tmp_path / "w.csv"], "is also the widths CSV")):
+        err = _one_line_error(*_run(capsys, "measure", scan, "--layout", grid, *extra)[::2])
+        assert what in err
+    assert (scan.read_bytes(), grid.read_text()) == before and not (tmp_path / "w.csv").exists()
+    # the default annotated name (the CSV's, .png) would be the scan: another name is taken
+    code, out, err = _run(capsys, "measure", scan, "--layout", grid, "-o", tmp_path / "SCAN.csv")
+    assert code == 0, err
+    assert scan.read_bytes() == before[0] and (tmp_path / "SCAN.annotated.png").exists()
+
+
+def test_fit_and_window_never_overwrite_their_input(burned, tmp_path, capsys):
+    tmp, _, _ = burned
+    widths = tmp_path / "w.csv"
+    widths.write_text((tmp / "WIDTHS.csv").read_text())
+    assert "is also the input file" in _one_line_error(*_run(capsys, "fit", widths, "-o", widths)[::2])
+    fit = tmp_path / "FIT.json"
+    fit.write_text((tmp / "FIT.json").read_text())
+    assert "is also the input file" in _one_line_error(*_run(capsys, "window", fit, "-o", fit)[::2])
+    assert widths.read_text() == (tmp / "WIDTHS.csv").read_text() and fit.read_text() == (tmp / "FIT.json").read_text()
+
+
+def test_pattern_replaces_a_linked_layout_without_writing_through_the_link(tmp_path, capsys):
+    precious = tmp_path / "precious.json"
+    precious.write_text('{"another grid": true}')
+    (tmp_path / "G.json").symlink_to(precious)
+    code, _, err = _run(capsys, "pattern", "--powers", "500,1000", "--speeds", "300,600", "-o", tmp_path / "G.gcode")
+    assert code == 0, err
+    assert precious.read_text() == '{"another grid": true}'
+    assert not (tmp_path / "G.json").is_symlink()
+    assert len(json.loads((tmp_path / "G.json").read_text())["lines"]) == 4
