@@ -159,6 +159,10 @@ def run_stream(args) -> int:
         from labkit.machine.dobot import stream_file
 
         return stream_file(args, port, baud)
+    if args.s_max is not None:
+        from labkit.errors import InputError
+
+        raise InputError("--s-max is for --protocol dobot; GRBL's full power is its $30 setting")
     from labkit.machine.stream import Job, run_job
 
     dialect = args.dialect or ("labkit-fw" if protocol == "labkit-fw" else "grbl")

@@ -752,6 +752,12 @@ class DobotEmulator:
         pass
 
 
+#: ``labkit stream``'s options for GRBL and the labkit firmware, with their defaults: given to
+#: the Dobot path they are refused rather than ignored.
+_STREAM_ONLY = {"mode": "counting", "check_first": False, "resume_from": None, "on_error": "stop",
+                "log": None, "allow_spindle_mode": False, "virtual_speed": 0.0, "machine": None}
+
+
 def stream_file(args, port, baud) -> int:
     """``labkit stream --protocol dobot``: draw a G-code file with the arm (or its emulator).
 
@@ -760,8 +766,14 @@ def stream_file(args, port, baud) -> int:
     and what the Dobot confirmed; the exit status is 1, 130 after Ctrl-C and 143
     after SIGTERM.
     """
+    from labkit.errors import InputError
     from labkit.gcode import parse_file
 
+    unused = [f"--{name.replace('_', '-')}" for name, default in _STREAM_ONLY.items()
+              if getattr(args, name, default) != default]
+    if unused:
+        raise InputError(f"{', '.join(unused)}: not available with --protocol dobot (the arm "
+                         f"draws the whole job from its first line, and keeps no transcript)")
     moves = parse_file(args.file, dialect=args.dialect or "grbl")
     commands = job_commands(moves, s_max=getattr(args, "s_max", None))
     link = None

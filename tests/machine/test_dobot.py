@@ -291,3 +291,19 @@ def test_a_stalled_queue_is_stopped_and_named():
     # 3-10); 4 ahead of index 11 were queued: indices 12-15, source lines 11-14
     assert bot.last_stop.summary().endswith("last queued: source line 14, last reported "
                                             "executed: source line 10")
+
+
+def test_cli_refuses_options_the_dobot_path_does_not_have(tmp_path, capsys):
+    # --resume-from silently ignored would draw the whole job again over what was burned
+    from labkit.cli import main
+
+    p = tmp_path / "draw.gcode"
+    p.write_text("G0 X0 Y20\nM3 S200\nG1 X20 F600\nM5\n")
+    assert main(["stream", str(p), "--protocol", "dobot", "--resume-from", "3",
+                 "--log", str(tmp_path / "t.log")]) == 1
+    assert capsys.readouterr().err == ("labkit stream: --resume-from, --log: not available with "
+                                       "--protocol dobot (the arm draws the whole job from its "
+                                       "first line, and keeps no transcript)\n")
+    assert not (tmp_path / "t.log").exists()
+    assert main(["stream", str(p), "--s-max", "255"]) == 1
+    assert "--s-max is for --protocol dobot" in capsys.readouterr().err
