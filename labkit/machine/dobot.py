@@ -18,6 +18,10 @@ X = −y′ + x0, Y = −x′ + y0 with the origin (x0, y0) = (300, 100) mm, and
 every point the arm would pass is checked against the reachable annulus of
 170–320 mm around its base **before anything is sent**.
 
+The feed F is not sent: the arm draws at the speeds set on it (its PTP and
+ARC parameters, e.g. in DobotStudio), so ``labkit stream`` says so with the
+job's range of F.
+
 What the arm would not draw as written is refused before anything is sent,
 naming the source line, never flattened or clamped: a move that changes Z and
 an arc in the XZ or YZ plane (the arm draws in one plane, at the laser's
@@ -776,6 +780,12 @@ def stream_file(args, port, baud) -> int:
                          f"draws the whole job from its first line, and keeps no transcript)")
     moves = parse_file(args.file, dialect=args.dialect or "grbl")
     commands = job_commands(moves, s_max=getattr(args, "s_max", None))
+    feeds = moves.feed_mm_min[moves.is_feed & np.isfinite(moves.feed_mm_min)]
+    if feeds.size:
+        lo, hi = float(feeds.min()), float(feeds.max())
+        span = f"F{lo:g}" if lo == hi else f"F{lo:g} to F{hi:g}"
+        print(f"note: F is not sent to the Dobot: the arm draws at the speed set on it (its PTP "
+              f"and ARC parameters), not at the job's {span} mm/min")
     link = None
     if port is None or port.startswith("virtual://"):
         dev = DobotEmulator()

@@ -130,7 +130,11 @@ def test_cli_dobot_on_the_emulator(tmp_path, capsys):
     p = tmp_path / "draw.gcode"
     p.write_text("G0 X0 Y0\nM3 S500\nG1 X20 Y0 F600\nG2 X20 Y20 I0 J10\nM5\n")
     assert main(["stream", str(p), "--protocol", "dobot"]) == 0
-    assert "completed" in capsys.readouterr().out
+    note, done = capsys.readouterr().out.splitlines()
+    assert note == ("note: F is not sent to the Dobot: the arm draws at the speed set on it (its "
+                    "PTP and ARC parameters), not at the job's F600 mm/min")
+    # laser off + rapid, PWM + laser on + line, the arc, the closing laser off
+    assert done.startswith("completed: 7 commands queued and executed (last queue index 6)")
 
 
 # -- issue 25 §5: what the arm would not draw as written is refused, naming the line ------------
@@ -243,8 +247,9 @@ def test_cli_reports_the_protocol_error_not_completed(tmp_path, capsys, monkeypa
     p.write_text("G0 X0 Y20\nM3 S200\nG1 X20 F600\nG1 Y40\nM5\n")
     assert main(["stream", str(p), "--protocol", "dobot"]) == 1
     out = capsys.readouterr().out.splitlines()
-    assert out[0].startswith("STOPPED: protocol error: the Dobot reports queue index")
-    assert out[1].startswith("safe stop: force-stop confirmed, laser off confirmed")
+    assert out[0].startswith("note: F is not sent to the Dobot")
+    assert out[1].startswith("STOPPED: protocol error: the Dobot reports queue index")
+    assert out[2].startswith("safe stop: force-stop confirmed, laser off confirmed")
     assert not any("completed" in line for line in out)
 
 

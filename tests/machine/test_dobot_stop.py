@@ -164,8 +164,8 @@ def test_signal_to_labkit_stream_stops_the_arm_then_the_beam_before_the_port_clo
     assert bytes(fake.raw).endswith(STOP_BYTES) and fake.closed_at == len(fake.raw)
     assert not fake.arm.laser_on and fake.arm.pwm_duty == 0.0
     assert not fake.arm.running and fake.arm.queue == []
-    assert out.splitlines()[0] == f"STOPPED: {words}"
-    assert out.splitlines()[1].startswith(ALL_CONFIRMED)
+    assert out.splitlines()[1] == f"STOPPED: {words}"
+    assert out.splitlines()[2].startswith(ALL_CONFIRMED)
     assert "last queued: source line" in out and "Traceback" not in err
 
 
@@ -179,7 +179,7 @@ def test_arm_that_stops_answering_mid_job_gets_every_stop_frame_before_the_port_
         fake.stop()
     assert proc.returncode == 1, err
     assert bytes(fake.raw).endswith(STOP_BYTES) and fake.closed_at == len(fake.raw)
-    first, second = out.splitlines()[:2]
+    first, second = out.splitlines()[1:3]
     assert first.startswith("STOPPED: no answer from the Dobot to command ")
     assert second.startswith("safe stop: force-stop sent, no answer within 0.5 s, laser off sent, "
                              "no answer within 0.5 s, PWM 0 % sent, no answer within 0.5 s, "
@@ -221,7 +221,7 @@ def test_lost_link_says_the_controller_was_not_told_to_stop(job_file, capsys):
     finally:
         fake.stop()
     out = capsys.readouterr().out
-    assert out.startswith("STOPPED: the link to the Dobot is gone")
+    assert out.splitlines()[1].startswith("STOPPED: the link to the Dobot is gone")
     assert "the controller was not told to stop: the link to the Dobot is gone" in out
     assert "its own behaviour is all that applies" in out
     assert "acknowledged" not in out and "switched off" not in out
