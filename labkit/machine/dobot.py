@@ -175,6 +175,10 @@ def canvas_to_robot(x, y, origin=ORIGIN_MM):
     return (-np.asarray(y, float) + x0, -np.asarray(x, float) + y0)
 
 
+def _where(moves, i: int) -> str:
+    return f"{moves.source or '<string>'}:{int(moves.line[i])}"
+
+
 def _segment_min_dist(a, b) -> float:
     d = b - a
     L2 = float(d @ d)
@@ -209,11 +213,10 @@ def check_reach(moves, origin=ORIGIN_MM, reach=REACH_MM, *, tol_mm: float = 0.05
         far = float(np.hypot(X, Y).max())
         near = min(_segment_min_dist(P[k], P[k + 1]) for k in range(len(P) - 1))
         if near < lo - 1e-9 or far > hi + 1e-9:
-            where = f"{moves.source or '<string>'}:{int(moves.line[i])}"
             bad = near if near < lo else far
-            raise MachineError(f"{where}: the arm cannot reach this move: it passes {bad:.1f} mm "
-                               f"from the base; the reach is {lo:g}–{hi:g} mm (move the canvas "
-                               f"origin or scale the drawing)")
+            raise MachineError(f"{_where(moves, i)}: the arm cannot reach this move: it passes "
+                               f"{bad:.1f} mm from the base; the reach is {lo:g}–{hi:g} mm (move "
+                               f"the canvas origin or scale the drawing)")
 
 
 # -- commands -----------------------------------------------------------------------------------
@@ -233,10 +236,6 @@ def laser_params(on: bool) -> bytes:
 def pwm_params(duty_percent: float, address: int = LASER_PWM_ADDRESS,
                freq_hz: float = LASER_PWM_HZ) -> bytes:
     return struct.pack("<Bff", address, freq_hz, duty_percent)
-
-
-def _where(moves, i: int) -> str:
-    return f"{moves.source or '<string>'}:{int(moves.line[i])}"
 
 
 def check_drawable(moves, *, s_max: float | None = None) -> float:
