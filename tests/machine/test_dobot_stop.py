@@ -41,7 +41,7 @@ ALL_CONFIRMED = ("safe stop: force-stop confirmed, laser off confirmed, PWM 0 % 
 
 def drawing(lines: int = 300) -> str:
     """A hand-written zig-zag inside the arm's reach (canvas x 0-60, y 20-80 mm: 223-297 mm
-    from the base), burning at S200 of 255."""
+    from the base), burning at S200 (20 % of GRBL's full power S1000)."""
     body = "".join(f"G1 X{60 * (k % 2)} Y{20 + 60 * k / lines:.3f}\n" for k in range(lines))
     return "G21 G90\nG0 X0 Y20\nM3 S200\nG1 F1200\n" + body + "M5\nG0 X0 Y20\n"
 
