@@ -16,8 +16,8 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from labkit.errors import BoundsError
-from labkit.toolpath.moves import MoveKind, Moves
+from labkit.errors import BoundsError, InputError
+from labkit.toolpath.moves import MoveKind, Moves, check_moves
 
 __all__ = ["Envelope", "JobSummary", "summarize", "check_bounds", "DEFAULT_RAPID_MM_MIN"]
 
@@ -65,6 +65,10 @@ def check_bounds(moves: Moves, envelope: Envelope, *, tol_mm: float = 1e-6) -> N
     ...
     labkit.errors.BoundsError: <string>:2:1: error 102: move leaves the machine envelope: Y reaches 20 mm, the limit is 15 mm (expected 0 <= X <= 100, 0 <= Y <= 15)
     """
+    check_moves(moves)
+    if not isinstance(envelope, Envelope):
+        raise InputError(f"envelope must be a labkit.gcode.simulate.Envelope (Envelope.from_size(x_mm, y_mm)), "
+                         f"got {type(envelope).__name__}")
     lo, hi = moves.extents()
     motion = moves.is_motion[:, None]
     elo = np.asarray(envelope.lo, dtype=float)
@@ -240,6 +244,7 @@ def summarize(moves: Moves, *, rapid_mm_min: float = DEFAULT_RAPID_MM_MIN,
     >>> s.cut_length_mm, s.travel_length_mm, s.laser_on_time_s, s.estimated_time_s
     (10.0, 10.0, 1.0, 3.0)
     """
+    check_moves(moves)
     if not rapid_mm_min > 0:
         raise ValueError(f"rapid_mm_min must be > 0 mm/min, got {rapid_mm_min!r}")
     length = moves.lengths_mm()

@@ -36,7 +36,7 @@ from labkit import __version__
 from labkit.errors import EmitError
 from labkit.gcode import _emit_kernel as EK
 from labkit.gcode.dialects import Dialect, get_dialect
-from labkit.toolpath.moves import MoveKind, Moves
+from labkit.toolpath.moves import MoveKind, Moves, check_moves
 
 __all__ = ["emit", "write_gcode", "decimals_for", "format_number", "VALUE_DECIMALS"]
 
@@ -144,6 +144,7 @@ def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001
     Raises
     ------
     EmitError
+        When ``moves`` is not a :class:`~labkit.toolpath.Moves` (text, a dict, …).
         For a feed move without a positive feed rate, a position, arc centre,
         power or dwell that is not finite, a power outside 0…``s_max``, or a
         coordinate too large to write exactly with the decimals in use.
@@ -168,6 +169,8 @@ def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001
     ...
     labkit.errors.EmitError: move 0 (generated): X 1e+17 mm cannot be written exactly with 3 decimals (largest 9.007e+12 mm); expected coordinates of a real machine
     """
+    # every value is checked below, where it is written; here only that it is a program
+    check_moves(moves, finite=False, error=EmitError)
     d = get_dialect(dialect)
     if arcs not in ("ijk", "r"):
         raise ValueError(f"arcs must be 'ijk' or 'r', got {arcs!r}")

@@ -29,7 +29,7 @@ from scipy import ndimage
 
 from labkit.errors import InputError
 from labkit.motion.pipeline import Plan, plan
-from labkit.toolpath.moves import Moves
+from labkit.toolpath.moves import Moves, check_moves
 
 __all__ = ["Burn", "simulate_burn", "beam_positions"]
 
@@ -259,6 +259,8 @@ def simulate_burn(moves: Moves | Plan, *, w0_mm: float, fth_mj_mm2: float, pixel
     for name, value in (("w0_mm", w0_mm), ("fth_mj_mm2", fth_mj_mm2)):
         if not (np.isfinite(value) and value > 0):
             raise InputError(f"{name} must be > 0, got {value!r}")
+    if not isinstance(moves, Plan):
+        check_moves(moves, error=InputError)
     p = moves if isinstance(moves, Plan) else plan(moves, machine, planner=planner, law=law, arc_tol_mm=arc_tol_mm)
     pixel = w0_mm / 8 if pixel_mm is None else float(pixel_mm)
     if not pixel > 0:

@@ -196,9 +196,13 @@ def check_reach(moves, origin=ORIGIN_MM, reach=REACH_MM, *, tol_mm: float = 0.05
     ------
     MachineError
         Naming the source line, the point and its distance from the base.
+    InputError
+        When ``moves`` is not a :class:`~labkit.toolpath.Moves` or holds a position that is not finite.
     """
     from labkit.gcode.arcs import arc_polyline
+    from labkit.toolpath.moves import check_moves
 
+    check_moves(moves)
     lo, hi = reach
     for i in range(len(moves)):
         if moves.kind[i] == 4:

@@ -40,7 +40,7 @@ import numpy as np
 from labkit.errors import MotionError
 from labkit.motion.bresenham import arc_lattice_points, direction_bits
 from labkit.motion.machine import MachineSpec, load_machine
-from labkit.toolpath.moves import PLANE_AXES, LaserMode, MoveKind, Moves
+from labkit.toolpath.moves import PLANE_AXES, LaserMode, MoveKind, Moves, check_moves
 
 __all__ = ["BlockKind", "Blocks", "BlockFifo", "build_blocks", "to_steps", "expand_arcs"]
 
@@ -347,8 +347,7 @@ def build_blocks(moves: Moves, machine: MachineSpec | str | None = None, *,
     (10.0, 1000.0, 100.0)
     """
     m = load_machine(machine)
-    if not isinstance(moves, Moves):
-        raise MotionError(f"moves must be a labkit.toolpath.Moves, got {type(moves).__name__}")
+    check_moves(moves, error=MotionError)
     if arc_tol_mm is not None:
         moves = expand_arcs(moves, arc_tol_mm)
     n = len(moves)

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -286,6 +287,9 @@ def load_machine(source: str | Path | MachineSpec | None = None) -> MachineSpec:
         return CBR40
     if isinstance(source, MachineSpec):
         return source
+    if not isinstance(source, (str, os.PathLike)):
+        raise MotionError(f"machine must be a MachineSpec, a machine's name or a TOML file, "
+                          f"got {type(source).__name__}")
     path = Path(source)
     if not path.suffix and not path.exists():
         candidate = MACHINES_DIR / f"{source}.toml"

@@ -43,7 +43,7 @@ import numpy as np
 from labkit.geometry.circle import sweep_angle
 
 __all__ = ["MoveKind", "LaserMode", "Record", "Moves", "MovesBuilder", "PLANE_AXES", "MOVE_ROW",
-           "BLANK_ROW"]
+           "BLANK_ROW", "check_moves"]
 
 
 class MoveKind(enum.IntEnum):
@@ -529,6 +529,71 @@ class Moves:
         data["laser_on"] = self.laser_on
         data["length_mm"] = self.lengths_mm()
         return pd.DataFrame(data)
+
+
+_NOT_MOVES_HINT = {str: "; G-code text becomes Moves with labkit.gcode.parse",
+                   dict: "; a program is built with labkit.toolpath.MovesBuilder"}
+
+
+def check_moves(value, *, name: str = "moves", finite: bool = True, error: type | None = None) -> Moves:
+    """Return ``value`` if it is a :class:`Moves` program, else raise labkit's error naming ``name``.
+
+    The entry check of the public functions that take a program (``emit``,
+    ``summarize``, ``plan``, ``simulate_burn``, the Dobot's reach check, …): text, a
+    dict or an array is not a program, and a position, arc centre, power or dwell
+    that is not finite would be planned, drawn or sent as nonsense.
+
+    Parameters
+    ----------
+    value : object
+        What the caller was given.
+    name : str
+        The argument's name, for the message.
+    finite : bool
+        Also require finite positions on motion rows, finite arc centres, finite
+        powers on motion rows and finite dwells on dwell rows.
+    error : type, optional
+        The :class:`labkit.errors.LabkitError` kind to raise (default ``InputError``).
+
+    Returns
+    -------
+    Moves
+
+    Examples
+    --------
+    >>> check_moves("G1 X10")
+    Traceback (most recent call last):
+    ...
+    labkit.errors.InputError: moves must be a labkit.toolpath.Moves, got str; G-code text becomes Moves with labkit.gcode.parse
+    >>> m = Moves(kind=[MoveKind.LINE], start=[[0, 0, 0]], end=[[np.nan, 0, 0]], feed_mm_min=[600])
+    >>> check_moves(m, name="job")
+    Traceback (most recent call last):
+    ...
+    labkit.errors.InputError: job: <moves>: move 0 has a position that is not finite (end X = nan); expected finite coordinates in mm
+    """
+    from labkit.errors import InputError
+
+    error = InputError if error is None else error
+    if not isinstance(value, Moves):
+        hint = next((h for t, h in _NOT_MOVES_HINT.items() if isinstance(value, t)), "")
+        raise error(f"{name} must be a labkit.toolpath.Moves, got {type(value).__name__}{hint}")
+    if not finite or not len(value):
+        return value
+    motion, arc, dwell = value.is_motion, value.is_arc, value.kind == MoveKind.DWELL
+    checks = [("start", value.start, motion, "a position", "finite coordinates in mm"),
+              ("end", value.end, motion, "a position", "finite coordinates in mm"),
+              ("centre", value.centre, arc, "an arc centre", "finite coordinates in mm"),
+              ("power_s", value.power_s[:, None], motion, "a power", "a finite S"),
+              ("dwell_s", value.dwell_s[:, None], dwell, "a dwell", "a finite dwell in s")]
+    for column, data, rows, what, expected in checks:
+        bad = rows[:, None] & ~np.isfinite(np.asarray(data, float))
+        if bad.any():
+            i, a = map(int, np.argwhere(bad)[0])
+            line = int(value.line[i])
+            axis = f" {'XYZ'[a]}" if data.shape[1] == 3 else ""
+            raise error(f"{name}: {value.source or '<moves>'}: move {i}{f' (line {line})' if line else ''} "
+                        f"has {what} that is not finite ({column}{axis} = {data[i, a]}); expected {expected}")
+    return value
 
 
 def _as_xyz(points) -> np.ndarray:

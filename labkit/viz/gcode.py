@@ -65,18 +65,9 @@ def moves_to_segments(moves: Moves, *, tol_mm: float, view: str = "xy"):
 
 def _refuse_non_finite(moves: Moves) -> None:
     """A position that is not finite cannot be drawn (nor cut): say which move."""
-    from labkit.errors import InputError
+    from labkit.toolpath.moves import check_moves
 
-    pts = np.concatenate([moves.start, moves.end], axis=1)
-    pts = np.where(moves.is_arc[:, None], np.concatenate([pts, moves.centre], axis=1),
-                   np.concatenate([pts, pts[:, :3]], axis=1))
-    bad = moves.is_motion & ~np.isfinite(pts).all(axis=1)
-    if bad.any():
-        i = int(np.flatnonzero(bad)[0])
-        line = int(moves.line[i])
-        raise InputError(f"{moves.source or '<moves>'}: move {i}"
-                         f"{f' (line {line})' if line else ''} has a position that is not finite; "
-                         "expected finite coordinates in mm")
+    check_moves(moves)
 
 
 def rasterize_moves(moves: Moves, *, view: str = "xy", pixels: int = IMAGE_PIXELS):
@@ -182,6 +173,7 @@ def plot_moves(moves: Moves, ax=None, *, view: str = "xy", show_travel: bool = T
     import matplotlib.pyplot as plt
     from matplotlib.collections import LineCollection
 
+    _refuse_non_finite(moves)
     if cmap is None:
         cmap = power_colormap()
     if view not in _PLANE_VIEW:
@@ -191,7 +183,6 @@ def plot_moves(moves: Moves, ax=None, *, view: str = "xy", show_travel: bool = T
     if len(moves) == 0 or not moves.is_motion.any():
         ax.set_title(title or "empty program")
         return ax
-    _refuse_non_finite(moves)
     moves = moves.in_work_coordinates()     # what the program's words say (G54-G59, G92)
     ax0, ax1 = _PLANE_VIEW[view]
     box = moves.bounds()
