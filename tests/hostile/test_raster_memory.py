@@ -80,3 +80,45 @@ def test_image_size_is_checked_by_the_pixels_budget_before_decoding(tmp_path, mo
     monkeypatch.setitem(BUDGETS, "pixels", 11_999)
     with pytest.raises(BudgetError, match=r"12,000 pixels .* reading the 120 × 100 px image"):
         read_image(path)
+
+
+#: Peak resident memory per move of a gray job above the same command on a tiny image
+#: (Python, numpy, scipy, numba and matplotlib loaded: ~260 MB). Measured 239-243 B on the
+#: 500 × 450 photo (Moves 123 B allocated, the G-code text, the emitter's int64 copies and
+#: output buffer, the preview); before issue 27 it was about 425 B (1.18 GB for the photo).
+GRAY_BYTES_PER_MOVE = 300
+
+_PEAK_RSS = ("import resource, subprocess, sys; r = subprocess.run(sys.argv[1:], capture_output=True); "
+             "sys.exit(r.stderr.decode()) if r.returncode else "
+             "print(r.stdout.decode(), resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)")
+
+
+def _peak_rss_mb(args, tmp_path):
+    """(stdout, peak resident MB) of ``labkit ARGS`` in a fresh process."""
+    import os
+    import subprocess
+    import sys
+
+    from tests.hostile.conftest import ROOT
+
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    done = subprocess.run([sys.executable, "-c", _PEAK_RSS, sys.executable, "-m", "labkit", *map(str, args)],
+                          capture_output=True, text=True, env=env, cwd=tmp_path, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    out, rss_kb = done.stdout.rsplit(None, 1)
+    return out, int(rss_kb) / 1024.0
+
+
+def test_a_photo_in_gray_mode_costs_a_few_hundred_bytes_a_move(tmp_path):
+    """The issue's photo (500 × 450 px at 72 dpi: 1764 × 1587 beam pixels, 2.26 M moves),
+    with the default preview, against the same command on an 8 × 8 px image."""
+    from tests.hostile.conftest import ROOT
+
+    photo = ROOT / "data" / "images" / "photo_500x450_72dpi.jpg"
+    tiny = tmp_path / "tiny.png"
+    Image.fromarray(np.arange(64, dtype=np.uint8).reshape(8, 8) * 4).save(tiny, dpi=(254, 254))
+    _, base_mb = _peak_rss_mb(["img2gcode", tiny, "-o", tmp_path / "t.gcode", "--mode", "gray"], tmp_path)
+    out, photo_mb = _peak_rss_mb(["img2gcode", photo, "-o", tmp_path / "p.gcode", "--mode", "gray"], tmp_path)
+    moves = int(next(line for line in out.splitlines() if line.startswith("moves / rapids")).split()[-3])
+    assert moves > 2_000_000
+    assert (photo_mb - base_mb) * 2**20 / moves <= GRAY_BYTES_PER_MOVE, (base_mb, photo_mb, moves)

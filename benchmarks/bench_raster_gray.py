@@ -1,0 +1,157 @@
+"""Gray-mode benchmark (issue 27): an ordinary photo to G-code, time and memory, against a
+plain peer measured in the same run.
+
+The photo is data/images/photo_500x450_72dpi.jpg (500 × 450 px at 72 dpi: a 176 × 159 mm
+job, 1764 × 1587 beam pixels at 0.1 mm, about 2.26 million moves — one per change of power).
+
+1. The whole command, ``labkit img2gcode --mode gray``, with its default preview and without,
+   as a user runs it (a fresh process, best of 2 after a warm-up): CPU time (user + system,
+   what the command costs whatever else the 2 cores run), wall time and peak resident memory;
+   against a plain program that reads the JPEG with Pillow, resizes it bicubically to the beam
+   with Pillow, maps darkness to S with numpy and writes one G1 per run of equal S in Python
+   (bidirectional lines, no overscan, no white skipping, no report: less work than labkit).
+   Ratios without the preview: CPU peer / labkit, memory labkit / peer (what labkit's imports,
+   its Moves model and the job summary cost on top of writing the text).
+2. Where labkit's time goes, in one process (kernels and imports warm): reading, the job
+   (resampling, power map, scan lines into Moves, summary), the G-code text, the preview;
+   and the Moves' bytes per move.
+
+Issue 27 measured 25 s and 1.1 GB for this command before the fix (the scan's cuts were
+held as arrays, then copied into Moves; the summary copied every column twice; the preview
+rasterised all moves at once).
+
+Run: .venv/bin/python benchmarks/bench_raster_gray.py   (about a minute; 2 cores)
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from _process import ROOT
+
+PHOTO = ROOT / "data" / "images" / "photo_500x450_72dpi.jpg"
+
+#: The plain peer: Pillow, numpy, and a Python loop writing the text.
+PEER = r"""
+import sys
+import numpy as np
+from PIL import Image
+
+src, out = sys.argv[1], sys.argv[2]
+beam = 0.1
+im = Image.open(src).convert("L")
+dpi = im.info.get("dpi", (96, 96))[0]
+cols = round(im.width * 25.4 / dpi / beam)
+rows = round(im.height * 25.4 / dpi / beam)
+gray = np.asarray(im.resize((cols, rows), Image.BICUBIC), dtype=float)
+power = np.rint(1000 * (1 - gray / 255)).astype(int)
+lines = ["G21 G90", "M4 S0", "F1000"]
+for k, r in enumerate(range(rows - 1, -1, -1)):
+    row = power[r].tolist()
+    y = (rows - r - 0.5) * beam
+    order = range(cols) if k % 2 == 0 else range(cols - 1, -1, -1)
+    first = order[0]
+    lines.append(f"G0 X{(first if k % 2 == 0 else first + 1) * beam:.3f} Y{y:.3f}")
+    c_prev, s_prev = None, None
+    for c in order:
+        s = row[c]
+        if s_prev is not None and s != s_prev:
+            x = c * beam if k % 2 == 0 else (c + 1) * beam
+            lines.append(f"G1 X{x:.3f} S{s_prev}")
+        s_prev = s
+    end = cols * beam if k % 2 == 0 else 0.0
+    lines.append(f"G1 X{end:.3f} S{s_prev}")
+lines += ["M5", "M2"]
+with open(out, "w") as fh:
+    fh.write("\n".join(lines) + "\n")
+"""
+
+#: Runs argv as a child; prints its wall time, CPU time (user + system) and peak resident memory.
+CHILD_USAGE = (
+    "import resource, subprocess, sys, time; t = time.perf_counter(); "
+    "r = subprocess.run(sys.argv[1:], capture_output=True); t = time.perf_counter() - t; "
+    "u = resource.getrusage(resource.RUSAGE_CHILDREN); "
+    "sys.exit(r.stderr.decode()) if r.returncode else print(t, u.ru_utime + u.ru_stime, u.ru_maxrss)")
+
+
+def usage(argv, repeat=2):
+    """Best wall and CPU seconds and the peak resident MB of ``argv`` as a fresh process, after
+    a warm-up run (compiled kernels and bytecode cached, as on a user's second run). CPU time
+    is what the command costs whatever else the machine runs; wall time shows the waiting."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    runs = []
+    for _ in range(repeat + 1):
+        done = subprocess.run([sys.executable, "-c", CHILD_USAGE, *argv], cwd=ROOT, capture_output=True,
+                              text=True, env=env)
+        if done.returncode:
+            raise SystemExit(f"{' '.join(argv)} failed:\n{done.stderr}")
+        wall, cpu, rss_kb = done.stdout.split()[-3:]
+        runs.append((float(wall), float(cpu), int(rss_kb) / 1024.0))
+    runs = runs[1:]
+    return min(r[0] for r in runs), min(r[1] for r in runs), max(r[2] for r in runs)
+
+
+def bench_command():
+    print("1. labkit img2gcode --mode gray, 500 × 450 px photo at 72 dpi (176 × 159 mm at 0.1 mm), "
+          "fresh process, best of 2")
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "a.gcode"
+        ours = [sys.executable, "-m", "labkit", "img2gcode", str(PHOTO), "-o", str(out), "--mode", "gray",
+                "--force"]
+        peer = [sys.executable, "-c", PEER, str(PHOTO), str(Path(tmp) / "b.gcode")]
+        rows = {"labkit, with its preview": usage(ours),
+                "labkit --preview none": usage(ours + ["--preview", "none"]),
+                "plain Pillow + Python": usage(peer)}
+        lines = sum(1 for _ in open(out))
+    for name, (wall, cpu, rss) in rows.items():
+        print(f"   {name:26s} CPU {cpu:5.2f} s   wall {wall:5.2f} s   peak {rss:5.0f} MB")
+    _, cpu_ours, rss_ours = rows["labkit --preview none"]
+    _, cpu_peer, rss_peer = rows["plain Pillow + Python"]
+    print(f"   {lines:,} G-code lines; without the preview: CPU peer / labkit {cpu_peer / cpu_ours:4.2f}×, "
+          f"memory labkit / peer {rss_ours / rss_peer:4.2f}×")
+
+
+def bench_stages():
+    from labkit.gcode import emit
+    from labkit.raster.engrave import RasterSettings, image_to_job, placed_size
+    from labkit.raster.io import read_image
+    from labkit.viz.raster import save_job_preview
+
+    def job():
+        img = read_image(PHOTO)
+        size = placed_size(img.pixels.shape, file_dpi=img.dpi, pixel_aspect=img.pixel_aspect)[2]
+        return image_to_job(img, RasterSettings(mode="gray", beam_mm=0.1, feed_mm_min=1000.0, **size))
+
+    with tempfile.TemporaryDirectory() as tmp:
+        warm = job()                                  # imports, kernels
+        save_job_preview(warm, Path(tmp) / "w.png")
+        del warm
+        times = {}
+        t = time.perf_counter()
+        read_image(PHOTO)
+        times["read"] = time.perf_counter() - t
+        t = time.perf_counter()
+        j = job()
+        times["job (incl. read)"] = time.perf_counter() - t
+        t = time.perf_counter()
+        text = emit(j.moves)
+        times["G-code text"] = time.perf_counter() - t
+        t = time.perf_counter()
+        save_job_preview(j, Path(tmp) / "p.png")
+        times["preview"] = time.perf_counter() - t
+    print(f"2. stages in one process (warm): {len(j.moves):,} moves, "
+          f"{j.moves.nbytes / len(j.moves):.0f} B per move allocated, {len(text) / 1e6:.1f} MB of text")
+    print("   " + "   ".join(f"{k} {v:5.2f} s" for k, v in times.items()))
+
+
+if __name__ == "__main__":
+    only = sys.argv[1:]             # e.g. `bench_raster_gray.py command`
+    for name, fn in (("command", bench_command), ("stages", bench_stages)):
+        if not only or name in only:
+            fn()
