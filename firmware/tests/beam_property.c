@@ -318,7 +318,9 @@ static void pass(const char *where) {
   beam_check(where);
 }
 
-/* After these the beam must be off at once (and, after a reset, nothing queued). */
+/* After a soft reset the beam is off and nothing is queued. A hold is taken
+   only while something moves (GRBL ignores '!' at rest, and the next line
+   may start a cut in the same pass); once taken, beam_check holds it dark. */
 static void after_realtime(uint8_t byte) {
   uint16_t was = out_duty;
   pass("after a real-time byte");
@@ -326,9 +328,7 @@ static void after_realtime(uint8_t byte) {
     stats.resets++;
     if (out_duty || !st_is_idle() || !plan_is_empty() || menu_laser_is_on())
       failf("after a soft reset", "beam on or motion queued after a soft reset");
-  } else if (out_duty) {
-    failf("after a feed hold", "beam on after a feed hold");
-  } else if (was) {
+  } else if (was && (protocol_hold_requested() || st_state() == ST_HOLDING || st_state() == ST_HELD)) {
     stats.holds_burning++;
   }
 }
