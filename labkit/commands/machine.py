@@ -195,11 +195,16 @@ def _open_transcript(path):
     written and flushed as it happens, so the transcript survives any end of the stream."""
     if not path:
         return None
+    import time
+
     from labkit.errors import InputError
     from labkit.machine.grbl import Transcript
 
     try:
         fh = open(path, "w", encoding="utf-8")
+        fh.write(f"# labkit stream transcript, {time.strftime('%Y-%m-%d %H:%M:%S')}: seconds, "
+                 f"> sent, < received, # labkit's notes\n")
+        fh.flush()                           # a full disk shows here, not after the job
     except OSError as exc:
         raise InputError(f"--log {path}: cannot write the transcript there ({exc.strerror}); "
                          f"nothing was sent") from None

@@ -41,12 +41,41 @@ class FaultyPort:
         character-counting sender would wait for it forever).
     delay_s : float
         Delay added to every read that returns data.
+    double_ok : int, optional
+        The k-th ``ok`` after the first G-code line comes twice (an answer
+        that is not owed).
+    oks_after_banner : int
+        This many unsolicited ``ok`` lines follow the first start-up banner.
+    oks_at_first_line : int
+        This many unsolicited ``ok`` lines come back when the first G-code
+        line arrives.
+    mute_answers_after : int, optional
+        After k lines every ``ok``/``error`` is lost (status reports still come:
+        a controller that takes lines without answering).
+    status_rewrite : callable, optional
+        ``f(report) -> report`` applied to every status report (absurd fields).
+    disconnect_after_oks : int, optional
+        Once the k-th ``ok`` after the first G-code line has come back, every
+        read and write fails (the cable pulled mid-job).
     """
 
     def __init__(self, vm: VirtualMachine, *, garble_line=None, drop_newline_of=None,
                  drop_byte_at=None, disconnect_after_lines=None, silent_after_lines=None,
-                 reset_after_lines=None, drop_ok=None, delay_s=0.0):
+                 reset_after_lines=None, drop_ok=None, delay_s=0.0, double_ok=None,
+                 oks_after_banner=0, oks_at_first_line=0, mute_answers_after=None,
+                 status_rewrite=None, disconnect_after_oks=None):
         self.vm = vm
+        self.double_ok = double_ok
+        self.oks_after_banner = oks_after_banner
+        self.oks_at_first_line = oks_at_first_line
+        self.mute_answers_after = mute_answers_after
+        self.status_rewrite = status_rewrite
+        self.disconnect_after_oks = disconnect_after_oks
+        self.job_oks = 0                 # oks since the first G-code line
+        self._banner_seen = False
+        self._filter = any(v is not None and v is not False and v != 0 for v in (
+            drop_ok, double_ok, oks_after_banner, mute_answers_after, status_rewrite,
+            disconnect_after_oks))
         self.garble_line = garble_line
         self.drop_newline_of = drop_newline_of
         self.drop_byte_at = drop_byte_at
@@ -78,7 +107,7 @@ class FaultyPort:
         if self.silent:
             self.vm.reset_input_buffer()
             return 0
-        return self.vm.in_waiting
+        return self.vm.in_waiting + self._reply.rfind(b"\n") + 1     # whole lines held back
 
     def write(self, data: bytes) -> int:
         if self.dead:
@@ -98,6 +127,9 @@ class FaultyPort:
             self._line.clear()
             if not line.startswith(b"$"):
                 self.lines += 1
+                if self.lines == 1 and self.oks_at_first_line:
+                    self._reply[:0] = b"ok\r\n" * self.oks_at_first_line
+                    self._filter = True
                 if self.lines == self.garble_line:
                     line = b"G999\n"
                 if self.lines == self.drop_newline_of:
@@ -122,21 +154,46 @@ class FaultyPort:
         data = self.vm.read(size)
         if self.silent:
             return b""
-        if self.drop_ok is not None and data:
+        if self._filter and (data or self._reply):
             self._reply += data
-            out = bytearray()
-            while b"\n" in self._reply:
-                cut = self._reply.index(b"\n") + 1
-                line, self._reply = bytes(self._reply[:cut]), self._reply[cut:]
-                if line.strip() == b"ok":
-                    self.oks += 1
-                    if self.oks == self.drop_ok:
-                        continue
-                out += line
-            data = bytes(out)
+            data = self._filter_replies()
         if data and self.delay_s:
             time.sleep(self.delay_s)
         return data
+
+    def inject(self, data: bytes) -> None:
+        """Bytes the controller sends unasked (say ``b"ok\\r\\n"``), ahead of its own replies."""
+        self._reply[:0] = data
+        self._filter = True
+
+    def _filter_replies(self) -> bytes:
+        """The complete reply lines waiting, with the answer faults applied."""
+        out = bytearray()
+        while b"\n" in self._reply:
+            cut = self._reply.index(b"\n") + 1
+            line, self._reply = bytes(self._reply[:cut]), self._reply[cut:]
+            text = line.strip()
+            if text.startswith(b"<") and self.status_rewrite is not None:
+                line = self.status_rewrite(text.decode()).encode() + b"\r\n"
+            answer = text == b"ok" or text.startswith(b"error")
+            if answer and self.mute_answers_after is not None and self.lines >= self.mute_answers_after:
+                continue
+            if text == b"ok":
+                self.oks += 1
+                if self.oks == self.drop_ok:
+                    continue
+            out += line
+            if text.startswith(b"Grbl") and not self._banner_seen:
+                self._banner_seen = True
+                out += b"ok\r\n" * self.oks_after_banner
+            if text == b"ok" and self.lines:
+                self.job_oks += 1
+                if self.job_oks == self.double_ok:
+                    out += line
+                if self.job_oks == self.disconnect_after_oks:
+                    self.dead = True             # this read still delivers; the next fails
+                    break
+        return bytes(out)
 
     def flush(self):
         pass

@@ -350,6 +350,9 @@ class Grbl:
     dialect = "grbl"
 
     def __init__(self, link: Link, *, transcript: list | None = None, log_status: bool = False):
+        if not isinstance(link, Link):
+            raise MachineError(f"{type(self).__name__}: link must be an open Link "
+                               f"(labkit.machine.open_link(port)), got {type(link).__name__}")
         self.link = link
         self.transcript = transcript if transcript is not None else []
         self.log_status = log_status
@@ -540,10 +543,23 @@ class Grbl:
                     f"no GRBL start-up banner from {self.link.name} within {timeout_s:g} s: is it "
                     f"the right port, 115200 baud, and a GRBL-compatible controller?")
         time.sleep(0.05)
-        self.drain_events()
+        self._refuse_unasked_answers(self.drain_events())
         self.read_info()
         self.read_settings()
         return self.info
+
+    def _refuse_unasked_answers(self, events: list) -> None:
+        """An ``ok``/``error`` after the start-up banner, before any line was sent, answers
+        nothing: the controller (or something else on the line) is not in step with labkit,
+        and every later answer would be matched to the wrong line."""
+        resets = [k for k, ev in enumerate(events) if ev.kind == "reset"]
+        after = events[resets[-1] + 1:] if resets else events
+        stray = [ev for ev in after if ev.kind in ("ok", "error")]
+        if stray:
+            raise MachineError(
+                f"protocol error: {self.link.name} sent {len(stray)} answer(s) ('{stray[0].text}') "
+                f"after its start-up banner, before any line was sent: another program may be "
+                f"talking to it, or it is not a GRBL in step with labkit; nothing was sent")
 
     def read_info(self) -> MachineInfo:
         """``$I``: version and ``[OPT:flags,planner blocks,RX bytes]`` (grblHAL: 1024 bytes)."""
@@ -673,8 +689,8 @@ class Grbl:
     def test_pulse(self, power_s: float, duration_s: float = 0.2, *, step_mm: float = 0.05) -> None:
         """Fire the laser briefly at ``power_s`` where the head is, to find the focus or the beam.
 
-        GRBL's laser mode (``$32=1``) keeps the beam off unless the machine moves, so the
-        pulse is a slow step of ``step_mm`` out and back (the head ends where it was), each
+        GRBL's laser mode (``$32=1``) with M4 keeps the beam off unless the machine moves (M3
+        would leave it on at rest until M5 arrives), so the pulse is an M4 slow step of ``step_mm`` out and back (the head ends where it was), each
         half in ``duration_s / 2``; then ``M5``, and the distance mode and feed rate in
         effect before are restored.
 
@@ -697,7 +713,7 @@ class Grbl:
         feed = next((w[1:] for w in state if w.startswith("F")), "0")
         f = 60.0 * step_mm / (duration_s / 2.0)
         try:
-            self.command(f"G91 G1 X{step_mm:g} F{f:.4g} S{power_s:g} M3")
+            self.command(f"G91 G1 X{step_mm:g} F{f:.4g} S{power_s:g} M4")
             self.command(f"X{-step_mm:g}")
         finally:
             self.command(f"M5 {'G91' if relative else 'G90'}" + (f" F{feed}" if float(feed) > 0 else ""))

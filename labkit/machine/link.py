@@ -220,11 +220,33 @@ def open_link(port: str | None = None, baud: int = DEFAULT_BAUD, *, exclusive: b
     'virtual://'
     >>> link.close()
     """
+    if port is not None and not isinstance(port, str):
+        raise MachineError(f"open_link: port must be a device name or URL (a str such as "
+                           f"'/dev/ttyUSB0' or 'virtual://') or None, got {type(port).__name__}")
+    if isinstance(baud, bool) or not isinstance(baud, int) or baud <= 0:
+        raise MachineError(f"open_link: baud must be a positive whole number (e.g. 115200), got "
+                           f"{baud!r}")
+    if virtual_options is not None and not isinstance(virtual_options, dict):
+        raise MachineError(f"open_link: virtual_options must be a dict of VirtualMachine "
+                           f"options (e.g. {{'time_scale': 0}}), got {type(virtual_options).__name__}")
     if port is None or port.startswith("virtual://"):
+        import inspect
+
+        from labkit.errors import LabkitError
         from labkit.machine.virtual import VirtualMachine
 
         opts = dict(virtual_options or {})
-        return Link(VirtualMachine(**opts), "virtual://")
+        known = set(inspect.signature(VirtualMachine).parameters)
+        unknown = sorted(set(opts) - known)
+        if unknown:
+            raise MachineError(f"open_link: virtual_options has {', '.join(map(repr, unknown))}, "
+                               f"which the virtual machine does not take (it takes "
+                               f"{', '.join(sorted(known))})")
+        try:
+            vm = VirtualMachine(**opts)
+        except LabkitError as exc:
+            raise MachineError(f"open_link: virtual_options['machine']: {exc}") from None
+        return Link(vm, "virtual://")
     import serial
 
     try:

@@ -481,35 +481,37 @@ def _stream(grbl: Grbl, job: Job, report: JobReport, controls: Controls, signals
             on_error, check_first, resume_from, resume_position, progress, status_interval_s,
             watchdog_s, stall_s, preflight, machine) -> None:
     """The run itself: pre-flight, sending, accounting; every end through :func:`_make_safe`."""
-    # before anything is sent: the controller's state, and answers that no line asked for
-    try:
-        st0 = grbl.get_status(max(2.0, watchdog_s))
-    except MachineError as exc:
-        report.refused = True
-        report.fault = f"no status report before the job ({exc}); nothing was sent"
-        return
-    stray = [ev for ev in grbl.drain_events() if ev.kind in ("ok", "error")]
-    if stray:
-        report.refused = True
-        report.fault = (f"protocol error: {len(stray)} answer(s) ('{stray[0].text}') arrived that "
-                        f"no line asked for, before the job started — another program may be "
-                        f"sending to this controller, or an earlier job is still running; "
-                        f"nothing was sent")
-        return
-    if preflight:
-        problems, notes = preflight_check(grbl, job, machine=machine, status=st0)
-        report.warnings.extend(notes)
-        if problems:
+    # before anything is sent: answers that no line asked for (before and after the pre-flight
+    # commands, which would take one as theirs), and the job against the controller
+    for stage in ("before", "after") if preflight else ("before",):
+        try:
+            st0 = grbl.get_status(max(2.0, watchdog_s))   # in wire order after any stray answer
+        except MachineError as exc:
             report.refused = True
-            report.fault = ("refused before anything was sent (pre-flight check against the "
-                            "controller): " + " · ".join(problems))
+            report.fault = f"no status report before the job ({exc}); nothing was sent"
             return
+        stray = [ev for ev in grbl.drain_events() if ev.kind in ("ok", "error")]
+        if stray:
+            report.refused = True
+            report.fault = (f"protocol error: {len(stray)} answer(s) ('{stray[0].text}') arrived "
+                            f"that no line asked for, before the job started — another program "
+                            f"may be sending to this controller, or an earlier job is still "
+                            f"running; nothing was sent")
+            return
+        if stage == "before" and preflight:
+            problems, notes = preflight_check(grbl, job, machine=machine, status=st0)
+            report.warnings.extend(notes)
+            if problems:
+                report.refused = True
+                report.fault = ("refused before anything was sent (pre-flight check against the "
+                                "controller): " + " · ".join(problems))
+                return
     send = list(job.send)
     if resume_from is not None:
         send = _resume_send(job, int(resume_from), resume_position)
     rx_limit = grbl.info.rx_bytes - 1 if mode == "counting" else 10 ** 9
     inflight: deque = deque()          # (source line, bytes)
-    acked: list[tuple[int, int]] = []  # (source line, blocks) of acknowledged motion lines
+    acked: list[tuple] = []            # (source line, blocks, answer number) of acknowledged motion lines
     try:
         if check_first:
             bad = check_job(grbl, job, stop=lambda: _requested_stop(controls, signals))
@@ -620,13 +622,14 @@ def _send_all(grbl: Grbl, job: Job, report: JobReport, controls: Controls, signa
         """Count the oldest ``lost`` lines in flight as answered (``ran``: as executed too);
         returns their bytes."""
         freed = 0
+        seq = grbl.status.answers_before if grbl.status is not None else grbl.answer_count
         for _ in range(min(lost, len(inflight))):
             ln, n = inflight.popleft()
             freed += abs(n)
             report.lines_acknowledged += 1
             report.last_acknowledged_line = max(report.last_acknowledged_line, ln)
             if ran and ln in job.blocks_per_line:
-                acked.append((ln, job.blocks_per_line[ln]))
+                acked.append((ln, job.blocks_per_line[ln], seq))
             report.answers_lost += 1
             report.warnings.append(
                 f"an answer (or a line end) was lost on the link near line {ln}: re-synchronised "
@@ -751,7 +754,13 @@ def _send_all(grbl: Grbl, job: Job, report: JobReport, controls: Controls, signa
                                    f"{grbl.answer_count - answers_base} answers to "
                                    f"{len(line_ends)} lines sent; it rejected one of the lines "
                                    f"in doubt", inflight[0][0])
-                _check_count(st, snap)
+                try:
+                    _check_count(st, snap)
+                except _Fault:
+                    first, last = _in_doubt(inflight[0][0])
+                    report.errors.append((first, ev.code, f"{error_message(ev.code)} — on one of "
+                                          f"lines {first}…{last} (the answers were out of step)"))
+                    raise
                 if mode == "counting":
                     lost = min(_answers_lost(grbl, snap, line_ends, sent_texts, answers_base),
                                len(inflight) - 1)
@@ -772,7 +781,7 @@ def _send_all(grbl: Grbl, job: Job, report: JobReport, controls: Controls, signa
             report.lines_acknowledged += 1
             report.last_acknowledged_line = ln
             if ev.kind == "ok" and ln in job.blocks_per_line:   # a rejected line plans nothing
-                acked.append((ln, job.blocks_per_line[ln]))
+                acked.append((ln, job.blocks_per_line[ln], ev.seq))
             if lost:
                 # the later candidates: answered, but not known to have run (a resume from
                 # the named line runs them again rather than skip one)
@@ -870,17 +879,22 @@ def _answers_lost(grbl: Grbl, sent_at_query, line_ends: list, sent_texts: list, 
 def _executed_line(grbl: Grbl, acked: list, last_ack: int) -> int:
     """The last source line whose motion has completed, from the planner occupancy.
 
-    Without a buffer report (``Bf``) the planner is taken as full: GRBL answers a line
-    when it is planned, so every acknowledged block but the last ``planner_blocks``
-    has run — a bound that never claims a line that may not have run.
+    ``acked`` holds (source line, blocks, answer number) of the acknowledged motion lines.
+    The blocks in the planner are those of the last status report plus those of the lines
+    acknowledged after it (in wire order), at most the planner's depth: without a buffer
+    report (``Bf``) the planner is taken as full. GRBL answers a line when it is planned,
+    so every acknowledged block but those has run — a bound that never claims a line that
+    may not have run.
     """
     st = grbl.status
+    depth = grbl.info.planner_blocks
     if st is not None and st.line is not None and st.line > 0:
         return st.line - 1
     if st is None or st.planner_free is None:
-        in_planner = grbl.info.planner_blocks
+        in_planner = depth
     else:
-        in_planner = max(0, grbl.info.planner_blocks - st.planner_free)
+        later = sum(a[1] for a in acked if a[2] >= st.answers_before)
+        in_planner = min(depth, max(0, depth - st.planner_free) + later)
     remaining = in_planner
     for idx in range(len(acked) - 1, -1, -1):
         if remaining <= 0:
@@ -914,15 +928,27 @@ def _make_safe(grbl: Grbl, fault: _Fault, report: JobReport, acked: list, inflig
     st = stop.stopped_status
     if st is not None:
         report.stop_position = _job_position(st)
-    # answers that arrived before the stopped status report retire lines in flight
+    # answers that arrived before the stopped status report retire lines in flight — unless the
+    # answers are out of step (a protocol fault): then an error among them is on one of the
+    # lines in doubt, and none of them acknowledges a line
     limit = st.answers_before if st is not None else grbl.answer_count
+    if doubt_resume is not None:
+        for ev in stop.events:
+            if ev.kind == "error" and ev.seq < limit:
+                naive = inflight.popleft()[0] if inflight else report.last_acknowledged_line
+                report.errors.append((doubt_resume, ev.code, f"{error_message(ev.code)} — on one "
+                                      f"of lines {doubt_resume}…{max(naive, doubt_resume)} (the "
+                                      f"answers were out of step)"))
+            elif ev.kind == "ok" and inflight:
+                inflight.popleft()
+        stop.events = []
     for ev in stop.events:
         if ev.kind in ("ok", "error") and ev.seq < limit and inflight:
             ln, n = inflight.popleft()
             report.lines_acknowledged += 1
             report.last_acknowledged_line = ln
             if ev.kind == "ok" and ln in job.blocks_per_line:
-                acked.append((ln, job.blocks_per_line[ln]))
+                acked.append((ln, job.blocks_per_line[ln], ev.seq))
             if ev.kind == "error":
                 report.errors.append((ln, ev.code, error_message(ev.code)))
     if report.stop_position is None and not grbl.disconnected:
@@ -933,7 +959,7 @@ def _make_safe(grbl: Grbl, fault: _Fault, report: JobReport, acked: list, inflig
     if doubt_resume is not None:
         report.resume_line = doubt_resume
         report.last_executed_line = min(report.last_executed_line,
-                                        max((ln for ln, _ in acked if ln < doubt_resume), default=0))
+                                        max((a[0] for a in acked if a[0] < doubt_resume), default=0))
         return
     if not stop.told or (st is None and grbl.disconnected):
         _after_link_loss(grbl, report, acked, job)
@@ -953,12 +979,12 @@ def _make_safe(grbl: Grbl, fault: _Fault, report: JobReport, acked: list, inflig
         nxt = [ln for ln, _ in job.send if ln > report.last_acknowledged_line]
         report.resume_line = nxt[0] if nxt else None
     else:
-        report.last_executed_line = max((ln for ln, _ in acked if ln < first), default=0)
+        report.last_executed_line = max((a[0] for a in acked if a[0] < first), default=0)
         report.resume_line = first
     # a rejected line never ran: resume from it when no motion line ran after it
     for ln, code, _ in report.errors:
         if report.resume_line is None or ln < report.resume_line:
-            ran_after = [a for a, _ in acked if a > ln and (report.resume_line is None
+            ran_after = [a for a, *_ in acked if a > ln and (report.resume_line is None
                                                             or a < report.resume_line)]
             if not ran_after:
                 report.resume_line = ln

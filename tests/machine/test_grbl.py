@@ -265,3 +265,22 @@ def test_labkit_firmware_er_codes_use_the_shared_table():
         fw.command("G1 X10 F10")
     assert fw.command("G1 X10 F10") == []
     fw.close()
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda: open_link({"port": "/dev/ttyUSB0"}), r"open_link: port must be a device name or "
+                                                  r"URL .* got dict"),
+    (lambda: open_link("virtual://", "115200"), r"open_link: baud must be a positive whole number"),
+    (lambda: open_link("virtual://", virtual_options="grbl-diode"),
+     r"open_link: virtual_options must be a dict .* got str"),
+    (lambda: open_link(virtual_options={"machine": {"travel_mm": 300}}),
+     r"open_link: virtual_options\['machine'\]: machine must be a MachineSpec, a machine's name "
+     r"or a TOML file, got dict"),
+    (lambda: open_link(virtual_options={"speed": 2}), r"open_link: virtual_options has 'speed'"),
+    (lambda: Grbl("virtual://"), r"Grbl: link must be an open Link .* got str"),
+])
+def test_the_wrong_kind_of_argument_is_named(call, match):
+    """Issue 25 §5: a str or dict where a machine (a port, a link, its options) is expected gets
+    labkit's own error naming the argument, never an AttributeError from deep inside."""
+    with pytest.raises(MachineError, match=match):
+        call()
