@@ -49,7 +49,7 @@ class SvgScan:
     max_depth: int
     uses: int
     unrendered: int = 0        # elements render_only rewrites (containers never drawn directly,
-                               # switch, transform-origin)
+                               # switch, transform-origin, a rect's percentage radius)
     clip_transforms: dict = None   # clipPath id → its own transform attribute ("" when none):
                                    # svgelements folds the context where it is defined in too
 
@@ -145,7 +145,8 @@ def scan_svg(data: bytes, name: str) -> SvgScan:
                             f"draws nothing), so labkit will not cut it")
         if local == "clipPath" and ident is not None:
             clips[ident] = attrs.get("transform", "")
-        if local in _UNRENDERED or local == "switch" or "transform-origin" in attrs:
+        if (local in _UNRENDERED or local == "switch" or "transform-origin" in attrs
+                or (local == "rect" and "%" in attrs.get("rx", "") + attrs.get("ry", ""))):
             state["unrendered"] += 1
         stack.append([ident, Counter()])
         counts.append(state["n"])
@@ -231,8 +232,10 @@ def render_only(data: bytes) -> tuple[bytes, list[str]]:
     ``mask`` and ``pattern`` moved into ``<defs>`` (still usable by ``<use>``, never drawn
     where they stand), ``metadata``/``title``/``desc`` and ``flowRoot`` text frames removed,
     each ``<switch>`` reduced to its first child (the one a renderer without optional
-    features picks), and ``transform-origin`` (SVG 2, which svgelements ignores) folded
-    into the ``transform`` as translate(o) · T · translate(−o).
+    features picks), ``transform-origin`` (SVG 2, which svgelements ignores) folded
+    into the ``transform`` as translate(o) · T · translate(−o), and a rect's ``rx``/``ry``
+    given in percent resolved against the nearest viewport (rx of its width, ry of its
+    height, as renderers do; svgelements takes them of the rect's own size).
 
     Returns
     -------
@@ -254,9 +257,9 @@ def render_only(data: bytes) -> tuple[bytes, list[str]]:
     ET.register_namespace("xlink", _XLINK)
     root = ET.fromstring(data)
     dropped: list[str] = []
-    todo = [root]
+    todo = [(root, _viewport(root, None))]
     while todo:                               # iterative: depth is bounded, but recursion is not needed
-        parent = todo.pop()
+        parent, viewport = todo.pop()
         in_defs = _local(parent.tag) == "defs"
         for i, child in enumerate(list(parent)):
             tag = _local(child.tag) if isinstance(child.tag, str) else ""
@@ -279,9 +282,58 @@ def render_only(data: bytes) -> tuple[bytes, list[str]]:
                     kids = [k for k in child if isinstance(k.tag, str)]
                     for k in kids[1:]:
                         child.remove(k)
-                todo.append(child)
+                if tag == "rect":
+                    _resolve_radii(child, viewport)
+                todo.append((child, _viewport(child, viewport) if tag == "svg" else viewport))
     return ET.tostring(root, encoding="unicode").encode("utf-8"), dropped
 
+
+
+#: CSS absolute units in px (96 per inch), for a viewport given by width and height alone.
+_PX_PER_UNIT = {"": 1.0, "px": 1.0, "in": 96.0, "cm": 96.0 / 2.54, "mm": 96.0 / 25.4,
+                "pt": 96.0 / 72.0, "pc": 16.0}
+
+
+def _viewport(svg, outer) -> tuple[float, float] | None:
+    """Width and height in user units of the viewport an ``<svg>`` element sets up: its
+    viewBox, else its width and height (absolute units), else 100 % of ``outer``."""
+    nums = [float(t) for t in _NUMBER.findall(svg.get("viewBox", ""))]
+    if len(nums) == 4 and nums[2] > 0 and nums[3] > 0:
+        return nums[2], nums[3]
+    size = []
+    for key, share in (("width", 0), ("height", 1)):
+        m = re.fullmatch(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([a-z%]*)\s*",
+                         svg.get(key, "100%"))
+        if m is None:
+            return None
+        value, unit = float(m.group(1)), m.group(2)
+        if unit == "%":
+            if outer is None:
+                return None
+            size.append(value / 100.0 * outer[share])
+        elif unit in _PX_PER_UNIT:
+            size.append(value * _PX_PER_UNIT[unit])
+        else:
+            return None
+    return size[0], size[1]
+
+
+def _resolve_radii(rect, viewport) -> None:
+    """A rect's ``rx``/``ry`` in percent as user units: rx of the viewport's width, ry of its
+    height (an ``ry`` left out or ``auto`` stays so: it takes rx's value, and the renderer
+    clamps each to half the side)."""
+    for key, share in (("rx", 0), ("ry", 1)):
+        value = rect.get(key, "").strip()
+        if value.endswith("%"):
+            if viewport is None:
+                raise GeometryError(f"<rect> {key}={value!r}: a percentage needs the viewport's "
+                                    f"size, and the document gives none (no viewBox, width or "
+                                    f"height); give {key} in user units")
+            try:
+                rect.set(key, repr(float(value[:-1]) / 100.0 * viewport[share]))
+            except ValueError:
+                raise GeometryError(f"<rect> {key}={value!r}: expected a number or a "
+                                    f"percentage") from None
 
 
 def _with_origin(transform: str, origin: str) -> str:

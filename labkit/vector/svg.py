@@ -26,7 +26,9 @@ Inkscape's ``flowRoot`` text frames; ``display:none`` and ``visibility:hidden``
 nor stroke, or opacity 0; every ``switch`` child but the first. ``clip-path`` is applied
 (:mod:`labkit.geometry.clip`): a shape is cut only inside its clip region, built from
 the clipPath's shapes in the referencing element's user space or bounding box; a
-clipPath holding text is not applied, and the shapes it clips are named in a warning.
+clipPath holding text is not applied (labkit has no text geometry), and the shapes it clips
+are named in a warning. A ``mask`` is not applied either: every shape under one (its own or
+a group's) is named in a warning, cut whole.
 
 Text and images cannot be cut as vectors; they are skipped with a warning
 naming each one once (convert text to paths in the drawing program first).
@@ -576,6 +578,7 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
     skipped: list[str] = list(dropped)
     invisible: list[str] = []
     clipped: list[str] = []
+    masked: list[str] = []
     for index, el, kind in _iter_shapes(doc):
         label = _name(el, index)
         if kind != "shape":
@@ -607,6 +610,8 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
             if not (np.isfinite(p.vertices).all() and np.isfinite(p.sweeps).all()):
                 raise GeometryError(f"{name}: {label} maps to coordinates that are not finite "
                                     f"numbers (a transform or size beyond double range)")
+        if new and str(el.values.get("mask") or "none").strip() != "none":   # svgelements
+            masked.append(label)                          # hands a group's mask to its shapes
         reg = clips.region(el, label)
         if reg is not None and new:
             cut = clip_paths(new, reg, tol_mm=tol_mm, arcs=arcs)
@@ -628,6 +633,12 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
                       f"shows only their clipped part: {', '.join(clips.unsupported[:10])}"
                       f"{' …' if len(clips.unsupported) > 10 else ''} — clip them in the drawing "
                       f"program (Inkscape: Path › Intersection)", stacklevel=2)
+    if masked and warn:
+        warnings.warn(f"{name}: mask is not applied; {len(masked)} shape(s) under a mask are cut "
+                      f"whole where a renderer shows only what the mask lets through: "
+                      f"{', '.join(masked[:10])}{' …' if len(masked) > 10 else ''} — apply the "
+                      f"mask in the drawing program (Inkscape: Object › Mask › Release, then "
+                      f"Path › Intersection)", stacklevel=2)
     width = float(doc.width) * MM_PER_PX if doc.width is not None else math.nan
     height = float(doc.height) * MM_PER_PX if doc.height is not None else math.nan
     if paths and width > 0 and height > 0:

@@ -66,6 +66,12 @@ RULES = {
                                        '<circle id="cf" cx="20" cy="15" r="8" fill="#000" clip-path="url(#c8)"/>',
     "shape clipped away entirely": f'<clipPath id="c9"><rect x="30" y="0" width="5" height="5"/></clipPath>'
                                    f'<rect id="cw" {HIDDEN} clip-path="url(#c9)"/>',
+    # rx, ry in percent: of the viewport's width and height, then clamped to half the side
+    "rect rx in percent (ry auto, clamped)": f'<rect id="rp" x="5" y="10" width="30" height="12" rx="20%" {STROKE}/>',
+    "rect rx and ry in percent": f'<rect id="rq" x="5" y="10" width="30" height="20" rx="10%" ry="15%" {STROKE}/>',
+    "rect rx in percent of a nested viewport": f'<svg x="0" y="0" width="40" height="40" viewBox="0 0 20 20">'
+                                               f'<rect id="rn" x="2" y="5" width="16" height="8" rx="20%" '
+                                               f'stroke="#000" stroke-width="0.25" fill="none"/></svg>',
     "switch draws its first child": f'<switch><rect id="sw1" {HIDDEN}/>'
                                     f'<rect id="sw2" x="25" y="5" width="5" height="5" {STROKE}/></switch>',
 }
@@ -225,3 +231,37 @@ def test_clip_to_page_cuts_what_the_renderer_shows():
     assert ndimage.binary_dilation(drawn, iterations=2)[rc[:, 0], rc[:, 1]].all()
     kept = sum(p.length_mm for p in d.paths if p.source == "circle#big")
     assert kept == pytest.approx(2 * np.pi * 10 * 10 * MM_PER_PX * 2 / 3, rel=1e-4)
+
+
+def test_rect_radius_in_percent_is_a_stadium_as_resvg_draws_it():
+    """resvg's own test file shapes_rect_percentage-values-1.svg: a 160 × 80 rect in a
+    200 × 100 viewBox with rx="20%" — rx = 20 % of 200 = 40, ry = rx, within half the
+    height: a stadium of two half circles (r = 40), not an ellipse through the edge
+    midpoints. Every edge resvg fills is cut, and the arcs have radius 40 units."""
+    path = Path(__file__).resolve().parents[2] / "data" / "svg" / "resvg" / "shapes_rect_percentage-values-1.svg"
+    zoom = 4
+    png = resvg_py.svg_to_bytes(svg_path=str(path), dpi=96.0, zoom=zoom)
+    rgba = np.asarray(Image.open(io.BytesIO(bytes(png)))).astype(int)
+    green = (rgba[:, :, 3] > 127) & (rgba[:, :, 1] > rgba[:, :, 0] + 50)    # the rect, not the frame
+    d = read_svg(path, flip_y=False)
+    rect = next(p for p in d.paths if p.source == "rect#rect1")
+    assert np.allclose(rect.radii_mm()[rect.is_arc] / MM_PER_PX, 40.0)
+    edge = green & ~ndimage.binary_erosion(green)
+    cut = np.zeros_like(green)
+    rc = np.round(cut_pixels(type(d)([rect])) * zoom).astype(int)
+    cut[np.clip(rc[:, 0], 0, cut.shape[0] - 1), np.clip(rc[:, 1], 0, cut.shape[1] - 1)] = True
+    assert edge.any()
+    assert ndimage.distance_transform_edt(~cut)[edge].max() <= zoom + 1      # within a CSS px
+
+
+def test_masked_shapes_are_named_in_a_warning_not_cut_silently():
+    """A mask is not applied: a shape masked itself and one in a masked group are named in
+    a warning (cut whole, as the warning says); an unmasked shape and the mask's own
+    contents are not."""
+    text = DOC.format('<defs><mask id="m"><rect id="mr" width="20" height="40" fill="#fff"/></mask></defs>'
+                      f'<g mask="url(#m)"><rect id="ma" {HIDDEN}/></g>'
+                      f'<circle id="mb" cx="30" cy="10" r="4" mask="url(#m)" {STROKE}/>')
+    with pytest.warns(UserWarning, match=r"mask is not applied; 2 shape\(s\) under a mask are cut "
+                                         r"whole .*: rect#ma, circle#mb — apply the mask"):
+        d = read_svg(text)
+    assert [p.source for p in d.paths] == ["rect#ma", "circle#mb", "rect#keep"]
