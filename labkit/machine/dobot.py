@@ -268,6 +268,9 @@ def check_drawable(moves, *, s_max: float | None = None) -> float:
     ------
     MachineError
         Naming the source line, what it asks for and what the arm can do.
+    InputError
+        When ``moves`` is not a :class:`~labkit.toolpath.Moves` or holds a
+        value that is not finite.
 
     Examples
     --------
@@ -279,6 +282,9 @@ def check_drawable(moves, *, s_max: float | None = None) -> float:
     ...
     labkit.errors.MachineError: <string>:2: the Dobot draws in one plane ...
     """
+    from labkit.toolpath.moves import check_moves
+
+    check_moves(moves)
     s_max = float(moves.s_max if s_max is None else s_max)
     if not (np.isfinite(s_max) and s_max > 0):
         raise MachineError(f"s_max must be a finite number > 0 (the S of full laser power), "

@@ -153,6 +153,14 @@ def test_s_above_full_power_is_refused_before_anything_moves():
         job_commands(parse(text), s_max=float("nan"))
 
 
+def test_job_commands_given_text_names_the_argument():
+    from labkit.errors import InputError
+
+    with pytest.raises(InputError, match="^moves must be a labkit.toolpath.Moves, got str; G-code "
+                                         "text becomes Moves with labkit.gcode.parse"):
+        job_commands("G0 X0 Y20\nG1 X10 F600\n")
+
+
 def test_s_above_full_power_off_the_beam_is_not_refused():
     # S is only sent while burning: a rapid carrying S5000 with M5 in effect burns nothing
     job_commands(parse("G0 X0 Y20 S5000\nM3 S100\nG1 X10 F600\nM5\n"))
