@@ -32,7 +32,7 @@ from labkit.errors import GeometryError
 from labkit.geometry.circle import arc_bounds, chord_segments
 from labkit.geometry import transform as _tf
 
-__all__ = ["Path", "total_length", "paths_bounds", "count_segments", "max_deviation"]
+__all__ = ["Path", "total_length", "paths_bounds", "count_segments", "max_deviation", "check_paths"]
 
 _META = ("layer", "stroke", "fill", "fill_rule", "source")
 
@@ -304,6 +304,47 @@ class Path:
         kind = "closed" if self.closed else "open"
         return (f"<Path {kind} n={self.n_segments} arcs={int(self.is_arc.sum())} "
                 f"length={self.length_mm:.3f} mm layer={self.layer!r}>")
+
+
+def check_paths(value, *, name: str = "paths") -> list[Path]:
+    """Return ``value`` as a list if it is a sequence of :class:`Path`, else name what it is.
+
+    The entry check of the functions that take a drawing (``build_moves``,
+    ``prepare_paths``): SVG text, a dict, a single Path or a list holding
+    something else is refused with labkit's own error, not an AttributeError.
+
+    Parameters
+    ----------
+    value : object
+        What the caller was given.
+    name : str
+        The argument's name, for the message.
+
+    Returns
+    -------
+    list of Path
+
+    Raises
+    ------
+    GeometryError
+        Naming the argument and, for a list, the first item that is not a Path.
+
+    Examples
+    --------
+    >>> check_paths("M 0 0 L 10 0")
+    Traceback (most recent call last):
+    ...
+    labkit.errors.GeometryError: paths must be a list of labkit.geometry.Path, got str; SVG text becomes Paths with labkit.vector.read_svg(text).paths
+    """
+    hint = {str: "; SVG text becomes Paths with labkit.vector.read_svg(text).paths",
+            Path: "; put a single path in a list: [path]"}.get(type(value), "")
+    if isinstance(value, (str, bytes, dict, Path)) or not isinstance(value, Iterable):
+        raise GeometryError(f"{name} must be a list of labkit.geometry.Path, got {type(value).__name__}{hint}")
+    items = list(value)
+    for i, p in enumerate(items):
+        if not isinstance(p, Path):
+            raise GeometryError(f"{name}[{i}] must be a labkit.geometry.Path, got {type(p).__name__}")
+    return items
 
 
 def total_length(paths: Iterable[Path]) -> float:

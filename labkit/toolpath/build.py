@@ -26,7 +26,7 @@ from labkit.geometry.chains import join_chains
 from labkit.geometry.hatching import hatch
 from labkit.geometry.offset import offset_paths
 from labkit.geometry.order import order_paths
-from labkit.geometry.path import Path
+from labkit.geometry.path import Path, check_paths
 from labkit.toolpath.moves import LaserMode, MoveKind, Moves
 
 __all__ = ["LayerSettings", "build_moves", "prepare_paths"]
@@ -142,7 +142,7 @@ def build_moves(paths: Sequence[Path], settings: LayerSettings | Mapping[str, La
     (71.4159, False)
     """
     layers: dict[str, list[Path]] = {}
-    for p in paths:
+    for p in check_paths(paths):
         layers.setdefault(p.layer, []).append(p)
     pos = np.asarray(origin, dtype=float).copy()
     if pos.shape != (3,):
@@ -224,6 +224,7 @@ def prepare_paths(paths: Sequence[Path], *, join_tol_mm=0.01, kerf_mm=0.0, tol_m
     >>> [(p.closed, round(abs(p.signed_area_mm2()), 2)) for p in out]
     [(True, 75.4), (True, 1616.04)]
     """
+    paths = check_paths(paths)
     if kerf_mm < 0 or not math.isfinite(kerf_mm):
         raise GeometryError(f"kerf_mm must be >= 0 mm, got {kerf_mm!r}")
     chains = [q for q in (_line_unless_area(p, tol_mm) for p in join_chains(paths, join_tol_mm))

@@ -108,3 +108,28 @@ def test_a_parsed_program_names_its_file_and_line(tmp_path):
                                           r"finite \(end Y = inf\); expected finite coordinates in mm$"):
         plan(m)
 
+
+
+_SQUARE = [(0, 0), (10, 0), (10, 10), (0, 10)]
+
+
+@pytest.mark.parametrize("make, said", [
+    (lambda sq: '<svg xmlns="http://www.w3.org/2000/svg"><path d="M0 0 L10 0"/></svg>',
+     r"^paths must be a list of labkit.geometry.Path, got str; SVG text becomes Paths with "
+     r"labkit.vector.read_svg\(text\).paths$"),
+    (lambda sq: {"d": "M0 0 L10 0"}, "^paths must be a list of labkit.geometry.Path, got dict$"),
+    (lambda sq: None, "^paths must be a list of labkit.geometry.Path, got NoneType$"),
+    (lambda sq: sq, r"^paths must be a list of labkit.geometry.Path, got Path; put a single path in a list: \[path\]$"),
+    (lambda sq: [sq, "M0 0 L10 0"], r"^paths\[1\] must be a labkit.geometry.Path, got str$"),
+], ids=["SVG text", "a dict", "None", "one Path", "a list holding text"])
+@pytest.mark.parametrize("entry", ["build_moves", "prepare_paths"])
+def test_a_drawing_that_is_not_paths_is_named(entry, make, said):
+    from labkit.errors import GeometryError
+    from labkit.geometry import Path
+    from labkit.toolpath.build import build_moves, prepare_paths
+
+    square = Path.polyline(_SQUARE, closed=True)
+    call = build_moves if entry == "build_moves" else prepare_paths
+    call([square])                          # the real thing works
+    with pytest.raises(GeometryError, match=said):
+        call(make(square))
