@@ -9,7 +9,7 @@ pathing     zig-zag runs, spiral corner walk, greedy segment connection (O(n²) 
 diffusion   error diffusion (Floyd–Steinberg, Atkinson, Jarvis–Judice–Ninke, Stucki)
 engrave     image → Moves for every mode, with the seed's report figures
 coverage    Moves → burned pixels (the independent check of every path)
-io          image files with their dpi
+io          image files as a viewer shows them (EXIF orientation, transparency, pixel aspect), with their dpi
 """
 
 from labkit.raster.color import (GRAY_WEIGHTS, SEED_DEPTHS, adjust_gamma, depth_to_level, invert,

@@ -391,6 +391,11 @@ def _scan_moves(power, bidirectional, skip_px, overscan_px, pixel_mm, *, feed_mm
     photo has about one cut per pixel)."""
     args = (power, bidirectional, skip_px, overscan_px, pixel_mm)
     n = _scanlines.scan_moves(*args, False, *_move_columns(0))
+    # A photo makes about one move per pixel: the count is known before any row is made.
+    cause = f"a {power.shape[1]:,} × {power.shape[0]:,} px gray job of {n:,} moves"
+    check_budget("moves", n, cause=cause, option="the size (width, height, dpi) or raise the beam diameter")
+    check_budget("raster_bytes", n * BYTES_PER_GRAY_MOVE, cause=cause,
+                 option="the size (width, height, dpi) or raise the beam diameter")
     kind, start, end, power_s = _move_columns(n)
     _scanlines.scan_moves(*args, True, kind, start, end, power_s)
     return Moves(kind=kind, start=start, end=end, feed_mm_min=np.full(n, float(feed_mm_min)),
@@ -412,6 +417,10 @@ BAND_PIXELS = 1 << 20
 BYTES_PER_SOURCE_PIXEL = 48
 BYTES_PER_BEAM_PIXEL = {"zigzag": 4, "spiral": 8, "edges": 32, "gray": 40, "dither": 32}
 BYTES_PER_BEAM_PIXEL_BANDED = 2
+#: Peak memory per move of a gray or dithered job from its Moves to its G-code text and
+#: preview (``labkit img2gcode --mode gray`` on a 500 × 450 photo, 2.26 M moves: 239-243 B
+#: above the same command on a tiny image), checked once the moves are counted.
+BYTES_PER_GRAY_MOVE = 250
 
 
 def working_bytes(source_shape, beam_shape, mode: str, *, banded: bool = False) -> float:

@@ -116,3 +116,24 @@ def test_line_bounds_match_the_arc_aware_box():
         keep = job.moves.is_motion if mask is None else mask
         lo, hi = job.moves[keep].extents()
         assert np.array_equal(job.moves.bounds(mask), np.array([lo.min(axis=0), hi.max(axis=0)]))
+
+
+def test_the_moves_are_counted_against_the_budgets_before_they_are_made(monkeypatch):
+    from labkit.budget import BUDGETS
+    from labkit.errors import BudgetError
+    from labkit.raster import engrave
+
+    gray = _gray(np.random.default_rng(4), (12, 30))
+    n = len(gray_job(gray, pixel_mm=0.1).moves)
+    made = []
+    real = engrave._move_columns
+    monkeypatch.setattr(engrave, "_move_columns", lambda k: made.append(k) or real(k))
+    monkeypatch.delenv("LABKIT_BUDGET_SCALE", raising=False)
+    monkeypatch.setitem(BUDGETS, "raster_bytes", n * engrave.BYTES_PER_GRAY_MOVE - 1)
+    with pytest.raises(BudgetError, match=rf"raster bytes .* 30 × 12 px gray job of {n} moves"):
+        gray_job(gray, pixel_mm=0.1)
+    assert made == [0]                                   # counted, no row made
+    monkeypatch.setitem(BUDGETS, "raster_bytes", n * engrave.BYTES_PER_GRAY_MOVE)
+    monkeypatch.setitem(BUDGETS, "moves", n - 1)
+    with pytest.raises(BudgetError, match=rf"{n - 1:,}\) from a 30 × 12 px gray job"):
+        gray_job(gray, pixel_mm=0.1)

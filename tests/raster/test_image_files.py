@@ -250,3 +250,26 @@ def test_a_unitless_density_is_an_aspect(tmp_path):
     path.write_bytes(bytes(raw))
     img = read_image(path)
     assert img.dpi is None and img.pixel_aspect == pytest.approx(3.0)
+
+
+@pytest.mark.parametrize("kind", ["palette", "rgb key", "gray16 key"])
+def test_a_turned_file_keeps_its_transparency_in_place(kind, tmp_path):
+    """Orientation and transparency together: the blank part turns with the picture."""
+    exif = Image.Exif()
+    exif[ORIENTATION] = 6
+    rgb = np.full((4, 6, 3), 200, np.uint8)
+    rgb[:, :2] = 60
+    blank = np.zeros((4, 6), bool)
+    blank[:, :2] = True
+    path = tmp_path / "turned.png"
+    if kind == "palette":
+        im = Image.fromarray(rgb).convert("P")
+        im.save(path, transparency=im.getpixel((0, 0)), exif=exif.tobytes())
+    elif kind == "rgb key":
+        Image.fromarray(rgb).save(path, transparency=(60, 60, 60), exif=exif.tobytes())
+    else:
+        Image.fromarray(rgb[:, :, 0].astype(np.uint16) * 257).save(path, transparency=60 * 257,
+                                                                   exif=exif.tobytes())
+    img = read_image(path)
+    assert img.pixels.shape[:2] == (6, 4)
+    assert np.array_equal(img.blank, np.rot90(blank, -1))
