@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from labkit.errors import InputError, LabkitError, MachineError
-from labkit.machine.grbl import NOT_TOLD, Grbl, alarm_message, error_message
+from labkit.machine.grbl import Grbl, alarm_message, error_message
 
 __all__ = ["Job", "JobReport", "run_job", "resume_text", "frame_text", "strip_line", "Controls",
            "StopSignals", "preflight_check", "check_job"]
@@ -1011,8 +1011,8 @@ def _after_link_loss(grbl: Grbl, report: JobReport, acked: list, job: Job) -> No
              if report.resume_line and report.last_acknowledged_line >= report.resume_line
              else "")
     report.warnings.append(
-        f"the link went after line {report.last_acknowledged_line} was acknowledged; "
-        f"{NOT_TOLD}. " + (doubt + ". " if doubt else "") +
+        f"the link went after line {report.last_acknowledged_line} was acknowledged, and the "
+        f"controller kept running what it had buffered. " + (doubt + ". " if doubt else "") +
         "After reconnecting, check the position (a controller reset while moving loses it: "
         "home with $H or set the origin again)")
 
