@@ -690,9 +690,10 @@ class Grbl:
         """Fire the laser briefly at ``power_s`` where the head is, to find the focus or the beam.
 
         GRBL's laser mode (``$32=1``) with M4 keeps the beam off unless the machine moves (M3
-        would leave it on at rest until M5 arrives), so the pulse is an M4 slow step of ``step_mm`` out and back (the head ends where it was), each
-        half in ``duration_s / 2``; then ``M5``, and the distance mode and feed rate in
-        effect before are restored.
+        would leave it on at rest until M5 arrives), so the pulse is an M4 slow step of
+        ``step_mm`` out and back (the head ends where it was), each half in
+        ``duration_s / 2``; then ``M5``, and the distance mode and feed rate in effect before
+        are restored.
 
         Parameters
         ----------

@@ -528,7 +528,8 @@ class _Run:
 
     def fail(self, reason: str) -> None:
         self.result.verdict, self.result.reason = FAIL, reason
-        self.result.beam = self.check.target.beam.describe_since(self.mark)
+        if self.result.beam == "not observed":          # keep what the scenario recorded
+            self.result.beam = self.check.target.beam.describe_since(self.mark)
 
     def set_mark(self) -> None:
         self.mark = self.check.target.beam.mark()
@@ -841,8 +842,9 @@ class _Check:
             run.result.beam = beam.describe_since(run.mark)
             self.g = self.target.open(fresh=False)
             if level > 0 or beam.level() > 0 or late:
-                run.fail("after the link was lost the beam stayed on"
-                         + (f" while {late[0][2]}" if late else ""))
+                run.fail(f"after the link was lost the beam stayed on ({max(level, beam.level()):g})"
+                         + (f" while {late[0][2]}" if late else " after the controller had run "
+                            "out its buffer"))
             else:
                 run.result.verdict = PASS
                 run.result.reason = ("the controller ran out its buffer and stopped with the beam "

@@ -112,6 +112,7 @@ class _Block:
     rapid: bool
     accel_mm_s2: float = math.inf
     is_dwell: bool = False
+    constant: bool = False # M3 in laser mode: GRBL leaves the PWM on when motion stops
     started: bool = False
     exit_mm_s: float = 0.0
     done_s: float = 0.0    # time already spent on it
@@ -285,9 +286,13 @@ class VirtualMachine:
     def laser_output(self) -> float:
         """Beam power now, as a fraction of full.
 
-        In laser mode (``$32=1``) the beam is on only while a burning block moves (braking in a
-        hold included), as GRBL's M4 does; GRBL's M3 would also keep it on while stopped in
-        G1-G3 mode (constant power), which this simulation does not model.
+        In laser mode (``$32=1``), as GRBL 1.1 does: a burning block lights it while it moves
+        (braking in a hold included); when motion stops, M4 (dynamic power) switches it off, while
+        M3 (constant power) leaves it at the last block's power — in a feed hold, and at the end
+        of the queue in G1-G3 mode until M5, S0, G0, M2/M30, a reset or an alarm (a line of M3 S
+        without motion in G1-G3 mode switches it on at rest: focusing). A dwell keeps the level
+        it starts with. A door and an alarm switch it off. With ``$32=0`` the beam follows M3/M4
+        S whatever the motion (GRBL's spindle).
         """
         with self._lock:
             return self._laser_output()
@@ -296,8 +301,13 @@ class VirtualMachine:
         moving = (self.state in ("Run", "Jog") or self._braking) and self._blocks
         if self.state == "Door" and self.substate != 2:
             return 0.0                                  # GRBL de-energizes once the door hold stops
-        if self._flag(32):                              # laser mode: beam only while cutting
-            return self._blocks[0].power if moving else 0.0
+        if self._flag(32):                              # laser mode
+            if moving:
+                return self._blocks[0].power
+            if self.state == "Hold" and self._blocks:    # held: M3 keeps its power, M4 is off
+                head = self._blocks[0]
+                return head.power if head.constant else 0.0
+            return self._rest_level if self.state == "Idle" and not self._blocks else 0.0
         # spindle mode ($32=0): the beam follows M3/M4 S whatever the motion
         return self._beam_fraction(self.laser_mode_word, self.s_word) if self.laser_mode_word else 0.0
 
@@ -314,6 +324,7 @@ class VirtualMachine:
     def _reset_parser(self) -> None:
         self.units, self.distance, self.arc_mode, self.plane, self.motion = 21, 90, 91.1, 17, 0
         self.feed_mm_min, self.s_word, self.laser_mode_word = math.nan, 0.0, 0
+        self._rest_level = 0.0      # the beam once the queue is empty (GRBL's M3 leaves it on)
         # GRBL's reset selects G54 and clears the G92 offset and the tool length offset
         self.coord_system, self.g92, self.tool_offset = 54, np.zeros(3), 0.0
 
@@ -707,6 +718,7 @@ class VirtualMachine:
                 return 15
             # soft limit: GRBL holds, resets and raises ALARM:2; the line is not executed
             self._blocks.clear()
+            self._rest_level = 0.0
             self._rx.clear()
             self.state, self.alarm_code = "Alarm", 2
             self._emit("ALARM:2")
@@ -734,13 +746,16 @@ class VirtualMachine:
             digits = "".join(c for c in head[1:].split(" ")[0] if c.isdigit())
             n_word = int(digits) if digits else -1
         cursor = np.array(pos[row - 1], float)
+        queued = len(self._blocks)
         for i in mine:
             k = int(kind[i])
-            if k == 4:                                   # dwell: a block standing still
-                self._queue(cursor, cursor, 0.0, float(dwell[i]), 0.0, False, text, n_word)
+            if k == 4:                                   # dwell: standing still at the beam's level
+                self._queue(cursor, cursor, 0.0, float(dwell[i]), self._rest_level, False, text,
+                            n_word, constant=True)
                 continue
             rapid = k == 0
             beam = 0.0 if rapid else self._beam_fraction(int(laser[i]), float(power[i]))
+            constant = int(laser[i]) == 3 and not rapid
             f = float(feed_col[i])
             if k in (2, 3) and int(plane[i]) == 17:
                 s2, e2, c2 = start[i, :2], end[i, :2], centre[i, :2]
@@ -754,13 +769,21 @@ class VirtualMachine:
             else:
                 pts = np.array([start[i], end[i]])
             for a, b in zip(pts[:-1], pts[1:]):
-                self._queue(a, b, f, 0.0, beam, rapid, text, n_word, jog=jog)
+                self._queue(a, b, f, 0.0, beam, rapid, text, n_word, jog=jog, constant=constant)
             cursor = end[i].copy()
+        if not jog:
+            if len(self._blocks) > queued:               # the level the last block leaves
+                last = self._blocks[-1]
+                self._rest_level = last.power if last.constant else 0.0
+            else:                                        # GRBL syncs the spindle/laser state
+                lit = self.laser_mode_word == 3 and self.motion in (1, 2, 3)
+                self._rest_level = self._beam_fraction(3, self.s_word) if lit else 0.0
         if self._blocks and self.state == "Idle":
             self.state = "Jog" if jog else "Run"
         return None
 
-    def _queue(self, a, b, feed_mm_min, dwell_s, beam, rapid, text, n_word, *, jog=False):
+    def _queue(self, a, b, feed_mm_min, dwell_s, beam, rapid, text, n_word, *, jog=False,
+               constant=False):
         a = np.asarray(a, float)
         b = np.asarray(b, float)
         length = float(np.linalg.norm(b - a))
@@ -777,7 +800,7 @@ class VirtualMachine:
         else:
             v, amax = 0.0, math.inf
         self._blocks.append(_Block(self.lines_accepted, n_word, text, a, b, v, dwell_s, beam, rapid,
-                                   accel_mm_s2=amax, is_dwell=length <= 0))
+                                   accel_mm_s2=amax, is_dwell=length <= 0, constant=constant))
 
     @staticmethod
     def _carry(first: "_Block", second: "_Block") -> float:

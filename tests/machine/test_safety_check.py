@@ -102,6 +102,18 @@ def test_each_scenario_fails_on_a_controller_that_gets_it_wrong(fault):
     assert "on" in result.reason or "burn" in result.reason
 
 
+def test_cutting_with_m3_fails_where_grbl_keeps_the_beam_on():
+    """GRBL 1.1's M3 (constant power) leaves the PWM on when motion stops: in a feed hold, at
+    the end of the queue, and when the link is lost; the virtual machine models it."""
+    report = run_safety_check(cut_mode="M3", scenarios=["feed_hold", "resume", "soft_reset",
+                                                        "disconnect"])
+    assert _verdicts(report) == {"feed_hold": "FAIL", "resume": "FAIL", "soft_reset": "PASS",
+                                 "disconnect": "FAIL"}, report.format()
+    hold = report.results[0]
+    assert "FS laser value 10" in hold.reason and "A:S" in hold.reason
+    assert "S10 M3" in hold.sent[0] and not report.ok
+
+
 def test_no_beam_means_nothing_was_checked():
     """A controller whose beam never comes on cannot pass: the check needs its control."""
 
