@@ -41,6 +41,7 @@ was not told to stop" and what that leaves.
 from __future__ import annotations
 
 import bisect
+import shlex
 import signal
 import struct
 import time
@@ -197,7 +198,8 @@ def check_reach(moves, origin=ORIGIN_MM, reach=REACH_MM, *, tol_mm: float = 0.05
     MachineError
         Naming the source line, the point and its distance from the base.
     InputError
-        When ``moves`` is not a :class:`~labkit.toolpath.Moves` or holds a position that is not finite.
+        When ``moves`` is not a :class:`~labkit.toolpath.Moves` or holds a
+        position that is not finite.
     """
     from labkit.gcode.arcs import arc_polyline
     from labkit.toolpath.moves import check_moves
@@ -312,14 +314,17 @@ def check_drawable(moves, *, s_max: float | None = None) -> float:
     return s_max
 
 
-def job_commands(moves, *, origin=ORIGIN_MM, z_mm: float = 0.0,
-                 s_max: float | None = None) -> list[tuple[int, bytes, int]]:
+def job_commands(moves, *, origin=ORIGIN_MM, z_mm: float = 0.0, s_max: float | None = None,
+                 from_line: int | None = None) -> list[tuple[int, bytes, int]]:
     """The queued commands that draw ``moves``: (command id, params, source line).
 
     Before anything is made, :func:`check_drawable` (one plane, S within full
     power) and :func:`check_reach`. The laser is switched off before every
     rapid and on (with its PWM duty, S × 100 / ``s_max`` %) before a burning
-    move whose power changed; the job ends with the laser off.
+    move whose power changed; the job ends with the laser off. Every command
+    depends only on its own move, so a job resumes at any line: with the
+    laser off, a joint move (MOVJ: the arm is wherever it stopped) takes it to
+    where that line starts.
 
     Parameters
     ----------
@@ -331,6 +336,14 @@ def job_commands(moves, *, origin=ORIGIN_MM, z_mm: float = 0.0,
         The drawing plane's Z in the arm's frame, mm.
     s_max : float, optional
         The S of full laser power (default ``moves.s_max``).
+    from_line : int, optional
+        Resume: draw only the moves of this source line and after.
+
+    Raises
+    ------
+    MachineError
+        What the arm cannot draw or reach, naming the line; no move at or
+        after ``from_line``.
     """
     from labkit.geometry.circle import mid_arc_point
 
@@ -340,11 +353,18 @@ def job_commands(moves, *, origin=ORIGIN_MM, z_mm: float = 0.0,
     beam = None
     duty = None
     on = moves.laser_on
+    resumed = from_line is None
     for i in range(len(moves)):
         k = int(moves.kind[i])
         ln = int(moves.line[i])
-        if k == 4:
+        if k == 4 or (not resumed and ln < from_line):
             continue
+        if not resumed:
+            resumed = True
+            sx, sy = canvas_to_robot(moves.start[i, 0], moves.start[i, 1], origin)
+            out += [(CMD["laser"], laser_params(False), ln),
+                    (CMD["ptp"], ptp_params(PTP_MOVJ, sx, sy, z_mm), ln)]
+            beam = False
         want_duty = float(moves.power_s[i]) * 100.0 / s_max if on[i] else 0.0
         if not on[i] and beam is not False:
             out.append((CMD["laser"], laser_params(False), ln))
@@ -372,6 +392,10 @@ def job_commands(moves, *, origin=ORIGIN_MM, z_mm: float = 0.0,
                 out.append((CMD["arc"], arc_params((vx, vy), (bx, by), z_mm), ln))
         else:
             out.append((CMD["ptp"], ptp_params(PTP_MOVL, ex, ey, z_mm), ln))
+    if not resumed:
+        last = int(moves.line[moves.is_motion].max()) if moves.is_motion.any() else 0
+        raise MachineError(f"{moves.source or '<string>'}: nothing to draw from line "
+                           f"{from_line}: the last move is on line {last}")
     if beam is not False:
         out.append((CMD["laser"], laser_params(False), 0))
     return out
@@ -417,6 +441,7 @@ class StopReport:
     timeout_s: float
     queued_line: int | None = None       #: source line of the last command queued
     executed_line: int | None = None     #: source line of the last command reported executed
+    resume_line: int | None = None       #: first source line not reported done (None: none left)
 
     def step(self, what: str) -> StopStep:
         return next(s for s in self.steps if s.what == what)
@@ -607,6 +632,7 @@ class Dobot:
             How long each step of the safe stop waits for its answer, s.
         """
         self.last_stop = None
+        commands = list(commands)
         indices: list[int] = []
         lines: list[int] = []
         done = -1
@@ -662,8 +688,11 @@ class Dobot:
                 named = [ln for ln in lines if ln > 0]
                 if named:
                     report.queued_line = named[-1]
-                    ran = [ln for ln in lines[:bisect.bisect_right(indices, done)] if ln > 0]
+                    k = bisect.bisect_right(indices, done)       # commands reported executed
+                    ran = [ln for ln in lines[:k] if ln > 0]
                     report.executed_line = ran[-1] if ran else None
+                    todo = [ln for _, _, ln in commands[k:] if ln > 0]
+                    report.resume_line = todo[0] if todo else None
                 self.last_stop = report
                 exc.add_note(report.summary())
                 raise
@@ -767,8 +796,8 @@ class DobotEmulator:
 
 #: ``labkit stream``'s options for GRBL and the labkit firmware, with their defaults: given to
 #: the Dobot path they are refused rather than ignored.
-_STREAM_ONLY = {"mode": "counting", "check_first": False, "resume_from": None, "on_error": "stop",
-                "log": None, "allow_spindle_mode": False, "virtual_speed": 0.0, "machine": None}
+_STREAM_ONLY = {"mode": "counting", "check_first": False, "on_error": "stop", "log": None,
+                "allow_spindle_mode": False, "virtual_speed": 0.0, "machine": None}
 
 
 def stream_file(args, port, baud) -> int:
@@ -785,10 +814,11 @@ def stream_file(args, port, baud) -> int:
     unused = [f"--{name.replace('_', '-')}" for name, default in _STREAM_ONLY.items()
               if getattr(args, name, default) != default]
     if unused:
-        raise InputError(f"{', '.join(unused)}: not available with --protocol dobot (the arm "
-                         f"draws the whole job from its first line, and keeps no transcript)")
+        raise InputError(f"{', '.join(unused)}: not available with --protocol dobot (it sends "
+                         f"the job as it is, and keeps no transcript)")
     moves = parse_file(args.file, dialect=args.dialect or "grbl")
-    commands = job_commands(moves, s_max=getattr(args, "s_max", None))
+    commands = job_commands(moves, s_max=getattr(args, "s_max", None),
+                            from_line=getattr(args, "resume_from", None))
     feeds = moves.feed_mm_min[moves.is_feed & np.isfinite(moves.feed_mm_min)]
     if feeds.size:
         lo, hi = float(feeds.min()), float(feeds.max())
@@ -817,6 +847,14 @@ def stream_file(args, port, baud) -> int:
         print(f"STOPPED: {why}")
         if bot.last_stop is not None:
             print(bot.last_stop.summary())
+            if bot.last_stop.resume_line is not None:
+                again = ["labkit", "stream", str(args.file), "--protocol", "dobot"]
+                for option in ("port", "baud", "dialect", "s_max"):
+                    if getattr(args, option, None) is not None:
+                        again += [f"--{option.replace('_', '-')}", f"{getattr(args, option):g}"
+                                  if option == "s_max" else str(getattr(args, option))]
+                print(f"to go on from there (the laser off, a joint move to where that line "
+                      f"starts): {shlex.join(again)} --resume-from {bot.last_stop.resume_line}")
         return status
     finally:
         if link is not None:

@@ -304,19 +304,65 @@ def test_a_stalled_queue_is_stopped_and_named():
     # 3-10); 4 ahead of index 11 were queued: indices 12-15, source lines 11-14
     assert bot.last_stop.summary().endswith("last queued: source line 14, last reported "
                                             "executed: source line 10")
+    assert bot.last_stop.resume_line == 11
+
+
+def test_resume_from_a_line_starts_there_with_the_laser_off_by_a_joint_move():
+    m = parse("G0 X0 Y20\nM3 S200\nG1 X10 F600\nG1 X20\nG1 X30\nM5\n")
+    cmds = job_commands(m, from_line=4)
+    assert [(c, ln) for c, _, ln in cmds] == [
+        (CMD["laser"], 4), (CMD["ptp"], 4), (CMD["io_pwm"], 4), (CMD["laser"], 4),
+        (CMD["ptp"], 4), (CMD["ptp"], 5), (CMD["laser"], 0)]
+    assert cmds[0][1] == bytes([1, 0]) and cmds[3][1] == bytes([1, 1])      # off, then on
+    # line 4 starts where line 3 ended, canvas (10, 20): arm (280, 90); MOVJ is mode 1
+    assert struct.unpack("<B4f", cmds[1][1]) == (1, 280.0, 90.0, 0.0, 0.0)
+    assert struct.unpack("<B4f", cmds[4][1]) == (2, 280.0, 80.0, 0.0, 0.0)
+    assert struct.unpack("<Bff", cmds[2][1])[2] == pytest.approx(20.0)      # S200 of 1000
+    # the commands from line 4 on are the whole job's from its line-4 line on
+    whole = job_commands(m)
+    assert cmds[4:] == whole[-3:]
+    with pytest.raises(MachineError, match="^<string>: nothing to draw from line 6: the last "
+                                           "move is on line 5"):
+        job_commands(m, from_line=6)
+
+
+def test_cli_names_the_resume_command_and_it_finishes_the_job(tmp_path, capsys, monkeypatch):
+    from labkit.cli import main
+    from labkit.machine import dobot
+
+    p = tmp_path / "draw.gcode"
+    p.write_text("G0 X0 Y20\nM3 S200\n" + "".join(f"G1 X{10 * (k % 2)} Y{20 + k} F600\n"
+                                                   for k in range(30)) + "M5\n")
+    monkeypatch.setattr(dobot, "DobotEmulator", lambda: _Jammed(after=12))
+    monkeypatch.setattr(dobot.Dobot, "run", lambda self, c, _run=dobot.Dobot.run:
+                        _run(self, c, ahead=4, stall_s=0.3))
+    assert main(["stream", str(p), "--protocol", "dobot", "--s-max", "255"]) == 1
+    last = capsys.readouterr().out.splitlines()[-1]
+    assert last == ("to go on from there (the laser off, a joint move to where that line starts): "
+                    f"labkit stream {p} --protocol dobot --s-max 255 --resume-from 11")
+    arms = []
+    monkeypatch.setattr(dobot, "DobotEmulator", lambda: arms.append(DobotEmulator()) or arms[-1])
+    assert main(last.split(": ", 1)[1].split()[1:]) == 0
+    drawn = [struct.unpack("<B4f", f.params)[1:3] for f in arms[0].executed
+             if f.cmd_id == CMD["ptp"]]
+    # from where line 11 starts (the end of line 10: canvas (10, 27)) through line 32's end
+    assert drawn[0] == pytest.approx(canvas_to_robot(10, 27))
+    assert drawn[1:] == [pytest.approx(canvas_to_robot(10 * (k % 2), 20 + k))
+                         for k in range(8, 30)]
 
 
 def test_cli_refuses_options_the_dobot_path_does_not_have(tmp_path, capsys):
-    # --resume-from silently ignored would draw the whole job again over what was burned
+    # silently ignored, --check-first would send the job without a check; --log would leave
+    # no transcript
     from labkit.cli import main
 
     p = tmp_path / "draw.gcode"
     p.write_text("G0 X0 Y20\nM3 S200\nG1 X20 F600\nM5\n")
-    assert main(["stream", str(p), "--protocol", "dobot", "--resume-from", "3",
+    assert main(["stream", str(p), "--protocol", "dobot", "--check-first",
                  "--log", str(tmp_path / "t.log")]) == 1
-    assert capsys.readouterr().err == ("labkit stream: --resume-from, --log: not available with "
-                                       "--protocol dobot (the arm draws the whole job from its "
-                                       "first line, and keeps no transcript)\n")
+    assert capsys.readouterr().err == ("labkit stream: --check-first, --log: not available with "
+                                       "--protocol dobot (it sends the job as it is, and keeps "
+                                       "no transcript)\n")
     assert not (tmp_path / "t.log").exists()
     assert main(["stream", str(p), "--s-max", "255"]) == 1
     assert "--s-max is for --protocol dobot" in capsys.readouterr().err

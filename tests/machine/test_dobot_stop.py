@@ -9,6 +9,7 @@ from the protocol document (header AA AA, length, id, ctrl, params, checksum), n
 """
 
 import os
+import re
 import select
 import signal
 import subprocess
@@ -226,6 +227,10 @@ def test_lost_link_says_the_controller_was_not_told_to_stop(job_file, capsys):
     assert "its own behaviour is all that applies" in out
     assert "acknowledged" not in out and "switched off" not in out
     assert FORCE_STOP not in fake.raw and LASER_OFF not in fake.raw
+    resume = re.search(rf"labkit stream {job_file} --protocol dobot --port {fake.path} "
+                       rf"--resume-from (\d+)$", out)
+    # the 30 commands queued before the hang-up draw lines 2-30; the next one is line 31's
+    assert resume and 2 <= int(resume[1]) <= 31
 
 
 def burning_job():
