@@ -143,6 +143,8 @@ def atomic_output(path, mode: str = "w", *, encoding: str | None = None, newline
 
     Notes
     -----
+    The temporary file lives in the target's folder (a rename is atomic only within
+    one file system), so that folder must be writable, not only the file.
     A file that existed keeps its permission bits; a new one gets those ``open``
     would give it (0o666 less the umask). A symbolic link at ``path`` is replaced
     by the new file and the file it pointed to is left untouched: writing through

@@ -6,7 +6,9 @@ burned part is traced at the programmed speed, not while accelerating (where a
 constant-power beam over-burns, [CBR40] §IV). Rows are powers, columns speeds;
 the row and column numbers are engraved with a tiny stroke font so a scan can
 be read by eye, and four corner crosses give measurement something to register
-on. The layout (where every line is, its power and speed) is saved as JSON
+on. The crosses form a rectangle, which looks the same turned 180°; the numbers
+(rows on the left, columns on top) do not, and tell measurement which way up
+the piece lay on the scanner (:func:`labkit.laser.measure.register`). The layout (where every line is, its power and speed) is saved as JSON
 next to the G-code.
 """
 
