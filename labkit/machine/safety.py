@@ -914,7 +914,15 @@ def run_safety_check(port: str | None = None, *, sim=None, virtual=None, machine
     InputError
         An unknown scenario, a bad power or mode.
     MachineError
-        The controller cannot be reached (or the simulator lacks ``--beam-log``).
+        The controller cannot be reached (or the simulator lacks ``--beam-log``), or it stopped
+        answering during a scenario: the machine is then stopped (feed hold, soft reset,
+        ``M5 S0``: :meth:`~labkit.machine.grbl.Grbl.stop_safely`) and the message says what was
+        confirmed. An interrupt (Ctrl-C) stops the machine the same way before it goes on.
+
+    Notes
+    -----
+    The library asks nobody before it drives a port; ``labkit safety-check --port`` warns and
+    asks for confirmation first.
 
     Examples
     --------
@@ -956,11 +964,21 @@ def run_safety_check(port: str | None = None, *, sim=None, virtual=None, machine
             if key not in keys or method in done:
                 continue
             done.add(method)
-            for result in getattr(check, method)(set(keys)):
+            try:
+                results = getattr(check, method)(set(keys))
+                check.settle()
+            except BaseException as exc:
+                # whatever went wrong (no answer, Ctrl-C), the test cut must not go on burning
+                stop = check.g.stop_safely()
+                check.g.close()
+                if not isinstance(exc, MachineError):
+                    raise
+                raise MachineError(f"the safety check stopped in '{key}': {exc}; then: "
+                                   f"{', '.join(stop.steps)}") from exc
+            for result in results:
                 report.results.append(result)
                 if progress is not None:
                     progress(result)
-            check.settle()
         check.g.close()
         return report
     finally:

@@ -126,6 +126,23 @@ def test_no_beam_means_nothing_was_checked():
     assert "never came on" in report.results[0].reason
 
 
+def test_a_controller_that_stops_answering_is_stopped_safely(monkeypatch):
+    """A scenario that cannot go on (here: the judging step raises as a lost answer would)
+    stops the machine — hold, reset, M5 S0 — before the error is reported."""
+    from labkit.errors import MachineError
+    from labkit.machine import safety
+
+    def no_answer(self, st, what, **kw):
+        raise MachineError("no answer to '?' within 5 s")
+
+    monkeypatch.setattr(safety._Run, "judge", no_answer)
+    vm = VirtualMachine(time_scale=5.0)
+    with pytest.raises(MachineError, match=r"stopped in 'feed_hold': no answer .*soft reset"):
+        run_safety_check(virtual=vm, scenarios=["feed_hold"])
+    assert vm.laser_output() == 0 and not vm._blocks and vm.laser_mode_word == 0     # M5 S0
+    assert vm.beam_log[-1][1] == 0.0
+
+
 def test_bad_arguments_are_named():
     with pytest.raises(InputError, match="scenarios: unknown"):
         run_safety_check(scenarios=["hold"])
