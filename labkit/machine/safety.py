@@ -399,9 +399,13 @@ class _Run:
 
     def __init__(self, check: "_Check", key: str):
         self.check = check
-        self.g = check.g
         self.result = ScenarioResult(key, SCENARIOS[key])
         self.mark = 0
+
+    @property
+    def g(self):
+        """The controller's client now (a new one after the link was lost and reopened)."""
+        return self.check.g
 
     # -- talking ---------------------------------------------------------------------------------
 

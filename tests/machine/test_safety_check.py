@@ -53,6 +53,14 @@ def test_every_scenario_passes_on_the_firmware_simulator(sim):
     assert "duty now 0" in report.results[0].beam
 
 
+def test_command_line_on_the_simulator(sim, capsys):
+    assert main(["safety-check", "--sim", str(sim), "--only", "m5", "--json"]) == 0
+    record = json.loads(capsys.readouterr().out)
+    assert record["target"] == f"sim:{sim}" and record["beam_observed"] is True
+    (m5,) = record["results"]
+    assert m5["verdict"] == "PASS" and m5["sent"][-1] == "M5" and "duty now 0" in m5["beam"]
+
+
 class _Unsafe(VirtualMachine):
     """A virtual machine that gets one case wrong (each fault keeps the beam on where it must
     be off, as a faulty controller or a misconfigured one would)."""
