@@ -366,20 +366,20 @@ class _PortTarget(_Target):
         self.reset_on_open = False
 
     def open(self, *, fresh: bool = True):
-        from labkit.machine.grbl import Grbl
-        from labkit.machine.link import open_link
-
-        g = Grbl(open_link(self.port_name, self.baud))
-        if not fresh:
-            # a board that resets when its port opens (DTR) sends its banner by itself
-            time.sleep(2.5)
-            self.reset_on_open = bool(g.info.banner)
+        g = self.reopen()
         g.connect(timeout_s=5.0)
         return g
 
-    @property
-    def port_name(self) -> str:
-        return self.name
+    def reopen(self):
+        """The port opened again without a reset (``connect`` would provoke one): what the
+        controller reports then is what it did on its own. A board that resets when its port
+        opens (DTR) sends its banner by itself: ``info.banner`` is set after this."""
+        from labkit.machine.grbl import Grbl
+        from labkit.machine.link import open_link
+
+        g = Grbl(open_link(self.name, self.baud))
+        time.sleep(2.5)
+        return g
 
 
 # -- the scenarios --------------------------------------------------------------------------------
@@ -855,14 +855,15 @@ class _Check:
                                      "off; nobody told it to stop")
             return [run.result]
         self.target.idle(self.target.run_out_s())
-        self.g = self.target.open(fresh=False)
-        if getattr(self.target, "reset_on_open", False):
+        self.g = self.target.reopen()
+        if self.g.info.banner:
             run.result.verdict = NOT_APPLICABLE
             run.result.reason = ("the board reset when its port was opened again (DTR), so what it "
                                  "did after the link was lost cannot be read from it; watch the beam")
-            return [run.result]
-        st = run.status()
-        run.judge(st, f"after the link came back the controller is {st.state}")
+        else:
+            st = run.status()
+            run.judge(st, f"the controller ran out its buffer and reports {st.state}")
+        self.g.connect(timeout_s=5.0)
         return [run.result]
 
 

@@ -122,6 +122,36 @@ def test_cutting_with_m3_fails_where_grbl_keeps_the_beam_on():
     assert "S10 M3" in hold.sent[0] and not report.ok
 
 
+def test_a_real_port_is_judged_from_the_reports_alone():
+    """Over a serial port (here a pty with GRBL's model behind it, as tests/machine/_pty_controller
+    builds it) the beam cannot be watched: the status reports decide, and they suffice to fail a
+    controller whose report says the laser is on in a hold."""
+    from tests.machine._pty_controller import PtyController
+
+    class KeepsBeamInHold(VirtualMachine):
+        def _laser_output(self):
+            if self.state == "Hold" and self._blocks:
+                return self._blocks[0].power
+            return super()._laser_output()
+
+    for vm, want in ((VirtualMachine("grbl-diode", time_scale=5.0), "PASS"),
+                     (KeepsBeamInHold("grbl-diode", time_scale=5.0), "FAIL")):
+        ctl = PtyController(vm)
+        try:
+            report = run_safety_check(ctl.port, scenarios=["feed_hold", "disconnect"])
+        finally:
+            ctl.close()
+        assert not report.beam_observed and report.target == ctl.port
+        assert report.results[0].verdict == want, report.format()
+        assert report.results[0].beam.startswith("not observed (a real machine")
+        if want == "FAIL":
+            assert "FS laser value 10" in report.results[0].reason
+        # the port is opened again without a reset: the controller's own state after its buffer
+        disconnect = report.results[1]
+        assert disconnect.verdict == "PASS", disconnect.line()
+        assert "ran out its buffer and reports Idle" in disconnect.reason
+
+
 def test_no_beam_means_nothing_was_checked():
     """A controller whose beam never comes on cannot pass: the check needs its control."""
 
