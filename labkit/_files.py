@@ -18,7 +18,7 @@ import contextlib
 import errno
 import os
 import stat
-import tempfile
+import secrets
 from pathlib import Path
 
 from labkit.errors import InputError
@@ -133,7 +133,7 @@ def atomic_output(path, mode: str = "w", *, encoding: str | None = None, newline
     Yields
     ------
     file object
-        Open for writing on the temporary file (``.NAME.XXXX.part`` in the same folder).
+        Open for writing on the temporary file (``.NAME.<random>.part`` in the same folder).
 
     Raises
     ------
@@ -181,19 +181,16 @@ def atomic_output(path, mode: str = "w", *, encoding: str | None = None, newline
         perm, existed = _new_file_mode(), False
     except OSError as exc:
         raise _not_written(target, exc, existed=False) from None
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=folder)
-    except OSError as exc:
-        raise _not_written(target, exc, existed=existed) from None
+    # the name is chosen first and the file created inside the try, so that Ctrl-C at any
+    # instant finds the name to remove (tempfile.mkstemp returns it only after creating it)
+    tmp = folder / f".{target.name}.{secrets.token_hex(8)}.part"
     try:
         try:
-            os.fchmod(fd, perm)
-            kw = {} if "b" in mode else dict(encoding=encoding or "utf-8", newline=newline, errors=errors)
-            fh = os.fdopen(fd, mode, **kw)
-        except BaseException:
-            os.close(fd)
-            raise
+            fh = _create_temporary(tmp, mode, encoding=encoding, newline=newline, errors=errors)
+        except OSError as exc:
+            raise _not_written(target, exc, existed=existed) from None
         with fh:
+            os.fchmod(fh.fileno(), perm)
             yield fh
             fh.flush()
             os.fsync(fh.fileno())
@@ -205,6 +202,20 @@ def atomic_output(path, mode: str = "w", *, encoding: str | None = None, newline
             raise _not_written(target, exc, existed=existed) from None
         raise
     _sync_folder(folder)
+
+
+def _create_temporary(path: Path, mode: str, *, encoding, newline, errors):
+    """A new file at ``path`` (never an existing one), readable by its owner only until finished.
+
+    The file object owns its descriptor from the start: there is no moment at which an
+    interrupt could leave a bare descriptor for someone to close twice.
+    """
+    def owner_only(name, flags):
+        return os.open(name, flags, 0o600)
+
+    if "b" in mode:
+        return open(path, "xb", opener=owner_only)
+    return open(path, "x", encoding=encoding or "utf-8", newline=newline, errors=errors, opener=owner_only)
 
 
 def _not_written(target: Path, exc: OSError, *, existed: bool) -> InputError:

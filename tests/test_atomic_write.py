@@ -2,9 +2,9 @@
 leaves the old file or no file — never a truncated program — and no temporary file behind.
 
 A full disk is injected in the one place every writer goes through: the file object
-:func:`labkit._files.atomic_output` opens on its temporary file is replaced by one whose raw
-writes stop with ``ENOSPC`` after a given number of bytes (a short write first, as a real
-full disk gives). Ctrl-C is a real SIGINT sent to a real ``labkit img2gcode`` process while
+:func:`labkit._files.atomic_output` creates for its temporary file is replaced by one whose
+raw writes stop with ``ENOSPC`` after a given number of bytes (a short write first, as a
+real full disk gives). Ctrl-C is a real SIGINT sent to a real ``labkit img2gcode`` process while
 it writes a large program.
 """
 
@@ -14,11 +14,11 @@ import errno
 import io
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
 import time
-import types
 from pathlib import Path
 
 import numpy as np
@@ -50,16 +50,16 @@ class _DiskFull(io.FileIO):
         return n
 
 
-def _fdopen_on_full_disk(room, only):
-    def fdopen(fd, mode="r", *, encoding=None, newline=None, errors=None):
-        raw = _DiskFull(fd, "w")
-        name = os.path.basename(os.readlink(f"/proc/self/fd/{fd}"))
-        raw.room = room if only is None or name.startswith(f".{only}.") else 1 << 62
+def _create_on_full_disk(room, only):
+    """Stands in for the writer's ``_create_temporary``: the same new file, on a full disk."""
+    def create(path, mode, *, encoding=None, newline=None, errors=None):
+        raw = _DiskFull(path, "x")
+        raw.room = room if only is None or path.name.startswith(f".{only}.") else 1 << 62
         buffered = io.BufferedWriter(raw)
         if "b" in mode:
             return buffered
         return io.TextIOWrapper(buffered, encoding=encoding or "utf-8", newline=newline, errors=errors)
-    return fdopen
+    return create
 
 
 @pytest.fixture
@@ -67,10 +67,7 @@ def full_disk(monkeypatch):
     """``full_disk(room, only=None)``: from now on the writer's temporary files (those for the
     file named ``only``, if given) hold at most ``room`` bytes."""
     def fill(room, only=None):
-        # a stand-in for the os module inside labkit._files only: nothing else sees the full disk
-        fake = types.SimpleNamespace(**{k: getattr(os, k) for k in dir(os) if not k.startswith("__")})
-        fake.fdopen = _fdopen_on_full_disk(room, only)
-        monkeypatch.setattr(files, "os", fake)
+        monkeypatch.setattr(files, "_create_temporary", _create_on_full_disk(room, only))
     return fill
 
 
@@ -270,7 +267,7 @@ def test_cutwidth_measure_on_a_full_disk(tmp_path, full_disk, capsys):
 
 
 _SLOW_DISK = """
-import io, os, sys, time, types
+import io, sys, time
 import labkit._files as files
 
 class Slow(io.FileIO):
@@ -279,14 +276,12 @@ class Slow(io.FileIO):
         time.sleep(0.01)
         return n
 
-def fdopen(fd, mode="r", *, encoding=None, newline=None, errors=None):
-    buffered = io.BufferedWriter(Slow(fd, "w"))
+def create(path, mode, *, encoding=None, newline=None, errors=None):
+    buffered = io.BufferedWriter(Slow(path, "x"))
     return buffered if "b" in mode else io.TextIOWrapper(buffered, encoding=encoding or "utf-8",
                                                          newline=newline, errors=errors)
 
-fake = types.SimpleNamespace(**{k: getattr(os, k) for k in dir(os) if not k.startswith("__")})
-fake.fdopen = fdopen
-files.os = fake
+files._create_temporary = create
 from labkit.cli import main
 sys.exit(main(sys.argv[1:]))
 """
@@ -323,3 +318,37 @@ def test_ctrl_c_while_img2gcode_writes_leaves_the_old_program(tmp_path, old):
     assert child.returncode == 130 and "labkit img2gcode: interrupted" in err and "Traceback" not in err
     assert (out.read_text() == OLD) if old else not out.exists()
     assert _leftovers(tmp_path) == []
+
+
+def test_ctrl_c_to_a_plain_img2gcode_on_a_big_image(tmp_path):
+    """The same with nothing slowed down: a 1200 × 1200 px dithered image is a 9 MB program,
+    whose temporary file lives about 0.1 s; SIGINT is sent as soon as it appears. Python
+    delivers the signal when the write call returns, before the rename: the old program stays.
+    Should a loaded machine deliver it only after the rename, the new program must be whole."""
+    rng = np.random.default_rng(1)
+    Image.fromarray((rng.random((1200, 1200)) * 255).astype(np.uint8)).save(tmp_path / "big.png", dpi=(254, 254))
+    out = tmp_path / "big.gcode"
+    out.write_text(OLD)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
+    child = subprocess.Popen([sys.executable, "-m", "labkit", "img2gcode", str(tmp_path / "big.png"), "-o", str(out),
+                              "--preview", "none", "--mode", "dither"],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, cwd=tmp_path)
+    deadline = time.monotonic() + 300
+    seen = False
+    while time.monotonic() < deadline and child.poll() is None:
+        if any(p.name.endswith(".part") for p in tmp_path.iterdir()):
+            child.send_signal(signal.SIGINT)
+            seen = True
+            break
+        time.sleep(0.001)
+    stdout, err = child.communicate(timeout=120)
+    assert seen, f"the temporary file was never seen: {err.decode()}"
+    assert "Traceback" not in err.decode() and _leftovers(tmp_path) == [], err.decode()
+    assert child.returncode in (0, 130), err.decode()
+    if child.returncode == 130:
+        assert out.read_text() == OLD
+    else:
+        assert child.returncode == 0
+        text = out.read_text()
+        lines = int(re.search(r"G-code lines\s+(\d+)", stdout.decode()).group(1))
+        assert text.count("\n") == lines and text.rstrip().endswith("M2")
