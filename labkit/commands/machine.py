@@ -253,7 +253,7 @@ def run_console(args) -> int:
     prints what was sent and what was confirmed."""
     import time
 
-    from labkit.errors import LabkitError
+    from labkit.errors import LabkitError, MachineError
     from labkit.machine.stream import StopSignals
 
     def interrupted(name):
@@ -280,6 +280,8 @@ def run_console(args) -> int:
                     machine.send_line(line)
                 time.sleep(0.15)
                 machine.drain_events()
+                if machine.disconnected or machine.link.lost:
+                    raise MachineError(machine.disconnected or machine.link.lost)
         except _ConsoleInterrupted as exc:
             print(f"interrupted by {exc}: stopping the machine", file=sys.stderr)
             code = 1

@@ -807,6 +807,10 @@ class Grbl:
             rec.steps.append(f"link lost ({self.disconnected or 'closed'}): {NOT_TOLD}")
             self._log("#", rec.steps[-1])
             return rec
+
+        def gone() -> bool:                  # a write failed: nothing more reaches the controller
+            return bool(self.link.lost or self.link.closed)
+
         try:
             if hold:
                 self.feed_hold()
@@ -819,11 +823,15 @@ class Grbl:
                     rec.steps.append(f"stopped ({st.state}"
                                      + (f":{st.substate}" if st.substate is not None else "") + ")")
                 except MachineError as exc:
+                    if gone():
+                        raise
                     rec.steps.append(f"stop not confirmed ({exc})")
             else:
                 try:
                     rec.stopped_status = self.get_status(1.0)
                 except MachineError as exc:
+                    if gone():
+                        raise
                     rec.steps.append(f"no status ({exc})")
             if reset:
                 try:
@@ -831,6 +839,8 @@ class Grbl:
                     rec.steps.append("soft reset (buffers flushed, laser off)")
                     rec.beam_off_confirmed = True
                 except MachineError as exc:
+                    if gone():
+                        raise
                     rec.steps.append(f"soft reset sent, not confirmed ({exc})")
             rec.events = self.drain_events()
             try:
@@ -838,15 +848,19 @@ class Grbl:
                 rec.steps.append("M5 S0")
                 rec.beam_off_confirmed = True
             except MachineError as exc:
+                if gone():
+                    raise
                 why = str(exc)
                 if "error:9" in why or "ALARM" in why:
                     why += " (the controller is in alarm: the reset had already switched the beam off)"
                 rec.steps.append(f"M5 S0 sent, not confirmed: {why}")
         except MachineError as exc:              # a write failed: the link went during the stop
-            self.disconnected = self.disconnected or str(exc)
+            self.disconnected = self.disconnected or self.link.lost or str(exc)
             rec.told = bool(rec.steps)
-            rec.steps.append(f"link lost while stopping ({exc})"
-                             + ("" if rec.told else f": {NOT_TOLD}"))
+            rec.steps.append(f"link lost while stopping ({self.disconnected}): "
+                             + ("nothing after this reached the controller; its own "
+                                "buffer-empty/alarm behaviour is all that applies" if rec.told
+                                else NOT_TOLD))
         for step in rec.steps:
             self._log("#", f"safe stop: {step}")
         return rec
