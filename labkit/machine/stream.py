@@ -6,14 +6,24 @@ included, within the RX buffer; every ``ok``/``error`` retires the oldest) or
 send-response (one line at a time), polls status reports, and reports
 progress by source line with an ETA from :func:`labkit.motion.plan`.
 
+Before the first line: answers that no line asked for refuse the job, and
+:func:`preflight_check` compares the job with what the controller says (state,
+``$30``, units and distance mode, travel with the work offset); a job that would
+alarm or burn where it should not is refused with the fix named.
+
 Faults — ``error:N`` (policy ``stop`` or ``skip``), an alarm, a reset, a lost
 link, no status replies (the watchdog), no answer while the machine idles (a
-lost byte), a cancel — stop the job. labkit then does the safe thing it can:
-feed hold, soft reset (which flushes every buffered line and turns the beam
-off), and ``M5 S0`` when the machine accepts lines again. The
-:class:`JobReport` names the last acknowledged line and the last *executed*
-line (from the planner occupancy in status reports: acknowledged is not
-executed), the position where motion stopped, and the line to resume from.
+lost byte), answers out of step with the lines (an unsolicited, doubled or
+missing ``ok``: a protocol error naming the lines in doubt), a cancel, SIGINT or
+SIGTERM, an exception, the process exiting under the job — stop the job, and
+every end, a completed job's included, goes through one place,
+:meth:`Grbl.stop_safely`: feed hold, a bounded wait for the stop, soft reset
+(which flushes every buffered line and turns the beam off), ``M5 S0``; the report
+says what was sent and what was confirmed, or that the link was gone and the
+controller was not told. The :class:`JobReport` names the last acknowledged line
+and the last *executed* line (from the planner occupancy in status reports:
+acknowledged is not executed), the position where motion stopped, and the line to
+resume from.
 
 Resume (:func:`resume_text`) rebuilds the modal state in effect at a line
 (units, distance mode, arc-centre mode, plane, feed, laser mode and power)
