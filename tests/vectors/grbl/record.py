@@ -1,0 +1,547 @@
+"""Record conversations with GRBL 1.1h itself (grbl-sim) as JSON test vectors.
+
+    python tests/vectors/grbl/record.py GRBL_SIM_EXE [OUT_DIR] [TOPIC ...]
+
+GRBL_SIM_EXE is a grbl-sim binary built from gnea/grbl (see README.md in this
+folder for the exact commits, build options and the four small patches the
+simulator needs). This script never runs in CI: the transcripts it writes are
+checked in and replayed by tests/firmware/test_grbl_transcripts.py.
+
+Every topic starts a fresh simulator in an empty temporary directory, so GRBL
+boots on a blank EEPROM, restores its compiled-in defaults (DEFAULTS_GENERIC)
+and the boot output is discarded; the first exchange of every transcript is
+a soft reset (ctrl-x) and its banner. Each step sends its bytes at once and
+collects what GRBL answers:
+
+* a line (bytes ending in ``\\n``) waits for its ``ok`` / ``error:N`` (at most
+  ``wait_s``), then for ``quiet_s`` of silence (late messages, alarms);
+* a real-time byte (``?``, ``!``, ``~``, ctrl-x, overrides) or a step marked
+  ``answered=False`` (an M0 that holds its ``ok``) waits for silence only.
+
+A ``pause_before_s`` holds the conversation before the bytes go out (motion
+that must finish or stop first); it is recorded so that a replay can pause
+the same way.
+"""
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import os
+import re
+import select
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+
+GRBL_COMMIT = "bfb67f0c7963fe3ce4aaf8a97f9009ea5a8db36e"      # gnea/grbl, GRBL 1.1h.20190830
+GRBL_SIM_COMMIT = "9bdd1654c7eb6cacf03e35340b38c962bcebe013"  # grbl/grbl-sim
+
+RESET = "\x18"
+JOG_CANCEL = "\x85"
+FEED_PLUS_10 = "\x91"
+RAPID_50 = "\x96"
+POWER_MINUS_10 = "\x9b"
+
+_TERMINATOR = re.compile(r"^(ok|error:\d+|ALARM:\d+)$")   # an alarm can take the place of a line's ok
+#: status-report fields whose values depend on when the report was taken while the machine moves
+_TIMED_FIELDS = ("MPos", "WPos", "FS", "F", "Bf", "Ln")
+_MOVING_STATES = ("Run", "Jog", "Hold", "Home", "Door")
+
+
+def line(text, **kw):
+    """A G-code or ``$`` line: ``text`` and a newline."""
+    return dict(send=text + "\n", **kw)
+
+
+def rt(byte, **kw):
+    """Real-time bytes, sent without a newline."""
+    return dict(send=byte, **kw)
+
+
+def raw(data, **kw):
+    """Bytes exactly as given (several lines at once, a line without its newline …)."""
+    return dict(send=data, **kw)
+
+
+def _sync(**kw):
+    # GRBL's G4 answers ok only when every queued move has finished: the in-band way to wait
+    return line("G4 P0.01", note="dwell: its ok means the planner is empty", **kw)
+
+
+# --------------------------------------------------------------------------------------------
+# The topics. Each is (title, steps); every transcript starts with a soft reset.
+
+def _dollar_commands():
+    return "Every $ command in idle (help, settings, parameters, parser state, build info, startup lines, " \
+           "check mode, unlock, homing with homing disabled, jog, sleep, restore) and unknown ones", [
+        line("$"), line("$$"), line("$#"), line("$G"), line("$I"),
+        line("$I=LABKIT TEST"), line("$I"),
+        line("$N"),
+        line("$N0=G20 G91", note="a valid start-up line: stored, run at every reset"),
+        line("$N1=G1 X1 Q1", note="GRBL checks a start-up line before storing it"),
+        line("$N1=$X", note="a $ command is no start-up line"),
+        line("$N2=G21", note="a third start-up line (config.h: N_STARTUP_LINE 2)"),
+        line("$N1=G4 P0"),
+        line("$N"),
+        rt(RESET, note="the stored start-up lines run after the banner, each echoed with its reply"),
+        line("$G"),
+        line("$N0="), line("$N1="), line("$N"),
+        rt(RESET),
+        line("$G"),
+        line("$C"), line("G0 X5"), line("?"), line("$C"),
+        line("$X", note="unlock when not alarmed"),
+        line("$H", note="homing disabled ($22=0)"),
+        line("$J=G91 X1 F200"), rt("?", pause_before_s=2.0),
+        line("$J=G90 X0 F200"), rt("?", pause_before_s=2.0),
+        line("$J=X1", note="jog without a feed rate"),
+        line("$J=G0 X1 F100", note="G0 is not a jog motion"),
+        line("$J=G91 G20 X0.1 F10"), rt("?", pause_before_s=2.5), line("$G", note="a jog keeps G21"),
+        line("$J=G53 X0 F200"), rt("?", pause_before_s=2.5),
+        line("$J=G91 X1 F200 M3", note="a jog carries only G20/G21, G90/G91, G53 and axes"),
+        line("$J="), line("$J=G4 P1"),
+        line("$10", note="reading one setting is no command"),
+        line("$G1"), line("$$$"), line("$#1"), line("$Z"), line("$ I"), line("$i"), line("$rst=gcode"),
+        line("$HTTP/1.1"), line("$RST=x"), line("$C1"), line("$X1"), line("$H1"), line("$SLP1"),
+        line("$RST=#"), line("$#"),
+        line("$RST=$"), line("$$"),
+        line("$RST=*"), line("$I"),
+        line("$SLP"), rt("?"), line("G0 X1", answered=False), rt(RESET, pause_before_s=0.2), rt("?"), line("$X"), rt("?"),
+    ]
+
+
+def _settings():
+    valid = [("$0=5", None), ("$1=255", None), ("$2=7", None), ("$3=2", None), ("$4=1", None),
+             ("$5=1", None), ("$6=1", None), ("$10=2", None), ("$11=0.02", None), ("$12=0.005", None),
+             ("$13=1", None), ("$21=1", "hard limits on: no switch is wired, so nothing trips"),
+             ("$21=0", None), ("$23=3", None), ("$24=50", None), ("$25=1000", None), ("$26=100", None),
+             ("$27=2.5", None), ("$30=255", None), ("$31=10", None), ("$32=1", None),
+             ("$100=80", None), ("$101=80.5", None), ("$102=400", None),
+             ("$110=1000", None), ("$111=1200.5", None), ("$112=300", None),
+             ("$120=20", None), ("$121=25", None), ("$122=5", None),
+             ("$130=300", None), ("$131=250.25", None), ("$132=50", None)]
+    bad = [("$0=2", "step pulse below 3 µs"), ("$0=-1", None), ("$0=abc", None), ("$0=", None),
+           ("$0=10.7", "an integer setting given a fraction"), ("$1=256", "an integer setting over 255"),
+           ("$2=255", None), ("$10=1.5", None), ("$11=-0.01", None), ("$12=0", None),
+           ("$13=2", None), ("$20=1", "soft limits need homing"), ("$22=2", None), ("$23=-1", None),
+           ("$24=0", None), ("$26=1000", None), ("$30=0", None), ("$31=-5", None), ("$32=2", None),
+           ("$100=0", None), ("$100=-5", None), ("$110=1e3", "no exponent in GRBL's numbers"),
+           ("$110=1,000", None), ("$120=0x10", None), ("$130=+5", None), ("$130=.5", None),
+           ("$7=1", "no such setting"), ("$9=1", None), ("$14=1", None), ("$19=1", None), ("$28=1", None),
+           ("$33=1", None), ("$103=1", None), ("$113=1", None), ("$133=1", None), ("$200=1", None),
+           ("$1000=1", None), ("$=1", None), ("$-1=1", None), ("$1.5=1", None), ("$A=1", None),
+           ("$ 1 1 0 = 7 5 0", "spaces are dropped before GRBL reads the line"), ("$110 =750.0", None)]
+    steps = [line("$$")]
+    for text, note in valid:
+        steps.append(line(text, **({"note": note} if note else {})))
+    steps.append(line("$$"))
+    for text, note in bad:
+        steps.append(line(text, **({"note": note} if note else {})))
+    steps += [line("$$"), rt(RESET), line("$$", note="settings live in EEPROM: kept through a reset"),
+              line("$RST=$"), line("$$")]
+    return "Every setting read, written with a valid value, out of range and with the wrong type", steps
+
+
+# G-code lines GRBL refuses, in idle, fresh after the reset (G21 G90 G54 G17 G94, no F yet).
+_ERROR_LINES = [
+    ("X", "a word without a value is read as a letter with a bad number"), ("1", None), ("10 X1", None),
+    ("G0 X0 1", "spaces go before GRBL reads a line: this is G0X01"), ("*", None), ("G0 X1 #", None), ("G0 X1 =2", None), ("%", "a % line"),
+    ("G0 X1 %", None), ("G0 @", None), ("/G0 X1", "block delete is not GRBL's"),
+    ("G", None), ("G0 X", None), ("G0 X-", None), ("G0 X.", None), ("G0 X1.2.3", None),
+    ("G0 X+", None), ("G0 X1e3", None), ("F", None), ("G0 X--1", None),
+    ("F-100", None), ("S-1", None), ("N-5 G0 X1", None), ("G4 P-1", None), ("T-1", None),
+    ("G1 X1 F-1", None),
+    ("G4.1", None), ("G5 X1", None), ("G7", None), ("G41", None), ("G64", None), ("G81 X1 Y1 Z-1 R1", None),
+    ("G95", None), ("G96", None), ("G99", None), ("G100", None), ("M6", None), ("M7", "M7 needs mist coolant, a build option"),
+    ("M50", None), ("M100", None), ("M118 (hello) T", "issue 27: GRBL refuses M118 before looking at T"),
+    ("M3.5", None), ("G20.1", None), ("G38.1 Z-1 F10", None), ("G38.6 Z-1 F10", None), ("G59.3", None),
+    ("A1", None), ("B1", None), ("C1", None), ("D1", None), ("E1", None), ("H1", None), ("O1", None),
+    ("Q1", None), ("U1", None), ("V1", None), ("W1", None),
+    ("G0 G1 X1", None), ("G20 G21", None), ("G90 G91", None), ("M3 M5", None), ("G17 G18", None),
+    ("G54 G55", None), ("G93 G94", None), ("M8 M9", None), ("G4 G10 L2 P1 X1", None),
+    ("G1 X1", "no feed rate yet"), ("G93 G1 X1", "inverse time needs F on the line"),
+    ("G1.5 X1", None), ("N1.5 G0 X1", None), ("G10 L2.5 P1 X1", None), ("G10 L2 P1.5 X1", None),
+    ("T1.5", None), ("M3.1", None),
+    ("G1 G28 X1 F100", "two commands that both want the axis words"), ("G0 G92 X1", None),
+    ("G10 L2 P1 G28 X1", None), ("G53 G28 X1", None),
+    ("G0 X1 X2", None), ("G1 F1 F2", None), ("N1 N2", None), ("S1 S2", None), ("G0 X1 Y1 Y2", None),
+    ("T1 T2", None), ("G4 P1 P2", None),
+    ("G10 L2 P1", "no axis words"), ("G92", None), ("G10 L20 P1", None), ("G43.1", None),
+    ("G38.2 F100", None),
+    ("N10000000 G0 X1", None), ("N99999999", None),
+    ("G10 L2 X1", "missing P"), ("G4", None), ("G10 P1 X1", None), ("G38.2 Z-1", None),
+    ("G1 X1", None),
+    ("G59.1", None), ("G59.2", None), ("G10 L2 P7 X1", None), ("G10 L2 P10 X1", None),
+    ("G53 G2 X1 I1", None), ("G53 G3 X1 J1", None), ("G53 G38.2 Z-1 F10", None),
+    ("G80 X1", None), ("G17 X1 G80", None), ("G4 P1 X1", None), ("M5 X1", None),
+    ("G2 Z1 I1 F100", None), ("G3 I1 J1 F100", None), ("G18 G2 Y1 I1 F100", None),
+    ("G2 X0 Y0 R1 F100", "the target is the current point"), ("G2 X0 Y0 I0 J0 F100", None),
+    ("G3 X1 Y0 I0 J0 F100", None), ("G38.2 Z0 F100", None),
+    ("G2 X10 Y0 R2 F100", "chord longer than 2R (issue 27)"), ("G2 X10 Y0 I1 J0 F100", None),
+    ("G3 X2 Y0 I1 J1 F100", None),
+    ("G2 X1 F100", "no I/J/K or R"), ("G18 G2 X1 Z1 F100", None), ("G2 X1 K1 F100", None),
+    ("G0 X1 I1", None), ("G0 X1 R1", None), ("M3 P1", None), ("G21 X1", None), ("G1 X1 F100 L2", None),
+    ("G43.1 X1", None), ("G43.1 Y1", None), ("G43.1 X1 Z1", None),
+    ("T256", None), ("T1000", None), ("G10 L2 P1 X1 Y1 Z1 R1", None), ("M30 X1", None), ("M2 S100", None),
+]
+
+
+def _errors():
+    # a line GRBL accepts is followed by a dwell, so that no motion is left running under the next
+    steps = []
+    for text, note in _ERROR_LINES:
+        steps.append(line(text, sync_if_ok=True, **({"note": note} if note else {})))
+    steps.append(_sync())
+    steps.append(line("$G", note="none of the refused lines changed the modal state"))
+    steps.append(line("$#"))
+    # errors that need a state: alarm, motion
+    steps += [
+        line("$32=1"), line("G1 X40 F300", note="8 s of motion for the lines below"),
+        line("$$"), line("$X"), line("$C"), line("$H"), line("$I"), line("$N"), line("$#"), line("$G"),
+        line("$10=2"), line("$N0=G20"), line("$RST=$"), line("$J=G91 X1 F100"), line("G0 X1 I1"),
+        line("$SLP", note="$SLP while moving"), rt("?", pause_before_s=0.5), rt("?", pause_before_s=9.0),
+    ]
+    return "Erroneous lines for every GRBL error number a line can produce, in idle and while moving", steps
+
+
+def _issue27_lines():
+    return "The G-code lines of issue 27's last section, as GRBL answers them", [
+        line("%"), line("G0 X1", note="the program goes on after a % line"), _sync(), line("%"),
+        line("G2 X10 Y0 R2 F100"),
+        line("G0 X2 (unclosed comment", note="GRBL ends the comment at the line end"), _sync(), rt("?"),
+        line("G0 X3 (closed) Y1"), _sync(), rt("?"), line("G0 (a) X0 (b) Y0 (c)"), _sync(), rt("?"),
+        line("G0 X1 ; a semicolon comment"), _sync(), rt("?"),
+        line("; only a comment"), line("(only a comment)"),
+        line("$rst=gcode"), line("$HTTP/1.1 200"), line("$HTTP/"),
+        raw("?\n", note="a lone ? line: ? is answered at once as a status report, the empty line with ok"),
+        line("M118 P0 (hello) T1"), line("M118 T"),
+        line(""), line("   "), line("\t"), line("g0 x1.5 y0.5", note="lower case"), _sync(), rt("?"),
+        line("G0X0Y0"), _sync(), rt("?"), line("$G"),
+    ]
+
+
+def _program_flow():
+    return "Program flow: M0 holds until ~, M1, M2 and M30 end the program (modal state reset)", [
+        line("$32=1"), line("G1 X2 F300"),
+        line("M0", answered=False, quiet_s=1.5, timed=(),
+             note="GRBL finishes the queued move, holds, and answers ok only after ~"),
+        rt("?", timed=()), line("G0 X0", answered=False, note="queued behind the pause: no ok yet"),
+        rt("~", note="cycle start: the M0's ok, then the queued line's"),
+        _sync(), rt("?"),
+        line("M1", note="optional stop"), rt("?"), line("M0", answered=False, quiet_s=1.0), rt("?", timed=()),
+        rt(RESET, note="a reset during the M0 pause"), rt("?"),
+        line("G91 G20 G2 X0.1 Y0.1 I0.05 J0.05 F200"), _sync(),
+        line("M4 S300 M8"), line("G55 G93 G18"), line("$G"),
+        line("M2"), line("$G", note="after M2"), rt("?"),
+        line("G91 G20 G1 M3 S200 F300 G56"), line("$G"), line("M30"), line("$G", note="after M30"),
+        line("G90 G21 G1 X1 F300"), line("M2", note="M2 behind a queued move"), rt("?"),
+        _sync(), rt("?"), line("M30 M5"), line("M2 M30"), line("M0 M1"),
+    ]
+
+
+def _check_mode():
+    return "Check mode ($C) in and out, and what it accepts, refuses and reports", [
+        line("$C"), rt("?"), line("$G"), line("G0 X10 Y10"), line("G1 X5"), line("G1 X5 F100"),
+        line("G2 X0 Y0 R1"), line("M0", note="no pause in check mode"), line("$#"), rt("?"),
+        line("G10 L2 P1 X5"), line("$#", note="does a G10 in check mode change the offsets?"),
+        line("M2"), line("$G"), line("G20"), line("$G"), line("$$"),
+        line("$C", note="leaving check mode resets GRBL"), rt("?"), line("$G"),
+        line("$C"), line("G0 X1 G1"), line("$C"), line("$C"), line("$C"),
+    ]
+
+
+def _offsets():
+    return "Work offsets: G10 L2/L20, G92, G92.1, G54-G59, G28/G30 and .1, G53, G43.1/G49 and $#", [
+        line("$#"), rt("?"),
+        line("G10 L2 P1 X5 Y6 Z-1"), line("$#"), rt("?"), line("$G"),
+        line("G10 L2 P2 X10"), line("G10 L2 P6 Y-3"), line("G10 L2 P0 Z2", note="P0: the current system"),
+        line("$#"), rt("?"),
+        line("G0 X1 Y1"), _sync(), rt("?"),
+        line("G10 L20 P1 X0 Y0", note="set work zero here"), line("$#"), rt("?"),
+        line("G10 L20 P3 X2"), line("G55"), line("$G"), rt("?"), line("G56"), rt("?"), line("G57"),
+        line("G58"), line("G59"), rt("?"), line("$G"), line("G54"),
+        line("G92 X0 Y0"), line("$#"), rt("?"), line("G92 X3"), line("$#"), rt("?"),
+        line("G92.1"), line("$#"), rt("?"),
+        line("G92 X1"), line("G92.2", note="G92.2/G92.3 are not GRBL's"), line("G92.3"), line("G92.1"),
+        line("G0 X2 Y3"), _sync(),
+        line("G28.1"), line("G30.1"), line("$#"),
+        line("G0 X0 Y0"), _sync(), line("G28"), _sync(), rt("?"), line("G0 X0 Y0"), _sync(),
+        line("G30"), _sync(), rt("?"),
+        line("G28 X1"), _sync(), rt("?"), line("G30 Y1"), _sync(), rt("?"),
+        line("G28.1 X1", note="axis words after G28.1"),
+        line("G53 G0 X4 Y4"), _sync(), rt("?"), line("G53 G1 X5 F300"), _sync(), rt("?"),
+        line("G53 X6"), _sync(), rt("?"),
+        line("G43.1 Z0.5"), line("$#"), rt("?"), line("$G"), line("G49"), line("$#"), rt("?"),
+        line("G20 G10 L2 P1 X1"), line("$#"), line("G21"),
+        line("G91 G10 L20 P1 X1"), line("$#"), line("G90"),
+        rt(RESET, pause_before_s=0.2), line("$#", note="what a reset keeps of the offsets"),
+        rt("?"), line("$G"),
+        line("G10 L2 P1 X0 Y0 Z0"), line("G10 L2 P2 X0 Y0 Z0"), line("G10 L2 P3 X0 Y0 Z0"),
+        line("$RST=#"), line("$#"), rt("?"),
+    ]
+
+
+def _homing_limits():
+    return "Homing disabled, soft limits without and with homing, the homing alarm lock, a probe " \
+           "that never touches", [
+        line("$130=200"), line("$131=200"), line("$132=200"), line("$110=500"), line("$120=10"),
+        line("$H"), line("$20=1"), line("$21=1"), rt("?"), line("$21=0"),
+        line("$22=1"), rt(RESET, note="a soft reset is no power-up: no homing lock"), rt("?"),
+        line("G0 X1"), _sync(), line("$J=G91 X1 F100"), line("$G", pause_before_s=2.0), line("$#"), line("$$"),
+        line("$X"), rt("?"), line("$20=1"),
+        line("$J=G91 X5 F100", note="outside the travel (machine space is -$130..0)"),
+        line("$J=G53 X-250 F100"), line("$J=G91 X-1 F300"), rt("?", pause_before_s=2.0),
+        line("G0 X5", quiet_s=1.5, note="soft limit: alarm, the line is not run"), rt("?"),
+        line("G0 X-1", answered=False, note="nothing is answered until the reset"), line("$X", answered=False),
+        rt(RESET), rt("?"), line("$X"), rt("?"),
+        line("G0 X-300", quiet_s=1.5), rt("?"), rt(RESET), line("$X"),
+        line("G1 X-2 F300"), _sync(), rt("?"),
+        line("G1 X10", quiet_s=1.5, note="a line that leaves the travel, from idle"), rt("?"), rt(RESET),
+        rt("?"), line("$X"), line("G0 X-1"), _sync(), rt("?"),
+        line("$20=0"), line("$22=0"), rt(RESET), rt("?"),
+        line("G38.2 Z-1 F200", quiet_s=1.5, note="the probe pin never trips: ALARM:5"), rt("?"),
+        rt(RESET), rt("?"), line("$X"),
+        line("G38.3 Z-0.5 F200", note="G38.3: no alarm when nothing touches"), _sync(), rt("?"),
+        line("G38.4 Z-0.5 F200"), rt("?", pause_before_s=1.0), rt(RESET), line("$X"), line("$#"),
+    ]
+
+
+def _hold_resume():
+    return "Feed hold and resume, overrides, jog cancel, while idle and while cutting", [
+        line("$32=1"), rt("!", note="feed hold while idle"), rt("?"), rt("~"), rt("?"),
+        line("M4 S500"), line("G1 X15 F300"), rt("?", pause_before_s=0.3),
+        rt("!"), rt("?", note="decelerating or stopped"), rt("?", pause_before_s=1.5),
+        line("G1 X0", answered=False, note="a line sent during a hold waits"),
+        line("$$", answered=False), line("$G", answered=False), line("$X", answered=False),
+        line("$C", answered=False),
+        rt("~"), rt("?"), rt("!", pause_before_s=0.5), rt("?", pause_before_s=1.5),
+        rt(FEED_PLUS_10), rt(RAPID_50), rt(POWER_MINUS_10), rt("?"), rt("~"), rt("?"),
+        rt("\x90\x95\x99", note="feed, rapid and power overrides back to 100 %"),
+        _sync(), rt("?"), rt("?"),
+        line("M5"),
+        line("$J=G91 X20 F300"), rt("?", pause_before_s=0.3), rt(JOG_CANCEL), rt("?", timed=("MPos",), pause_before_s=1.0),
+        line("$J=G91 X-5 F300"), rt("!", pause_before_s=0.3), rt("?", timed=("MPos",), pause_before_s=1.0), rt("~"),
+        rt("?", timed=("MPos",)), line("G0 X0", pause_before_s=1.0), _sync(), rt("?"),
+    ]
+
+
+def _reset():
+    return "Soft reset (ctrl-x) in idle, mid-job, in a hold, in check mode and in alarm", [
+        rt(RESET), rt("?"), line("$32=1"), line("G0 X1"), _sync(),
+        line("M4 S400 G1 X20 F300"), line("G1 Y5"), rt("?", pause_before_s=0.3),
+        rt(RESET, quiet_s=1.5, note="reset while moving: ALARM:3, then the banner once stopped"),
+        rt("?", timed=("MPos",), note="where the reset stopped it"), line("G0 X0"), line("$G"),
+        line("$X"), rt("?", timed=("MPos",)), line("$G"),
+        line("G0 X0"), _sync(),
+        line("G1 X10 F300"), rt("!", pause_before_s=0.5), rt("?", pause_before_s=1.5),
+        rt(RESET, quiet_s=1.0, note="reset in a completed hold"), rt("?", timed=("MPos",)), line("$X"),
+        line("G0 X0"), _sync(),
+        line("$C"), line("G0 X1"), rt(RESET, note="reset in check mode"), rt("?"), line("$G"),
+        raw("G0 X1", note="half a line"), rt(RESET, note="the reset discards the half line"),
+        line(" Y1"), line("$G"), _sync(), rt("?"),
+    ]
+
+
+def _status_reports():
+    steps = [rt("?"), line("$10")]
+    for mask in (0, 1, 2, 3):
+        steps += [line(f"$10={mask}"), rt("?"), rt("?"),
+                  line("G92 X1"), rt("?"), line("G92.1"),
+                  line("G1 X8 F300"), rt("?", pause_before_s=0.3), _sync(), rt("?"),
+                  line("G0 X0"), _sync(), rt("?")]
+    steps += [line("$10=1")] + [rt("?") for _ in range(12)]
+    steps += [line("N42 G1 X20 F300", note="4 s of motion: every report below sees it run"),
+              rt("?", pause_before_s=0.3)] + [rt("?") for _ in range(6)]
+    steps += [_sync(), rt("?"), line("$32=0"), line("M3 S250"), rt("?"), line("M5"), rt("?"),
+              line("$32=1"), line("M4 S250"), rt("?"), line("G1 X0 F300 S800"), rt("?", pause_before_s=0.3),
+              _sync(), rt("?"), line("M5"), line("G20"), rt("?"), line("$13=1"), rt("?"), line("$13=0"),
+              line("G21"), line("$10=1")]
+    return "Status reports under each $10 value, in idle and while moving; WCO/Ov cadence; Ln; FS", steps
+
+
+def _line_length():
+    def pad(prefix, n, fill="0"):
+        return prefix + fill * (n - len(prefix))
+    return "Line length: GRBL's 80-byte line buffer counts what is left after spaces and comments", [
+        line(pad("G0 X1.", 79), note="79 characters, 78 without the space"),
+        line(pad("G0X1.", 79), note="79 characters"),
+        line(pad("G0X1.", 80), note="80 characters"),
+        line(pad("G0X1.", 81)), line(pad("G0X1.", 100)), line(pad("G0X1.", 127)),
+        line(pad("G0X1.", 128)), line(pad("G0X1.", 200)),
+        line("G0 X1 " + "(" + "c" * 110 + ")", note="long only because of a comment"),
+        line("G0" + " " * 120 + "X0", note="long only because of spaces"),
+        line("G0 X1 ; " + "c" * 110),
+        line(pad("$N0=G0X1.", 81)), line(pad("$I=", 81)), line(pad("$I=", 79)), line("$I"),
+        line(pad("$N0=G0X1.", 79)), line("$N"), line("$N0="),
+        line(pad("$J=G91F100X0.", 81)),
+        line("G0 X0"), _sync(), rt("?"),
+    ]
+
+
+TOPICS = {
+    "dollar_commands": _dollar_commands,
+    "settings": _settings,
+    "errors": _errors,
+    "issue27_lines": _issue27_lines,
+    "program_flow": _program_flow,
+    "check_mode": _check_mode,
+    "offsets": _offsets,
+    "homing_limits": _homing_limits,
+    "hold_resume": _hold_resume,
+    "reset": _reset,
+    "status_reports": _status_reports,
+    "line_length": _line_length,
+}
+
+
+# --------------------------------------------------------------------------------------------
+
+class GrblSim:
+    """grbl-sim on pipes, in its own empty directory (a blank EEPROM)."""
+
+    def __init__(self, exe):
+        self.dir = tempfile.TemporaryDirectory(prefix="grbl-sim-")
+        self.proc = subprocess.Popen([exe, "-n", "-b", "/dev/null", "-s", "/dev/null"], cwd=self.dir.name,
+                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                     stderr=subprocess.DEVNULL, bufsize=0)
+        self.buf = b""
+
+    def send(self, data: bytes):
+        self.proc.stdin.write(data)
+
+    def read(self, timeout_s):
+        ready, _, _ = select.select([self.proc.stdout], [], [], max(0.0, timeout_s))
+        if not ready:
+            return b""
+        return os.read(self.proc.stdout.fileno(), 65536)
+
+    def close(self):
+        try:
+            self.send(b"\x06")           # grbl-sim's exit byte
+            self.proc.wait(timeout=3)
+        except Exception:
+            self.proc.kill()
+            self.proc.wait()
+        self.dir.cleanup()
+
+
+def _timed_fields(reply):
+    """Names of the fields of a status report whose values depend on timing (see README)."""
+    if not (reply.startswith("<") and reply.endswith(">")):
+        return None
+    fields = reply[1:-1].split("|")
+    state = fields[0].split(":")[0]
+    if state not in _MOVING_STATES:
+        return None
+    if fields[0] == "Hold:0":           # stopped: where it stopped depends on when the hold came
+        return [f.split(":")[0] for f in fields[1:] if f.split(":")[0] in ("MPos", "WPos")] or None
+    timed = [f.split(":")[0] for f in fields[1:] if f.split(":")[0] in _TIMED_FIELDS]
+    if state == "Hold":
+        timed.insert(0, "state")
+    return timed
+
+
+def exchange(sim, step):
+    """Send one step's bytes; return the exchange record."""
+    if step.get("pause_before_s"):
+        time.sleep(step["pause_before_s"])
+    data = step["send"].encode("latin-1")
+    lines_sent = data.count(b"\n")
+    answered = step.get("answered", True) and lines_sent > 0
+    quiet_s = step.get("quiet_s", 0.35)
+    t0 = time.monotonic()
+    sim.send(data)
+    out = b""
+    finals = 0
+    last = t0
+    if answered:
+        deadline = t0 + step.get("wait_s", 30.0)
+        while finals < lines_sent and time.monotonic() < deadline:
+            chunk = sim.read(deadline - time.monotonic())
+            if chunk:
+                out += chunk
+                last = time.monotonic()
+                finals = sum(1 for ln in out.decode("latin-1").split("\r\n") if _TERMINATOR.match(ln))
+    while True:
+        chunk = sim.read(quiet_s)
+        if not chunk:
+            break
+        out += chunk
+        last = time.monotonic()
+    text = out.decode("latin-1")
+    replies = [ln for ln in text.split("\r\n") if ln]
+    rec = {"send": step["send"], "replies": replies}
+    if text and ("".join(r + "\r\n" for r in replies) != text.replace("\r\n\r\n", "\r\n").lstrip("\r\n")):
+        rec["raw"] = text                  # not plain \r\n-terminated lines: keep the bytes
+    if "timed" in step:                # the step says which fields depend on timing (none: M0)
+        timing = {str(i): list(step["timed"]) for i, r in enumerate(replies)
+                  if r.startswith("<") and step["timed"]}
+    else:
+        timing = {str(i): f for i, r in enumerate(replies) if (f := _timed_fields(r))}
+    if timing:
+        rec["timing"] = timing
+    for key in ("pause_before_s", "note"):
+        if step.get(key):
+            rec[key] = step[key]
+    if not step.get("answered", True):
+        rec["answered"] = False
+    rec["elapsed_s"] = round(last - t0, 3)
+    if answered and finals < lines_sent:
+        raise RuntimeError(f"GRBL did not answer {step['send']!r} (got {replies}): is grbl-sim frozen? "
+                           "Mark a line GRBL holds its answer to with answered=False.")
+    return rec
+
+
+def record(exe, topic):
+    title, steps = TOPICS[topic]()
+    sim = GrblSim(exe)
+    try:
+        boot = b""
+        deadline = time.monotonic() + 5.0
+        while b"['$' for help]" not in boot and time.monotonic() < deadline:
+            boot += sim.read(deadline - time.monotonic())
+        time.sleep(1.5)                  # grbl-sim reads no input during its first simulated second
+        while sim.read(0.3):
+            pass
+        exchanges = []
+        for step in [rt(RESET)] + steps:
+            exchanges.append(exchange(sim, step))
+            if step.get("sync_if_ok") and exchanges[-1]["replies"][-1:] == ["ok"]:
+                exchanges.append(exchange(sim, _sync()))
+    finally:
+        sim.close()
+    return {
+        "topic": topic,
+        "title": title,
+        "recorded_from": {
+            "grbl": f"gnea/grbl {GRBL_COMMIT} (GRBL 1.1h.20190830, config.h as released: DEFAULTS_GENERIC)",
+            "grbl_sim": f"grbl/grbl-sim {GRBL_SIM_COMMIT} (with the patches listed in README.md)",
+            "recorded": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d"),
+            "script": "tests/vectors/grbl/record.py",
+        },
+        "exchanges": exchanges,
+    }
+
+
+def main(argv):
+    if len(argv) < 2:
+        print(__doc__)
+        return 2
+    exe = argv[1]
+    out = Path(argv[2]) if len(argv) > 2 else HERE
+    topics = argv[3:] or list(TOPICS)
+    for topic in topics:
+        t = time.monotonic()
+        data = record(exe, topic)
+        path = out / f"{topic}.json"
+        path.write_text(json.dumps(data, indent=1, ensure_ascii=True) + "\n", "utf-8")
+        n = len(data["exchanges"])
+        print(f"{topic}: {n} exchanges, {time.monotonic() - t:.1f} s -> {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
