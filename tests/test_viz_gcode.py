@@ -133,7 +133,7 @@ def test_playground_report_wraps_between_words():
     lines = shown.rstrip("\n").split("\n")
     assert len(lines) > 10 and max(map(len, lines)) <= PLAYGROUND_COLUMNS
     words = " ".join(shown.split())
-    for expected in ("error 22: feed motion without a feed rate", "error 33:", "(got 'X1.2.5';",
+    for expected in ("error 22: feed motion without a feed rate", "error 34:", "(got 'X1.2.5';",
                      "estimated time"):
         assert expected in words
     plt.close("all")

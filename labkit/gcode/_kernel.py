@@ -87,6 +87,7 @@ E_G53_MOTION = _code("g53_invalid_motion_mode")
 E_AXIS_EXIST = _code("axis_words_exist")
 E_G43_AXIS = _code("g43_dynamic_axis_error")
 E_MAX_VALUE = _code("max_value_exceeded")
+E_ARC_RADIUS = _code("arc_radius_error")
 
 # Details that select the message for a status code (see reader._MESSAGES).
 D_NONE = 0
@@ -114,6 +115,7 @@ D_G10_LP = 21
 D_G10_L = 22
 D_G10_R = 23
 D_PROBE_TARGET = 24
+D_PERCENT_LINE = 25
 
 # Letters (index = letter − 'A').
 L_E, L_F, L_G, L_I, L_J, L_K, L_L, L_M, L_N, L_P, L_R, L_S, L_T, L_X, L_Y, L_Z = (
@@ -204,6 +206,13 @@ def _read_number(buf, i, end):
     if value >= MAX_ABS_VALUE:
         return 0.0, i, 3
     return (-value if neg else value), i, 0
+
+
+@jit
+def _is_realtime(c, options):
+    """GRBL's real-time characters (status ?, cycle start ~, feed hold !): its serial
+    interrupt takes them out of the stream, so they never reach a line."""
+    return options.grbl_verdicts and (c == 63 or c == 126 or c == 33)
 
 
 @jit
@@ -403,7 +412,7 @@ def interpret(buf, options, lenient, max_errors, trace):
                     in_paren = True
                 elif c == 59:
                     break
-                elif c > 32 and c != 47:
+                elif c > 32 and c != 47 and not _is_realtime(c, options):
                     if count >= options.line_limit - 1:
                         err, epos, eend, aux0 = E_OVERFLOW, k, k + 1, float(options.line_limit - 1)
                         break
@@ -420,13 +429,15 @@ def interpret(buf, options, lenient, max_errors, trace):
         i = ls
         while i < le and err == OK:
             c = buf[i]
-            if _is_space(c):
+            if _is_space(c) or _is_realtime(c, options):
                 i += 1
                 continue
             if c == 40:   # '(' comment to ')'
                 j = i + 1
                 while j < le and buf[j] != 41:
                     j += 1
+                if j >= le and options.grbl_verdicts:   # GRBL: the comment ends with the line
+                    break
                 if j >= le:
                     err, detail, epos, eend = E_DELIMITER, D_UNCLOSED_COMMENT, i, le
                     break
@@ -468,6 +479,9 @@ def interpret(buf, options, lenient, max_errors, trace):
                     j += 1
                 if j < le:          # GRBL reads any other '%' as a non-letter: error 1
                     err, detail, epos, eend = E_EXPECTED_LETTER, D_PERCENT, i, i + 1
+                    break
+                if options.grbl_streamed:    # and a '%' line streamed to it (no program delimiter)
+                    err, detail, epos, eend = E_EXPECTED_LETTER, D_PERCENT_LINE, i, i + 1
                     break
                 i = le
                 break
@@ -547,8 +561,15 @@ def interpret(buf, options, lenient, max_errors, trace):
         tlo_cmd = 0           # 431 (G43.1) or 490 (G49)
         coord_new = coord
         inverse_new = inverse
-        if err == OK and not is_system:
+        # GRBL checks each word as it reads it, left to right: a command word left of a
+        # fault the scan found is checked first, and its own fault is the one reported
+        word_limit = le + 1
+        if err != OK and options.grbl_verdicts and err != E_OVERFLOW:
+            word_limit = epos
+        if (err == OK or word_limit <= le) and not is_system:
             for k in range(ng):
+                if g_pos[k] >= word_limit:
+                    break
                 v = g_val[k]
                 t10 = int(round(v * 10.0))
                 grp = -1
@@ -626,8 +647,12 @@ def interpret(buf, options, lenient, max_errors, trace):
                 groups |= 1 << grp
         if err == OK and is_jog and nm > 0:
             err, detail, epos, eend = E_INVALID_JOG, D_JOG_COMMAND, m_pos[0], m_end[0]
-        if err == OK and not is_system:
+        if err != OK and options.grbl_verdicts and err != E_OVERFLOW:
+            word_limit = epos
+        if (err == OK or word_limit <= le) and not is_system:
             for k in range(nm):
+                if m_pos[k] >= word_limit:
+                    break
                 v = m_val[k]
                 code = int(round(v))
                 grp = -1
@@ -876,7 +901,8 @@ def interpret(buf, options, lenient, max_errors, trace):
                                 if 0.5 * q - abs(r) <= options.arc_r_tol:
                                     h2 = 0.0
                                 else:
-                                    err, detail, epos, eend = E_INVALID_ARC, D_R_TOO_SMALL, wpos[L_R], wend[L_R]
+                                    err, detail, epos, eend = (E_ARC_RADIUS if options.grbl_verdicts
+                                                               else E_INVALID_ARC), D_R_TOO_SMALL, wpos[L_R], wend[L_R]
                                     aux0, aux1 = abs(r), 0.5 * q
                             if err == OK:
                                 h = math.sqrt(h2)

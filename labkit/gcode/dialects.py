@@ -103,6 +103,13 @@ class Dialect:
         ``LINE_BUFFER_SIZE`` 80, holding 79 characters after spaces and comments
         are dropped; a longer streamed line is error 11). Checked by
         :func:`labkit.gcode.check`.
+    grbl_verdicts : bool
+        Answer each line as GRBL 1.1h does where labkit's firmware answers otherwise: an
+        unclosed ``(`` ends at the line end, ``?`` ``~`` ``!`` are real-time characters taken
+        out of the line, an R arc whose chord is longer than 2R is error 34, and of several
+        faults in a line the first in GRBL's parser order is reported; streamed
+        (:func:`labkit.gcode.check`), a ``%`` line is error 1 (GRBL has no program
+        delimiter) and ``$`` lines are checked against GRBL's system commands.
     """
 
     name: str
@@ -130,6 +137,7 @@ class Dialect:
     home_is_origin: bool = False
     max_tool: int = 2**31 - 1
     line_buffer_chars: int = 0
+    grbl_verdicts: bool = False
     description: str = field(default="", compare=False)
 
     def feed_to_mm_min(self, f: float) -> float:
@@ -164,6 +172,7 @@ DIALECTS: dict[str, Dialect] = {
         coolant_codes=(8, 9),
         max_tool=255,
         line_buffer_chars=80,
+        grbl_verdicts=True,
         description="GRBL 1.1 laser mode: F mm/min, G4 P s, S 0-1000, M3/M4/M5",
     ),
     "labkit-fw": Dialect(

@@ -65,7 +65,7 @@ from labkit.gcode import _kernel as K
 from labkit.gcode.dialects import Dialect, get_dialect
 from labkit.toolpath.moves import LaserMode, MoveKind, Moves, Record
 
-__all__ = ["parse", "parse_file", "check", "modal_trace", "ParseOptions"]
+__all__ = ["parse", "parse_file", "check", "modal_trace", "ParseOptions", "grbl_system_verdict"]
 
 _COMMON_LETTERS = "FGIJKMNPRSXYZ"
 
@@ -93,6 +93,8 @@ class ParseOptions(NamedTuple):
     home_is_origin: bool
     max_tool: int
     line_limit: int = 0
+    grbl_verdicts: bool = False
+    grbl_streamed: bool = False
 
     @classmethod
     def from_dialect(cls, dialect: Dialect, *, streaming: bool = False) -> "ParseOptions":
@@ -117,6 +119,8 @@ class ParseOptions(NamedTuple):
             home_is_origin=dialect.home_is_origin,
             max_tool=int(dialect.max_tool),
             line_limit=dialect.line_buffer_chars if streaming else 0,
+            grbl_verdicts=dialect.grbl_verdicts,
+            grbl_streamed=dialect.grbl_verdicts and streaming,
         )
 
 
@@ -169,7 +173,10 @@ def parse(text, *, dialect: str | Dialect = "grbl", filename: str | None = None,
     streaming : bool
         Also reject what the controller rejects when the text is streamed to
         it line by line: a line with more significant characters than its
-        line buffer holds (GRBL: 79, error 11; comments and spaces do not count).
+        line buffer holds (GRBL: 79, error 11; comments and spaces do not count), and
+        for GRBL a ``%`` line (error 1: GRBL has no program delimiter, though senders often
+        strip it) and ``$`` lines its system commands refuse
+        (:func:`grbl_system_verdict`).
 
     Returns
     -------
@@ -199,14 +206,113 @@ def parse(text, *, dialect: str | Dialect = "grbl", filename: str | None = None,
     data = _as_bytes(text)
     out = _run(data, d, lenient, trace=False, streaming=streaming)
     errors = [_make_error(data, filename, e) for e in out.errors]
+    kept = out.records
+    if d.grbl_verdicts and streaming and len(kept):     # $ lines as GRBL's system commands
+        refused = [_system_line_error(data, filename, r, d) for r in kept]
+        kept = [r for r, e in zip(kept, refused) if e is None]
+        errors = sorted(errors + [e for e in refused if e is not None], key=lambda e: e.line)
     if errors and not lenient:
         raise errors[0]
     records = [Record(int(r["line"]), int(r["index"]), K.RECORD_NAMES[int(r["kind"])],
                       _clip(data[r["span"][0]:r["span"][1]].decode("utf-8", "replace").strip()),
                       float(r["value"]))
-               for r in out.records]
+               for r in kept]
     return Moves.from_rows(out.moves, source=filename, s_max=d.s_max, records=records,
-                           diagnostics=errors, dropped_diagnostics=out.error_total - len(errors))
+                           diagnostics=errors, dropped_diagnostics=out.error_total - len(out.errors))
+
+
+#: GRBL 1.1's settings ($n=value) below the per-axis ones ($100…$132, three axes).
+_GRBL_SETTINGS = frozenset((0, 1, 2, 3, 4, 5, 6, 10, 11, 12, 13, 20, 21, 22, 23, 24, 25, 26, 27,
+                            30, 31, 32))
+_GRBL_FLOAT = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)")     # read_float: no exponent
+
+
+def grbl_system_verdict(line: str, dialect: str | Dialect = "grbl") -> tuple[str, str] | None:
+    """What GRBL 1.1h answers to a ``$`` line, from its grammar alone: None for ``ok``, else
+    the status name and why.
+
+    The line is taken as GRBL's serial reader hands it over: spaces, comments and the
+    real-time characters ``? ~ !`` dropped, letters upper case. Answered as with GRBL's
+    default build and settings ($22 = 0: ``$H`` is error 5; ``$20=1`` is error 10), and
+    regardless of the machine's state (``$C``, ``$X`` and settings need an idle or alarmed
+    machine; the checker has none). ``$J=`` jog lines are the interpreter's.
+
+    >>> grbl_system_verdict("$rst=gcode")
+    ('invalid_statement', '$RST= takes $, # or *')
+    >>> grbl_system_verdict("$110 = 500"), grbl_system_verdict("$HTTP/1.1 200")[0]
+    (None, 'setting_disabled')
+    """
+    d = get_dialect(dialect)
+    s = re.sub(r"\([^)]*\)?|;.*", "", line)
+    s = "".join(ch for ch in s if ch > " " and not (d.grbl_verdicts and ch in "?~!")).upper()
+    cmd = s[1:2]
+    if cmd == "" or s in ("$$", "$G", "$C", "$X", "$#", "$I", "$N", "$SLP"):
+        return None
+    if cmd in "$GCX#":
+        return "invalid_statement", f"{s[:2]} takes nothing after it"
+    if cmd == "J":
+        return None if s[2:3] == "=" else ("invalid_statement", "a jog is $J= followed by G-code")
+    if cmd == "H":
+        return "setting_disabled", "homing is disabled ($22=0), so $H is refused"
+    if cmd == "S":
+        return "invalid_statement", "the only $S command is $SLP"
+    if cmd == "I":
+        return None if s[2:3] == "=" else ("invalid_statement", "$I or $I=<build info>")
+    if cmd == "R":
+        ok = s[2:5] == "ST=" and len(s) == 6 and s[5] in "$#*"
+        return None if ok else ("invalid_statement", "$RST= takes $, # or *")
+    startup = cmd == "N"
+    rest = s[2:] if startup else s[1:]
+    m = _GRBL_FLOAT.match(rest)
+    if m is None:
+        return "bad_number", "a setting number or a $N line number after '$'"
+    number, rest = float(m.group(0)), rest[m.end():]
+    if rest[:1] != "=":
+        return "invalid_statement", "'=' after the setting number"
+    rest = rest[1:]
+    if startup:                                  # $Nx=<G-code>: the line is checked as G-code
+        errors = check(rest, dialect=d)
+        return None if not errors else (errors[0].status.name, f"a valid startup line: {errors[0].message}")
+    m = _GRBL_FLOAT.match(rest)
+    if m is None:
+        return "bad_number", "a number after '='"
+    value = float(m.group(0))
+    if rest[m.end():] or number > 255:
+        return "invalid_statement", "$<setting>=<value> and nothing after it"
+    if value < 0:
+        return "negative_value", "a setting's value is not negative"
+    key = int(number)
+    if key >= 100:
+        axis_set, axis = divmod(key - 100, 10)
+        ok = axis_set <= 3 and axis < 3
+    else:
+        ok = key in _GRBL_SETTINGS
+    if not ok:
+        return "invalid_statement", f"${key} is not a GRBL 1.1 setting"
+    if key == 0 and int(value) < 3:
+        return "setting_step_pulse_min", "a step pulse of at least 3 µs ($0)"
+    if key == 20 and int(value):
+        return "soft_limit_error", "soft limits ($20=1) need homing enabled ($22=1) first"
+    return None
+
+
+def _system_line_error(data: bytes, filename, rec, dialect) -> GcodeError | None:
+    """The :class:`GcodeError` GRBL's answer to a ``$`` record is, or None (ok)."""
+    if K.RECORD_NAMES[int(rec["kind"])] != "system":
+        return None
+    ls = data.rfind(b"\n", 0, int(rec["span"][0])) + 1
+    le = data.find(b"\n", ls)
+    le = len(data) if le < 0 else le
+    source = data[ls:le].decode("utf-8", "replace").rstrip("\r")
+    text = data[rec["span"][0]:rec["span"][1]].decode("utf-8", "replace")
+    verdict = grbl_system_verdict(text, dialect)
+    if verdict is None:
+        return None
+    name, expected = verdict
+    column = len(data[ls:int(rec["span"][0])].decode("utf-8", "replace")) + 1
+    return GcodeError("GRBL refuses this $ line", filename=filename, line=int(rec["line"]),
+                      column=column, text=_clip(text.strip()), expected=expected, code=name,
+                      source_line=_clip(source))
 
 
 def parse_file(path, *, dialect: str | Dialect = "grbl", lenient: bool = False) -> Moves:
@@ -315,6 +421,9 @@ _MESSAGES = {
     (K.E_EXPECTED_LETTER, K.D_PERCENT): ("expected_letter", "'%' inside a line",
                                          "'%' alone on its line (the program delimiter) or a "
                                          "word letter A-Z"),
+    (K.E_EXPECTED_LETTER, K.D_PERCENT_LINE): ("expected_letter", "a '%' line, which GRBL refuses",
+                                              "no '%' line: GRBL 1.1 has no program delimiter "
+                                              "and answers error 1 (leave it out for GRBL)"),
     (K.E_OVERFLOW, 0): ("line_overflow", "line too long for the controller's line buffer",
                         "at most the buffer's characters, not counting spaces and comments "
                         "(GRBL 1.1: 79 of its 80-byte buffer); split the block"),
@@ -382,6 +491,8 @@ _MESSAGES = {
                                            "an end point different from the start, or I J K offsets"),
     (K.E_INVALID_ARC, K.D_R_TOO_SMALL): ("invalid_arc", "arc radius is smaller than half the chord",
                                          "|R| >= half the distance from start to end"),
+    (K.E_ARC_RADIUS, K.D_R_TOO_SMALL): ("arc_radius_error", "arc radius is smaller than half the chord",
+                                        "|R| >= half the distance from start to end"),
     (K.E_INVALID_ARC, K.D_RADIUS_MISMATCH): ("invalid_arc", "arc radius at start and end differ",
                                              "an end point on the circle through the start around the "
                                              "centre (within the dialect's tolerance)"),
@@ -425,7 +536,7 @@ def _make_error(data: bytes, filename, row) -> GcodeError:
     a0, a1 = float(aux[0]), float(aux[1])
     if code == K.E_CHECKSUM:
         message = f"checksum does not match the line (computed {a0:.0f}, written {a1:.0f})"
-    elif code == K.E_INVALID_ARC and detail == K.D_R_TOO_SMALL:
+    elif code in (K.E_INVALID_ARC, K.E_ARC_RADIUS) and detail == K.D_R_TOO_SMALL:
         message = f"arc radius {a0:.6g} mm is smaller than half the chord {a1:.6g} mm"
     elif code == K.E_INVALID_ARC and detail == K.D_RADIUS_MISMATCH:
         message = (f"arc radius at start {a0:.6g} mm and at end {a1:.6g} mm differ by "
