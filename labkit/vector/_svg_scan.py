@@ -235,7 +235,8 @@ def render_only(data: bytes) -> tuple[bytes, list[str]]:
     features picks), ``transform-origin`` (SVG 2, which svgelements ignores) folded
     into the ``transform`` as translate(o) · T · translate(−o), and a rect's ``rx``/``ry``
     given in percent resolved against the nearest viewport (rx of its width, ry of its
-    height, as renderers do; svgelements takes them of the rect's own size).
+    height, as renderers do; svgelements takes them of the rect's own size); a mask of
+    opaque white shapes becomes the clip-path it is equivalent to (:func:`_masks_as_clips`).
 
     Returns
     -------
@@ -285,7 +286,75 @@ def render_only(data: bytes) -> tuple[bytes, list[str]]:
                 if tag == "rect":
                     _resolve_radii(child, viewport)
                 todo.append((child, _viewport(child, viewport) if tag == "svg" else viewport))
+    _masks_as_clips(root)
     return ET.tostring(root, encoding="unicode").encode("utf-8"), dropped
+
+
+_SHAPES = frozenset(("rect", "circle", "ellipse", "path", "polygon", "polyline", "line"))
+_WHITE = frozenset(("#fff", "#ffffff", "white", "rgb(255,255,255)"))
+
+
+def _style(el, key: str) -> str | None:
+    """A presentation property of ``el`` from its style attribute or its own attribute."""
+    for item in el.get("style", "").split(";"):
+        name, _, value = item.partition(":")
+        if name.strip() == key:
+            return value.strip().lower().replace(" ", "")
+    value = el.get(key)
+    return None if value is None else value.strip().lower().replace(" ", "")
+
+
+def _opaque_white(mask) -> bool:
+    """Whether a mask shows exactly the union of its shapes: every shape (in plain groups)
+    filled opaque white, with no stroke, no opacity and no transform on a group, and the
+    mask's region left at its default (the masked element's box and a 10 % margin)."""
+    if any(mask.get(k) is not None for k in ("x", "y", "width", "height", "maskUnits")):
+        return False
+    shapes = 0
+    todo = list(mask)
+    while todo:
+        el = todo.pop()
+        tag = _local(el.tag) if isinstance(el.tag, str) else ""
+        if tag == "g" and not el.attrib:
+            todo.extend(el)
+            continue
+        if tag not in _SHAPES or _style(el, "fill") not in _WHITE:
+            return False
+        if _style(el, "stroke") not in (None, "none"):
+            return False
+        if any(_style(el, k) not in (None, "1") for k in ("opacity", "fill-opacity")):
+            return False
+        shapes += 1
+    return shapes > 0
+
+
+def _masks_as_clips(root) -> None:
+    """Apply a mask that shows exactly the union of its white shapes (:func:`_opaque_white`)
+    as the clip-path it is equivalent to: the mask becomes a clipPath (its content units
+    become clipPathUnits) and each ``mask="url(#id)"`` on an element without a clip-path of
+    its own a ``clip-path``. Any other mask is left for the reader, which names what it
+    masks in a warning."""
+    clips = {}
+    for mask in root.iter():
+        if isinstance(mask.tag, str) and _local(mask.tag) == "mask" and mask.get("id") \
+                and _opaque_white(mask):
+            clips[mask.get("id")] = mask
+    if not clips:
+        return
+    used = set()
+    for el in root.iter():
+        ref = el.get("mask", "").strip()
+        ident = ref[5:-1].strip().strip("'\"") if ref.startswith("url(#") and ref.endswith(")") else None
+        if ident in clips and el.get("clip-path") is None:
+            del el.attrib["mask"]
+            el.set("clip-path", f"url(#{ident})")
+            used.add(ident)
+    for ident in used:
+        mask = clips[ident]
+        mask.tag = mask.tag[:-len("mask")] + "clipPath"
+        units = mask.attrib.pop("maskContentUnits", None)
+        if units is not None:
+            mask.set("clipPathUnits", units)
 
 
 

@@ -27,8 +27,10 @@ nor stroke, or opacity 0; every ``switch`` child but the first. ``clip-path`` is
 (:mod:`labkit.geometry.clip`): a shape is cut only inside its clip region, built from
 the clipPath's shapes in the referencing element's user space or bounding box; a
 clipPath holding text is not applied (labkit has no text geometry), and the shapes it clips
-are named in a warning. A ``mask`` is not applied either: every shape under one (its own or
-a group's) is named in a warning, cut whole.
+are named in a warning. A ``mask`` of opaque white shapes shows exactly their union and is
+applied as that clip region; any other mask (black or grey content, strokes, opacity, its
+own region) is not: every shape under one (its own or a group's) is named in a warning,
+cut whole.
 
 Text and images cannot be cut as vectors; they are skipped with a warning
 naming each one once (convert text to paths in the drawing program first).
@@ -44,6 +46,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from labkit._files import check_input_file
+from labkit._jit import job_units
 from labkit.errors import GeometryError
 from labkit.geometry import transform as tf
 from labkit.budget import check_budget
@@ -579,7 +582,7 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
     invisible: list[str] = []
     clipped: list[str] = []
     masked: list[str] = []
-    for index, el, kind in _iter_shapes(doc):
+    for index, el, kind in job_units(list(_iter_shapes(doc))):   # Python or compiled: _jit's rule
         label = _name(el, index)
         if kind != "shape":
             skipped.append(label)

@@ -66,6 +66,15 @@ RULES = {
                                        '<circle id="cf" cx="20" cy="15" r="8" fill="#000" clip-path="url(#c8)"/>',
     "shape clipped away entirely": f'<clipPath id="c9"><rect x="30" y="0" width="5" height="5"/></clipPath>'
                                    f'<rect id="cw" {HIDDEN} clip-path="url(#c9)"/>',
+    # a mask of opaque white shapes shows exactly their union: applied as that clip region
+    "mask of a white rectangle on a shape": f'<mask id="k1"><rect x="5" y="5" width="12" height="12" fill="#fff"/>'
+                                            f'</mask><circle id="kc" cx="15" cy="15" r="8" mask="url(#k1)" {STROKE}/>',
+    "mask of white shapes on a group, by style": f'<defs><mask id="k2"><g><circle cx="10" cy="10" r="6" style="fill:white"/>'
+                                                f'<rect x="20" y="20" width="10" height="10" fill="#ffffff"/></g></mask></defs>'
+                                                f'<g mask="url(#k2)"><rect id="kg" x="3" y="3" width="30" height="30" {STROKE}/></g>',
+    "mask in objectBoundingBox content units": f'<mask id="k3" maskContentUnits="objectBoundingBox">'
+                                               f'<rect x="0.25" y="-0.5" width="0.5" height="2" fill="#fff"/></mask>'
+                                               f'<rect id="kb" x="8" y="10" width="24" height="12" mask="url(#k3)" {STROKE}/>',
     # rx, ry in percent: of the viewport's width and height, then clamped to half the side
     "rect rx in percent (ry auto, clamped)": f'<rect id="rp" x="5" y="10" width="30" height="12" rx="20%" {STROKE}/>',
     "rect rx and ry in percent": f'<rect id="rq" x="5" y="10" width="30" height="20" rx="10%" ry="15%" {STROKE}/>',
@@ -255,10 +264,12 @@ def test_rect_radius_in_percent_is_a_stadium_as_resvg_draws_it():
 
 
 def test_masked_shapes_are_named_in_a_warning_not_cut_silently():
-    """A mask is not applied: a shape masked itself and one in a masked group are named in
-    a warning (cut whole, as the warning says); an unmasked shape and the mask's own
-    contents are not."""
-    text = DOC.format('<defs><mask id="m"><rect id="mr" width="20" height="40" fill="#fff"/></mask></defs>'
+    """A mask other than opaque white shapes (here a black hole in a white rectangle: its
+    luminance, not a union of shapes) is not applied: a shape masked itself and one in a
+    masked group are named in a warning (cut whole, as the warning says); an unmasked shape
+    and the mask's own contents are not."""
+    text = DOC.format('<defs><mask id="m"><rect id="mr" width="20" height="40" fill="#fff"/>'
+                      '<circle cx="10" cy="10" r="3" fill="#000"/></mask></defs>'
                       f'<g mask="url(#m)"><rect id="ma" {HIDDEN}/></g>'
                       f'<circle id="mb" cx="30" cy="10" r="4" mask="url(#m)" {STROKE}/>')
     with pytest.warns(UserWarning, match=r"mask is not applied; 2 shape\(s\) under a mask are cut "
