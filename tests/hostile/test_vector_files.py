@@ -61,6 +61,11 @@ def fan_out(levels, copies=4, tag="use"):
      r"elements nested 257 deep; labkit reads at most 256 levels"),
     ("HTML", "<html><body><p>not a drawing</p></body></html>",
      r"not an SVG document \(the root element is <html>, expected <svg>\)"),
+    ("rx in percent without a viewport", '<svg xmlns="http://www.w3.org/2000/svg"><rect rx="10%" '
+     'width="5" height="5" stroke="#000"/></svg>',
+     r"<rect> rx='10%': a percentage needs the viewport's size, and the document gives none"),
+    ("rx percent of nothing", svg('<rect rx="abc%" width="5" height="5"/>', ' viewBox="0 0 40 40"'),
+     r"<rect> rx='abc%': expected a number or a percentage"),
     ("broken XML", svg('<rect width="1" height="1">'),
      r"<string>:1:\d+: not well-formed XML \(mismatched tag\)"),
 ])
