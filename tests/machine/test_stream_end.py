@@ -267,3 +267,21 @@ def test_labkit_console_says_when_the_link_is_gone(fake, monkeypatch, capsys):
     assert "labkit console: disconnected from" in err
     assert f"safe stop: link lost (disconnected from {controller.port}" in err and NOT_TOLD in err
     assert b"G0 X0" not in controller.data()
+
+
+def test_the_signal_handlers_are_the_callers_again_after_a_stream(fake):
+    controller = fake()
+    g = connect(controller)
+    before = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+    seen = []
+
+    def progress(*args):
+        seen.append((signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)))
+
+    rep = run_job(g, Job.from_text("G21 G90\nM4 S300 F3000\nG1 X2\nM5\n", machine="grbl-diode"),
+                  progress=progress)
+    g.close()
+    assert rep.ok, rep.summary()
+    # labkit's own, for both signals, during the stream
+    assert seen and all(a != before[0] and b != before[1] for a, b in seen)
+    assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == before
