@@ -23,7 +23,7 @@ from pathlib import Path
 
 from labkit.errors import InputError
 
-__all__ = ["check_input_file", "check_output_file", "atomic_output", "write_figure"]
+__all__ = ["check_input_file", "check_output_file", "atomic_output", "write_figure", "figure_format"]
 
 
 def check_input_file(path, *, what: str = "input file") -> Path:
@@ -259,11 +259,32 @@ def write_figure(fig, path, **savefig_options) -> None:
     InputError
         The suffix names no format matplotlib writes, or the file cannot be written.
     """
+    with atomic_output(path, "wb") as fh:
+        fig.savefig(fh, format=figure_format(path), **savefig_options)
+
+
+def figure_format(path) -> str:
+    """The picture format matplotlib writes for ``path``'s suffix (``png`` without one).
+
+    Commands call it before any work, so that a preview named ``out.gcode`` is refused
+    before the program beside it is written.
+
+    Raises
+    ------
+    InputError
+        When matplotlib writes no such format; the message lists those it writes.
+
+    Examples
+    --------
+    >>> figure_format("window.SVG"), figure_format("preview")
+    ('svg', 'png')
+    """
+    from matplotlib.backend_bases import FigureCanvasBase
+
     target = Path(os.fspath(path))
     fmt = target.suffix.lstrip(".").lower() or "png"
-    supported = fig.canvas.get_supported_filetypes()
+    supported = FigureCanvasBase.get_supported_filetypes()
     if fmt not in supported:
         raise InputError(f"{target}: cannot draw a '.{fmt}' file; expected one of "
                          f"{', '.join('.' + k for k in sorted(supported))}")
-    with atomic_output(target, "wb") as fh:
-        fig.savefig(fh, format=fmt, **savefig_options)
+    return fmt

@@ -158,7 +158,7 @@ def _pattern(args) -> int:
 def _measure(args) -> int:
     from pathlib import Path
 
-    from labkit._files import atomic_output, check_output_file
+    from labkit._files import atomic_output, check_output_file, figure_format
     from labkit.errors import InputError
     from labkit.laser.measure import check_layout, measure_lines, register, scale_from_reference
     from labkit.raster.color import to_gray
@@ -173,6 +173,7 @@ def _measure(args) -> int:
     check_output_file(png, args.scan, args.layout)
     if Path(png).resolve() == Path(args.output).resolve():
         raise InputError(f"{png}: is also the widths CSV (-o); expected another name for --annotated")
+    figure_format(png)
     layout = check_layout(_read_json(args.layout, "layout"), source=args.layout)
     im = read_image(args.scan)
     img = to_gray(im.pixels) / 255.0
@@ -424,10 +425,11 @@ def _settings(args) -> int:
 
 
 def _window(args) -> int:
-    from labkit._files import check_output_file
+    from labkit._files import check_output_file, figure_format
     from labkit.viz.laser import process_window
 
     check_output_file(args.output, args.fit)
+    figure_format(args.output)
     res, fit = load_fit(args.fit, args.model)
     from labkit.laser.models import Fit
 
@@ -440,11 +442,12 @@ def _window(args) -> int:
 
 
 def _source(args) -> int:
-    from labkit._files import check_output_file
+    from labkit._files import check_output_file, figure_format
     from labkit.laser.source import fit_source, label_ratio, read_source_csv
 
     if args.output:
         check_output_file(args.output, args.csv)
+        figure_format(args.output)
     df = read_source_csv(args.csv)
     volts = df["voltage_v"].to_numpy() if "voltage_v" in df.columns else None
     f = fit_source(df["current_a"].to_numpy(), df["optical_mw"].to_numpy(), volts)

@@ -124,9 +124,10 @@ def run_preview(args) -> int:
     from labkit.gcode import parse
     from labkit.viz.gcode import save_preview
 
-    from labkit._files import check_output_file
+    from labkit._files import check_output_file, figure_format
 
     check_output_file(args.output, args.file)
+    figure_format(args.output)
     text = _read(args.file)
     # The whole job is held while it is drawn: count its lines before parsing.
     check_budget("preview_lines", text.count(b"\n") + 1, cause=f"drawing all of {args.file}",

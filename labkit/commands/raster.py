@@ -75,7 +75,7 @@ def run_img2gcode(args) -> int:
     from labkit.raster.engrave import RasterSettings, image_to_job, placed_size
     from labkit.raster.io import read_image
 
-    from labkit._files import atomic_output, check_output_file
+    from labkit._files import atomic_output, check_output_file, figure_format
     from labkit.budget import check_budget
     from labkit.commands._args import check_fits
     from labkit.errors import InputError
@@ -87,6 +87,7 @@ def run_img2gcode(args) -> int:
         if not args.preview and Path(preview).resolve() == Path(args.input).resolve():
             preview = str(Path(args.output).with_suffix(".preview.png"))   # never the image itself
         check_output_file(preview, args.input)
+        figure_format(preview)
     if args.power > args.s_max:
         raise InputError(f"--power {args.power:g} is above --s-max {args.s_max:g}; "
                          f"expected a power within 0…{args.s_max:g}")
