@@ -285,3 +285,13 @@ def test_pattern_replaces_a_linked_layout_without_writing_through_the_link(tmp_p
     assert precious.read_text() == '{"another grid": true}'
     assert not (tmp_path / "G.json").is_symlink()
     assert len(json.loads((tmp_path / "G.json").read_text())["lines"]) == 4
+
+
+def test_a_layout_without_numbers_says_the_orientation_was_not_checked(burned, tmp_path, capsys):
+    tmp, layout, truth = burned
+    bare = dict(layout, labels=[], label_mm=0.0)
+    (tmp_path / "BARE.json").write_text(json.dumps(bare))
+    scan = _scan(tmp_path, bare, truth)
+    code, out, err = _run(capsys, "measure", scan, "--layout", tmp_path / "BARE.json", "-o", tmp_path / "w.csv")
+    assert code == 0, err
+    assert "no engraved numbers, so the scan's orientation was not checked" in out
