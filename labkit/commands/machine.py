@@ -110,6 +110,10 @@ def add_stream_arguments(parser):
                         help="how the file is read (default: the protocol's)")
     parser.add_argument("--allow-spindle-mode", action="store_true",
                         help="stream a burning job even when the machine's $32 is 0 (a warning)")
+    parser.add_argument("--no-preflight", action="store_true",
+                        help="skip the check of the job against the controller ($G, $#, $30, "
+                             "travel) before the first line; the controller's own limits still "
+                             "apply")
     parser.add_argument("--s-max", type=number(0, 1e9, lo_open=True), default=None, metavar="S",
                         help="Dobot only: the S of full laser power, 100 %% PWM duty (default: "
                              "the dialect's, GRBL 1000, labkit-fw 255); a higher S is refused")
@@ -175,7 +179,7 @@ def run_stream(args) -> int:
             report = run_job(machine, job, mode=args.mode, on_error=args.on_error,
                              check_first=args.check_first, resume_from=args.resume_from,
                              progress=progress, allow_spindle_mode=args.allow_spindle_mode,
-                             machine=args.machine)
+                             machine=args.machine, preflight=not args.no_preflight)
         finally:
             progress.close()
             machine.close()
@@ -228,6 +232,8 @@ def _stream_command(args) -> list:
         cmd += ["--on-error", args.on_error]
     if args.allow_spindle_mode:
         cmd.append("--allow-spindle-mode")
+    if args.no_preflight:
+        cmd.append("--no-preflight")
     if args.log:
         cmd += ["--log", args.log + ".resume"]
     return cmd

@@ -146,6 +146,19 @@ def test_labkit_stream_prints_the_refusal(tmp_path, capsys):
     assert controller.lines == 0
 
 
+def test_labkit_stream_no_preflight_sends_the_job(tmp_path, capsys):
+    controller = PtyController()
+    controller.vm.settings[30] = "255"
+    p = tmp_path / "job.gcode"
+    p.write_text("G21 G90\nM4 S800 F600\nG1 X10\nM5\n")
+    try:
+        assert main(["stream", str(p), "--port", controller.port, "--no-preflight"]) == 0
+    finally:
+        controller.close()
+    assert capsys.readouterr().out.startswith("completed: 4/4 lines acknowledged")
+    assert controller.lines == 5                  # the job's four, and the M5 S0 that ends a job
+
+
 def test_travel_of_a_real_grbl_is_negative_unless_its_position_says_otherwise():
     """A controller that is not the virtual machine: GRBL's soft limits span −$130…0 per
     axis (machine zero at the homed corner), or 0…$130 where the position is positive."""
