@@ -4,16 +4,27 @@ loaded from the cache, only when a kernel of that module first needs the speed.
 Every kernel is written once, as plain Python over numpy arrays, and decorated with
 :func:`jit` instead of ``numba.njit``. The decorator returns a :class:`Kernel`:
 
-- Until a kernel of its module runs compiled, nothing of numba is imported. Importing
-  numba and loading a module's cached machine code costs 0.5–1 s, which dominates a
-  command on a small file (``labkit check`` on a 2,400-line job parses in 3 ms once
-  compiled).
-- A kernel declared with ``python_below=N`` runs as plain Python (its ``py_func``, the
-  same function numba compiles) when its array arguments hold fewer than ``N``
-  elements in all and its module is not compiled yet. ``N`` is set where the kernel is
-  declared, from its measured cost per element against the cost of loading compiled
-  code. Once any kernel of the process runs compiled (numba's ~0.7 s start is paid),
-  only inputs below :data:`PYTHON_ALWAYS_BELOW` elements still run as Python. One-dimensional ``uint8`` arguments are handed to Python as ``memoryview``
+- Until a kernel runs compiled, nothing of numba is imported. Importing numba and
+  loading a module's cached machine code costs :data:`LOAD_COST_S` of CPU time, which
+  dominates a command on a small file (``labkit check`` on a 2,400-line job parses in
+  3 ms once compiled).
+- **The rule (one for every kernel and command):** kernels run as plain Python (their
+  ``py_func``, the same function numba compiles) while the CPU time this process has
+  spent running kernels as Python, plus what the work at hand is projected to spend,
+  stays below :data:`LOAD_COST_S`; once it would reach it, numba is loaded and every
+  later call runs compiled — except inputs below :data:`PYTHON_ALWAYS_BELOW` elements
+  (and below the kernel's ``python_below``), which still run as Python until that kernel
+  has spent :data:`MODULE_LOAD_COST_S` on them, what loading one more module's cached
+  code costs. The projection is the job's when one is open
+  (:func:`job_units`: the Python time per unit of the units done so far, times the units
+  left), else the call's own: ``n / python_below`` loads for ``n`` array elements
+  (``python_below`` is set where the kernel is declared, from its measured cost per
+  element; 0 means always compiled). The tally carries across jobs, so a process that
+  converts many small files pays for numba once its Python time would have paid for it.
+  A job switched late has paid for what it ran as Python before: the projection starts
+  once :data:`JOB_SAMPLE` of its units are done or it has spent that share of
+  :data:`LOAD_COST_S`, so a job near the crossover pays about a tenth of a load extra.
+  One-dimensional ``uint8`` arguments are handed to Python as ``memoryview``
   objects: indexing them gives Python ints, which is both faster than numpy scalars and
   keeps numba's integer arithmetic (numpy 2 keeps ``uint8 - 48`` a wrapping ``uint8``,
   numba widens it to ``int64``).
@@ -34,9 +45,10 @@ import functools
 import os
 import sys
 import threading
+import time
 import types
 
-__all__ = ["Kernel", "jit", "compile_all", "mode", "forced"]
+__all__ = ["Kernel", "jit", "compile_all", "mode", "forced", "job_units", "LOAD_COST_S"]
 
 # Depth of kernels running as Python. Shared by threads on purpose (a plain list is the
 # cheapest check on the hot path of nested calls): a thread that starts a kernel while
@@ -48,6 +60,21 @@ _numba_loaded = [False]             # a kernel of this process went compiled
 #: Below this many elements a ``python_below`` kernel runs as Python even when numba is
 #: loaded already (a few ms as Python against ~15 ms to load its cached machine code).
 PYTHON_ALWAYS_BELOW = 4096
+#: CPU seconds that importing numba and loading a job's cached kernels cost (measured on
+#: the 2-core reference machine: numba's import 0.25 s, the first module's kernels 0.45 s;
+#: svg2gcode's five modules 0.9–1.0 s, its CPU time compiled less its time as Python with
+#: the kernels' own share taken out). CPU time, not wall time, on both sides of the rule:
+#: a loaded machine stretches both alike.
+LOAD_COST_S = 1.0
+#: A job projects its Python time once this share of its units is done, or once it has
+#: spent this share of LOAD_COST_S as Python: a late switch costs at most about that much.
+JOB_SAMPLE = 0.1
+#: CPU seconds to load one more module's cached kernels once numba is loaded: a kernel runs
+#: tiny inputs as Python after the load until they have cost it this much.
+MODULE_LOAD_COST_S = 0.03
+_spent = [0.0]                      # CPU s this process has spent in kernels run as Python
+_jobs: list["_Job"] = []            # the open jobs, innermost last
+_cpu_clock = time.process_time      # the clock of the tally (tests set their own)
 _hooks_installed = False
 
 
@@ -111,6 +138,7 @@ class Kernel:
         self.python_below = int(python_below)
         self.python_impl = python
         self.dispatcher = None
+        self.spent_since_load = 0.0     # CPU s run as Python after numba was loaded
         functools.update_wrapper(self, func)
 
     def __repr__(self):
@@ -129,21 +157,26 @@ class Kernel:
         how = mode()
         if how == "python":
             return self.run_python(*args)
-        if how == "auto":
-            n = _elements(args)
-            # Python pays off while numba is not loaded; once it is (another kernel ran
-            # compiled), loading a cached kernel takes ~15 ms, less than all but tiny inputs.
-            if n < self.python_below and (n < PYTHON_ALWAYS_BELOW or not _numba_loaded[0]):
-                return self.run_python(*args)
+        if how == "auto" and runs_as_python(_elements(args), self.python_below,
+                                            self.spent_since_load):
+            return self.run_python(*args, tally=True)
         return self.compiled()(*args)
 
-    def run_python(self, *args):
-        """Run as plain Python (kernels it calls too), whatever the size."""
+    def run_python(self, *args, tally=False):
+        """Run as plain Python (kernels it calls too), whatever the size; ``tally`` counts
+        its CPU time towards the rule's tally."""
         _python_depth[0] += 1
+        start = _cpu_clock() if tally else 0.0
+        loaded = _numba_loaded[0]
         try:
             return self.python_twin()(*(_as_python(a) for a in args))
         finally:
             _python_depth[0] -= 1
+            if tally:
+                took = _cpu_clock() - start
+                _spent[0] += took
+                if loaded:
+                    self.spent_since_load += took
 
     def python_twin(self):
         """``py_func`` with the kernels it names bound to their own twins: a kernel running as
@@ -179,6 +212,63 @@ class Kernel:
                     self.dispatcher = numba.njit(**self.options)(self.py_func)
                     _numba_loaded[0] = True
         return self.dispatcher
+
+
+def runs_as_python(n: int, python_below: int, spent_since_load: float = 0.0) -> bool:
+    """The rule of the module docstring: whether a call of ``n`` array elements to a kernel
+    declared with ``python_below`` (that has spent ``spent_since_load`` CPU seconds as Python
+    since numba was loaded) runs as Python in ``"auto"`` mode now."""
+    if n >= python_below:
+        return False                      # python_below=0: always compiled
+    if _numba_loaded[0]:
+        return n < PYTHON_ALWAYS_BELOW and spent_since_load < MODULE_LOAD_COST_S
+    projected = n / python_below * LOAD_COST_S
+    if _jobs:
+        projected = max(projected, _jobs[-1].projected_rest())
+    return _spent[0] + projected < LOAD_COST_S
+
+
+class _Job:
+    """A job of ``units`` like units of work (shapes of a drawing): what it spent as Python
+    per unit done so far projects what the rest will spend."""
+
+    def __init__(self, units: int):
+        self.units, self.done, self.spent_at_start = units, 0, _spent[0]
+
+    def projected_rest(self) -> float:
+        spent = _spent[0] - self.spent_at_start
+        if self.done == 0 or (self.done < JOB_SAMPLE * self.units and spent < JOB_SAMPLE * LOAD_COST_S):
+            return 0.0                   # too few units yet to tell (one shape may be unlike the rest)
+        return spent / self.done * (self.units - self.done)
+
+
+def job_units(items):
+    """Iterate over ``items``, the units of one job, so that the rule of the module
+    docstring projects the job's Python time from the units done so far.
+
+    Parameters
+    ----------
+    items : sequence
+        The units (shapes of a drawing, entities of a DXF); its length is the job's size.
+
+    Yields
+    ------
+    object
+        Each item in turn; a unit counts as done when the loop asks for the next one.
+
+    Examples
+    --------
+    >>> [x * 2 for x in job_units([1, 2, 3])]
+    [2, 4, 6]
+    """
+    current = _Job(len(items))
+    _jobs.append(current)
+    try:
+        for item in items:
+            yield item
+            current.done += 1
+    finally:
+        _jobs.remove(current)
 
 
 @contextlib.contextmanager

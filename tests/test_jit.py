@@ -4,6 +4,7 @@ small job from the command line imports neither numba nor scipy."""
 import os
 import subprocess
 import sys
+import types
 from pathlib import Path
 
 import numpy as np
@@ -81,38 +82,126 @@ def test_parse_as_python_equals_compiled_on_tricky_lines(dialect):
     assert _both(emit, a, arcs="r")[0] == _both(emit, a, arcs="r")[1]
 
 
-def test_auto_mode_runs_small_inputs_as_python_and_large_ones_compiled(monkeypatch):
+@pytest.fixture
+def fresh_process(monkeypatch):
+    """Auto mode as in a new process: numba not loaded, no Python time spent yet, a CPU
+    clock that the test moves (each kernel run as Python costs ``clock.step`` seconds)."""
+    clock = types.SimpleNamespace(now=0.0, step=0.0)
+
+    def read():
+        clock.now += clock.step               # read at a run's start and end: a run takes step
+        return clock.now
+
+    monkeypatch.setattr(_jit, "DEFAULT_MODE", "auto")
+    monkeypatch.delenv("LABKIT_JIT", raising=False)
+    monkeypatch.delenv("NUMBA_DISABLE_JIT", raising=False)
+    monkeypatch.setattr(_jit, "_numba_loaded", [False])
+    monkeypatch.setattr(_jit, "_spent", [0.0])
+    monkeypatch.setattr(_jit, "_jobs", [])
+    monkeypatch.setattr(_jit, "_cpu_clock", read)
+    return clock
+
+
+def _recording_kernel(monkeypatch, python_below):
+    """A kernel whose calls are recorded as "py" or "nb"; its compiled path is a stand-in
+    that marks numba as loaded, as the real one does (no compiling in these tests)."""
     calls = []
 
-    @_jit.jit(python_below=100)
+    @_jit.jit(python_below=python_below)
     def total(a):
         s = 0.0
         for v in a:
             s += v
         return s
 
-    monkeypatch.setattr(_jit, "DEFAULT_MODE", "auto")
-    monkeypatch.delenv("LABKIT_JIT", raising=False)
     original = total.run_python
-    monkeypatch.setattr(total, "run_python", lambda *a: calls.append(len(a[0])) or original(*a))
+
+    def compiled_stand_in(*args):
+        calls.append("nb")
+        return float(np.sum(args[0]))
+
+    def load():
+        _jit._numba_loaded[0] = True
+        return compiled_stand_in
+
+    monkeypatch.setattr(total, "run_python", lambda *a, **k: calls.append("py") or original(*a, **k))
+    monkeypatch.setattr(total, "compiled", load)
+    return total, calls
+
+
+def test_auto_mode_runs_small_inputs_as_python_and_large_ones_compiled(fresh_process, monkeypatch):
+    total, calls = _recording_kernel(monkeypatch, python_below=100)
     assert total(np.arange(10.0)) == 45.0
-    assert calls == [10] and total.dispatcher is None
     assert total(np.arange(1000.0)) == 499500.0
-    assert calls == [10] and total.dispatcher is not None
+    assert calls == ["py", "nb"]
 
 
-def test_once_numba_is_loaded_only_tiny_inputs_run_as_python(monkeypatch):
-    @_jit.jit(python_below=100_000)
-    def count(a):
-        return a.shape[0]
+def test_once_numba_is_loaded_only_tiny_inputs_run_as_python(fresh_process, monkeypatch):
+    count, calls = _recording_kernel(monkeypatch, python_below=100_000)
+    count(np.zeros(50_000))
+    assert calls == ["py"]
+    _jit._numba_loaded[0] = True
+    count(np.zeros(10))
+    count(np.zeros(50_000))
+    assert calls == ["py", "py", "nb"]
 
-    monkeypatch.setattr(_jit, "DEFAULT_MODE", "auto")
-    monkeypatch.delenv("LABKIT_JIT", raising=False)
-    monkeypatch.setattr(_jit, "_numba_loaded", [False])
-    assert count(np.zeros(50_000)) == 50_000 and count.dispatcher is None
-    monkeypatch.setattr(_jit, "_numba_loaded", [True])
-    assert count(np.zeros(10)) == 10 and count.dispatcher is None
-    assert count(np.zeros(50_000)) == 50_000 and count.dispatcher is not None
+
+def test_the_tally_goes_compiled_once_python_time_would_have_paid_for_numba(fresh_process, monkeypatch):
+    """Many small calls (each far below python_below): Python until the CPU time they took
+    reaches LOAD_COST_S, then compiled for the rest of the process."""
+    monkeypatch.setattr(_jit, "LOAD_COST_S", 1.0)
+    fresh_process.step = 0.3
+    total, calls = _recording_kernel(monkeypatch, python_below=10**9)
+    for _ in range(6):
+        total(np.ones(5000))
+    # after 3 runs 0.9 s is spent (< 1 s): a 4th runs as Python; after it 1.2 s ≥ 1 s
+    assert calls == ["py"] * 4 + ["nb"] * 2
+    assert _jit._spent[0] == pytest.approx(1.2)
+
+
+@pytest.mark.parametrize("units", range(1, 31))
+def test_a_job_is_decided_from_its_first_unit_and_costs_at_most_a_fifth_more_than_the_better_path(
+        fresh_process, monkeypatch, units):
+    """The rule at the crossover. A job of ``units`` units, each a kernel call taking 0.1 s
+    as Python and 0.1 × 0.05 s compiled, with LOAD_COST_S = 1 s: the crossover is at 10
+    units (1 s as Python against 1 s to load). Below it every unit runs as Python; at and
+    above it the first unit runs as Python and the rest compiled. What the job then costs
+    (in this model of the two paths) is within 20 % of the better of all-Python and
+    all-compiled at every size — the first unit (here 10 % of the crossover) is the price."""
+    load, per_unit, speedup = 1.0, 0.1, 0.05
+    monkeypatch.setattr(_jit, "LOAD_COST_S", load)
+    fresh_process.step = per_unit
+    total, calls = _recording_kernel(monkeypatch, python_below=10**9)
+    for _ in _jit.job_units(range(units)):
+        total(np.ones(5000))
+    crossover = round(load / per_unit)
+    if units < crossover:
+        assert calls == ["py"] * units
+    else:
+        assert calls == ["py"] + ["nb"] * (units - 1)
+    cost = (calls.count("py") * per_unit + calls.count("nb") * per_unit * speedup
+            + (load if "nb" in calls else 0.0))
+    better = min(units * per_unit, load + units * per_unit * speedup)
+    assert cost <= 1.2 * better + 1e-12
+    assert _jit._jobs == []
+
+
+def test_the_tally_carries_over_from_one_job_to_the_next(fresh_process, monkeypatch):
+    """Ten jobs of 4 units (0.4 s as Python each, below the 1 s load) in one process: the
+    third job goes compiled once Python time spent plus its projection reaches the load."""
+    monkeypatch.setattr(_jit, "LOAD_COST_S", 1.0)
+    fresh_process.step = 0.1
+    total, calls = _recording_kernel(monkeypatch, python_below=10**9)
+    per_job = []
+    for _ in range(10):
+        before = len(calls)
+        for _ in _jit.job_units(range(4)):
+            total(np.ones(5000))
+        per_job.append(calls[before:])
+    assert per_job[0] == per_job[1] == ["py"] * 4
+    # job 3: 0.8 s spent; after its first unit 0.9 s + 3 units × 0.1 s projected ≥ 1 s
+    assert per_job[2] == ["py"] + ["nb"] * 3
+    assert all(j == ["nb"] * 4 for j in per_job[3:])
 
 
 def test_kernels_call_kernels_in_both_modes():

@@ -48,6 +48,7 @@ from collections import Counter
 import numpy as np
 
 from labkit._files import check_input_file
+from labkit._jit import job_units
 from labkit.budget import check_budget
 from labkit.errors import GeometryError, LabkitError
 from labkit.geometry import transform as tf
@@ -648,7 +649,7 @@ def read_dxf(source, *, tol_mm=0.01, units=None, warn=True, arcs=True) -> Drawin
     k = _unit_scale(doc, units, name, warn, written_units=b"$INSUNITS" in head)
     _expanded_count(doc, name)
     sink = _Sink(doc, tol_mm)
-    for e in _draw_order(doc.modelspace()):
+    for e in job_units(list(_draw_order(doc.modelspace()))):   # Python or compiled: _jit's rule
         meta = dict(layer=e.dxf.get("layer", "0"), source=f"{e.dxftype()}#{e.dxf.handle}",
                     fill_rule="evenodd")
         try:
