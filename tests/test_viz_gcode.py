@@ -137,3 +137,23 @@ def test_playground_report_wraps_between_words():
                      "estimated time"):
         assert expected in words
     plt.close("all")
+
+
+def test_numpy_twin_draws_the_pixels_the_compiled_kernel_draws(monkeypatch):
+    """The drawing kernel run as Python (numpy, in batches of steps) and compiled: the same
+    grids, pixel for pixel, on random pieces that cross the border (clipped) and overlap."""
+    from labkit._jit import forced
+    from labkit.viz import _gcode_draw
+
+    rng = np.random.default_rng(7)
+    pieces = rng.uniform(-20, 220, size=(3000, 2, 2))
+    value = rng.uniform(0, 100, 3000)
+    burning = rng.random(3000) < 0.6
+    monkeypatch.setattr(_gcode_draw, "NUMPY_STEPS", 10_000)     # many batches
+    with forced("python"):
+        py_power, py_travel = _gcode_draw.draw(pieces, value, burning, (180, 200))
+    with forced("compiled"):
+        nb_power, nb_travel = _gcode_draw.draw(pieces, value, burning, (180, 200))
+    np.testing.assert_array_equal(py_power, nb_power)
+    np.testing.assert_array_equal(py_travel, nb_travel)
+    assert np.isfinite(py_power).sum() > 10_000 and py_travel.sum() > 5_000

@@ -122,17 +122,17 @@ def add_preview_arguments(parser):
 def run_preview(args) -> int:
     from labkit.budget import check_budget
     from labkit.gcode import parse
-    from labkit.viz.gcode import save_preview
+    from labkit.viz.preview import preview_format, write_moves_preview
 
-    from labkit._files import check_output_file, figure_format
+    from labkit._files import check_output_file
 
     check_output_file(args.output, args.file)
-    figure_format(args.output)
+    preview_format(args.output)
     text = _read(args.file)
     # The whole job is held while it is drawn: count its lines before parsing.
     check_budget("preview_lines", text.count(b"\n") + 1, cause=f"drawing all of {args.file}",
                  option="the job (preview a part of it)")
     moves = parse(text, dialect=args.dialect, filename=args.file, lenient=args.lenient)
-    save_preview(moves, args.output, dpi=args.dpi, view=args.view, show_travel=not args.no_travel)
+    write_moves_preview(moves, args.output, dpi=args.dpi, view=args.view, show_travel=not args.no_travel)
     print(f"wrote {args.output}", file=sys.stderr)
     return 0

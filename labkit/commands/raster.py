@@ -75,10 +75,11 @@ def run_img2gcode(args) -> int:
     from labkit.raster.engrave import RasterSettings, image_to_job, placed_size
     from labkit.raster.io import read_image
 
-    from labkit._files import atomic_output, check_output_file, figure_format
+    from labkit._files import atomic_output, check_output_file
     from labkit.budget import check_budget
     from labkit.commands._args import check_fits
     from labkit.errors import InputError
+    from labkit.viz.preview import preview_format, write_job_preview
 
     output = check_output_file(args.output, args.input)
     preview = None
@@ -87,7 +88,7 @@ def run_img2gcode(args) -> int:
         if not args.preview and Path(preview).resolve() == Path(args.input).resolve():
             preview = str(Path(args.output).with_suffix(".preview.png"))   # never the image itself
         check_output_file(preview, args.input)
-        figure_format(preview)
+        preview_format(preview)
     if args.power > args.s_max:
         raise InputError(f"--power {args.power:g} is above --s-max {args.s_max:g}; "
                          f"expected a power within 0…{args.s_max:g}")
@@ -138,9 +139,7 @@ def run_img2gcode(args) -> int:
     print(report.format())
     print(f"{'G-code':<{_label_width(report)}}  {args.output}")
     if preview is not None:
-        from labkit.viz.raster import save_job_preview
-
-        save_job_preview(job, preview)
+        write_job_preview(job, preview)
         print(f"{'preview':<{_label_width(report)}}  {preview}")
     return 0
 

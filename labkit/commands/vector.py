@@ -130,8 +130,12 @@ def _run(args, drawing) -> int:
     from labkit.toolpath.build import LayerSettings
     from labkit.toolpath.job import vector_job
     from labkit.toolpath.moves import LaserMode
+    from labkit.viz.preview import preview_format, write_moves_preview
 
     output = check_output_file(args.output, args.input)
+    if args.preview:                 # checked before any work, like the output
+        check_output_file(args.preview, args.input)
+        preview_format(args.preview)
     laser = LaserMode.DYNAMIC if args.dynamic else LaserMode.CONSTANT
     default = LayerSettings(feed_mm_min=args.feed, power_s=args.power, passes=args.passes,
                             z_step_mm=args.z_step, laser=laser)
@@ -173,9 +177,7 @@ def _run(args, drawing) -> int:
     print(summary.format())
     print(f"G-code          {args.output}")
     if args.preview:
-        from labkit.viz.gcode import save_preview
-
-        save_preview(moves, args.preview)
+        write_moves_preview(moves, args.preview)
         print(f"preview         {args.preview}")
     return 0
 
