@@ -68,7 +68,7 @@ def check_input_file(path, *, what: str = "input file") -> Path:
     return p
 
 
-def check_output_file(path, *inputs) -> Path:
+def check_output_file(path, *inputs, option: str = "-o") -> Path:
     """Return ``path`` as a Path, refusing to write over any of ``inputs``.
 
     Parameters
@@ -77,6 +77,8 @@ def check_output_file(path, *inputs) -> Path:
         Where the command will write.
     *inputs : str or os.PathLike
         The files the command reads.
+    option : str
+        The option that named ``path``, for the message.
 
     Raises
     ------
@@ -99,7 +101,7 @@ def check_output_file(path, *inputs) -> Path:
             same = False
         if same or out.resolve() == src.resolve():
             raise InputError(f"{out}: is also the input file {src}; "
-                             "expected a different output name (-o), the input is left untouched")
+                             f"expected a different output name ({option}), the input is left untouched")
     return out
 
 

@@ -170,7 +170,7 @@ def _measure(args) -> int:
     png = args.annotated or str(Path(args.output).with_suffix(".png"))
     if not args.annotated and Path(png).resolve() == Path(args.scan).resolve():
         png = str(Path(args.output).with_suffix(".annotated.png"))       # never the scan itself
-    check_output_file(png, args.scan, args.layout)
+    check_output_file(png, args.scan, args.layout, option="--annotated")
     if Path(png).resolve() == Path(args.output).resolve():
         raise InputError(f"{png}: is also the widths CSV (-o); expected another name for --annotated")
     figure_format(png)

@@ -253,7 +253,8 @@ def test_measure_outputs_never_overwrite_its_inputs(burned, tmp_path, capsys):
     grid = tmp_path / "GRID.json"
     grid.write_text((tmp / "GRID.json").read_text())
     before = scan.read_bytes(), grid.read_text()
-    for extra, what in (([ "-o", tmp_path / "w.csv", "--annotated", scan], "SCAN.png: is also the input file"),
+    for extra, what in ((["-o", tmp_path / "w.csv", "--annotated", scan],
+                         "SCAN.png; expected a different output name (--annotated), the input is left untouched"),
                         (["-o", grid], "GRID.json: is also the input file"),
                         (["-o", tmp_path / "w.csv", "--annotated", tmp_path / "w.csv"], "is also the widths CSV")):
         err = _one_line_error(*_run(capsys, "measure", scan, "--layout", grid, *extra)[::2])
