@@ -312,11 +312,12 @@ def load_config() -> MachineConfig:
 
 def save_config(cfg: MachineConfig) -> Path:
     """Write the settings (atomically: a crash never leaves half a file); returns the path."""
+    from labkit._files import atomic_output
+
     path = config_path()
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(f".tmp{os.getpid()}")
-    tmp.write_text(json.dumps(dataclasses.asdict(cfg), indent=1), "utf-8")
-    os.replace(tmp, path)
+    with atomic_output(path) as fh:
+        json.dump(dataclasses.asdict(cfg), fh, indent=1)
     return path
 
 
