@@ -1,0 +1,223 @@
+"""The size ladder (issue 29): every command at four input sizes, as a user runs it (a fresh
+process, best of ``--repeat`` after one warm-up that fills the bytecode and numba caches), in
+labkit's default mode and forced to Python only (``LABKIT_JIT=python``) and compiled only
+(``LABKIT_JIT=compiled``), so that the rule of :mod:`labkit._jit` is visible: the default
+should be within 20 % of the better of the two at every size. Each row also gives the time of
+the command's peer measured in the same run and the ratio labkit / peer (below 1: labkit is
+faster), or peer / labkit where the target is a speed-up (marked ×):
+
+- ``check``, ``info``: gcodeparser's ``parse_gcode_lines`` over the file, as a process;
+- ``plan``, ``preview``, ``stream`` (to the virtual machine), ``dxf2gcode``: starting Python and
+  importing numpy, the floor any numpy-based command pays;
+- ``svg2gcode``: svg-to-gcode (``parse_file`` and ``Compiler``) on the same file, as a process;
+- ``img2gcode`` (zigzag, gray, dither): a pure-Python row scan of the same pixels writing
+  G-code (bench_raster's), as a process.
+
+Then svg2gcode's targets: a set of ten raw SVGs with transforms (``_svgset.py``, 450 paths,
+written by this benchmark) converted in one process at 0.1 and 0.01 mm, against svg-to-gcode
+in one process; one command per file against svg-to-gcode's process per file; the small
+drawing ``data/svg/cncjs/jsdc.svg`` against the numpy floor.
+
+Inputs: real files where they exist (cncjs's G-code jobs, data/dxf, data/svg); the larger
+G-code rungs repeat a real job, the SVG rungs are written by ``_svgset.py`` and the images
+are bench_raster's compact mask at four sizes — all made here, by hand, and said so.
+
+Run:  .venv/bin/python benchmarks/bench_ladder.py [--repeat K] [--only NAME ...]
+(``make bench`` installs the peers first: ``pip install -e '.[bench]'``.)
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from _process import ROOT, process_time
+from _svgset import write_set
+
+PY = sys.executable
+GCODE = ROOT / "data" / "gcode" / "cncjs"
+MODES = ("auto", "python", "compiled")
+
+# the peers, each a process over the same input
+GCODEPARSER = ("import sys; from gcodeparser import parse_gcode_lines; "
+               "list(parse_gcode_lines(open(sys.argv[1]).read()))")
+SVG_TO_GCODE = """
+import sys, warnings
+warnings.simplefilter("ignore")
+from svg_to_gcode import TOLERANCES
+from svg_to_gcode.compiler import Compiler, interfaces
+from svg_to_gcode.svg_parser import parse_file
+TOLERANCES["approximation"] = float(sys.argv[1])
+for f in sys.argv[2:]:
+    c = Compiler(interfaces.Gcode, movement_speed=1000, cutting_speed=300, pass_depth=0)
+    c.append_curves(parse_file(f))
+    c.compile(passes=1)
+"""
+LABKIT_SVG_SET = """
+import sys
+from labkit.toolpath.build import LayerSettings
+from labkit.toolpath.job import vector_job
+from labkit.vector import read_svg
+tol = float(sys.argv[1])
+for f in sys.argv[2:]:
+    d = read_svg(f, tol_mm=tol, arcs=True, warn=False)
+    vector_job(d.paths, default=LayerSettings(feed_mm_min=300, power_s=1000), tol_mm=tol).gcode()
+"""
+
+
+def timed(argv, repeat, mode=None):
+    """Best wall time of ``argv`` as a fresh process, with ``LABKIT_JIT=mode`` when given."""
+    if mode is None or mode == "auto":
+        os.environ.pop("LABKIT_JIT", None)
+    else:
+        os.environ["LABKIT_JIT"] = mode
+    try:
+        return process_time(argv, repeat)
+    finally:
+        os.environ.pop("LABKIT_JIT", None)
+
+
+def labkit_row(name, size_label, argv, peer_t, peer_name, repeat, speedup=False):
+    """Time ``labkit argv`` in the three modes and print one row of the ladder."""
+    t = {m: timed([PY, "-m", "labkit", *argv], repeat, m) for m in MODES}
+    better = min(t["python"], t["compiled"])
+    ratio = peer_t / t["auto"] if speedup else t["auto"] / peer_t
+    print(f"{name:18s} {size_label:>16s} {t['auto']:7.2f} s  {peer_name:14s} {peer_t:7.2f} s  "
+          f"{ratio:6.2f}{'×' if speedup else ' '}  python {t['python']:6.2f}  compiled "
+          f"{t['compiled']:6.2f}  default/better {t['auto'] / better:4.2f}", flush=True)
+    return t
+
+
+def gcode_rungs(tmp: Path):
+    """Four G-code jobs: 30 lines of a real job, the real 2,418- and 40,299-line jobs, and
+    the 40,299-line job repeated five times (made here)."""
+    small = tmp / "jsdc-head30.gcode"
+    small.write_text("".join((GCODE / "jsdc-laser.gcode").open().readlines()[:30]))
+    big = (GCODE / "tball-pocket-laser.gcode").read_text()
+    huge = tmp / "tball-pocket-x5.gcode"
+    huge.write_text(big * 5)
+    return [small, GCODE / "jsdc-laser.gcode", GCODE / "tball-pocket-laser.gcode", huge]
+
+
+def lines_of(p: Path) -> str:
+    count = p.read_bytes().count(b"\n")
+    return f"{count:,} lines"
+
+
+def ladder_gcode(tmp, repeat, only):
+    t_numpy = timed([PY, "-c", "import numpy"], repeat)
+    for f in gcode_rungs(tmp):
+        peer = timed([PY, "-c", GCODEPARSER, str(f)], repeat)
+        for cmd, extra, peer_t, peer_name in (
+                ("check", [], peer, "gcodeparser"), ("info", [], peer, "gcodeparser"),
+                ("plan", [], t_numpy, "import numpy"),
+                ("preview", ["-o", str(tmp / "p.png")], t_numpy, "import numpy"),
+                ("stream", [], t_numpy, "import numpy")):
+            if not only or cmd in only:
+                labkit_row(cmd, lines_of(f), [cmd, str(f), *extra], peer_t, peer_name, repeat)
+
+
+def svg_rungs(tmp: Path):
+    """jsdc.svg (4 shapes, real) and drawings of 45, 450 and 1,800 paths (made here)."""
+    out = [(ROOT / "data" / "svg" / "cncjs" / "jsdc.svg", "4 shapes")]
+    for n in (45, 450, 1800):
+        folder = tmp / f"svg{n}"
+        folder.mkdir()
+        out.append((write_set(folder, files=1, elements=n)[0], f"{n} paths"))
+    return out
+
+
+def ladder_svg(tmp, repeat):
+    for f, label in svg_rungs(tmp):
+        peer = timed([PY, "-c", SVG_TO_GCODE, "0.01", str(f)], repeat)
+        labkit_row("svg2gcode", label, ["svg2gcode", str(f), "--arcs", "-o", str(tmp / "s.gcode")],
+                   peer, "svg-to-gcode", repeat, speedup=True)
+
+
+def ladder_dxf(tmp, repeat):
+    t_numpy = timed([PY, "-c", "import numpy"], repeat)
+    files = sorted((ROOT / "data" / "dxf").rglob("*.dxf"), key=lambda p: p.stat().st_size)
+    picks = [files[0], files[len(files) // 3], files[2 * len(files) // 3], files[-1]]
+    for f in picks:
+        labkit_row("dxf2gcode", f"{f.stat().st_size / 1e3:,.0f} kB", ["dxf2gcode", str(f), "--arcs",
+                   "-o", str(tmp / "d.gcode")], t_numpy, "import numpy", repeat)
+
+
+def ladder_img(tmp, repeat):
+    from PIL import Image
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from bench_raster import PY_ROW_SCAN, compact_mask
+
+    for size in (32, 256, 1024, 4096):
+        png = tmp / f"mask{size}.png"
+        Image.fromarray(np.where(compact_mask(size), 0, 255).astype(np.uint8)).save(png, dpi=(254, 254))
+        peer = timed([PY, "-c", PY_ROW_SCAN, str(png), str(tmp / "r.gcode")], repeat)
+        for mode in ("zigzag", "gray", "dither"):
+            labkit_row(f"img2gcode {mode}", f"{size}² px", ["img2gcode", str(png), "-o", str(tmp / "i.gcode"),
+                       "--mode", mode, "--beam", "0.1", "--preview", "none", "--force"],
+                       peer, "py row scan", repeat, speedup=True)
+
+
+def svg_targets(tmp, repeat):
+    """The svg2gcode targets of issue 29 §3 on the ten raw SVGs with transforms."""
+    folder = tmp / "set"
+    folder.mkdir()
+    files = [str(f) for f in write_set(folder, files=10, elements=45)]
+    print(f"\nsvg2gcode targets: {len(files)} raw SVGs with transforms, 450 paths (made by _svgset.py)")
+    for tol in ("0.1", "0.01"):
+        peer = timed([PY, "-c", SVG_TO_GCODE, tol, *files], repeat)
+        t = {m: timed([PY, "-c", LABKIT_SVG_SET, tol, *files], repeat, m) for m in MODES}
+        print(f"  one process, tol {tol:>4s} mm: labkit {t['auto']:6.2f} s (python {t['python']:6.2f}, "
+              f"compiled {t['compiled']:6.2f})  svg-to-gcode {peer:6.2f} s  "
+              f"-> {peer / t['auto']:5.1f}× (target ≥ 20×)", flush=True)
+    per_lab = per_peer = 0.0
+    for f in files[:3]:
+        per_lab += timed([PY, "-m", "labkit", "svg2gcode", f, "--arcs", "-o", str(tmp / "o.gcode")], repeat)
+        per_peer += timed([PY, "-c", SVG_TO_GCODE, "0.01", f], repeat)
+    print(f"  one command per file (3 files, 0.01 mm): labkit {per_lab:6.2f} s  svg-to-gcode "
+          f"{per_peer:6.2f} s  -> {per_peer / per_lab:5.2f}× (target ≥ 3×)")
+    small = ROOT / "data" / "svg" / "cncjs" / "jsdc.svg"
+    t_small = timed([PY, "-m", "labkit", "svg2gcode", str(small), "-o", str(tmp / "j.gcode")], repeat)
+    t_numpy = timed([PY, "-c", "import numpy"], repeat)
+    print(f"  small drawing jsdc.svg: labkit {t_small:5.2f} s, python -c 'import numpy' {t_numpy:5.2f} s "
+          f"-> {t_small / t_numpy:4.2f}× the numpy floor (target ≤ 2.5×)")
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=1)
+    ap.add_argument("--only", nargs="*", default=[],
+                    help="parts to run: gcode (or check, info, plan, preview, stream), svg, dxf, img, "
+                         "targets")
+    args = ap.parse_args()
+    only = set(args.only)
+    start = time.perf_counter()
+    print(f"load average at start: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+    print(f"{'command':18s} {'input':>16s} {'labkit':>9s}  {'peer':14s} {'time':>9s}  {'ratio':>7s}")
+    with tempfile.TemporaryDirectory() as name:
+        tmp = Path(name)
+        gcode_parts = only & {"check", "info", "plan", "preview", "stream"}
+        if not only or "gcode" in only or gcode_parts:
+            ladder_gcode(tmp, args.repeat, gcode_parts)
+        if not only or "svg" in only:
+            ladder_svg(tmp, args.repeat)
+        if not only or "dxf" in only:
+            ladder_dxf(tmp, args.repeat)
+        if not only or "img" in only:
+            ladder_img(tmp, args.repeat)
+        if not only or "targets" in only:
+            svg_targets(tmp, args.repeat)
+    print(f"load average at end: {os.getloadavg()[0]:.1f}; {time.perf_counter() - start:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
