@@ -162,6 +162,9 @@ def check_layout(layout, *, source=None) -> dict:
                              "expected digits")
         for key in ("x_mm", "y_mm"):
             _field_number(lab, key, f"labels[{k}].{key}", where)
+        if lab.get("kind") not in ("row", "col"):
+            raise InputError(f"{where}labels[{k}].kind is {_what(lab.get('kind'))}; expected 'row' or 'col' "
+                             "(the numbers left of the rows, above the columns)")
     return layout
 
 

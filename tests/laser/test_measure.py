@@ -187,6 +187,7 @@ def test_an_8_bit_scan_measures_as_the_scan_it_was_rounded_from(grid):
     (lambda L: L["lines"][1].update(speed_mm_min=-5), r"lines\[1\].speed_mm_min is -5; expected a number > 0"),
     (lambda L: L["lines"][1].update(row=True), r"lines\[1\].row is True"),
     (lambda L: L["labels"][0].update(text="A"), r"labels\[0\].text is 'A' \(text\); expected digits"),
+    (lambda L: L["labels"][2].pop("kind"), r"labels\[2\].kind is None; expected 'row' or 'col'"),
     (lambda L: L.update(lines={"x0_mm": 1}), "lines is .*; expected a list of burned lines"),
 ])
 def test_a_hand_edited_layout_names_the_field(grid, edit, message):
