@@ -12,7 +12,7 @@ PYTEST_ARGS ?=
 TEST_JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 XDIST := -n $(TEST_JOBS) --dist loadfile
 
-.PHONY: lab test test-fast bench firmware firmware-all clean browser-deps
+.PHONY: lab test test-fast bench firmware firmware-all clean browser-deps student
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; assert sys.version_info >= (3, 11), "labkit needs Python >= 3.11, found " + sys.version.split()[0]'
@@ -34,6 +34,12 @@ lab: $(STAMP)
 test: $(STAMP) browser-deps
 	$(MAKE) -C firmware test
 	$(PY) -m pytest $(XDIST) $(PYTEST_ARGS)
+
+## make student STUDENT_DIR=DIR: the student edition of every chapter (answers replaced by stubs,
+## the appendices for researchers removed, the other outputs kept).
+STUDENT_DIR ?= student
+student: $(STAMP)
+	$(PY) -m labkit course student "$(STUDENT_DIR)"
 
 ## make firmware-all: what CI adds to make test: the ARM images (sizes printed), the job
 ## streamed to the image in QEMU, and a bounded libFuzzer run (FUZZ_SECONDS per target).
