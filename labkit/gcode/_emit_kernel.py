@@ -47,6 +47,11 @@ EmitFormat = namedtuple("EmitFormat", ["decimals", "value_decimals", "inline_pow
 #: which line j goes (n = after the last), its text ``text[span[j, 0]:span[j, 1]]``,
 #: ``reset[j]`` a program end (the controller is back in its default modes after it).
 EmitRecords = namedtuple("EmitRecords", ["row", "text", "span", "reset"])
+
+#: The writer's modal state between blocks of rows, as :func:`write_moves` reads and leaves it
+#: (int64): the written position (3, scaled like ``end``), motion word, plane, F, S, laser
+#: mode, beam parked for a rapid (0/1), and the next record to write.
+STATE_SIZE = 10
 _PLANE_AXES = np.array([[0, 1, 2], [2, 0, 1], [1, 2, 0]], dtype=np.int64)
 _AXIS_LETTER = np.array([88, 89, 90], dtype=np.uint8)      # X Y Z
 _OFFSET_LETTER = np.array([73, 74, 75], dtype=np.uint8)    # I J K
@@ -147,10 +152,12 @@ def _end_line(out, used, line_start, numbered, checksums, number):
 
 
 @jit(python_below=150_000)  # column elements (~15 a move): ~10,000 moves as Python
-def write_moves(rows, start, fmt, first_number, records):
-    """Write the program body: ``rows`` an :data:`EmitRows`, ``start`` the position before
-    the first move (scaled like ``rows.end``), ``fmt`` an :data:`EmitFormat`, ``records`` an
-    :data:`EmitRecords`. Returns (bytes, next line number).
+def write_moves(rows, state, fmt, first_number, records, row0):
+    """Write a block of the program body: ``rows`` an :data:`EmitRows` (program rows ``row0``
+    on), ``state`` the writer's modal state before them (see :data:`STATE_SIZE`; updated in
+    place to the state after them, so the next block goes on from it), ``fmt`` an
+    :data:`EmitFormat`, ``records`` the whole program's :data:`EmitRecords`. Returns (bytes,
+    next line number).
     """
     kind, end_i, centre, plane = rows.kind, rows.end, rows.centre, rows.plane
     feed_i, power_i, laser, dwell_i, r_mode_rows = (rows.feed, rows.power, rows.laser,
@@ -168,18 +175,19 @@ def write_moves(rows, start, fmt, first_number, records):
         scale *= 10.0
     cur = np.empty(3, np.int64)
     for a in range(3):
-        cur[a] = start[a]
-    cur_motion = -1
-    cur_plane = 17
-    cur_feed = np.int64(-2)
-    cur_power = np.int64(-1)
-    cur_laser = LASER_OFF
-    beam_parked = False     # laser switched off for a rapid on a dialect that needs it
-    j = 0
+        cur[a] = state[a]
+    cur_motion = state[3]
+    cur_plane = state[4]
+    cur_feed = state[5]
+    cur_power = state[6]
+    cur_laser = state[7]
+    beam_parked = state[8] != 0     # laser switched off for a rapid on a dialect that needs it
+    j = state[9]
     nrec = rec_row.shape[0]
     for i in range(n + 1):
-        # Records (system lines, pauses, program ends …) that stand before this row.
-        while j < nrec and rec_row[j] <= i:
+        # Records (system lines, pauses, program ends …) that stand before this row (at
+        # i == n: before the next block's first row, the same place in the text).
+        while j < nrec and rec_row[j] <= i + row0:
             s0 = rec_span[j, 0]
             s1 = rec_span[j, 1]
             out = _ensure(out, used, s1 - s0 + 64)
@@ -286,4 +294,13 @@ def write_moves(rows, start, fmt, first_number, records):
             cur_power = power_i[i]
         used = _end_line(out, used, ls, numbered, checksums, number)
         number += 1
+    for a in range(3):
+        state[a] = cur[a]
+    state[3] = cur_motion
+    state[4] = cur_plane
+    state[5] = cur_feed
+    state[6] = cur_power
+    state[7] = cur_laser
+    state[8] = 1 if beam_parked else 0
+    state[9] = j
     return out[:used], number

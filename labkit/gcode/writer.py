@@ -53,6 +53,9 @@ GRBL_TRAVEL_WARNING = (
     "laser mode ($32=1); with $32=0 (GRBL's default) every rapid burns. Set $32=1, "
     "or write the program with travel_beam_off=True (M5 before each rapid).")
 
+#: Rows written at once by :func:`emit` (their integer copies and output buffer: ~35 MB).
+EMIT_ROWS = 1 << 18
+
 # Records that are written back as they were read, and what a program end resets.
 _RECORD_WORD = {"pause": "M0", "optional_pause": "M1", "end": "M2"}
 
@@ -182,12 +185,8 @@ def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001
     _refuse_unwritable(moves, d, decimals)
     beam_off_by_controller = d.rapids_beam_off if travel_beam_off is None else not travel_beam_off
 
-    end_i = _scaled(moves.end, decimals)
     start_i = _scaled(moves.start[0] if n else np.zeros(3), decimals)
-    feed_i = _scaled(d.feed_from_mm_min(moves.feed_mm_min), VALUE_DECIMALS)
-    power_i = _scaled(moves.power_s.astype(np.float64) * (d.s_max / moves.s_max), VALUE_DECIMALS)
-    dwell_i = _scaled(d.dwell_from_s(moves.dwell_s), VALUE_DECIMALS)
-    r_mode = np.zeros(n, np.int64)
+    r_mode = np.zeros(n, np.int8)
     if arcs == "r" and is_arc.any():
         sweep = np.abs(moves.sweep_rad())
         full = sweep > 2 * math.pi - 1e-6
@@ -208,12 +207,6 @@ def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001
         else np.zeros((0, 2), np.int64)
 
     pre, number = _header_lines(d, comment, beam_off_by_controller) if header else ([], 1)
-    rows = EK.EmitRows(kind=moves.kind.astype(np.int64), end=end_i,
-                       # only arcs read their centre: no NaN-free copy of it without arcs
-                       centre=np.nan_to_num(moves.centre) if is_arc.any() else np.ascontiguousarray(moves.centre),
-                       plane=moves.plane.astype(np.int64),
-                       feed=feed_i, power=power_i, laser=moves.laser.astype(np.int64),
-                       dwell=dwell_i, r_mode=r_mode)
     fmt = EK.EmitFormat(decimals=decimals, value_decimals=VALUE_DECIMALS,
                         inline_power=bool(d.inline_power),
                         rapid_laser_off=bool(beam_off_by_controller),
@@ -221,10 +214,29 @@ def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001
                         modal_motion=bool(d.modal_motion))
     records = EK.EmitRecords(row=np.asarray(rec_rows, np.int64), text=rec_text, span=rec_span,
                              reset=np.asarray(rec_reset, np.bool_))
-    body, number = EK.write_moves(rows, start_i, fmt, number, records)
-    del rows, end_i, feed_i, power_i, dwell_i, r_mode     # the text needs them no more (memory)
+    # The body in blocks of rows: each block's integer columns and output buffer (~130 bytes a
+    # row) live only while it is written; the writer's modal state carries across blocks.
+    state = np.array([*start_i, -1, 17, -2, -1, EK.LASER_OFF, 0, 0], np.int64)
+    text = bytearray(_number_lines(pre, d, 1).encode("ascii"))
+    centre = np.nan_to_num(moves.centre) if is_arc.any() else moves.centre   # only arcs read it
+    rows = EMIT_ROWS if n > EMIT_ROWS else max(n, 1)
+    for lo in range(0, max(n, 1), rows):
+        part = slice(lo, lo + rows)
+        block = EK.EmitRows(kind=moves.kind[part].astype(np.int64), end=_scaled(moves.end[part], decimals),
+                            centre=np.ascontiguousarray(centre[part]),
+                            plane=moves.plane[part].astype(np.int64),
+                            feed=_scaled(d.feed_from_mm_min(moves.feed_mm_min[part]), VALUE_DECIMALS),
+                            power=_scaled(moves.power_s[part].astype(np.float64) * (d.s_max / moves.s_max),
+                                          VALUE_DECIMALS),
+                            laser=moves.laser[part].astype(np.int64),
+                            dwell=_scaled(d.dwell_from_s(moves.dwell_s[part]), VALUE_DECIMALS),
+                            r_mode=r_mode[part].astype(np.int64))
+        body, number = EK.write_moves(block, state, fmt, number, records, lo)
+        text += memoryview(body)                 # (numpy would read += as its own addition)
+        del block, body
     post = ["M5", "M2"] if footer else []
-    return _number_lines(pre, d, 1) + body.tobytes().decode("ascii") + _number_lines(post, d, number)
+    text += _number_lines(post, d, number).encode("ascii")
+    return text.decode("ascii")
 
 
 def _where(moves: Moves, i: int) -> str:
