@@ -166,7 +166,9 @@ def make_vector(name: str) -> dict:
         "name": name,
         "description": case["description"],
         "generated_by": "tests/vectors/motion/generate.py (labkit.motion reference)",
-        "machine": {k: v for k, v in m.to_dict().items() if k != "description"},
+        # the motion fields only: grbl_settings are what a sender reads from the controller
+        "machine": {k: v for k, v in m.to_dict().items()
+                    if k not in ("description", "grbl_settings")},
         "planner": case["planner"], "law": p.law, "buffer_blocks": p.lookahead.buffer_blocks,
         "dialect": "grbl",
         "gcode": case["gcode"],
