@@ -272,3 +272,17 @@ def test_svg2gcode_on_a_small_drawing_imports_no_compiler_and_writes_the_compile
                           capture_output=True, text=True, env=env, cwd=ROOT, timeout=600)
     assert done.returncode == 0, done.stderr
     assert (tmp_path / "py.gcode").read_bytes() == (tmp_path / "nb.gcode").read_bytes()
+
+
+@pytest.mark.parametrize("planner", ["junction", "fast", "normal", "hq"])
+def test_planner_kernels_as_python_equal_compiled(planner):
+    """The planner's kernels run as Python for small jobs under the rule (python_below): the
+    same junction speeds and super blocks as compiled, on a real job."""
+    from labkit.motion import CBR40
+    from labkit.motion.pipeline import plan
+
+    moves = parse((ROOT / "data" / "gcode" / "cncjs" / "jsdc-laser.gcode").read_bytes())
+    a, b = _both(plan, moves, CBR40, planner=planner)
+    assert len(a.lookahead.speed_mm_s) > 1000
+    assert np.array_equal(a.lookahead.speed_mm_s, b.lookahead.speed_mm_s)
+    assert np.array_equal(a.lookahead.super_block, b.lookahead.super_block)
