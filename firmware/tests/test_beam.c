@@ -94,20 +94,23 @@ static size_t random_stream(uint8_t *buf, size_t cap) {
   static const char *const words[] = {"G0", "G1", "G1", "G1", "G2", "G3", "G80", "M3", "M3", "M4",
                                       "M5", "M2", "M30", "G4P1", "G91", "G90", "G20", "G21", "M8"};
   static const char *const system[] = {"$C\n", "$X\n", "$H\n", "$J=G91X1F600\n", "$$\n", "$G\n",
-                                       "$208=1\n", "$208=0\n", "$20=1\n", "$I\n", "$LCD\n"};
+                                       "$20=1\n", "$I\n", "$LCD\n"};
   static const char *const realtime[] = {"!", "~", "?", "\x18", "\x84", "\x85", "\x90", "\x91",
                                          "\x99", "\x9A", "\x9B", "\x95"};
   static const char *const text[] = {"(mm\xc2\xb2)", "\xc2\xb2", "\xb2\xb2", "\xb0\xb2\xb2",
                                      "(\xb8)", ";\xe2\x80\x94 note", "%", "\xff"};
   static const uint8_t panel[] = {PANEL_CW, PANEL_CCW, PANEL_OK, PANEL_OK, PANEL_CW, PANEL_OK,
                                   PANEL_OK, PANEL_CCW, PANEL_OK, PANEL_ESTOP};
-  size_t k = 0;
+  /* each stream names its dialect, so that its feeds mean what they say whatever the
+     default: F in mm/s (labkit-fw) or mm/min (GRBL) */
+  int grbl = (int)rnd(2);
+  size_t k = put(buf, 0, cap, grbl ? "$208=1\n" : "$208=0\n");
   int lines = 5 + (int)rnd(25);
   char num[48];
   for (int l = 0; l < lines && k + 64 < cap; l++) {
     uint32_t kind = rnd(24);
     if (kind >= 20) {                         /* a cut, then maybe a pause and a hold */
-      snprintf(num, sizeof num, "G1X%uY%u.%uF%uS%uM%c\n", rnd(3), rnd(2), rnd(10), 5 + rnd(60),
+      snprintf(num, sizeof num, "G1X%uY%u.%uF%uS%uM%c\n", rnd(3), rnd(2), rnd(10), (5 + rnd(60)) * (grbl ? 60u : 1u),
                1 + rnd(255), rnd(2) ? '3' : '4');
       k = put(buf, k, cap, num);
       if (rnd(2) && k + 2 < cap) {
@@ -131,7 +134,7 @@ static size_t random_stream(uint8_t *buf, size_t cap) {
           snprintf(num, sizeof num, "S%u", rnd(4) ? rnd(1000) : 0u);
           k = put(buf, k, cap, num);
         } else if (c < 9) {
-          snprintf(num, sizeof num, "F%u", 60 + rnd(3000));
+          snprintf(num, sizeof num, "F%u", grbl ? 300 + rnd(3000) : 5 + rnd(60));
           k = put(buf, k, cap, num);
         } else {
           snprintf(num, sizeof num, "%c%d", "IJR"[rnd(3)], (int)rnd(6) - 3);
