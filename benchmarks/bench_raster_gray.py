@@ -18,7 +18,12 @@ job, 1764 × 1587 beam pixels at 0.1 mm, about 2.26 million moves — one per ch
 
 Issue 27 measured 25 s and 1.1 GB for this command before the fix (the scan's cuts were
 held as arrays, then copied into Moves; the summary copied every column twice; the preview
-rasterised all moves at once).
+rasterised all moves at once). A second round (issue 29's previews) took it, measured
+alternately in the same minutes on the loaded 2-core machine, from 4.2 s CPU and 800 MB
+(3.1 s, 656 MB without the preview) to 3.3 s and 600 MB (2.8 s, 580 MB): the preview drawn
+with numpy and Pillow instead of matplotlib (whose import and 2.8-megapixel image were the
+peak), the summary and the G-code text made in blocks of rows instead of full-length
+temporaries. What remains is the Moves (123 B a move), scikit-image's resampling and numba.
 
 Run: .venv/bin/python benchmarks/bench_raster_gray.py   (about a minute; 2 cores)
 """
@@ -121,7 +126,7 @@ def bench_stages():
     from labkit.gcode import emit
     from labkit.raster.engrave import RasterSettings, image_to_job, placed_size
     from labkit.raster.io import read_image
-    from labkit.viz.raster import save_job_preview
+    from labkit.viz.preview import write_job_preview
 
     def job():
         img = read_image(PHOTO)
@@ -130,7 +135,7 @@ def bench_stages():
 
     with tempfile.TemporaryDirectory() as tmp:
         warm = job()                                  # imports, kernels
-        save_job_preview(warm, Path(tmp) / "w.png")
+        write_job_preview(warm, Path(tmp) / "w.png")
         del warm
         times = {}
         t = time.perf_counter()
@@ -143,7 +148,7 @@ def bench_stages():
         text = emit(j.moves)
         times["G-code text"] = time.perf_counter() - t
         t = time.perf_counter()
-        save_job_preview(j, Path(tmp) / "p.png")
+        write_job_preview(j, Path(tmp) / "p.png")
         times["preview"] = time.perf_counter() - t
     print(f"2. stages in one process (warm): {len(j.moves):,} moves, "
           f"{j.moves.nbytes / len(j.moves):.0f} B per move allocated, {len(text) / 1e6:.1f} MB of text")

@@ -150,10 +150,11 @@ def test_numpy_twin_draws_the_pixels_the_compiled_kernel_draws(monkeypatch):
     value = rng.uniform(0, 100, 3000)
     burning = rng.random(3000) < 0.6
     monkeypatch.setattr(_gcode_draw, "NUMPY_STEPS", 10_000)     # many batches
-    with forced("python"):
-        py_power, py_travel = _gcode_draw.draw(pieces, value, burning, (180, 200))
-    with forced("compiled"):
-        nb_power, nb_travel = _gcode_draw.draw(pieces, value, burning, (180, 200))
-    np.testing.assert_array_equal(py_power, nb_power)
-    np.testing.assert_array_equal(py_travel, nb_travel)
-    assert np.isfinite(py_power).sum() > 10_000 and py_travel.sum() > 5_000
+    for powers in (value, np.full(3000, 42.0)):                 # one power: the twin's plain store
+        with forced("python"):
+            py_power, py_travel = _gcode_draw.draw(pieces, powers, burning, (180, 200))
+        with forced("compiled"):
+            nb_power, nb_travel = _gcode_draw.draw(pieces, powers, burning, (180, 200))
+        np.testing.assert_array_equal(py_power, nb_power)
+        np.testing.assert_array_equal(py_travel, nb_travel)
+        assert np.isfinite(py_power).sum() > 10_000 and py_travel.sum() > 5_000

@@ -26,6 +26,9 @@ def _draw_pieces_numpy(x0, y0, x1, y1, value, burning, power, travel):
     dy = y1 - y0
     steps = np.ceil(np.maximum(np.abs(dx), np.abs(dy))).astype(np.int64) + 1
     ends = np.cumsum(steps)
+    burned = value[burning]
+    uniform = len(burned) > 0 and bool((burned == burned[0]).all())
+    level = burned[0] if uniform else 0.0
     first = 0
     while first < len(steps):
         done = ends[first - 1] if first else 0
@@ -36,7 +39,11 @@ def _draw_pieces_numpy(x0, y0, x1, y1, value, burning, power, travel):
         ix = np.clip(np.rint(x0[k] + dx[k] * t), 0, cols - 1).astype(np.int64)
         iy = np.clip(np.rint(y0[k] + dy[k] * t), 0, rows - 1).astype(np.int64)
         on = burning[k]
-        np.maximum.at(power, (iy[on], ix[on]), value[k[on]])
+        if uniform:                  # one power (most vector and threshold jobs): a plain store
+            rows_on, cols_on = iy[on], ix[on]
+            power[rows_on, cols_on] = np.maximum(power[rows_on, cols_on], level)
+        else:
+            np.maximum.at(power, (iy[on], ix[on]), value[k[on]])
         travel[iy[~on], ix[~on]] = True
         first = stop
 

@@ -230,25 +230,36 @@ def moves_raster(moves, *, scale_px_mm: float, view: str = "xy", show_travel: bo
     travel_drawn : bool
         Whether any travel pixel was drawn.
     """
+    return _coloured(*_raster(moves, scale_px_mm, view), show_travel, colours)
+
+
+def _raster(moves, scale_px_mm, view):
+    """``rasterize_moves`` with one grid cell per picture pixel (the long side's span at
+    ``scale_px_mm``): (power, travel, extent)."""
     from labkit.viz.gcode import _PLANE_VIEW, rasterize_moves
 
     ax0, ax1 = _PLANE_VIEW[view]
     box = moves.bounds()
     span = float(np.nanmax(box[1, [ax0, ax1]] - box[0, [ax0, ax1]])) or 1.0
-    # One grid cell per picture pixel: the long side's span at this scale.
     power, travel, grid = rasterize_moves(moves, view=view, pixels=max(2, int(span * scale_px_mm) + 1))
+    return power, travel, grid, scale_px_mm
+
+
+def _coloured(power, travel, grid, scale_px_mm, show_travel, colours):
+    """:func:`moves_raster`'s picture of a :func:`_raster` grid."""
     if power.shape[1] >= (grid[1] - grid[0]) * scale_px_mm - 1:       # not coarsened
         power = _thicken(power)
     rgb = colours(power / 100.0)
-    travel &= np.isnan(power)
+    travel = travel & np.isnan(power)
     travel_drawn = bool(show_travel and travel.any())
     if travel_drawn:
         rgb[travel] = _TRAVEL
     return rgb, grid, travel_drawn
 
 
-def _moves_panel(image, draw, box_px, moves, *, view, show_travel, title, colours, font):
-    """Draw ``moves`` (work coordinates) into ``box_px`` of ``image``; returns the area."""
+def _moves_panel(image, draw, box_px, moves, *, view, show_travel, title, colours, font, raster=None):
+    """Draw ``moves`` (work coordinates) into ``box_px`` of ``image``; returns the area.
+    ``raster(scale_px_mm)`` gives the :func:`_raster` grid when the caller has one."""
     from PIL import Image
 
     from labkit.viz.gcode import _PLANE_VIEW
@@ -258,8 +269,8 @@ def _moves_panel(image, draw, box_px, moves, *, view, show_travel, title, colour
     lo, hi = box[0, [ax0, ax1]], box[1, [ax0, ax1]]
     pad = 0.03 * (float(np.nanmax(hi - lo)) or 1.0)         # as plot_moves' margins
     area = _Axes(image, box_px, (lo[0] - pad, hi[0] + pad, lo[1] - pad, hi[1] + pad))
-    rgb, grid, travel_drawn = moves_raster(moves, scale_px_mm=area.scale, view=view, show_travel=show_travel,
-                                           colours=colours)
+    grid = raster(area.scale) if raster else _raster(moves, area.scale, view)
+    rgb, grid, travel_drawn = _coloured(*grid, show_travel, colours)
     area.paste(rgb, grid, Image.NEAREST)
     first = int(np.flatnonzero(moves.is_motion)[0])
     c, r = area.px(*moves.start[first, [ax0, ax1]])
@@ -371,6 +382,20 @@ def draw_job(job, *, dpi: int = 110, max_path_moves: int = 200_000):
     w, h = r.size_mm
     rows, cols = r.shape
     panel_right = size[0] // 2 if draw_path else size[0]
+    moves = job.moves.in_work_coordinates()
+    shared = {}                # one drawing of the moves serves both panels of a big job
+
+    def raster(scale_px_mm):
+        if "grid" not in shared:
+            shared["grid"] = _raster(moves, scale_px_mm, "xy")
+        return shared["grid"]
+
+    if draw_path and moves.is_motion.any():
+        title = (f"{r.mode}: {r.segments} segments, {r.tool_lines} tool lines\n"
+                 f"cut {r.cut_mm:.0f} mm, travel {r.travel_mm:.0f} mm")
+        _moves_panel(image, draw, (size[0] // 2 + 75, 45, size[0] - 20, size[1] - 50), moves, view="xy",
+                     show_travel=True, title=title, colours=lambda f: power_colours(f, low=1.0, high=0.0),
+                     font=font, raster=raster if rows * cols > FULL_BURN_MAP_PIXELS else None)
     area = _Axes(image, (75, 45, panel_right - 20, size[1] - 50), (0.0, w, 0.0, h))
     if rows * cols <= FULL_BURN_MAP_PIXELS:
         from labkit.raster.coverage import burn_map
@@ -382,23 +407,14 @@ def draw_job(job, *, dpi: int = 110, max_path_moves: int = 200_000):
         area.paste(gray, (0.0, w, 0.0, h), Image.BOX)       # beam pixels averaged, not dropped
         heading = f"burned pixels ({r.mode}), rasterised back from the moves"
     else:
-        from labkit.viz.gcode import rasterize_moves
-
-        # Never finer than the beam pixels, or the scan lines would show as stripes.
-        power, _, extent = rasterize_moves(job.moves, pixels=min(max(area.width, area.height),
-                                                                  max(rows, cols)))
+        # On the picture's pixels, never finer than the beam's (the scan lines would show
+        # as stripes): the path panel's drawing when there is one.
+        power, _, extent, _ = raster(min(max(area.width, area.height), max(rows, cols)) /
+                                     max(float(np.nanmax(np.ptp(moves.bounds()[:, :2], axis=0))), 1e-9))
         shade = np.rint(255.0 * (1.0 - np.nan_to_num(power, nan=0.0) / 100.0)).astype(np.uint8)
         area.paste(np.repeat(shade[..., None], 3, axis=2), extent, Image.NEAREST)
-        heading = f"burned ({r.mode}), the moves drawn on a {power.shape[1]} × {power.shape[0]} grid"
+        heading = f"burned ({r.mode}), the moves drawn on a {power.shape[1]} x {power.shape[0]} grid"
     area.frame(draw, "X (mm)", "Y (mm)", heading, font)
-    if draw_path:
-        title = (f"{r.mode}: {r.segments} segments, {r.tool_lines} tool lines\n"
-                 f"cut {r.cut_mm:.0f} mm, travel {r.travel_mm:.0f} mm")
-        moves = job.moves.in_work_coordinates()
-        if moves.is_motion.any():
-            _moves_panel(image, draw, (size[0] // 2 + 75, 45, size[0] - 20, size[1] - 50), moves, view="xy",
-                         show_travel=True, title=title,
-                         colours=lambda f: power_colours(f, low=1.0, high=0.0), font=font)
     return image
 
 

@@ -82,11 +82,13 @@ def test_image_size_is_checked_by_the_pixels_budget_before_decoding(tmp_path, mo
         read_image(path)
 
 
-#: Peak resident memory per move of a gray job above the same command on a tiny image
-#: (Python, numpy, scipy, numba and matplotlib loaded: ~260 MB). Measured 239-243 B on the
-#: 500 × 450 photo (Moves 123 B allocated, the G-code text, the emitter's int64 copies and
-#: output buffer, the preview); before issue 27 it was about 425 B (1.18 GB for the photo).
-GRAY_BYTES_PER_MOVE = 300
+#: Peak resident memory per move of a gray job above the same command on a tiny image.
+#: Measured 163-166 B on the 500 × 450 photo with its preview (156-158 B without): Moves
+#: 123 B allocated, the G-code text, one block of the emitter's integer copies and output
+#: buffer, the summary's block temporaries and scikit-image's resampling (both commands load
+#: numba, and scipy with it: ~225 MB for the tiny image). Before issue 29's previews it was 239-243 B (matplotlib's import and
+#: 2.8-megapixel burn image, the emitter's full-length copies), before issue 27 about 425 B.
+GRAY_BYTES_PER_MOVE = 200
 
 _PEAK_RSS = ("import resource, subprocess, sys; r = subprocess.run(sys.argv[1:], capture_output=True); "
              "sys.exit(r.stderr.decode()) if r.returncode else "
