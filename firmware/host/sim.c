@@ -4,6 +4,7 @@
 
     labkit-fw-sim [--pty] [--dialect grbl|labkit-fw] [--trace FILE]
                   [--eeprom FILE] [--panel PATH] [--beam-log PATH] [--stats]
+                  [--realtime]
 
   Serial: stdin/stdout by default; --pty creates a pseudo-terminal and
   prints its path on stderr ("labkit-fw-sim: pty /dev/pts/N"); open it with
@@ -16,7 +17,9 @@
   does; the clock stands still while the timer does. Nothing depends on the
   host's speed except when the look-ahead is flushed because the input went
   quiet (30 ms of wall time, protocol.c). The simulation runs as fast as the
-  host allows.
+  host allows; with --realtime the simulated clock never runs ahead of the
+  wall clock (counted from each start of the step timer), so a sender sees
+  a move take as long as on the machine (Run, holds and resets mid-move).
 
   Trace (--trace FILE): one CSV row per tick, the columns of
   `labkit steps` (labkit.motion.timer.StepTrace.to_dataframe):
@@ -80,6 +83,9 @@ static uint8_t dir_bits;
 static int32_t pos_steps[3];
 static uint32_t period_reg;
 static int timer_on;
+static int realtime;              /* --realtime: ticks wait for the wall clock */
+static double rt_host_s;          /* wall time and simulated cycles when the timer last started */
+static uint64_t rt_cycles;
 static uint16_t laser_duty;
 static uint64_t cycles;           /* simulated timer clock cycles since start */
 static uint64_t ticks;
@@ -127,7 +133,22 @@ void hal_timer_set_period(uint32_t p) {
   if (b && b->seq > blocks_seen)
     blocks_seen = b->seq;
 }
-void hal_timer_start(void) { timer_on = 1; }
+static double host_seconds(void);
+void hal_timer_start(void) {
+  if (!timer_on && realtime) {
+    rt_host_s = host_seconds();
+    rt_cycles = cycles;
+  }
+  timer_on = 1;
+}
+
+/* --realtime: the simulated clock has caught up with the wall clock. */
+static int ahead_of_wall_clock(void) {
+  if (!realtime)
+    return 0;
+  double allowed = (host_seconds() - rt_host_s) * (double)plan_machine()->timer_clock_hz;
+  return (double)(cycles - rt_cycles) >= allowed;
+}
 void hal_timer_stop(void) { timer_on = 0; }
 static void log_beam(uint16_t duty) {
   char state[16];
@@ -343,8 +364,9 @@ void hal_poll(void) {
   const lk_machine_t *m = plan_machine();
   int idle = !timer_on && serial_tx_count() == 0 && txlen == 0 && serial_rx_count() == 0;
   poll_panel();
-  poll_input(idle && panel_pos == panel_len ? 2 : 0);
-  for (int i = 0; i < TICKS_PER_POLL && timer_on; i++) {
+  int waiting = timer_on && ahead_of_wall_clock();
+  poll_input(panel_pos == panel_len ? (idle ? 2 : waiting ? 1 : 0) : 0);
+  for (int i = 0; i < TICKS_PER_POLL && timer_on && !ahead_of_wall_clock(); i++) {
     cycles += ((uint64_t)period_reg + 1u) * ((uint64_t)m->prescaler + 1u);
     ticks++;
     st_tick();
@@ -387,7 +409,7 @@ static int open_pty(void) {
 
 static void usage(void) {
   fprintf(stderr, "usage: labkit-fw-sim [--pty] [--dialect grbl|labkit-fw] [--trace FILE] "
-                  "[--eeprom FILE] [--panel PATH] [--beam-log PATH] [--stats]\n");
+                  "[--eeprom FILE] [--panel PATH] [--beam-log PATH] [--stats] [--realtime]\n");
   exit(2);
 }
 
@@ -399,6 +421,8 @@ int main(int argc, char **argv) {
       use_pty = 1;
     else if (!strcmp(argv[i], "--stats"))
       stats = 1;
+    else if (!strcmp(argv[i], "--realtime"))
+      realtime = 1;
     else if (!strcmp(argv[i], "--trace") && i + 1 < argc)
       trace_path = argv[++i];
     else if (!strcmp(argv[i], "--beam-log") && i + 1 < argc)

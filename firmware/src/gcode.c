@@ -17,6 +17,7 @@
 #include "stepper.h"
 #include "laser.h"
 #include "hal.h"
+#include "settings.h"
 #include "status_codes.h"
 
 #define MAX_COMMANDS 16
@@ -45,8 +46,9 @@ typedef struct {
 
 static const int16_t g_labkit[] = {0, 10, 20, 30, 40, 50, 170, 180, 190, 200, 210, 400, 490, 540,
                                    610, 900, 910, 901, 911, 940, -1};
-static const int16_t g_grbl[] = {0, 10, 20, 30, 40, 170, 180, 190, 200, 210, 400, 490, 540, 610,
-                                 800, 900, 910, 911, 940, -1};
+static const int16_t g_grbl[] = {0, 10, 20, 30, 40, 100, 170, 180, 190, 200, 210, 280, 281, 300, 301,
+                                 400, 431, 490, 530, 540, 550, 560, 570, 580, 590, 610, 800, 900,
+                                 910, 911, 920, 921, 930, 940, -1};
 static const uint8_t cool_labkit[] = {7, 8, 9, 0};
 static const uint8_t cool_grbl[] = {8, 9, 0};
 
@@ -69,6 +71,21 @@ void gc_init(void)
   gc_dialect = GC_DIALECT_LABKIT;
   gc_line_count = 0;
   gc_sync_position();
+  gc_load_offsets();
+}
+
+void gc_load_offsets(void)
+{
+  for (int a = 0; a < 3; a++)
+    gc.coord[a] = settings.coord[gc.coord_select][a];
+  gc.wco_changes++;
+}
+
+void gc_wco(double out[3])
+{
+  uint8_t grbl = gc_dialect == GC_DIALECT_GRBL;   /* labkit-fw has no work offsets */
+  for (int a = 0; a < 3; a++)
+    out[a] = grbl ? gc.coord[a] + gc.g92[a] + (a == 2 ? gc.tlo : 0.0) : 0.0;
 }
 
 void gc_set_dialect(uint8_t dialect) { gc_dialect = dialect == GC_DIALECT_GRBL ? GC_DIALECT_GRBL : GC_DIALECT_LABKIT; }
@@ -207,6 +224,8 @@ uint8_t gc_execute_line(char *line)
       continue;
     }
     if (first && c == '$') return STATUS_UNSUPPORTED_COMMAND;   /* system lines: the shell's */
+    if (first && c == '%' && gc_dialect == GC_DIALECT_GRBL)
+      return STATUS_EXPECTED_LETTER;   /* GRBL has no program delimiter */
     if (first && c == '%') {
       int j = i + 1;
       while (is_space(line[j])) j++;
@@ -239,6 +258,10 @@ uint8_t gc_execute_line(char *line)
   /* ---- phase 2: check and compute ---- */
   uint32_t groups = 0;
   int motion_new = -1, dwell = 0, lookahead = 0, stop = -1, coolant = -1;
+  int nonmodal = 0;          /* 10 x G of G10 G28 G28.1 G30 G30.1 G53 G92 G92.1 */
+  int axis_command = 0;      /* GRBL: 1 motion, 2 non-modal (G10 G28 G30 G92), 3 tool length */
+  int tool_new = -1;         /* 0 G49, 1 G43.1 */
+  uint8_t coord_new = gc.coord_select, inverse_new = gc.inverse_time;
   uint8_t plane_new = gc.plane, inches_new = gc.inches, absolute_new = gc.absolute;
   uint8_t arc_absolute_new = gc.arc_absolute, laser_new = gc.laser;
   for (int k = 0; k < ng; k++) {
@@ -255,6 +278,12 @@ uint8_t gc_execute_line(char *line)
       return STATUS_UNSUPPORTED_COMMAND;
     }
     int code = t10 / 10;
+    if (code <= 3 || t10 == 100 || t10 == 280 || t10 == 300 || t10 == 920 || code == 43 ||
+        code == 49) {
+      if (axis_command && gc_dialect == GC_DIALECT_GRBL)
+        return STATUS_AXIS_COMMAND_CONFLICT;   /* GRBL: before the modal groups */
+      axis_command = code <= 3 ? 1 : (code == 43 || code == 49) ? 3 : 2;
+    }
     if (code <= 3 || code == 80) {
       grp = G_MOTION;
       motion_new = code;
@@ -276,14 +305,20 @@ uint8_t gc_execute_line(char *line)
     } else if (t10 == 901 || t10 == 911) {
       grp = G_ARCDIST;
       arc_absolute_new = t10 == 901;
-    } else if (code == 94) {
+    } else if (code == 10 || code == 28 || code == 30 || code == 53 || code == 92) {
+      grp = G_NONMODAL;
+      nonmodal = t10;
+    } else if (code == 93 || code == 94) {
       grp = G_FEEDMODE;
+      inverse_new = code == 93;
     } else if (code == 40) {
       grp = G_CUTTER;
-    } else if (code == 49) {
+    } else if (code == 49 || code == 43) {
       grp = G_TOOLLEN;
-    } else if (code == 54) {
+      tool_new = code == 43;
+    } else if (code >= 54 && code <= 59) {
       grp = G_COORD;
+      coord_new = (uint8_t)(code - 54);
     } else if (code == 61) {
       grp = G_PATH;
     } else {
@@ -330,11 +365,63 @@ uint8_t gc_execute_line(char *line)
     double nv = val[L_N];
     if (nv < 0 || nv > GC_MAX_LINE_NUMBER || nv != floor(nv)) return STATUS_BAD_LINE_NUMBER;
   }
+  if (inverse_new) {
+    feed_new = 0.0;          /* G93: F is 1/min of each move, given in its line */
+  } else if (gc.inverse_time && !present[L_F]) {
+    feed_new = 0.0;          /* GRBL: leaving G93 leaves no feed */
+  }
   if (present[L_F]) {
     if (val[L_F] < 0) return STATUS_NEGATIVE_VALUE;
-    feed_new = val[L_F] * scale * d->feed_scale;
+    feed_new = inverse_new ? val[L_F] : val[L_F] * scale * d->feed_scale;
   }
   int feed_ok = feed_new > 0;
+  double wco_new[3], g92_new[3], tlo_new = gc.tlo, coord_data[3] = {0, 0, 0};
+  int coord_store = -1;      /* G10: the system written */
+  int home_move = -1;        /* G28 / G30: index of the stored position */
+  double home[3] = {0, 0, 0};
+  for (int a = 0; a < 3; a++) {
+    g92_new[a] = gc.g92[a];
+    wco_new[a] = (coord_new == gc.coord_select ? gc.coord[a] : settings.coord[coord_new][a]);
+  }
+  if (tool_new == 1) {
+    if (!(present[L_Z] && !present[L_X] && !present[L_Y])) return STATUS_G43_DYNAMIC_AXIS_ERROR;
+    tlo_new = val[L_Z] * scale;
+  } else if (tool_new == 0) {
+    tlo_new = 0.0;
+  }
+  if (nonmodal == 100) {
+    if (!axis_words) return STATUS_MISSING_AXIS_WORDS;
+    if (!present[L_P] && !present[L_L]) return STATUS_MISSING_VALUE_WORD;
+    double p = present[L_P] ? trunc(val[L_P]) : 0.0;
+    if (p < 0 || p > SET_N_COORD) return STATUS_UNSUPPORTED_COORD_SYS;
+    int l = (int)trunc(val[L_L]);
+    if (l != 2 && l != 20) return STATUS_UNSUPPORTED_COMMAND;
+    if (l == 2 && present[L_R]) return STATUS_UNSUPPORTED_COMMAND;
+    coord_store = p > 0 ? (int)p - 1 : coord_new;
+    for (int a = 0; a < 3; a++) {
+      coord_data[a] = settings.coord[coord_store][a];
+      if (!present[L_X + a]) continue;
+      double v = val[L_X + a] * scale;
+      coord_data[a] = l == 20 ? gc.pos_mm[a] - gc.g92[a] - v - (a == 2 ? tlo_new : 0.0) : v;
+    }
+  } else if (nonmodal == 920) {
+    if (!axis_words) return STATUS_MISSING_AXIS_WORDS;
+    for (int a = 0; a < 3; a++)
+      if (present[L_X + a])
+        g92_new[a] = gc.pos_mm[a] - wco_new[a] - val[L_X + a] * scale - (a == 2 ? tlo_new : 0.0);
+  } else if (nonmodal == 921) {
+    g92_new[0] = g92_new[1] = g92_new[2] = 0.0;
+  } else if (nonmodal == 280 || nonmodal == 300) {
+    home_move = nonmodal == 280 ? 0 : 1;
+    for (int a = 0; a < 3; a++)
+      home[a] = settings.home_pos[home_move][a];
+  }
+  for (int a = 0; a < 3; a++)
+    wco_new[a] = gc_dialect == GC_DIALECT_GRBL ? wco_new[a] + g92_new[a] + (a == 2 ? tlo_new : 0.0) : 0.0;
+  /* axis words belong to G10, G92 and G43.1 when given; else to the motion */
+  int motion_axes = axis_words && axis_command != 2 && axis_command != 3;
+  if (home_move >= 0)
+    motion_axes = 0;
   if (present[L_T]) {
     if (val[L_T] < 0) return STATUS_NEGATIVE_VALUE;
     if (val[L_T] > d->max_tool) return STATUS_MAX_VALUE_EXCEEDED;
@@ -351,21 +438,37 @@ uint8_t gc_execute_line(char *line)
     else
       lookahead_p = val[L_P];
   }
-  if (motion_new >= 0 || axis_words) {
-    for (int a = 0; a < 3; a++) {
-      if (present[L_X + a]) {
-        double v = val[L_X + a] * scale;
-        target[a] = absolute_new ? v + 0.0 : gc.pos_mm[a] + v;
-      } else {
-        target[a] = gc.pos_mm[a];
+  for (int a = 0; a < 3; a++) {
+    if (present[L_X + a] && axis_command != 2 && axis_command != 3) {
+      double v = val[L_X + a] * scale;
+      if (nonmodal == 530)
+        target[a] = v + 0.0;                          /* G53: machine coordinates */
+      else
+        target[a] = absolute_new ? v + wco_new[a] : gc.pos_mm[a] + v;
+    } else {
+      target[a] = gc.pos_mm[a];
+    }
+  }
+  if (home_move >= 0) {
+    if (axis_words) {              /* through the given point; only its axes go home */
+      for (int a = 0; a < 3; a++) {
+        double v = present[L_X + a] ? val[L_X + a] * scale : 0.0;
+        target[a] = !present[L_X + a] ? gc.pos_mm[a] : absolute_new ? v + wco_new[a] : gc.pos_mm[a] + v;
+        if (!present[L_X + a]) home[a] = gc.pos_mm[a];
       }
     }
+    moving = 1;
+    move_kind = PLAN_MOVE_RAPID;
+  }
+  if (nonmodal == 530 && !(motion_mode == 0 || motion_mode == 1))
+    return STATUS_G53_INVALID_MOTION_MODE;
+  if (home_move < 0 && (motion_new >= 0 || motion_axes)) {
     if (motion_mode == 80) {
       if (axis_words) return STATUS_AXIS_WORDS_EXIST;
     } else if (motion_mode == 0 || motion_mode == 1) {
       if (!axis_words) {
         if (d->require_axis_words && motion_new >= 0) return STATUS_MISSING_AXIS_WORDS;
-      } else if (motion_mode == 1 && !feed_ok) {
+      } else if (motion_mode == 1 && (!feed_ok || (inverse_new && !present[L_F]))) {
         return STATUS_UNDEFINED_FEED;
       } else {
         moving = 1;
@@ -376,7 +479,8 @@ uint8_t gc_execute_line(char *line)
       int lin = plane_axes[plane_new][2];
       int in_plane = present[L_X + a0] || present[L_X + a1];
       const double *pos = gc.pos_mm;
-      if (!feed_ok) return STATUS_UNDEFINED_FEED;
+      if (!feed_ok || (inverse_new && !present[L_F])) return STATUS_UNDEFINED_FEED;
+      if (!axis_words && gc_dialect == GC_DIALECT_GRBL) return STATUS_MISSING_AXIS_WORDS;
       if (present[L_R]) {
         double r = val[L_R] * scale;
         double dx = target[a0] - pos[a0];
@@ -389,7 +493,7 @@ uint8_t gc_execute_line(char *line)
           if (0.5 * q - fabs(r) <= d->arc_r_tol)
             h2 = 0.0;
           else
-            return STATUS_INVALID_ARC;
+            return gc_dialect == GC_DIALECT_GRBL ? STATUS_ARC_RADIUS_ERROR : STATUS_INVALID_ARC;
         }
         double h = sqrt(h2);
         int left = (motion_mode == 3) != (r < 0);
@@ -438,9 +542,9 @@ uint8_t gc_execute_line(char *line)
       if (letter == L_R)
         used = arc_r;
       else if (letter == L_P)
-        used = dwell || lookahead;
+        used = dwell || lookahead || nonmodal == 100;
       else if (letter == L_L)
-        used = 0;
+        used = nonmodal == 100;
       else
         used = arc_ijk;
       if (!used) return STATUS_UNUSED_WORDS;
@@ -459,6 +563,24 @@ uint8_t gc_execute_line(char *line)
     if (frac > 1.0) frac = 1.0;
     mv.power_mw = burning ? frac * plan_machine()->laser_max_power_mw : 0.0;
     mv.feed_mm_min = feed_new;
+    if (inverse_new && move_kind != PLAN_MOVE_RAPID) {
+      /* G93: the move takes 1/F minutes */
+      double len = 0.0;
+      if (move_kind == PLAN_MOVE_LINE) {
+        for (int a = 0; a < 3; a++)
+          len += (target[a] - gc.pos_mm[a]) * (target[a] - gc.pos_mm[a]);
+        len = sqrt(len);
+      } else {
+        int a0 = plane_axes[plane_new][0], a1 = plane_axes[plane_new][1], lin = plane_axes[plane_new][2];
+        double r = hypot(gc.pos_mm[a0] - ctr[a0], gc.pos_mm[a1] - ctr[a1]);
+        double t0 = atan2(gc.pos_mm[a1] - ctr[a1], gc.pos_mm[a0] - ctr[a0]);
+        double t1 = atan2(target[a1] - ctr[a1], target[a0] - ctr[a0]);
+        double sweep = move_kind == PLAN_MOVE_ARC_CW ? t0 - t1 : t1 - t0;
+        if (sweep <= 1e-12) sweep += 6.283185307179586;   /* a full turn */
+        len = hypot(r * sweep, target[lin] - gc.pos_mm[lin]);
+      }
+      mv.feed_mm_min = len * feed_new;
+    }
     mv.line = present[L_N] ? (uint32_t)val[L_N] : gc_line_count + 1;
     for (int a = 0; a < 3; a++) {
       mv.start_mm[a] = gc.pos_mm[a];
@@ -470,7 +592,30 @@ uint8_t gc_execute_line(char *line)
   }
 
   /* ---- phase 3: commit ---- */
+  gc.stop_now = 0;
+  gc.sync_now = gc_dialect == GC_DIALECT_GRBL &&
+                (dwell || stop == 2 || stop == 30 || nonmodal == 100 || nonmodal == 281 ||
+                 nonmodal == 301 || nonmodal == 920 || nonmodal == 921 || tool_new >= 0 ||
+                 coord_new != gc.coord_select);
   gc_line_count++;
+  if (coord_new != gc.coord_select || nonmodal == 920 || nonmodal == 921 || tool_new >= 0)
+    gc.wco_changes++;
+  gc.coord_select = coord_new;
+  gc.inverse_time = inverse_new;
+  gc.tlo = tlo_new;
+  for (int a = 0; a < 3; a++) {
+    gc.g92[a] = g92_new[a];
+    gc.coord[a] = settings.coord[coord_new][a];
+  }
+  if (coord_store >= 0) {
+    settings_store_coord((uint8_t)coord_store, coord_data);
+    if (coord_store == gc.coord_select)
+      for (int a = 0; a < 3; a++)
+        gc.coord[a] = coord_data[a];
+    gc.wco_changes++;
+  }
+  if (nonmodal == 281 || nonmodal == 301)
+    settings_store_coord(nonmodal == 281 ? SET_N_COORD : SET_N_COORD + 1, gc.pos_mm);
   gc.line = present[L_N] ? (uint32_t)val[L_N] : gc_line_count;
   gc.feed_mm_min = feed_new;
   gc.power_s = power_new;
@@ -501,15 +646,36 @@ uint8_t gc_execute_line(char *line)
     plan_push_block(&gc_block);
     for (int a = 0; a < 3; a++) gc.pos_mm[a] = target[a];
   }
+  if (home_move >= 0) {          /* G28 / G30: then to the stored position, rapid */
+    plan_move_t mv;
+    memset(&mv, 0, sizeof mv);
+    mv.kind = PLAN_MOVE_RAPID;
+    mv.plane = gc.plane;
+    mv.feed_mm_min = feed_new;
+    mv.line = gc.line;
+    for (int a = 0; a < 3; a++) {
+      mv.start_mm[a] = gc.pos_mm[a];
+      mv.end_mm[a] = home[a];
+    }
+    if (plan_prepare_move(&mv, &gc_block) == STATUS_OK) {
+      if (!wait_for_slot()) return STATUS_OK;
+      plan_push_block(&gc_block);
+      for (int a = 0; a < 3; a++) gc.pos_mm[a] = home[a];
+    }
+  }
   if (stop >= 0) {
     gc.program_flow = stop == 0 ? GC_FLOW_PAUSED : stop == 1 ? GC_FLOW_OPTIONAL_PAUSE : GC_FLOW_END;
+    gc.stop_now = gc.program_flow;
     plan_flush();
-    if (stop == 2 || stop == 30) {
+    if (stop == 2 || stop == 30) {   /* GRBL's program end: units, F and S stay */
       gc.motion = 1;
       gc.plane = 0;
       gc.absolute = 1;
       gc.laser = 0;
       gc.air = 0;
+      gc.inverse_time = 0;
+      gc.coord_select = 0;
+      gc_load_offsets();
       hal_air_set(0);
     }
   } else if (moving || dwell) {

@@ -16,8 +16,10 @@
                        L and T, G80; G90.1, G5 and M7 are error 20.
   Words the firmware runs: G0 G1 G2 G3 G4 (G5) G17 G18 G19 G20 G21 G40 G49
   G54 G61 (G80) G90 G91 (G90.1) G91.1 G94, M0 M1 M2 M30 M3 M4 M5 (M7) M8 M9,
-  F S P I J K R N X Y Z (T L). GRBL's offset and probing commands (G10 G28
-  G30 G38.x G43.1 G53 G55-G59 G92 G93) are error 20 here.
+  F S P I J K R N X Y Z (T L). In the grbl dialect also GRBL's offsets and
+  homes, as GRBL 1.1h runs them: G10 L2/L20, G28 G30 (.1), G53, G54-G59,
+  G92 (.1), G43.1 G49, G93 (offsets of G54-G59, G28 and G30 are kept in the
+  settings storage like GRBL's EEPROM). Probing (G38.x) is error 20.
 */
 #ifndef LK_GCODE_H
 #define LK_GCODE_H
@@ -47,6 +49,16 @@ typedef struct {
   double pos_mm[3];      /* where the last accepted move ends */
   uint32_t line;         /* N number of the last line, else lines counted */
   uint32_t lookahead;    /* last G5 P */
+  /* GRBL's work coordinates (grbl dialect): work = machine - (coord + g92 + tlo on Z) */
+  uint8_t coord_select;  /* 0..5: G54..G59 */
+  uint8_t inverse_time;  /* G93 */
+  uint8_t stop_now;      /* GC_FLOW_* of an M0 M1 M2 M30 in the line just run, else 0 */
+  uint8_t sync_now;      /* the line just run waits for the moves before it (GRBL: G4, M2,
+                            M30, offsets and stored positions) */
+  double coord[3];       /* offset of the selected system (stored, settings.coord) */
+  double g92[3];         /* G92 offset (not stored: a reset clears it, as in GRBL) */
+  double tlo;            /* G43.1 tool length offset, Z, mm */
+  uint32_t wco_changes;  /* counts changes of the offsets (the status report shows WCO then) */
 } gc_state_t;
 
 void gc_init(void);                          /* power-on modal state, labkit dialect */
@@ -56,6 +68,8 @@ uint8_t gc_get_dialect(void);
 void gc_set_s_max(double s_max);             /* grbl $30 (> 0) */
 double gc_get_s_max(void);                   /* S of full power in the current dialect */
 void gc_sync_position(void);                 /* parser position := stepper position */
+void gc_load_offsets(void);                  /* the selected system's offset from the settings */
+void gc_wco(double out[3]);                  /* work coordinate offset, mm: machine - work */
 const gc_state_t *gc_state(void);
 uint32_t gc_current_line(void);
 

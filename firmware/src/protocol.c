@@ -23,6 +23,9 @@
    stream has ended or paused: the held-back blocks must run). */
 #define FLUSH_QUIET_MS 30u
 
+/* A $ command that has written its whole reply itself. */
+#define REPLY_DONE 0xFFu
+
 volatile uint8_t protocol_events;
 
 static line_asm_t rx_line;
@@ -37,6 +40,28 @@ static uint8_t empty_slots;
    stepper; when the stepper is momentarily idle with blocks queued (starved,
    or waiting for look-ahead) the runner must not start it again until '~'. */
 static uint8_t hold_req;
+/* M0 (grbl dialect): its ok waits for the cycle start '~' and no line is read
+   meanwhile; once the moves before it have ended the machine reports Hold:0. */
+static uint8_t program_pause;
+
+/* GRBL answers a line that synchronises (G4, M2/M30, an offset or EEPROM
+   write) only when every move before it has ended; no line is read meanwhile. */
+static uint8_t sync_ok;
+
+uint8_t protocol_program_paused(void) { return program_pause; }
+
+/* GRBL's critical event (a soft limit, grbl dialect): after "ALARM:2" and
+   "[MSG:Reset to continue]" nothing is read or reported until a reset, and
+   the line that hit the limit gets its ok then. */
+static uint8_t critical;
+
+static void soft_limit_alarm(void) {
+  protocol_alarm(ALARM_SOFT_LIMIT);
+  if (settings.dialect == GC_DIALECT_GRBL) {
+    report_feedback("Reset to continue");
+    critical = 1;
+  }
+}
 
 uint8_t protocol_hold_requested(void) { return hold_req; }
 
@@ -46,16 +71,22 @@ uint8_t protocol_planner_blocks(void) { return empty_slots; }
 /* ---------------------------------------------------------------- lines */
 
 void line_asm_reset(line_asm_t *a) {
-  uint8_t crlf = a->crlf_one;
+  uint8_t crlf = a->crlf_one, grbl = a->grbl;
   memset(a, 0, sizeof *a);
   a->crlf_one = crlf;
+  a->grbl = grbl;
+}
+
+void line_asm_set_dialect(line_asm_t *a, uint8_t dialect) {
+  a->crlf_one = dialect == GC_DIALECT_LABKIT;
+  a->grbl = dialect == GC_DIALECT_GRBL;
 }
 
 static int line_end(line_asm_t *a) {
   int st = STATUS_OK;
   if (a->overflow)
     st = STATUS_LINE_OVERFLOW;
-  else if (a->bad || a->paren)
+  else if (a->bad || (a->paren && !a->grbl))   /* GRBL: a comment ends with its line */
     st = STATUS_BAD_DELIMITER;
   else if (a->star && (a->ck_digits == 0 || a->ck > 255 || a->ck != a->xor_raw))
     st = STATUS_BAD_CHECKSUM;
@@ -127,7 +158,7 @@ int line_asm_push(line_asm_t *a, uint8_t c) {
     c = (uint8_t)(c - 'a' + 'A');
   if (a->len == 0 && c == '$')
     a->sys = 1;
-  if (a->len >= LINE_BUFFER_SIZE - 1) {
+  if (a->len >= (a->grbl ? GRBL_LINE_MAX : LINE_BUFFER_SIZE - 1)) {
     a->overflow = 1;
     return -1;
   }
@@ -147,6 +178,7 @@ static void sync_positions(void) {
 /* Stop everything now: motion, laser, queued blocks. */
 static void stop_all(void) {
   hold_req = 0;
+  program_pause = 0;
   st_reset();
   laser_off();
   menu_focus_off();
@@ -185,8 +217,29 @@ static uint8_t outside_envelope(const double mm[3]) {
   return 0;
 }
 
+/* GRBL runs the $N lines after a reset into Idle (never into an alarm) and
+   echoes each with its verdict: ">G20G91:ok". */
+static void run_startup_lines(void) {
+  for (uint8_t i = 0; i < SET_N_STARTUP; i++) {
+    if (!settings.startup[i][0])
+      continue;
+    char line[LINE_BUFFER_SIZE];
+    strcpy(line, settings.startup[i]);
+    uint8_t st = gc_execute_line(line);
+    serial_putc('>');
+    serial_write(settings.startup[i]);
+    serial_putc(':');
+    report_status_message(st);
+    protocol_events |= EV_RUNNER;
+  }
+}
+
 static void soft_reset(void) {
   uint8_t was_moving = !st_is_idle() || !plan_is_empty();
+  if (program_pause || critical || sync_ok)
+    report_status_message(STATUS_OK);
+  sync_ok = 0;   /* GRBL: the line held (M0, a soft limit) is answered now */
+  critical = 0;
   stop_all();
   serial_rx_flush();
   line_asm_reset(&rx_line);
@@ -198,9 +251,9 @@ static void soft_reset(void) {
   laser_set_override(100);
   gc_init();
   (void)settings_apply();
-  rx_line.crlf_one = settings.dialect == GC_DIALECT_LABKIT;
+  line_asm_set_dialect(&rx_line, settings.dialect);
   sync_positions();
-  if (was_moving || state == PROTO_ALARM) {
+  if (was_moving || state == PROTO_ALARM || state == PROTO_SLEEP) {
     if (was_moving)
       report_alarm(ALARM_ABORT_CYCLE);
     state = PROTO_ALARM;
@@ -211,6 +264,8 @@ static void soft_reset(void) {
   report_banner();
   if (state == PROTO_ALARM)
     report_feedback("'$H'|'$X' to unlock");
+  else
+    run_startup_lines();
 }
 
 /* ------------------------------------------------------- $ commands */
@@ -221,7 +276,7 @@ uint8_t protocol_jog(const char *words);
    modal state is not touched. Words: G20 G21 G90 G91 G53 X Y Z F. */
 static uint8_t jog(const char *p) {
   const gc_state_t *g = gc_state();
-  uint8_t inches = g->inches, absolute = g->absolute, have_f = 0, have_axis = 0;
+  uint8_t inches = g->inches, absolute = g->absolute, have_f = 0, have_axis = 0, machine = 0;
   double target[3], f = 0, v;
   uint8_t seen[3] = {0, 0, 0};
   for (int i = 0; i < 3; i++)
@@ -238,7 +293,7 @@ static uint8_t jog(const char *p) {
       else if (v == 21) inches = 0;
       else if (v == 90) absolute = 1;
       else if (v == 91) absolute = 0;
-      else if (v == 53) absolute = 1;
+      else if (v == 53) machine = 1;
       else return STATUS_INVALID_JOG;
     } else if (letter == 'F') {
       if (have_f) return STATUS_REPEATED_WORD;
@@ -259,10 +314,12 @@ static uint8_t jog(const char *p) {
     return STATUS_UNDEFINED_FEED;
   if (!have_axis)
     return STATUS_MISSING_AXIS_WORDS;
-  double unit = inches ? 25.4 : 1.0;
+  double unit = inches ? 25.4 : 1.0, wco[3];
+  gc_wco(wco);
   for (int i = 0; i < 3; i++)
     if (seen[i])
-      target[i] = absolute ? word[i] * unit : target[i] + word[i] * unit;
+      target[i] = machine ? word[i] * unit
+                  : absolute ? word[i] * unit + wco[i] : target[i] + word[i] * unit;
   if (settings.soft_limits && outside_envelope(target))
     return STATUS_OUT_OF_BOUNDS;
   double feed_mm_min = f * unit * (gc_get_dialect() == GC_DIALECT_LABKIT ? 60.0 : 1.0);
@@ -295,82 +352,160 @@ uint8_t protocol_jog(const char *words) {
   return jog(words);
 }
 
+/* The reply of a $ command that ends in a reset: message, ok, then the
+   reset's banner (GRBL's order). */
+static uint8_t answer_then_reset(const char *msg) {
+  report_feedback(msg);
+  report_status_message(STATUS_OK);
+  if (state == PROTO_CHECK || state == PROTO_SLEEP)
+    state = PROTO_IDLE;
+  soft_reset();
+  return REPLY_DONE;
+}
+
+/* $Nx=line: GRBL checks (and runs) the line before keeping it. */
+static uint8_t store_startup_line(const char *p) {
+  double index;
+  uint8_t k = settings_read_number(p, &index);
+  if (!k)
+    return STATUS_BAD_NUMBER;
+  if (p[k] != '=')
+    return STATUS_INVALID_STATEMENT;
+  char text[LINE_BUFFER_SIZE];
+  strncpy(text, p + k + 1, sizeof text - 1);
+  text[sizeof text - 1] = 0;
+  if (strlen(text) + 1 > SET_LINE_SIZE)
+    return STATUS_LINE_OVERFLOW;
+  if (text[0]) {
+    char run[LINE_BUFFER_SIZE];
+    strcpy(run, text);
+    uint8_t st = run[0] == '$' ? STATUS_EXPECTED_LETTER : gc_execute_line(run);
+    if (st != STATUS_OK)
+      return st;
+  }
+  uint32_t n = (uint32_t)trunc(index);
+  if (n < SET_N_STARTUP) {            /* GRBL accepts (and loses) a higher index */
+    strcpy(settings.startup[n], text);
+    settings_store();
+  }
+  return STATUS_OK;
+}
+
 static uint8_t system_command(char *line) {
   char *p = line + 1;           /* after '$' */
-  if (*p == 0) {
+  /* GRBL's cycle: moves queued or running (labkit-fw waits for idle before a $ line) */
+  uint8_t cycle = state == PROTO_IDLE &&
+                  (!plan_is_empty() || !st_is_idle() || hold_req || program_pause || sync_ok);
+  switch (p[0]) {
+  case 0:
     report_help();
     return STATUS_OK;
-  }
-  if (p[0] == '$' && p[1] == 0) {
-    settings_report();
-    return STATUS_OK;
-  }
-  if (p[0] == 'I' && p[1] == 0) {
-    report_build_info();
-    return STATUS_OK;
-  }
-  if (p[0] == 'G' && p[1] == 0) {
-    report_gcode_modes();
-    return STATUS_OK;
-  }
-  if (p[0] == '#' && p[1] == 0) {
-    report_offsets();
-    return STATUS_OK;
-  }
-  if (p[0] == 'N' && (p[1] == 0 || (p[1] >= '0' && p[1] <= '9')))
-    return STATUS_OK;           /* no start-up lines are kept */
-  if (!strcmp(p, "LCD")) {
-    menu_report_lcd();
-    return STATUS_OK;
-  }
-  if (p[0] == 'X' && p[1] == 0) {
-    if (state == PROTO_ALARM) {
-      report_feedback("Caution: Unlocked");
-      state = PROTO_IDLE;
-    }
-    return STATUS_OK;
-  }
-  if (p[0] == 'H' && p[1] == 0)
-    return STATUS_UNSUPPORTED_COMMAND;   /* no limit switches: no homing */
-  if (p[0] == 'C' && p[1] == 0) {
-    if (state == PROTO_CHECK) {
-      state = PROTO_IDLE;
-      report_feedback("Disabled");
-      soft_reset();              /* GRBL: leaving check mode resets */
-      return 0xFF;               /* the banner answered it */
-    }
+  case 'J':
     if (state == PROTO_ALARM)
       return REPLY_LOCKED;
-    state = PROTO_CHECK;
-    report_feedback("Enabled");
-    return STATUS_OK;
-  }
-  if (p[0] == 'J' && p[1] == '=') {
-    if (state == PROTO_ALARM)
-      return REPLY_LOCKED;
+    if (p[1] != '=')
+      return STATUS_INVALID_STATEMENT;
     if (state == PROTO_CHECK)
       return STATUS_OK;
     if (state != PROTO_JOG && (!plan_is_empty() || !st_is_idle()))
       return REPLY_NOT_IDLE;
     return jog(p + 2);
+  case '$': case 'G': case 'C': case 'X':
+    if (p[1] != 0)
+      return STATUS_INVALID_STATEMENT;
+    if (p[0] == '$') {
+      if (cycle)
+        return REPLY_NOT_IDLE;          /* GRBL: too long to print during a cycle */
+      settings_report();
+    } else if (p[0] == 'G') {
+      report_gcode_modes();
+    } else if (p[0] == 'C') {
+      if (state == PROTO_CHECK)
+        return answer_then_reset("Disabled");   /* GRBL: leaving check mode resets */
+      if (state != PROTO_IDLE || cycle)
+        return REPLY_NOT_IDLE;
+      state = PROTO_CHECK;
+      report_feedback("Enabled");
+    } else if (state == PROTO_ALARM) {
+      report_feedback("Caution: Unlocked");
+      state = PROTO_IDLE;
+    }
+    return STATUS_OK;
+  default:
+    break;
   }
-  if (!strncmp(p, "RST=", 4) && p[4] && !p[5]) {
+  if (!strcmp(p, "LCD")) {
+    menu_report_lcd();
+    return STATUS_OK;
+  }
+  /* the rest need an idle machine or an alarm (GRBL: EEPROM and homing) */
+  if ((state != PROTO_IDLE && state != PROTO_ALARM) || cycle)
+    return REPLY_NOT_IDLE;
+  switch (p[0]) {
+  case '#':
+    if (p[1] != 0)
+      return STATUS_INVALID_STATEMENT;
+    report_offsets();
+    return STATUS_OK;
+  case 'H':
+    return STATUS_SETTING_DISABLED;       /* no limit switches here: homing is disabled */
+  case 'S':
+    if (strcmp(p, "SLP"))
+      return STATUS_INVALID_STATEMENT;
+    stop_all();
+    state = PROTO_SLEEP;
+    report_status_message(STATUS_OK);
+    report_feedback("Sleeping");
+    return REPLY_DONE;
+  case 'I':
+    if (p[1] == 0) {
+      report_build_info();
+      return STATUS_OK;
+    }
+    if (p[1] != '=')
+      return STATUS_INVALID_STATEMENT;
+    strncpy(settings.build_info, p + 2, SET_LINE_SIZE - 1);
+    settings.build_info[SET_LINE_SIZE - 1] = 0;
+    settings_store();
+    return STATUS_OK;
+  case 'R': {
+    if (strncmp(p, "RST=", 4) || !p[4] || p[5])
+      return STATUS_INVALID_STATEMENT;
     uint8_t st = settings_restore(p[4]);
-    rx_line.crlf_one = settings.dialect == GC_DIALECT_LABKIT;
-    return st;
+    line_asm_set_dialect(&rx_line, settings.dialect);
+    if (st != STATUS_OK)
+      return st;
+    gc_load_offsets();
+    return answer_then_reset("Restoring defaults");
   }
-  if (p[0] >= '0' && p[0] <= '9') {
+  case 'N':
+    if (p[1] == 0) {
+      for (uint8_t i = 0; i < SET_N_STARTUP; i++) {
+        serial_write("$N");
+        report_uint(i);
+        serial_putc('=');
+        serial_write(settings.startup[i]);
+        serial_write("\r\n");
+      }
+      return STATUS_OK;
+    }
+    if (state != PROTO_IDLE || cycle)
+      return REPLY_NOT_IDLE;
+    return store_startup_line(p + 1);
+  default: {
     uint8_t st = settings_store_setting(p);
-    rx_line.crlf_one = settings.dialect == GC_DIALECT_LABKIT;
+    line_asm_set_dialect(&rx_line, settings.dialect);
     return st;
   }
-  return STATUS_UNSUPPORTED_COMMAND;
+  }
 }
 
 /* Does the line need an idle machine (empty planner, stopped stepper)? */
 static uint8_t needs_idle(const char *line) {
   if (line[0] != '$')
     return state == PROTO_JOG;   /* G-code waits for a jog to end */
+  if (settings.dialect == GC_DIALECT_GRBL)
+    return 0;                     /* GRBL answers at once: error:8 when not idle */
   const char *p = line + 1;
   if (p[0] == 'J' && p[1] == '=')
     return 0;                     /* jogs queue behind a running jog only */
@@ -387,7 +522,7 @@ void protocol_execute_line(char *line) {
     st = state == PROTO_ALARM ? STATUS_OK : gc_execute_line(line);
   } else if (line[0] == '$') {
     st = system_command(line);
-    if (st == 0xFF)
+    if (st == REPLY_DONE)
       return;
   } else if (state == PROTO_ALARM) {
     st = REPLY_LOCKED;
@@ -395,18 +530,37 @@ void protocol_execute_line(char *line) {
     st = gc_execute_line(line);
     plan_reset();                 /* checked, never run */
     (void)st_take_abort();
+    if (st == STATUS_OK && gc_state()->stop_now == GC_FLOW_END)
+      report_feedback("Pgm End");
   } else {
     st = gc_execute_line(line);
     if (st == STATUS_OK) {
       const gc_state_t *g = gc_state();
       if (settings.soft_limits && outside_envelope(g->pos_mm)) {
-        report_status_message(STATUS_OUT_OF_BOUNDS);
-        protocol_alarm(ALARM_SOFT_LIMIT);
+        if (settings.dialect != GC_DIALECT_GRBL)
+          report_status_message(STATUS_OUT_OF_BOUNDS);
+        soft_limit_alarm();
         return;
       }
-      if (g->program_flow == GC_FLOW_END)
+      if (g->stop_now == GC_FLOW_END) {
         plan_flush();
+        if (settings.dialect == GC_DIALECT_GRBL) {
+          plan_set_overrides(100, 100);  /* GRBL: a program end restores the overrides */
+          laser_set_override(100);
+          report_feedback("Pgm End");
+        }
+      }
       protocol_events |= EV_RUNNER;
+      if (g->stop_now == GC_FLOW_PAUSED && settings.dialect == GC_DIALECT_GRBL) {
+        plan_flush();
+        program_pause = 1;          /* the ok comes with '~' */
+        return;
+      }
+      if (g->sync_now && settings.dialect == GC_DIALECT_GRBL) {
+        plan_flush();
+        sync_ok = 1;                /* the ok comes when the moves have ended */
+        return;
+      }
     }
   }
   report_status_message(st);
@@ -454,8 +608,19 @@ static void system_task(void) {
       laser_off();
     }
   }
+  if (sync_ok && st_is_idle() && plan_is_empty() && !hold_req) {
+    sync_ok = 0;
+    report_status_message(STATUS_OK);
+  }
+  if ((f & RT_RESUME) && program_pause && st_is_idle() && plan_is_empty()) {
+    program_pause = 0;            /* M0 ends: its ok, then the next lines */
+    report_status_message(STATUS_OK);
+    f &= (uint16_t)~RT_RESUME;
+  }
   if (f & RT_RESUME) {
     uint8_t s = st_state();
+    if (hold_req && settings.dialect == GC_DIALECT_GRBL && gc_state()->laser)
+      report_feedback("Restoring spindle");
     hold_req = 0;
     if (s == ST_HELD || s == ST_HOLDING)
       st_resume();
@@ -480,13 +645,16 @@ static void system_task(void) {
     for (int i = 0; i < 3; i++)
       d[i] = mm[i];
     if (outside_envelope(d))
-      protocol_alarm(ALARM_SOFT_LIMIT);
+      soft_limit_alarm();
   }
-  if (f & RT_STATUS)
+  if ((f & RT_STATUS) && !critical)
     report_status_report();
 }
 
 static void parser_task(void) {
+  if (state == PROTO_SLEEP || program_pause || critical || sync_ok ||
+      (hold_req && settings.dialect == GC_DIALECT_GRBL))
+    return;                       /* asleep until a reset; M0 and GRBL's holds: until '~' */
   for (uint8_t n = 0; n < 8; n++) {     /* a few lines per pass, then let the others run */
     if (have_pending) {
       if (needs_idle(pending) && (!plan_is_empty() || !st_is_idle())) {
@@ -538,11 +706,14 @@ static void wait_hook(void) {
 
 void protocol_init(void) {
   line_asm_reset(&rx_line);
-  rx_line.crlf_one = settings.dialect == GC_DIALECT_LABKIT;
+  line_asm_set_dialect(&rx_line, settings.dialect);
   have_pending = 0;
   state = PROTO_IDLE;
   jog_cancel = 0;
   hold_req = 0;
+  program_pause = 0;
+  sync_ok = 0;
+  critical = 0;
   flushed = 1;
   last_rx_ms = hal_millis();
   empty_slots = plan_free_slots();
@@ -567,6 +738,7 @@ void protocol_startup(void) {
   report_banner();                           /* readiness: the host waits for it */
   if (!good)
     report_feedback("settings restored");
+  run_startup_lines();
 }
 
 void protocol_poll(void) {

@@ -20,8 +20,8 @@
   Line rules: '\r' or '\n' ends a line (labkit-fw: '\r\n' is one end);
   comments "( )" and ';' and white space are stripped and letters made
   upper case before the line is counted; a line longer than
-  LINE_BUFFER_SIZE - 1 characters is rejected whole (line_overflow), never
-  cut; an empty line is answered ok; "*NN" (XOR of every byte before '*')
+  LINE_BUFFER_SIZE - 1 characters (grbl dialect: GRBL_LINE_MAX) is rejected
+  whole (line_overflow), never cut; an empty line is answered ok; "*NN" (XOR of every byte before '*')
   is checked here and removed.
 */
 #ifndef LK_PROTOCOL_H
@@ -30,12 +30,15 @@
 #include <stdint.h>
 
 #define LINE_BUFFER_SIZE 128
+/* GRBL 1.1h's line buffer holds 80 bytes: 79 characters after spaces and comments are removed. */
+#define GRBL_LINE_MAX 79
 
 /* Machine states (what '?' reports besides the stepper's). */
 #define PROTO_IDLE  0
 #define PROTO_ALARM 1
 #define PROTO_CHECK 2
 #define PROTO_JOG   3
+#define PROTO_SLEEP 4   /* $SLP: everything off until a reset */
 
 /* Wake flags of the four machines (protocol_events). */
 #define EV_SYSTEM 0x01u
@@ -59,9 +62,11 @@ typedef struct {
   uint8_t ck_digits;
   uint8_t after_cr;    /* the last line ended with '\r' */
   uint8_t crlf_one;    /* '\r\n' is one line end (labkit-fw) */
+  uint8_t grbl;        /* GRBL's line rules: 79 characters, a '(' open at the line end is closed */
 } line_asm_t;
 
 void line_asm_reset(line_asm_t *a);
+void line_asm_set_dialect(line_asm_t *a, uint8_t dialect);   /* GC_DIALECT_* */
 /* Feed one byte. Returns -1 while the line goes on, else the status of the
    line just ended (STATUS_OK: a->buf holds it, possibly empty). */
 int line_asm_push(line_asm_t *a, uint8_t byte);
@@ -82,6 +87,7 @@ void protocol_estop(void);
 
 uint8_t protocol_state(void);
 uint8_t protocol_hold_requested(void);   /* '!' given and not yet resumed */
+uint8_t protocol_program_paused(void);   /* an M0 waits for '~' (grbl dialect) */
 uint8_t protocol_planner_blocks(void);   /* free slots of an empty planner ($I) */
 extern volatile uint8_t protocol_events;
 

@@ -99,9 +99,12 @@ void report_alarm(uint8_t alarm) {
 }
 
 void report_banner(void) {
-  serial_write("\r\nGrbl 1.1h ['$' for help] [labkit-fw " LK_FW_VERSION " dialect:");
-  serial_write(settings.dialect == GC_DIALECT_GRBL ? "grbl" : "labkit-fw");
-  serial_write("]\r\n");
+  report_counters_reset();
+  if (settings.dialect == GC_DIALECT_GRBL)
+    serial_write("\r\nGrbl 1.1h ['$' for help]\r\n");
+  else   /* not GRBL's units: a GRBL sender must not take it for GRBL */
+    serial_write("\r\nlabkit-fw " LK_FW_VERSION " ['$' for help] [dialect:labkit-fw F mm/s S 0-255 "
+                 "G4 P ms; $208=1 for grbl]\r\n");
 }
 
 void report_feedback(const char *msg) {
@@ -118,13 +121,37 @@ static void report_axes(const double v[3], uint8_t decimals) {
   }
 }
 
+/* Positions as GRBL prints them: mm with 3 decimals, or inches with 4 ($13=1). */
+static void report_coords(const double mm[3]) {
+  if (settings.flags & SET_FLAG_REPORT_INCHES) {
+    double in[3] = {mm[0] / 25.4, mm[1] / 25.4, mm[2] / 25.4};
+    report_axes(in, 4);
+  } else {
+    report_axes(mm, 3);
+  }
+}
+
+/* GRBL sends WCO: and Ov: only every few reports (10 at rest, 30 / 20 while
+   busy) and at once after a change; a reset starts both counts again. */
+static uint8_t wco_count, ovr_count;
+static uint32_t seen_wco_changes;
+static uint8_t seen_laser, seen_air, seen_ov[3];
+
+void report_counters_reset(void) {
+  wco_count = ovr_count = 0;
+  seen_wco_changes = gc_state()->wco_changes;
+}
+
 const char *report_state_name(void) {
   switch (protocol_state()) {
   case PROTO_ALARM: return "Alarm";
   case PROTO_CHECK: return "Check";
   case PROTO_JOG: return "Jog";
+  case PROTO_SLEEP: return "Sleep";
   default: break;
   }
+  if (protocol_program_paused() && st_is_idle() && plan_is_empty())
+    return "Hold:0";
   if (protocol_hold_requested() && st_state() == ST_IDLE)
     return "Hold:0";
   switch (st_state()) {
@@ -147,42 +174,101 @@ double report_feed_mm_min(void) {
 }
 
 void report_status_report(void) {
+  const gc_state_t *g = gc_state();
+  uint8_t grbl = settings.dialect == GC_DIALECT_GRBL;
+  uint8_t mask = grbl ? settings.status_mask : 3u;   /* labkit-fw: always MPos and Bf */
   float mm[3];
-  double pos[3];
+  double pos[3], wco[3];
   st_get_position_mm(mm);
+  gc_wco(wco);
   for (int i = 0; i < 3; i++)
-    pos[i] = mm[i];
+    pos[i] = (mask & 1u) ? mm[i] : mm[i] - wco[i];
+  const char *name = report_state_name();
+  uint8_t busy = name[0] == 'R' || name[0] == 'H' || name[0] == 'J';
+  uint8_t feed_ov, rapid_ov;
+  plan_get_overrides(&feed_ov, &rapid_ov);
+  if (g->wco_changes != seen_wco_changes) {
+    seen_wco_changes = g->wco_changes;
+    wco_count = 0;
+  }
+  if (g->laser != seen_laser || g->air != seen_air || feed_ov != seen_ov[0] ||
+      rapid_ov != seen_ov[1] || laser_get_override() != seen_ov[2]) {
+    seen_laser = g->laser;
+    seen_air = g->air;
+    seen_ov[0] = feed_ov;
+    seen_ov[1] = rapid_ov;
+    seen_ov[2] = laser_get_override();
+    ovr_count = 0;
+  }
   serial_putc('<');
-  serial_write(report_state_name());
-  serial_write("|MPos:");
-  report_axes(pos, 3);
-  serial_write("|FS:");
-  report_float(report_feed_mm_min(), 0);
-  serial_putc(',');
-  double s = (double)laser_current_duty() / (double)LK_LASER_PWM_TOP * gc_get_s_max();
-  report_float(s, 0);
-  serial_write("|Bf:");
-  report_uint(plan_free_slots());
-  serial_putc(',');
-  report_uint(serial_rx_free());
+  serial_write(name);
+  serial_write((mask & 1u) ? "|MPos:" : "|WPos:");
+  report_coords(pos);
+  if (mask & 2u) {
+    serial_write("|Bf:");
+    report_uint(plan_free_slots());
+    serial_putc(',');
+    report_uint(serial_rx_free());
+  }
   uint32_t ln = st_current_line();
-  if (ln && !st_is_idle()) {
+  if (!grbl && ln && !st_is_idle()) {   /* GRBL 1.1h is built without line numbers */
     serial_write("|Ln:");
     report_uint(ln);
   }
-  uint8_t feed_ov, rapid_ov;
-  plan_get_overrides(&feed_ov, &rapid_ov);
-  serial_write("|Ov:");
-  report_uint(feed_ov);
+  serial_write("|FS:");
+  double feed = report_feed_mm_min();
+  if (settings.flags & SET_FLAG_REPORT_INCHES)
+    report_float(feed / 25.4, 1);
+  else
+    report_float(feed, 0);
   serial_putc(',');
-  report_uint(rapid_ov);
-  serial_putc(',');
-  report_uint(laser_get_override());
+  double s = (double)laser_current_duty() / (double)LK_LASER_PWM_TOP * gc_get_s_max();
+  report_float(s, 0);
+  uint8_t show_ov = !grbl;
+  if (grbl && wco_count > 0) {
+    wco_count--;
+  } else if (grbl) {
+    wco_count = busy ? 29 : 9;
+    if (ovr_count == 0)
+      ovr_count = 1;                   /* Ov: in the next report */
+    serial_write("|WCO:");
+    report_coords(wco);
+  }
+  if (grbl && ovr_count > 0) {
+    ovr_count--;
+  } else if (grbl) {
+    ovr_count = busy ? 19 : 9;
+    show_ov = 1;
+  }
+  if (show_ov) {
+    serial_write("|Ov:");
+    report_uint(feed_ov);
+    serial_putc(',');
+    report_uint(rapid_ov);
+    serial_putc(',');
+    report_uint(laser_get_override());
+    /* accessories: a spindle-mode (laser mode off) M3/M4 and the air */
+    uint8_t spindle = g->laser && !settings.laser_mode;
+    if (grbl && (spindle || g->air)) {
+      serial_write("|A:");
+      if (spindle)
+        serial_putc(g->laser == 3 ? 'S' : 'C');
+      if (g->air & 2u)
+        serial_putc('F');
+      if (g->air & 1u)
+        serial_putc('M');
+    }
+  }
   serial_write(">\r\n");
 }
 
 void report_build_info(void) {
-  serial_write("[VER:1.1h.20261123:labkit-fw " LK_FW_VERSION "]\r\n[OPT:VL,");
+  serial_write("[VER:1.1h.20261123:");
+  if (settings.dialect == GC_DIALECT_GRBL)
+    serial_write(settings.build_info);   /* GRBL: the $I= text */
+  else
+    serial_write("labkit-fw " LK_FW_VERSION);
+  serial_write("]\r\n[OPT:VL,");
   report_uint(protocol_planner_blocks());
   serial_putc(',');
   report_uint(SERIAL_RX_SIZE);
@@ -190,19 +276,21 @@ void report_build_info(void) {
 }
 
 void report_help(void) {
-  serial_write("[HLP:$$ $# $G $I $N $x=val $Nx=line $J=line $C $X $H $RST=$ $RST=* $LCD ~ ! ? ctrl-x]\r\n");
+  serial_write("[HLP:$$ $# $G $I $N $x=val $Nx=line $J=line $SLP $C $X $H ~ ! ? ctrl-x]\r\n");
 }
 
 void report_gcode_modes(void) {
   const gc_state_t *g = gc_state();
   serial_write("[GC:G");
   report_uint(g->motion);
-  serial_write(" G54 G");
+  serial_write(" G");
+  report_uint(54u + g->coord_select);
+  serial_write(" G");
   report_uint(17u + g->plane);
   serial_write(g->inches ? " G20" : " G21");
   serial_write(g->absolute ? " G90" : " G91");
   serial_write(g->arc_absolute ? " G90.1" : "");
-  serial_write(" G94 M");
+  serial_write(g->inverse_time ? " G93 M" : " G94 M");
   report_uint(g->laser ? g->laser : 5u);
   serial_write(g->air & 1u ? " M7" : "");
   serial_write(g->air & 2u ? " M8" : "");
@@ -220,13 +308,24 @@ void report_gcode_modes(void) {
 
 void report_offsets(void) {
   static const char *const names[] = {"G54", "G55", "G56", "G57", "G58", "G59", "G28", "G30", "G92"};
-  const double zero[3] = {0, 0, 0};
+  const gc_state_t *g = gc_state();
   for (unsigned i = 0; i < sizeof names / sizeof names[0]; i++) {
+    const double *v = i < SET_N_COORD ? settings.coord[i] : i < SET_N_COORD + 2
+                      ? settings.home_pos[i - SET_N_COORD] : g->g92;
     serial_putc('[');
     serial_write(names[i]);
     serial_putc(':');
-    report_axes(zero, 3);
+    report_coords(v);
     serial_write("]\r\n");
   }
-  serial_write("[TLO:0.000]\r\n[PRB:0.000,0.000,0.000:0]\r\n");
+  double tlo[3] = {g->tlo, 0, 0};
+  serial_write("[TLO:");
+  if (settings.flags & SET_FLAG_REPORT_INCHES)
+    report_float(tlo[0] / 25.4, 4);
+  else
+    report_float(tlo[0], 3);
+  serial_write("]\r\n[PRB:");
+  tlo[0] = 0.0;
+  report_coords(tlo);
+  serial_write(":0]\r\n");
 }

@@ -8,11 +8,15 @@
   resized or corrupt copy is replaced by the defaults (defaults.h) and the
   host is told ([MSG:settings restored]).
 
-  Numbers ($N=value) follow GRBL where GRBL has the setting:
+  Numbers ($N=value) and types are GRBL 1.1h's ($0-$6, $10-$13, $20-$27,
+  $30-$32, $100-$132: whole numbers kept in 8 bits, flags, floats; an
+  unknown number is error 3, $0 below 3 error 6, $20=1 without homing
+  error 10). Kept and listed, used by the core where it has the concept:
     $0 step pulse us      $10 status mask     $11 junction deviation mm
-    $12 arc tolerance mm  $20 soft limits      $30 S of full power (grbl)
-    $31 S min (kept)      $32 laser mode       $100-102 steps/mm
-    $110-112 max rate mm/min   $120-122 accel mm/s^2   $130-132 travel mm
+    $12 arc tolerance mm  $13 report inches   $20 soft limits
+    $30 S of full power (grbl)   $31 S min (kept)   $32 laser mode
+    $100-102 steps/mm   $110-112 max rate mm/min   $120-122 accel mm/s^2
+    $130-132 travel mm; $1-$6, $21-$27 are kept for GRBL senders only
   and labkit's own:
     $200 ramp up Hz/step  $201 ramp down Hz/step   $202 start rate Hz
     $203 laser maximum mW $204 planner (0 GRBL junction, 1 MBLA)
@@ -35,6 +39,18 @@
 #define SET_MBLA_NORMAL 1
 #define SET_MBLA_HQ     2
 
+/* flags */
+#define SET_FLAG_STEP_ENABLE_INVERT 0x01u   /* $4 */
+#define SET_FLAG_LIMIT_INVERT       0x02u   /* $5 */
+#define SET_FLAG_PROBE_INVERT       0x04u   /* $6 */
+#define SET_FLAG_REPORT_INCHES      0x08u   /* $13 */
+#define SET_FLAG_HARD_LIMITS        0x10u   /* $21 */
+#define SET_FLAG_HOMING             0x20u   /* $22 */
+
+#define SET_N_COORD   6     /* G54 .. G59 */
+#define SET_N_STARTUP 2     /* $N0 $N1, as GRBL's N_STARTUP_LINE */
+#define SET_LINE_SIZE 80    /* a stored line (GRBL's EEPROM_LINE_SIZE), NUL included */
+
 typedef struct {
   uint32_t magic;
   uint32_t size;                 /* sizeof(settings_t): a layout change restores defaults */
@@ -48,7 +64,22 @@ typedef struct {
   uint8_t mbla_mode;             /* $205 SET_MBLA_* */
   uint8_t law;                   /* $206 PLAN_LAW_* */
   uint8_t dialect;               /* $208 GC_DIALECT_* */
-  uint8_t pad;
+  uint8_t step_idle_delay;       /* $1 ms (kept: GRBL's; the board's drivers stay on) */
+  uint8_t step_invert;           /* $2 port mask (kept) */
+  uint8_t dir_invert;            /* $3 port mask (kept) */
+  uint8_t flags;                 /* SET_FLAG_*: $4 $5 $6 $13 $21 $22 */
+  uint8_t homing_dir;            /* $23 mask */
+  uint8_t homing_debounce_ms;    /* $26 (GRBL 1.1h keeps 8 bits of it) */
+  uint8_t pad[2];
+  double homing_feed;            /* $24 mm/min */
+  double homing_seek;            /* $25 mm/min */
+  double homing_pulloff;         /* $27 mm */
+  /* GRBL's EEPROM data: G54..G59 offsets, G28 and G30 positions (machine
+     coordinates, mm), the $N start-up lines and the $I= build text. */
+  double coord[SET_N_COORD][3];
+  double home_pos[2][3];         /* [0] G28, [1] G30 */
+  char startup[SET_N_STARTUP][SET_LINE_SIZE];
+  char build_info[SET_LINE_SIZE];
   uint32_t checksum;             /* settings_checksum() of every byte before it */
 } settings_t;
 
@@ -68,9 +99,11 @@ uint8_t settings_plan_mode(void);
 
 /* `$N=value`; line is the text after '$'. Returns a status. */
 uint8_t settings_store_setting(const char *line);
-/* `$RST=$` (settings), `$RST=#` (offsets, none kept), `$RST=*` (all). */
+/* `$RST=$` (settings), `$RST=#` (G54-G59, G28, G30), `$RST=*` (all). */
 uint8_t settings_restore(char what);
 void settings_report(void);                        /* `$$` */
+/* Store the offsets of G54..G59 (index 0..5) or G28 / G30 (6, 7). */
+void settings_store_coord(uint8_t index, const double mm[3]);
 
 /* Decimal number parser shared by $ commands and the menu: [+-]digits[.digits].
    Returns the characters read (0: not a number). */

@@ -6,7 +6,7 @@
   The table's reference column is what labkit.gcode.parse (reader.py /
   _kernel.py) answers for the same line in the same dialect; the firmware
   column differs from it only where the firmware does not run a command
-  (GRBL's offsets, probing and system lines, error 20) or cannot hold a
+  (GRBL's probing and system lines, error 20) or cannot hold a
   position (error 103); those rows are counted and printed as differences.
 
   usage: test_gcode <repository root> [-v]   (-v lists the differences)
@@ -20,6 +20,7 @@
 #include "hal_record.h"
 #include "laser.h"
 #include "planner.h"
+#include "settings.h"
 #include "status_codes.h"
 #include "stepper.h"
 
@@ -145,8 +146,8 @@ static const gc_case_t cases[] = {
   {GC_DIALECT_GRBL, "", "G4 P0.5", 0, 0},
   {GC_DIALECT_GRBL, "", "G80", 0, 0},
   {GC_DIALECT_GRBL, "", "G80 X1", 31, 31},
-  {GC_DIALECT_GRBL, "", "G2 I1 F10", 32, 32},
-  {GC_DIALECT_GRBL, "", "G2 X2 R0.9996 F10", 33, 33},
+  {GC_DIALECT_GRBL, "", "G2 I1 F10", 26, 32}, /* GRBL 1.1h: 26, no axis words (tests/vectors/grbl/errors.json) */
+  {GC_DIALECT_GRBL, "", "G2 X2 R0.9996 F10", 34, 34},
   {GC_DIALECT_GRBL, "", "G2 X2 R1 F10", 0, 0},
   {GC_DIALECT_GRBL, "", "T1", 0, 0},
   {GC_DIALECT_GRBL, "", "T256", 38, 38},
@@ -154,14 +155,14 @@ static const gc_case_t cases[] = {
   {GC_DIALECT_GRBL, "", "L2", 36, 36},
   {GC_DIALECT_GRBL, "", "G1 X1 F600", 0, 0},
   {GC_DIALECT_GRBL, "", "S2000", 0, 0},
-  {GC_DIALECT_GRBL, "", "G93", 20, 0}, /* not run by the firmware (GRBL offsets/probing/system lines) */
-  {GC_DIALECT_GRBL, "", "G53 G0 X1", 20, 0}, /* not run by the firmware (GRBL offsets/probing/system lines) */
-  {GC_DIALECT_GRBL, "", "G92 X1", 20, 0}, /* not run by the firmware (GRBL offsets/probing/system lines) */
-  {GC_DIALECT_GRBL, "", "G10 L2 P1 X1", 20, 0}, /* not run by the firmware (GRBL offsets/probing/system lines) */
-  {GC_DIALECT_GRBL, "", "G28", 20, 0}, /* not run by the firmware (GRBL offsets/probing/system lines) */
+  {GC_DIALECT_GRBL, "", "G93", 0, 0},
+  {GC_DIALECT_GRBL, "", "G53 G0 X1", 0, 0},
+  {GC_DIALECT_GRBL, "", "G92 X1", 0, 0},
+  {GC_DIALECT_GRBL, "", "G10 L2 P1 X1", 0, 0},
+  {GC_DIALECT_GRBL, "", "G28", 0, 0},
   {GC_DIALECT_GRBL, "", "G38.2 X1 F100", 20, 0}, /* not run by the firmware (GRBL offsets/probing/system lines) */
-  {GC_DIALECT_GRBL, "", "G43.1 Z1", 20, 0}, /* not run by the firmware (GRBL offsets/probing/system lines) */
-  {GC_DIALECT_GRBL, "", "G55", 20, 0}, /* not run by the firmware (GRBL offsets/probing/system lines) */
+  {GC_DIALECT_GRBL, "", "G43.1 Z1", 0, 0},
+  {GC_DIALECT_GRBL, "", "G55", 0, 0},
   {GC_DIALECT_GRBL, "", "G1.5 X1", 23, 23},
   {GC_DIALECT_GRBL, "", "G28.5", 20, 20},
   {GC_DIALECT_GRBL, "", "$H", 20, 0}, /* not run by the firmware (GRBL offsets/probing/system lines) */
@@ -188,6 +189,7 @@ static void wait_hook(void) { hal_record_run(); }
 static void reset(uint8_t dialect)
 {
   hal_record_reset();
+  settings_defaults(&settings);   /* no G54..G59 offsets left by an earlier G10 */
   plan_init();
   st_init();
   laser_init();
@@ -396,19 +398,60 @@ static void semantic_cases(void)
   CHECK(rec.duty == 0 && laser_current_duty() == 0, "laser on after reset");
 }
 
+/* GRBL's work offsets, worked by hand (GRBL 1.1h's rules, gcode.c of gnea/grbl read as reference):
+   machine = work + G5x + G92 (+ G43.1 on Z). */
+static void offset_cases(void)
+{
+  reset(GC_DIALECT_GRBL);
+  const gc_state_t *g = gc_state();
+  double wco[3];
+  CHECK(run("G10 L2 P1 X5") == 0 && settings.coord[0][0] == 5.0, "G10 L2 P1 stores G54 X5");
+  CHECK(run("G0 X1") == 0 && g->pos_mm[0] == 6.0, "G54 X1 is machine 6, got %g", g->pos_mm[0]);
+  CHECK(run("G92 X0") == 0 && g->g92[0] == 1.0, "G92 X0 at machine 6 with G54 X5: 1, got %g", g->g92[0]);
+  CHECK(run("G0 X2") == 0 && g->pos_mm[0] == 8.0, "work 2 is machine 8, got %g", g->pos_mm[0]);
+  CHECK(run("G10 L20 P2 X0") == 0 && settings.coord[1][0] == 7.0,
+        "G10 L20 P2 X0 at machine 8 (G92 1): G55 X7, got %g", settings.coord[1][0]);
+  CHECK(run("G55 G0 X1") == 0 && g->pos_mm[0] == 9.0, "G55 X1 = 1 + 7 + 1, got %g", g->pos_mm[0]);
+  CHECK(run("G91 G0 X1") == 0 && g->pos_mm[0] == 10.0, "G91 ignores offsets, got %g", g->pos_mm[0]);
+  CHECK(run("G90 G53 G0 X0") == 0 && g->pos_mm[0] == 0.0, "G53 X0 is machine 0, got %g", g->pos_mm[0]);
+  CHECK(run("G53 G2 X1 I1 F10") == STATUS_G53_INVALID_MOTION_MODE, "G53 with an arc");
+  CHECK(run("G92.1") == 0 && g->g92[0] == 0.0, "G92.1 clears G92");
+  CHECK(run("G43.1 Z2") == 0 && g->tlo == 2.0, "G43.1 Z2");
+  gc_wco(wco);
+  CHECK(wco[0] == 7.0 && wco[2] == 2.0, "WCO %g %g %g", wco[0], wco[1], wco[2]);
+  CHECK(run("G43.1 X1") == STATUS_G43_DYNAMIC_AXIS_ERROR, "G43.1 takes Z only");
+  CHECK(run("G49") == 0 && g->tlo == 0.0, "G49");
+  CHECK(run("G0 X3 Y4") == 0 && run("G28.1") == 0 && settings.home_pos[0][0] == 10.0 &&
+        settings.home_pos[0][1] == 4.0, "G28.1 stores machine 10 4, got %g %g",
+        settings.home_pos[0][0], settings.home_pos[0][1]);
+  CHECK(run("G53 G0 X0 Y0") == 0 && run("G28 Y1") == 0 && g->pos_mm[0] == 0.0 && g->pos_mm[1] == 4.0,
+        "G28 Y1: through work Y1, only Y goes home: %g %g", g->pos_mm[0], g->pos_mm[1]);
+  CHECK(run("G28") == 0 && g->pos_mm[0] == 10.0 && g->pos_mm[1] == 4.0, "G28 goes home on every axis");
+  CHECK(run("G10 L2 P7 X1") == STATUS_UNSUPPORTED_COORD_SYS, "P7");
+  CHECK(run("G10 L3 P1 X1") == STATUS_UNSUPPORTED_COMMAND, "L3");
+  CHECK(run("G10 L2 P1") == STATUS_MISSING_AXIS_WORDS, "G10 without axes");
+  CHECK(run("G0 G92 X1") == STATUS_AXIS_COMMAND_CONFLICT, "G0 G92");
+  CHECK(run("M2") == 0 && g->coord_select == 0, "M2 selects G54");
+  /* G93: the move takes 1/F minutes; F is needed in each line */
+  CHECK(run("G53 G0 X0 Y0") == 0 && run("G93 G1 X10") == STATUS_UNDEFINED_FEED, "G93 without F");
+  CHECK(run("G93 G1 X10 F2") == 0 && g->feed_mm_min == 2.0, "G93 F2 (per minute)");
+  CHECK(run("G94") == 0 && g->feed_mm_min == 0.0, "leaving G93 leaves no feed");
+}
+
 int main(int argc, char **argv)
 {
   verbose = argc > 2 && !strcmp(argv[2], "-v");
   int differences = 0;
   table_cases(&differences);
   semantic_cases();
+  offset_cases();
   size_t n = sizeof cases / sizeof cases[0];
   if (failures) {
     printf("test_gcode: %d of %d checks failed (%zu lines, first failure above)\n", failures, checks, n);
     return 1;
   }
   printf("test_gcode: %zu lines, %d checks: all pass (%d documented differences from labkit.gcode: "
-         "GRBL offsets, probing and $ lines are error 20, positions beyond the step counters 103; -v lists them)\n",
+         "GRBL probing and $ lines are error 20, positions beyond the step counters 103; -v lists them)\n",
          n, checks, differences);
   return 0;
 }

@@ -44,13 +44,18 @@ int main(int argc, char **argv) {
   CHECK(settings_init() == 1 && settings.machine.steps_per_mm[0] == 80.0);   /* stored */
   CHECK(settings_store_setting("110=1200.5") == STATUS_OK);
   CHECK(settings.machine.max_rate_mm_min[0] == 1200.5);
-  CHECK(settings_store_setting("999=1") == STATUS_UNSUPPORTED_COMMAND);
+  CHECK(settings_store_setting("999=1") == STATUS_INVALID_STATEMENT);   /* GRBL: unknown setting */
   CHECK(settings_store_setting("100=") == STATUS_BAD_NUMBER);
   CHECK(settings_store_setting("100=abc") == STATUS_BAD_NUMBER);
   CHECK(settings_store_setting("100=-5") == STATUS_NEGATIVE_VALUE);
-  CHECK(settings_store_setting("32=2") == STATUS_MAX_VALUE_EXCEEDED);
+  CHECK(settings_store_setting("32=2") == STATUS_OK && settings.laser_mode == 1);   /* a GRBL flag */
+  CHECK(settings_store_setting("26=1000") == STATUS_OK && settings.homing_debounce_ms == 232);   /* 8 bits */
+  CHECK(settings_store_setting("0=2") == STATUS_SETTING_STEP_PULSE_MIN);
+  CHECK(settings_store_setting("20=1") == STATUS_SOFT_LIMIT_ERROR);     /* homing is off */
+  CHECK(settings_store_setting("1.5=7") == STATUS_OK && settings.step_idle_delay == 7);
   CHECK(settings_store_setting("205=1.5") == STATUS_NON_INTEGER_COMMAND);
-  CHECK(settings_store_setting("100") == STATUS_UNSUPPORTED_COMMAND);
+  CHECK(settings_store_setting("100") == STATUS_INVALID_STATEMENT);
+  CHECK(settings_store_setting("110=1e3") == STATUS_INVALID_STATEMENT);
   CHECK(settings.machine.steps_per_mm[0] == 80.0);   /* rejected values change nothing */
 
   /* planner choice and MBLA mode reach the planner */
@@ -73,15 +78,22 @@ int main(int argc, char **argv) {
   CHECK(settings_store_setting("30=255") == STATUS_OK);
   CHECK(gc_get_s_max() == 255.0);
 
-  /* $RST=$ keeps the dialect, $RST=* does not */
+  /* $RST=$ keeps the dialect and the offsets, $RST=# clears only the offsets,
+     $RST=* restores everything (the default dialect is grbl) */
+  CHECK(settings_store_setting("208=0") == STATUS_OK);
+  double g55[3] = {1.0, 2.0, 3.0};
+  settings_store_coord(1, g55);
   CHECK(settings_restore('$') == STATUS_OK);
   CHECK(settings.machine.steps_per_mm[0] == 6400.0 / 3.0);
-  CHECK(settings.dialect == GC_DIALECT_GRBL);
-  CHECK(settings_restore('*') == STATUS_OK);
   CHECK(settings.dialect == GC_DIALECT_LABKIT);
-  CHECK(gc_get_dialect() == GC_DIALECT_LABKIT);
+  CHECK(settings.coord[1][1] == 2.0);
+  CHECK(settings_store_setting("100=80") == STATUS_OK);
   CHECK(settings_restore('#') == STATUS_OK);
-  CHECK(settings_restore('x') == STATUS_UNSUPPORTED_COMMAND);
+  CHECK(settings.coord[1][1] == 0.0 && settings.machine.steps_per_mm[0] == 80.0);
+  CHECK(settings_restore('*') == STATUS_OK);
+  CHECK(settings.dialect == GC_DIALECT_GRBL);
+  CHECK(gc_get_dialect() == GC_DIALECT_GRBL);
+  CHECK(settings_restore('x') == STATUS_INVALID_STATEMENT);
   CHECK(settings_init() == 1);
 
   TEST_DONE("test_settings");

@@ -160,7 +160,7 @@ def test_feed_hold_and_resume(sim, short_job):
 
 def test_rejected_line_and_resume(sim, short_job):
     """(e) a line GRBL rejects: error:N with labkit's number; resuming finishes the job."""
-    bad = "G0 G1 X3 Y3"                       # two motion commands (one modal group)
+    bad = "G90 G91 X3 Y3"                     # two distance modes (one modal group; G0 G1 is GRBL's 24)
     with pytest.raises(GcodeError) as exc:
         parse(bad + "\n", dialect="grbl")
     want_code = exc.value.code
