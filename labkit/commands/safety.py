@@ -33,7 +33,7 @@ def add_safety_check_arguments(parser):
                              "low on a real machine)")
     parser.add_argument("--cut-mode", choices=("M4", "M3"), default="M4",
                         help="how the stop scenarios cut (default M4, what labkit writes; GRBL's "
-                             "M3 keeps the beam on in a feed hold)")
+                             "M3 keeps the beam on when its queue runs out)")
     parser.add_argument("--only", action="append", choices=list(SCENARIOS), default=None,
                         metavar="SCENARIO",
                         help="run only this scenario (repeatable): " + ", ".join(SCENARIOS))

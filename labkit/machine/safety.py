@@ -20,11 +20,12 @@ with the evidence otherwise. A scenario the controller cannot take part in (no
 door state) is NOT APPLICABLE.
 
 The cuts are short relative moves (``G91``) from where the head is, at a low
-power: 1 % of ``$30`` unless ``power_s`` says otherwise. GRBL's M3 keeps the
-beam on while stopped in a feed hold (constant power: its PWM is switched off
-at the end of motion only for M4), so the cuts use ``M4`` by default — what
-labkit writes; ``cut_mode="M3"`` checks a machine that cuts with M3, and a
-GRBL 1.1 fails its feed hold.
+power: 1 % of ``$30`` unless ``power_s`` says otherwise. GRBL 1.1 switches the
+laser off once a feed hold has stopped the head, M3 and M4 alike, but when its
+queue runs out (the end of a resumed cut, a lost link) M3's constant power stays
+on — only M4's PWM is switched off at the end of motion. So the cuts use ``M4``
+by default — what labkit writes; ``cut_mode="M3"`` checks a machine that cuts
+with M3, and a GRBL 1.1 fails its resume and lost-link scenarios.
 """
 
 from __future__ import annotations

@@ -287,10 +287,11 @@ class VirtualMachine:
         """Beam power now, as a fraction of full.
 
         In laser mode (``$32=1``), as GRBL 1.1 does: a burning block lights it while it moves
-        (braking in a hold included); when motion stops, M4 (dynamic power) switches it off, while
-        M3 (constant power) leaves it at the last block's power — in a feed hold, and at the end
-        of the queue in G1-G3 mode until M5, S0, G0, M2/M30, a reset or an alarm (a line of M3 S
-        without motion in G1-G3 mode switches it on at rest: focusing). A dwell keeps the level
+        (braking in a hold included) and goes off once a feed hold has stopped the head, M3 and M4
+        alike (GRBL's DISABLE_LASER_DURING_HOLD, on by default; cycle start restores it); when the
+        queue runs out, M4 (dynamic power) switches it off, while M3 (constant power) leaves it at
+        the last block's power in G1-G3 mode until M5, S0, G0, M2/M30, a reset or an alarm (a line
+        of M3 S without motion in G1-G3 mode switches it on at rest: focusing). A dwell keeps the level
         it starts with. A door and an alarm switch it off. With ``$32=0`` the beam follows M3/M4
         S whatever the motion (GRBL's spindle).
         """
@@ -304,9 +305,10 @@ class VirtualMachine:
         if self._flag(32):                              # laser mode
             if moving:
                 return self._blocks[0].power
-            if self.state == "Hold" and self._blocks:    # held: M3 keeps its power, M4 is off
-                head = self._blocks[0]
-                return head.power if head.constant else 0.0
+            if self.state == "Hold":
+                # stopped in a hold: GRBL 1.1 (DISABLE_LASER_DURING_HOLD, on in its default
+                # config.h) de-energizes the laser in laser mode, M3 and M4 alike, until cycle start
+                return 0.0
             return self._rest_level if self.state == "Idle" and not self._blocks else 0.0
         # spindle mode ($32=0): the beam follows M3/M4 S whatever the motion
         return self._beam_fraction(self.laser_mode_word, self.s_word) if self.laser_mode_word else 0.0

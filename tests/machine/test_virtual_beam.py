@@ -58,18 +58,24 @@ def test_program_end_reset_and_alarm_switch_it_off():
     assert "ALARM:2" in run(vm, b"G1 X9999\n") and vm.laser_output() == 0.0
 
 
-def test_hold_m3_keeps_the_beam_m4_switches_it_off():
-    for mode, held in ((b"M4", 0.0), (b"M3", 0.5)):
+def test_a_stopped_hold_switches_the_beam_off_m3_and_m4_alike_and_cycle_start_restores_it():
+    """GRBL 1.1h protocol.c: in laser mode a feed hold sets the spindle-stop override
+    (DISABLE_LASER_DURING_HOLD, on in its default config.h), and once the hold is complete the
+    laser is de-energized whatever M3/M4 is in effect; cycle start restores it with the motion."""
+    for mode in (b"M4", b"M3"):
         vm = machine()
         vm.write(b"G21 G91 G1 X50 F600 S500 " + mode + b"\n")
         vm.read(4096)
         vm.write(b"!")
         run(vm, b"")
         assert (vm.state, vm.substate) == ("Hold", 0)
-        assert vm.laser_output() == held
+        assert vm.laser_output() == 0.0, mode
         vm.write(b"?")
         report = vm.read(4096).decode()
-        assert f"FS:0,{500 if held else 0}" in report
+        assert "FS:0,0" in report and "|A:" not in report, report
+        vm.write(b"~")
+        vm.read(4096)
+        assert vm.state == "Run" and vm.laser_output() > 0.0, mode
 
 
 def test_a_dwell_keeps_the_level_it_starts_with():
