@@ -29,16 +29,18 @@ G3 X5 Y15 I-5 J0
 from __future__ import annotations
 
 import math
+import textwrap
 
 import numpy as np
 
 from labkit import __version__
 from labkit.errors import EmitError
 from labkit.gcode import _emit_kernel as EK
-from labkit.gcode.dialects import Dialect, get_dialect
+from labkit.gcode.dialects import DIALECTS, Dialect, get_dialect
 from labkit.toolpath.moves import MoveKind, Moves, check_moves
 
-__all__ = ["emit", "write_gcode", "decimals_for", "format_number", "VALUE_DECIMALS"]
+__all__ = ["emit", "write_gcode", "comment_lines", "decimals_for", "format_number",
+           "VALUE_DECIMALS", "LINE_CHARS"]
 
 #: Decimals written for F, S and P values.
 VALUE_DECIMALS = 4
@@ -46,6 +48,11 @@ VALUE_DECIMALS = 4
 #: A number is written from an integer count of its last decimal; above 2**53 counts a
 #: float64 no longer holds every integer, so the digits written would not be the value.
 _EXACT_LIMIT = 2.0 ** 53
+
+#: Longest line labkit writes, comments included: GRBL 1.1's 80-byte line buffer holds 79
+#: characters (recorded: tests/vectors/grbl/line_length.json). A comment line that short
+#: fits even a sender or controller that counts comments, as GRBL's stream.py does.
+LINE_CHARS = DIALECTS["grbl"].line_buffer_chars - 1
 
 #: The header's warning for GRBL when travel is written with the beam mode still on.
 GRBL_TRAVEL_WARNING = (
@@ -286,14 +293,48 @@ def _refuse_unwritable(moves: Moves, d: Dialect, decimals: int) -> None:
                         "< 1e9 s")
 
 
+def comment_lines(text: str, width: int = LINE_CHARS) -> list[str]:
+    """``text`` as ``;`` comment lines of at most ``width`` characters each.
+
+    Long lines are wrapped at spaces (a word longer than a line is cut), so every line
+    fits a controller's line buffer and a counting sender's receive buffer.
+
+    Parameters
+    ----------
+    text : str
+        The comment; each of its lines starts a new comment line.
+    width : int
+        Longest comment line in characters, ``"; "`` included (at least 3).
+
+    Returns
+    -------
+    list of str
+        The lines, without line ends.
+
+    Examples
+    --------
+    >>> comment_lines("rows: 1 = 500 mW, 2 = 1000 mW, 3 = 1500 mW", width=24)
+    ['; rows: 1 = 500 mW, 2 =', '; 1000 mW, 3 = 1500 mW']
+    >>> comment_lines("first\\n\\nthird")
+    ['; first', ';', '; third']
+    """
+    if width < 3:
+        raise ValueError(f"width must be at least 3 characters ('; ' and one more), got {width!r}")
+    lines = []
+    for part in text.splitlines():
+        pieces = textwrap.wrap(part, width - 2, break_on_hyphens=False)
+        lines += [f"; {piece}" for piece in pieces] or [";"]
+    return lines
+
+
 def _header_lines(d: Dialect, comment, beam_off_by_controller: bool):
-    lines = [f"; labkit {__version__}, dialect {d.name}"]
+    lines = comment_lines(f"labkit {__version__}, dialect {d.name}")
     if comment:
-        lines += [f"; {c}" for c in comment.splitlines()]
+        lines += comment_lines(comment)
     if d.name == "grbl" and beam_off_by_controller:
-        lines.append(f"; {GRBL_TRAVEL_WARNING}")
+        lines += comment_lines(GRBL_TRAVEL_WARNING)
     elif not beam_off_by_controller:
-        lines.append("; travel: M5 before every rapid, M3/M4 again before the next cut")
+        lines += comment_lines("travel: M5 before every rapid, M3/M4 again before the next cut")
     lines += ["G21 G90", "M5"]
     numbered = sum(1 for line in lines if not line.startswith(";"))
     return lines, 1 + numbered

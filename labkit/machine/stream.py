@@ -96,8 +96,11 @@ class Job:
 
     @classmethod
     def from_text(cls, text: str, *, filename: str | None = None, dialect: str = "grbl",
-                  machine=None, arc_tol_mm: float = 0.002, max_line: int = 80) -> "Job":
+                  machine=None, arc_tol_mm: float = 0.002, max_line: int | None = None) -> "Job":
         """Parse and plan a program; refuse it before anything moves when it is bad.
+
+        ``max_line`` is the longest line the controller takes once comments and spaces are
+        removed; by default GRBL 1.1's 79 (its 80-byte line buffer answers error:11 to 80).
 
         Raises
         ------
@@ -113,6 +116,10 @@ class Job:
         source = text.split("\n")
         if source and source[-1] == "":
             source.pop()
+        if max_line is None:
+            from labkit.gcode.writer import LINE_CHARS
+
+            max_line = LINE_CHARS
         send = []
         for k, raw in enumerate(source, 1):
             s = strip_line(raw.rstrip("\r"))
@@ -120,9 +127,11 @@ class Job:
                 continue
             if s:
                 if len(s) > max_line:
-                    raise InputError(f"{filename or '<string>'}:{k}:1: line of {len(s)} characters "
-                                     f"after removing comments and spaces; the controller takes "
-                                     f"at most {max_line}")
+                    shown = s if len(s) <= 40 else s[:37] + "..."
+                    raise InputError(f"{filename or '<string>'}:{k}:1: line {k} ({shown}) has "
+                                     f"{len(s)} characters after removing comments and spaces; "
+                                     f"the controller takes at most {max_line} (write fewer "
+                                     f"decimals or split the block)")
                 send.append((k, s))
         blocks: dict[int, int] = {}
         lengths = moves.lengths_mm()
