@@ -97,6 +97,7 @@ def test_status_report_follows_10(mask, fields):
 
 def test_door_stops_and_the_beam_goes_off():
     vm = VirtualMachine("grbl-diode", time_scale=0, tick_s=0.02, banner=False)
+    vm.timeout = 0          # one tick per read: an empty read would tick for 50 ms of wall time
     reply(vm, b"G21 G91 G1 X20 F600 S500 M4\n")
     assert vm.laser_output() == 0.5
     vm.write(b"\x84")
