@@ -67,6 +67,8 @@ class _Sim:
         self.grbl = Grbl(open_link(pty))
         self.grbl.realtime("soft_reset")          # the banner went out before the pty opened
         self.info = self.grbl.connect(timeout_s=5.0)
+        # GRBL's default $10=1 sends no Bf:, which the stream needs to place a resume line
+        self.grbl.set_setting(10, 3)
 
     def close(self):
         self.grbl.close()
