@@ -17,7 +17,8 @@ Every kernel is written once, as plain Python over numpy arrays, and decorated w
   has spent :data:`MODULE_LOAD_COST_S` on them, what loading one more module's cached
   code costs. The projection is the job's when one is open
   (:func:`job_units`: the Python time per unit of the units done so far, times the units
-  left), else the call's own: ``n / python_below`` loads for ``n`` array elements
+  left; with jobs inside jobs — files of a batch, shapes of a file — the largest), and at
+  least the call's own: ``n / python_below`` loads for ``n`` array elements
   (``python_below`` is set where the kernel is declared, from its measured cost per
   element; 0 means always compiled). The tally carries across jobs, so a process that
   converts many small files pays for numba once its Python time would have paid for it.
@@ -222,9 +223,7 @@ def runs_as_python(n: int, python_below: int, spent_since_load: float = 0.0) -> 
         return False                      # python_below=0: always compiled
     if _numba_loaded[0]:
         return n < PYTHON_ALWAYS_BELOW and spent_since_load < MODULE_LOAD_COST_S
-    projected = n / python_below * LOAD_COST_S
-    if _jobs:
-        projected = max(projected, _jobs[-1].projected_rest())
+    projected = max([n / python_below * LOAD_COST_S] + [j.projected_rest() for j in _jobs])
     return _spent[0] + projected < LOAD_COST_S
 
 
@@ -255,6 +254,9 @@ def job_units(items):
     ------
     object
         Each item in turn; a unit counts as done when the loop asks for the next one.
+
+    A program converting many files in one process declares them too (``for f in
+    job_units(files): ...``): the first file's Python time then projects the batch's.
 
     Examples
     --------

@@ -286,3 +286,20 @@ def test_planner_kernels_as_python_equal_compiled(planner):
     assert len(a.lookahead.speed_mm_s) > 1000
     assert np.array_equal(a.lookahead.speed_mm_s, b.lookahead.speed_mm_s)
     assert np.array_equal(a.lookahead.super_block, b.lookahead.super_block)
+
+
+def test_a_declared_batch_projects_from_its_first_file(fresh_process, monkeypatch):
+    """Ten files of 4 units (0.4 s as Python each) in a declared batch: after the first file
+    the batch projects 9 × 0.4 s, beyond the 1 s load, so every later file runs compiled
+    (undeclared, the tally alone waits until the third file)."""
+    monkeypatch.setattr(_jit, "LOAD_COST_S", 1.0)
+    fresh_process.step = 0.1
+    total, calls = _recording_kernel(monkeypatch, python_below=10**9)
+    per_file = []
+    for _ in _jit.job_units(range(10)):
+        before = len(calls)
+        for _ in _jit.job_units(range(4)):
+            total(np.ones(5000))
+        per_file.append(calls[before:])
+    assert per_file[0] == ["py"] * 4
+    assert all(f == ["nb"] * 4 for f in per_file[1:])
