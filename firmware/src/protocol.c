@@ -235,7 +235,9 @@ static void run_startup_lines(void) {
 }
 
 static void soft_reset(void) {
-  uint8_t was_moving = !st_is_idle() || !plan_is_empty();
+  /* a reset in a finished hold loses no position: no alarm (GRBL) */
+  uint8_t at_rest_in_hold = st_state() == ST_HELD || (hold_req && st_is_idle());
+  uint8_t was_moving = !at_rest_in_hold && (!st_is_idle() || !plan_is_empty());
   if (program_pause || critical || sync_ok)
     report_status_message(STATUS_OK);
   sync_ok = 0;   /* GRBL: the line held (M0, a soft limit) is answered now */
@@ -606,6 +608,8 @@ static void system_task(void) {
         hold_req = 1;
       st_feed_hold();
       laser_off();
+    } else if (state == PROTO_IDLE && settings.dialect == GC_DIALECT_GRBL) {
+      hold_req = 1;              /* GRBL holds at rest too: Hold:0 until '~' */
     }
   }
   if (sync_ok && st_is_idle() && plan_is_empty() && !hold_req) {

@@ -222,7 +222,10 @@ void report_status_report(void) {
   else
     report_float(feed, 0);
   serial_putc(',');
-  double s = (double)laser_current_duty() / (double)LK_LASER_PWM_TOP * gc_get_s_max();
+  /* spindle mode ($32=0): the programmed S while M3/M4 is on (GRBL); laser mode: the beam now */
+  uint8_t spindle = g->laser && !settings.laser_mode;
+  double s = spindle ? (double)g->power_s
+                     : (double)laser_current_duty() / (double)LK_LASER_PWM_TOP * gc_get_s_max();
   report_float(s, 0);
   uint8_t show_ov = !grbl;
   if (grbl && wco_count > 0) {
@@ -247,11 +250,11 @@ void report_status_report(void) {
     report_uint(rapid_ov);
     serial_putc(',');
     report_uint(laser_get_override());
-    /* accessories: a spindle-mode (laser mode off) M3/M4 and the air */
-    uint8_t spindle = g->laser && !settings.laser_mode;
-    if (grbl && (spindle || g->air)) {
+    /* accessories: M3/M4 while its output is on (spindle mode, or the beam burning) and the air */
+    uint8_t on = spindle || (g->laser && laser_current_duty() > 0);
+    if (grbl && (on || g->air)) {
       serial_write("|A:");
-      if (spindle)
+      if (on)
         serial_putc(g->laser == 3 ? 'S' : 'C');
       if (g->air & 2u)
         serial_putc('F');

@@ -106,6 +106,8 @@ int main(int argc, char **argv) {
     send(enders[k]);
     CHECK(!menu_laser_is_on());
     CHECK(laser_current_duty() == 0);
+    if (enders[k][0] == '!')
+      send("~");                              /* GRBL holds at rest too: resume */
   }
   /* and cannot be fired in check mode, in an alarm or while held */
   CHECK(protocol_state() == PROTO_CHECK);
