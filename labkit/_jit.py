@@ -223,7 +223,9 @@ def runs_as_python(n: int, python_below: int, spent_since_load: float = 0.0) -> 
         return False                      # python_below=0: always compiled
     if _numba_loaded[0]:
         return n < PYTHON_ALWAYS_BELOW and spent_since_load < MODULE_LOAD_COST_S
-    projected = max([n / python_below * LOAD_COST_S] + [j.projected_rest() for j in _jobs])
+    inner = _jobs[1:] + [None]
+    projected = max([n / python_below * LOAD_COST_S]
+                    + [j.projected_rest(k) for j, k in zip(_jobs, inner)])
     return _spent[0] + projected < LOAD_COST_S
 
 
@@ -234,11 +236,15 @@ class _Job:
     def __init__(self, units: int):
         self.units, self.done, self.spent_at_start = units, 0, _spent[0]
 
-    def projected_rest(self) -> float:
+    def projected_rest(self, inner: "_Job | None" = None) -> float:
+        """CPU s the units left will spend as Python; ``inner``, the job running inside the
+        current unit, tells how much of that unit is done (a batch projects from part of
+        its first file)."""
         spent = _spent[0] - self.spent_at_start
-        if self.done == 0 or (self.done < JOB_SAMPLE * self.units and spent < JOB_SAMPLE * LOAD_COST_S):
+        done = self.done + (inner.done / inner.units if inner is not None and inner.units else 0.0)
+        if done == 0 or (done < JOB_SAMPLE * self.units and spent < JOB_SAMPLE * LOAD_COST_S):
             return 0.0                   # too few units yet to tell (one shape may be unlike the rest)
-        return spent / self.done * (self.units - self.done)
+        return spent / done * (self.units - done)
 
 
 def job_units(items):

@@ -288,9 +288,10 @@ def test_planner_kernels_as_python_equal_compiled(planner):
     assert np.array_equal(a.lookahead.super_block, b.lookahead.super_block)
 
 
-def test_a_declared_batch_projects_from_its_first_file(fresh_process, monkeypatch):
-    """Ten files of 4 units (0.4 s as Python each) in a declared batch: after the first file
-    the batch projects 9 × 0.4 s, beyond the 1 s load, so every later file runs compiled
+def test_a_declared_batch_projects_from_part_of_its_first_file(fresh_process, monkeypatch):
+    """Ten files of 4 units (0.4 s as Python each) in a declared batch: once the first file
+    has spent 0.1 s (a tenth of the load) on its first unit, the batch projects 0.1 s per
+    quarter file over 9.75 files, beyond the 1 s load, so the rest runs compiled
     (undeclared, the tally alone waits until the third file)."""
     monkeypatch.setattr(_jit, "LOAD_COST_S", 1.0)
     fresh_process.step = 0.1
@@ -301,5 +302,5 @@ def test_a_declared_batch_projects_from_its_first_file(fresh_process, monkeypatc
         for _ in _jit.job_units(range(4)):
             total(np.ones(5000))
         per_file.append(calls[before:])
-    assert per_file[0] == ["py"] * 4
+    assert per_file[0] == ["py"] + ["nb"] * 3
     assert all(f == ["nb"] * 4 for f in per_file[1:])
