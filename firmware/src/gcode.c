@@ -110,7 +110,7 @@ static int is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == 
 
 /* [+-]digits[.digits], the way labkit.gcode reads it (18 significant digits,
    one exact division by a power of ten), so both sides get the same double.
-   Returns 0 ok, 1 no digits, 2 bad character after it, 3 too large. */
+   Returns 0 ok, 1 no digits, 2 bad character after it (*out is read), 3 too large. */
 static int read_number(const char *s, int *i, double *out)
 {
   static const double pow10[23] = {1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11,
@@ -144,21 +144,22 @@ static int read_number(const char *s, int *i, double *out)
   *i = k;
   if (ndigits == 0) return 1;
   char c = s[k];
+  int bad_after = 0;
   if (c != 0) {
     int ok = is_space(c) || c == '\n' || c == '(' || c == ';' || c == '*' ||
              (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z');
-    if (!ok) return 2;
+    bad_after = !ok;
   }
-  if (extra > 0) return 3;
+  if (extra > 0) return bad_after ? 2 : 3;
   double v = (double)mant;
   while (frac > 22) {
     v = v / 1e22;
     frac -= 22;
   }
   if (frac > 0) v = v / pow10[frac];
-  if (v >= GC_MAX_ABS_VALUE) return 3;
+  if (v >= GC_MAX_ABS_VALUE) return bad_after ? 2 : 3;
   *out = neg ? -v : v;
-  return 0;
+  return bad_after ? 2 : 0;   /* 2: the number is read, a stray character follows it */
 }
 
 static int in_list16(const int16_t *list, int v)
@@ -240,7 +241,9 @@ uint8_t gc_execute_line(char *line)
     i++;
     while (is_space(line[i])) i++;
     double v = 0;
-    if (read_number(line, &i, &v) != 0) return STATUS_BAD_NUMBER;
+    int rc = read_number(line, &i, &v);
+    /* GRBL reads the number and then finds no letter where the next word should start: 1 */
+    if (rc != 0 && !(rc == 2 && gc_dialect == GC_DIALECT_GRBL)) return STATUS_BAD_NUMBER;
     if (letter == L_G) {
       if (ng == MAX_COMMANDS) return STATUS_MODAL_GROUP_VIOLATION;
       g_val[ng++] = v;
