@@ -43,7 +43,7 @@ from pathlib import Path
 from labkit.errors import InputError, MachineError
 
 __all__ = ["SCENARIOS", "ScenarioResult", "SafetyReport", "run_safety_check", "default_sim_path",
-           "CUT_MM", "CUT_FEED_MM_MIN"]
+           "end_process", "CUT_MM", "CUT_FEED_MM_MIN"]
 
 #: scenario key → what it checks (the order they run in).
 SCENARIOS: dict[str, str] = {
@@ -65,6 +65,21 @@ PASS, FAIL, NOT_APPLICABLE = "PASS", "FAIL", "NOT APPLICABLE"
 #: The test cuts on a real machine: length either way along X from where the head is (mm), and feed.
 CUT_MM = 10.0
 CUT_FEED_MM_MIN = 300.0
+
+
+def end_process(proc: subprocess.Popen, timeout_s: float = 5.0) -> None:
+    """End a simulator process: SIGTERM, wait up to ``timeout_s`` s, then SIGKILL.
+
+    Its pipes are drained (``communicate``) so that it cannot block on a full pipe
+    while it exits. A process that has already ended is only reaped.
+    """
+    if proc.poll() is None:
+        proc.terminate()
+    try:
+        proc.communicate(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.communicate()
 
 
 def default_sim_path() -> Path:
@@ -351,13 +366,7 @@ class _SimTarget(_Target):
         return g
 
     def close(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.communicate(timeout=5)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.communicate()
+        end_process(self.proc)
 
 
 class _PortTarget(_Target):

@@ -20,6 +20,7 @@ import pytest
 from labkit.errors import GcodeError
 from labkit.gcode import parse
 from labkit.machine.grbl import Grbl
+from labkit.machine.safety import end_process
 from labkit.machine.link import open_link
 from labkit.machine.stream import Controls, Job, run_job
 
@@ -72,12 +73,7 @@ class _Sim:
 
     def close(self):
         self.grbl.close()
-        self.proc.terminate()
-        try:
-            self.proc.communicate(timeout=5)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            self.proc.communicate()
+        end_process(self.proc)
 
 
 def _assert_ends_at(status, job):

@@ -34,6 +34,7 @@ import serial
 from PIL import Image
 
 from labkit.cli import main
+from labkit.machine.safety import end_process
 
 ROOT = Path(__file__).resolve().parents[2]
 FW = ROOT / "firmware"
@@ -94,12 +95,7 @@ class Simulator:
         return [(float(t), int(d), s, int(n)) for t, d, s, n in rows[1:]]
 
     def close(self):
-        self.proc.terminate()
-        try:
-            self.proc.communicate(timeout=5)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            self.proc.communicate()
+        end_process(self.proc)
 
 
 @pytest.fixture
