@@ -747,8 +747,12 @@ def _send_all(grbl: Grbl, job: Job, report: JobReport, controls: Controls, signa
                 # earlier answer was lost (or one was doubled) and the oldest line in flight is
                 # not this one (a full planner leaves one line possibly unanswered for a while:
                 # wait for a free block so that the report tells a blocked line from a lost answer)
+                # A line taken but not yet answered (blocked on a full planner, or one that
+                # waits for the planner to empty) hides a doubled 'ok' exactly: wait, briefly,
+                # for a report in which the controller cannot be holding one.
                 snap = None
-                deadline = time.monotonic() + 1.0
+                deadline = time.monotonic() + _ERROR_SETTLE_S
+                drained = False        # a report already showed the planner empty and idle
                 while True:
                     q_marks.append(sent_bytes)
                     grbl.realtime("status")
@@ -759,9 +763,13 @@ def _send_all(grbl: Grbl, job: Job, report: JobReport, controls: Controls, signa
                         snap = q_marks.popleft()
                     last_status_seen = grbl.status_count
                     st = grbl.status
-                    if (time.monotonic() >= deadline or st is None or not st.planner_free == 0
-                            or st.state not in ("Run", "Jog")):
+                    if (time.monotonic() >= deadline or st is None or st.rx_free is None
+                            or st.state == "Alarm"
+                            or not _may_hold(st, sent_texts, _lines_read(grbl, st, snap,
+                                                                         line_ends) - 1,
+                                             drained=drained)):
                         break
+                    drained = drained or _drained(grbl, st)
                 # answers that came after the error and before that report: more answers than
                 # lines sent means one of those before it was not owed, and this error may
                 # belong to an earlier line
@@ -781,6 +789,8 @@ def _send_all(grbl: Grbl, job: Job, report: JobReport, controls: Controls, signa
                                           f"lines {first}…{last} (the answers were out of step)"))
                     raise
                 if mode == "counting":
+                    _name_a_held_line(grbl, st, snap, line_ends, sent_texts, sent_lines,
+                                      answers_base, report, inflight, ev, drained=drained)
                     lost = min(_answers_lost(grbl, snap, line_ends, sent_texts, answers_base),
                                len(inflight) - 1)
             events_taken += 1
@@ -884,15 +894,69 @@ def _answers_lost(grbl: Grbl, sent_at_query, line_ends: list, sent_texts: list, 
     st = grbl.status
     if sent_at_query is None or st is None or st.rx_free is None:
         return 0
-    rx_used = max(0, grbl.info.rx_bytes - 1 - st.rx_free)
-    consumed = sent_at_query - rx_used
-    whole_lines = bisect.bisect_right(line_ends, consumed)
+    whole_lines = _lines_read(grbl, st, sent_at_query, line_ends)
     answered = st.answers_before - answers_base
     if whole_lines <= answered:
         return 0
-    busy = (st.planner_free is None or st.planner_free == 0
-            or bool(_SYNCING.search(sent_texts[answered])))
+    busy = _may_hold(st, sent_texts, answered)
     return max(0, whole_lines - answered - (1 if busy else 0))
+
+
+#: How long an error waits (s) for a status report that settles which line it belongs to.
+_ERROR_SETTLE_S = 2.0
+
+
+def _lines_read(grbl: Grbl, st, sent_at_query, line_ends: list) -> int:
+    """Lines wholly taken from the controller's RX buffer when report ``st`` was made: the
+    bytes sent before its ``?`` (``sent_at_query``) minus its RX fill."""
+    if sent_at_query is None or st is None or st.rx_free is None:
+        return 0
+    rx_used = max(0, grbl.info.rx_bytes - 1 - st.rx_free)
+    return bisect.bisect_right(line_ends, sent_at_query - rx_used)
+
+
+def _drained(grbl: Grbl, st) -> bool:
+    """Whether report ``st`` shows the controller idle with its planner empty: a line that
+    waited for that is answered before the next report."""
+    return st.state == "Idle" and st.planner_free == grbl.info.planner_blocks
+
+
+def _may_hold(st, sent_texts: list, index: int, *, drained: bool = False) -> bool:
+    """Whether the controller may have taken line ``index`` (0-based, in sent order) without
+    answering it yet: blocked on a full planner (or no planner count to tell), or a line that
+    waits for the planner to empty before its answer (:data:`_SYNCING`) — even in a report that
+    already says ``Idle``, which can come between the planner emptying and that answer.
+    ``drained``: an earlier report showed the planner empty and idle, so no such line waits."""
+    if st.planner_free is None or st.planner_free == 0:
+        return True
+    return (not drained and 0 <= index < len(sent_texts)
+            and bool(_SYNCING.search(sent_texts[index])))
+
+
+def _name_a_held_line(grbl: Grbl, st, snap, line_ends: list, sent_texts: list,
+                      sent_lines: list, answers_base: int, report: "JobReport", inflight: deque,
+                      ev, *, drained: bool = False) -> None:
+    """An error whose line the answers cannot settle: raise a fault naming both candidates.
+
+    In character counting, answers equal to the lines read fit two stories when the controller
+    may be holding the last line it read unanswered: every line answered once, or one line
+    still held and an earlier ``ok`` doubled (the error then belongs to the line before the
+    oldest in flight). Both lines are named, the earlier as the place to resume from.
+    """
+    read = _lines_read(grbl, st, snap, line_ends)
+    answered = st.answers_before - answers_base if st is not None else -1
+    if (read == 0 or answered != read or st.state == "Alarm"
+            or not _may_hold(st, sent_texts, read - 1, drained=drained)
+            or report.last_acknowledged_line <= 0):
+        return
+    first, last = report.last_acknowledged_line, inflight[0][0]
+    report.errors.append((first, ev.code, f"{error_message(ev.code)} — on one of lines "
+                          f"{first}…{last} (the answers cannot tell which)"))
+    report.resume_line = first
+    raise _Fault(f"line {first} or {last} rejected: error:{ev.code}: {error_message(ev.code)} — "
+                 f"the answers cannot tell which: the controller may still be holding a line it "
+                 f"read (line {sent_lines[read - 1]}) unanswered, or an earlier 'ok' came twice; check "
+                 f"the work from line {first}")
 
 
 def _executed_line(grbl: Grbl, acked: list, last_ack: int) -> int:
