@@ -50,7 +50,10 @@ void machine_load_defaults(lk_machine_t *m)
 
 int32_t machine_max_step_rate_hz(const lk_machine_t *m, int axis)
 {
-  return (int32_t)floor(m->max_rate_mm_min[axis] / 60.0 * m->steps_per_mm[axis] + 1e-9);
+  double rate = floor(m->max_rate_mm_min[axis] / 60.0 * m->steps_per_mm[axis] + 1e-9);
+  /* saturate: a rate past int32 (absurd settings) is refused by machine_check, never cast */
+  if (!(rate >= 0.0)) return 0;
+  return rate >= 2147483647.0 ? INT32_MAX : (int32_t)rate;
 }
 
 uint8_t machine_check(const lk_machine_t *m)

@@ -217,7 +217,10 @@ static void set_value(settings_t *s, const setting_def_t *d, double v) {
     return;
   }
   if (d->kind == K_BYTE) {
-    uint8_t b = (uint8_t)((uint32_t)trunc(v) & 0xFFu);
+    /* The value wraps as GRBL's uint8_t store does; fmod keeps a huge value
+       defined (a cast of a double beyond the integer's range is undefined). */
+    double wrapped = fmod(trunc(v), 256.0);
+    uint8_t b = (wrapped >= 0.0 && wrapped < 256.0) ? (uint8_t)wrapped : 0u;
     if (d->num == 0) { double x = b; memcpy(p, &x, sizeof x); }   /* $0 lives in the machine, us */
     else *p = b;
     return;
