@@ -1,0 +1,177 @@
+"""Restart text for a job: resume after a fault, and the frame trace before a burn.
+
+:func:`resume_text` rebuilds the modal state in effect at a line (units,
+distance mode, arc-centre mode, plane, coordinate system, the job's own G92 and
+tool offsets, feed, laser mode and power) from the parse, moves to the stop
+point with the beam off, finishes the interrupted line from there, and
+continues with the next lines — so every line runs exactly once.
+:func:`frame_text` traces a job's bounding box with the beam off or at a
+visible power. The job runner (:mod:`labkit.machine.stream`) sends both.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from labkit.errors import InputError
+
+if TYPE_CHECKING:                        # the runner imports this module; Job is a type here only
+    from labkit.machine.stream import Job
+
+__all__ = ["resume_text", "frame_text"]
+
+
+def _modal_at(job: "Job", line: int):
+    """The modal state in effect *before* source line ``line`` (a pandas row, offsets
+    included), and whether the job set a G92 offset or a tool length offset before it."""
+    from labkit.gcode.reader import modal_trace
+
+    text = "\n".join(job.source_lines[: max(0, line - 1)])
+    if line <= 1 or not text:
+        return None, False
+    trace = modal_trace(text, dialect=job.dialect, offsets=True)
+    volatile = bool((trace[["g92_x", "g92_y", "g92_z", "tool_offset"]] != 0).to_numpy().any())
+    return trace.iloc[-1], volatile
+
+
+def resume_text(job: "Job", line: int, position=None) -> list[str]:
+    """Lines that restore the state before ``line``, go there with the beam off, and finish it.
+
+    Everything is said in the job's own coordinates (the work coordinates its X Y Z
+    words mean), so a resume lands where the job would have been whatever origin the
+    controller holds: G54–G59 origins stay on the controller (GRBL keeps them in
+    EEPROM) and the coordinate system in use is restated; a G92 or G43.1 offset the job
+    itself set is restated too, since GRBL's reset clears them — G92.1, the move, then
+    G92 with the position the job's words give there.
+
+    Parameters
+    ----------
+    job : Job
+    line : int
+        First source line to run (1-based).
+    position : sequence of 3 floats, optional
+        Where the machine stopped inside ``line``, in the job's coordinates (a
+        status report's WPos: ``report.stop_position``). The line's remaining
+        motion is sent from there instead of the whole line, so nothing is
+        burned twice. None: go to the line's start.
+
+    Returns
+    -------
+    list of str
+        The preamble; the job's own lines follow from ``line + 1`` (with a
+        position) or from ``line`` (without).
+
+    Examples
+    --------
+    >>> from labkit.machine.stream import Job
+    >>> job = Job.from_text("G21 G90\\nM4 S300 F600\\nG1 X10\\nG1 Y10\\nM5\\n")
+    >>> resume_text(job, 4)
+    ['M5 S0', 'G21 G90 G91.1 G17 G54', 'G0 X10 Y0 Z0', 'G1 F600 S300', 'M4']
+    >>> resume_text(job, 4, position=(10, 4, 0))[-1]
+    'G1 X10 Y10 Z0 F600 S300'
+
+    A job that sets its own origin with G92 gets it back:
+
+    >>> job = Job.from_text("G0 X50 Y50\\nG92 X0 Y0\\nM4 S300 F600\\nG1 X10\\nG1 Y10\\nM5\\n")
+    >>> resume_text(job, 5)[1:5]
+    ['G21 G90 G91.1 G17 G54', 'G92.1', 'G0 X60 Y50 Z0', 'G92 X10 Y0 Z0']
+    """
+    if not 1 <= line <= len(job.source_lines):
+        raise InputError(f"resume line {line} is outside the file (1–{len(job.source_lines)})")
+    st, volatile = _modal_at(job, line)
+    out = ["M5 S0"]
+    g92 = np.zeros(3)                    # the job's own G92 and G43.1 at the line (restated below)
+    tool = 0.0
+    if st is None:
+        start = np.zeros(3)
+        units, distance, arc, plane, coords = "G21", "G90", "G91.1", "G17", "G54"
+        feed, s, laser = math.nan, 0.0, "M5"
+    else:
+        start = np.array([st["wx"], st["wy"], st["wz"]], float)
+        units, distance, arc, plane, coords = st["units"], st["distance"], st["arc_centres"], st["plane"], st["coords"]
+        feed, s, laser = float(st["feed_mm_min"]), float(st["S"]), st["laser"]
+        if volatile:
+            tool = float(st["tool_offset"])
+            g92 = np.array([st["g92_x"], st["g92_y"], st["g92_z"]], float)
+    out.append(f"G21 G90 {arc} {plane} {coords}")
+    here = np.asarray(position, float) if position is not None else start
+    if volatile:
+        # from the bare origin (G92.1; the tool offset restated), the move, then G92 so that
+        # the point reads `here` again
+        out.append("G92.1")
+        if tool:
+            out.append(f"G43.1 Z{tool:g}")
+        out.append("G0 " + _xyz(here + g92))
+        if np.any(g92 != 0):
+            out.append("G92 " + _xyz(here))
+    else:
+        out.append("G0 " + _xyz(here))
+    words = []
+    if math.isfinite(feed):
+        words.append(f"F{feed:g}")
+    words.append(f"S{s:g}")
+    out.append("G1 " + " ".join(words))
+    if laser != "M5":
+        out.append(laser)
+    if position is not None:
+        m = job.moves
+        rows = np.flatnonzero(m.line == line)
+        if len(rows) == 0:
+            raise InputError(f"line {line} has no motion to finish")
+        r = rows[-1]
+        kind = int(m.kind[r])
+        offset = m.work_offset[r]                    # Moves are machine coordinates
+        end = m.end[r] - offset
+        # the rest of the line burns with the line's own F, S and M3/M4 (its words may set them)
+        own, _ = _modal_at(job, line + 1)
+        if own["laser"] != laser:
+            out.append(own["laser"])
+        words = (f" F{float(own['feed_mm_min']):g}" if math.isfinite(own["feed_mm_min"]) else "") + \
+            f" S{float(own['S']):g}"
+        if kind in (2, 3):
+            c = m.centre[r] - offset - here
+            out.append(f"G{kind} {_xyz(end)} I{c[0]:.4f} J{c[1]:.4f}{words}")
+        else:
+            out.append(f"G{kind} {_xyz(end)}{words}")
+    # back to the file's own units and distance mode for the lines that follow
+    if units != "G21" or distance != "G90":
+        out.append(f"{units} {distance}")
+    return out
+
+
+def _xyz(p) -> str:
+    return " ".join(f"{a}{float(v):.4f}".rstrip("0").rstrip(".") for a, v in zip("XYZ", p))
+
+
+def frame_text(job: "Job", *, power_s: float = 0.0, feed_mm_min: float = 3000.0) -> list[str]:
+    """Trace the job's bounding box with the beam off (or at a low visible power).
+
+    Parameters
+    ----------
+    power_s : float
+        0 (default): beam off. A small S (about 1 % of ``$30``) shows the
+        frame on the work without marking it.
+    feed_mm_min : float
+        Speed of the trace.
+
+    Examples
+    --------
+    >>> from labkit.machine.stream import Job
+    >>> job = Job.from_text("G0 X5 Y5\\nM3 S500\\nG1 X15 Y8 F600\\nM5\\n")
+    >>> frame_text(job)[2:5]
+    ['G0 X5.000 Y5.000', 'M5 S0', 'G0 X15.000 Y5.000 F3000']
+    """
+    box = job.moves.bounds(job.moves.laser_on)
+    if np.isnan(box).any():
+        box = job.moves.bounds()
+    if np.isnan(box).any():
+        raise InputError("the job has no motion to frame")
+    (x0, y0), (x1, y1) = box[0, :2], box[1, :2]
+    beam = ["M5 S0"] if power_s <= 0 else [f"M3 S{power_s:g}"]
+    cmd = "G1" if power_s > 0 else "G0"
+    return (["G21 G90", "M5 S0", f"G0 X{x0:.3f} Y{y0:.3f}"] + beam +
+            [f"{cmd} X{x1:.3f} Y{y0:.3f} F{feed_mm_min:g}", f"{cmd} X{x1:.3f} Y{y1:.3f}",
+             f"{cmd} X{x0:.3f} Y{y1:.3f}", f"{cmd} X{x0:.3f} Y{y0:.3f}", "M5 S0"])
