@@ -23,7 +23,7 @@ from pathlib import Path
 
 from labkit.errors import InputError
 
-__all__ = ["check_input_file", "check_output_file", "atomic_output", "write_figure", "figure_format"]
+__all__ = ["check_input_file", "check_output_file", "atomic_output", "write_figure", "figure_format", "read_json"]
 
 
 def check_input_file(path, *, what: str = "input file") -> Path:
@@ -290,3 +290,29 @@ def figure_format(path) -> str:
         raise InputError(f"{target}: cannot draw a '.{fmt}' file; expected one of "
                          f"{', '.join('.' + k for k in sorted(supported))}")
     return fmt
+
+
+def read_json(path, *, what: str = "JSON file"):
+    """The JSON value in the regular file ``path``, or a clear :class:`InputError`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file the user named.
+    what : str
+        How to call it in the message ("layout file", "fit file", …).
+
+    Examples
+    --------
+    >>> read_json("/dev/null", what="fit file")
+    Traceback (most recent call last):
+    ...
+    labkit.errors.InputError: /dev/null: not a regular file (a character device); expected a fit file
+    """
+    import json
+
+    p = check_input_file(path, what=what)
+    try:
+        return json.loads(p.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(f"{p}: not JSON ({exc})") from None

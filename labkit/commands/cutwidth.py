@@ -18,8 +18,6 @@ from __future__ import annotations
 
 import json
 
-FIT_FORMAT = "labkit-cutwidth-fit"
-
 
 def add_cutwidth_arguments(parser):
     from labkit.commands._args import integer, number
@@ -158,7 +156,7 @@ def _pattern(args) -> int:
 def _measure(args) -> int:
     from pathlib import Path
 
-    from labkit._files import atomic_output, check_output_file, figure_format
+    from labkit._files import atomic_output, check_output_file, figure_format, read_json
     from labkit.errors import InputError
     from labkit.laser.measure import check_layout, measure_lines, register, scale_from_reference
     from labkit.raster.color import to_gray
@@ -174,7 +172,7 @@ def _measure(args) -> int:
     if Path(png).resolve() == Path(args.output).resolve():
         raise InputError(f"{png}: is also the widths CSV (-o); expected another name for --annotated")
     figure_format(png)
-    layout = check_layout(_read_json(args.layout, "layout"), source=args.layout)
+    layout = check_layout(read_json(args.layout, what="layout file"), source=args.layout)
     im = read_image(args.scan)
     img = to_gray(im.pixels) / 255.0
     if args.reference is not None:
@@ -232,93 +230,10 @@ def _save(draw, path, *, size=(7, 5)):
         plt.close(fig)
 
 
-def _read_json(path, what):
-    from labkit._files import check_input_file
-    from labkit.errors import InputError
-
-    path = check_input_file(path, what=f"{what} file")
-    try:
-        return json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: not JSON ({exc})") from None
-
-
-def _cut_column(df):
-    """The cut_through column as booleans, or None when absent or not filled in on every row."""
-    if "cut_through" not in df.columns or not len(df):
-        return None
-    text = df["cut_through"].astype(str).str.strip().str.lower()
-    if not text.isin(["true", "false", "1", "0", "yes", "no"]).all():
-        return None
-    return text.isin(["true", "1", "yes"]).to_numpy()
-
-
-def fit_table(df, *, model: str = "both", degree: int = 2, level: float = 0.95, source: str = "") -> dict:
-    """Fit the models to a widths table; the JSON-ready result ``fit`` prints and saves.
-
-    Parameters
-    ----------
-    df : DataFrame
-        With ``power_mw``, ``speed_mm_min``, ``width_mm`` (0: not burned), optionally ``cut_through``.
-    model : {"dose", "empirical", "both"}
-    degree : int
-        Empirical polynomial degree.
-    level : float
-        Confidence level.
-    source : str
-        Where the data came from (recorded).
-
-    Returns
-    -------
-    dict
-        ``format``, ``source``, ``data`` (counts, ranges), ``models`` (name →
-        :meth:`Fit.to_dict` plus ``residuals_mm``), ``cv_rmse_mm`` (name →
-        held-out RMSE, when more than one model), ``chosen``, ``cut_through``
-        (logistic model or None).
-    """
-    import numpy as np
-
-    from labkit.errors import InputError
-    from labkit.laser.measure import REQUIRED
-    from labkit.laser.models import cross_validate, fit_cut_through, fit_dose, fit_empirical, fit_power_law
-
-    p, v, w = (df[c].to_numpy(float) for c in REQUIRED)
-    for col, x in (("power_mw", p), ("speed_mm_min", v)):
-        bad = np.flatnonzero(~(np.isfinite(x) & (x > 0)))
-        if len(bad):
-            raise InputError(f"{source or 'table'}: row {bad[0] + 1} of the data: {col} = {x[bad[0]]:g}; "
-                             "expected a value > 0")
-    fits = {}
-    if model in ("dose", "both"):
-        fits["dose"] = fit_dose(p, v, w, level=level)
-    if model in ("empirical", "both"):
-        fits["power_law"] = fit_power_law(p, v, w, level=level)
-        if degree > 1:
-            fits["empirical"] = fit_empirical(p, v, w, degree=degree, level=level)
-    burned = w > 0
-    out = dict(format=FIT_FORMAT, version=1, source=str(source),
-               data=dict(n=int(len(w)), burned=int(burned.sum()),
-                         power_mw=[float(p.min()), float(p.max())],
-                         speed_mm_min=[float(v.min()), float(v.max())]),
-               models={})
-    for name, f in fits.items():
-        d = f.to_dict()
-        d["residuals_mm"] = (w[burned] - f.width(p[burned], v[burned])).tolist()
-        out["models"][name] = d
-    if len(fits) > 1:
-        cv = cross_validate(p, v, w, models=list(fits))
-        out["cv_rmse_mm"] = cv
-        out["chosen"] = min(cv, key=cv.get)
-    else:
-        out["chosen"] = next(iter(fits))
-    cut = _cut_column(df)
-    out["cut_through"] = fit_cut_through(p, v, cut) if cut is not None and 0 < cut.sum() < len(cut) else None
-    return out
-
-
 def _fit(args) -> int:
     from labkit._files import atomic_output, check_output_file
     from labkit.laser.measure import read_widths
+    from labkit.laser.models import fit_report, fit_table
 
     if args.output:
         check_output_file(args.output, args.csv)
@@ -331,74 +246,16 @@ def _fit(args) -> int:
     if args.json:
         print(json.dumps(res, indent=1))
         return 0
-    print(report(res))
+    print(fit_report(res))
     if args.output:
         print(f"{args.output}: fit saved")
     return 0
 
 
-def report(res: dict) -> str:
-    """The fit as text: parameters with intervals, residuals, cross-validation, cut-through."""
-    import numpy as np
-
-    d = res["data"]
-    lines = [f"{res['source']}: {d['n']} lines, {d['burned']} burned; power {d['power_mw'][0]:g}…"
-             f"{d['power_mw'][1]:g} mW, speed {d['speed_mm_min'][0]:g}…{d['speed_mm_min'][1]:g} mm/min"]
-    for name, m in res["models"].items():
-        pct = round(100 * m["level"])
-        r = np.asarray(m["residuals_mm"])
-        lines.append(f"{name}: RMSE {m['rmse_mm']:.4f} mm, largest residual {np.abs(r).max():.4f} mm, n = {m['n']}")
-        for k, (lo, hi) in m["ci"].items():
-            lines.append(f"  {k:>10} = {m['params'][k]:.6g}   {pct} % interval {lo:.6g} … {hi:.6g}")
-        if name == "dose":
-            from labkit.laser.models import threshold_ratio
-
-            r50 = threshold_ratio(m["params"]["w0_mm"], m["params"]["fth_mj_mm2"])
-            lines.append(f"  no burn below P/v = {r50:.4g} mW per mm/min")
-    if "cv_rmse_mm" in res:
-        cv = ", ".join(f"{k} {v:.4f}" for k, v in res["cv_rmse_mm"].items())
-        lines.append(f"cross-validated RMSE (mm): {cv} -> {res['chosen']}")
-    c = res.get("cut_through")
-    if c:
-        lines.append(f"cut through (logistic on ln P/v, {c['n_cut']} of {c['n']} lines cut): 50 % at "
-                     f"P/v = {c['ratio50_mw_per_mm_min']:.4g} mW per mm/min")
-    return "\n".join(lines)
-
-
-def load_fit(path, model=None):
-    """(the saved fit dict, the chosen or named :class:`~labkit.laser.models.Fit`)."""
-    from labkit.errors import InputError
-    from labkit.laser.models import Fit
-
-    res = _read_json(path, "fit")
-    if not isinstance(res, dict) or res.get("format") != FIT_FORMAT:
-        raise InputError(f"{path}: not a cut-width fit (write one with 'labkit cutwidth fit -o')")
-    name = model or res["chosen"]
-    if name not in res["models"]:
-        raise InputError(f"{path}: has no '{name}' model (has {', '.join(res['models'])})")
-    return res, Fit.from_dict(res["models"][name])
-
-
-def _check_reach(fit, res, width, given, value, *, solve_for):
-    """Refuse a setting the model gives only far outside what was measured (or not at all)."""
-    from labkit.errors import InputError
-    from labkit.laser.models import width_reach
-
-    key, unit, other = (("power_mw", "mW", "mm/min") if solve_for == "power" else ("speed_mm_min", "mm/min", "mW"))
-    (w_lo, w_hi), (s_lo, s_hi) = width_reach(fit, given, solve_for=solve_for, span=res["data"][key])
-    if value is not None and s_lo <= value <= s_hi:
-        return
-    reach = ("burns no line there" if w_lo != w_lo else
-             f"reaches {w_lo:.4g}…{w_hi:.4g} mm there")
-    raise InputError(f"--width {width:g}: the {fit.model} model gives no {solve_for} for it at {given:g} {other} "
-                     f"within {s_lo:.4g}…{s_hi:.4g} {unit} (the measured {solve_for}s widened by half their span); "
-                     f"it {reach}; expected a width in that range")
-
-
 def _settings(args) -> int:
     import numpy as np
 
-    from labkit.laser.models import power_band, speed_for_width
+    from labkit.laser.models import check_width_reach, load_fit, power_band, speed_for_width
 
     res, fit = load_fit(args.fit, args.model)
     pct = round(100 * fit.level)
@@ -406,7 +263,7 @@ def _settings(args) -> int:
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             power, lo, hi = (np.atleast_1d(a) for a in power_band(fit, args.width, np.asarray(args.speed)))
         for v, p in zip(args.speed, power):
-            _check_reach(fit, res, args.width, v, float(p) if np.isfinite(p) else None, solve_for="power")
+            check_width_reach(fit, res, args.width, v, float(p) if np.isfinite(p) else None, solve_for="power")
         pmax = res["data"]["power_mw"][1]
         for v, p, a, b in zip(args.speed, power, lo, hi):
             note = "" if np.isfinite(p) and p <= pmax else "  (outside the measured powers)"
@@ -417,7 +274,7 @@ def _settings(args) -> int:
         for p in args.power:
             with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
                 v = float(speed_for_width(fit, args.width, p))
-            _check_reach(fit, res, args.width, p, v if np.isfinite(v) else None, solve_for="speed")
+            check_width_reach(fit, res, args.width, p, v if np.isfinite(v) else None, solve_for="speed")
         for p in args.power:
             v = float(speed_for_width(fit, args.width, p))
             print(f"width {args.width:g} mm at {p:g} mW: speed {v:.0f} mm/min ({fit.model})")
@@ -426,12 +283,12 @@ def _settings(args) -> int:
 
 def _window(args) -> int:
     from labkit._files import check_output_file, figure_format
+    from labkit.laser.models import Fit, load_fit
     from labkit.viz.laser import process_window
 
     check_output_file(args.output, args.fit)
     figure_format(args.output)
     res, fit = load_fit(args.fit, args.model)
-    from labkit.laser.models import Fit
 
     dose = Fit.from_dict(res["models"]["dose"]) if "dose" in res["models"] else None
     _save(lambda ax: process_window(fit, ax, power_range_mw=res["data"]["power_mw"],

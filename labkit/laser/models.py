@@ -33,7 +33,8 @@ from labkit.units import mm_min_to_mm_s
 __all__ = ["peak_fluence", "lateral_fluence", "dose_width", "threshold_ratio", "Fit",
            "fit_dose", "fit_power_law", "power_law_width", "power_for_width", "speed_for_width",
            "fit_empirical", "empirical_width", "cross_validate", "fit_cut_through", "cut_probability",
-           "power_band", "width_reach", "FITTERS"]
+           "power_band", "width_reach", "FITTERS", "FIT_FORMAT", "fit_table", "fit_report", "load_fit",
+           "check_width_reach"]
 
 _GAUSS = np.sqrt(2.0 / np.pi)
 
@@ -627,3 +628,162 @@ def power_band(fit: Fit, width_mm, speed_mm_min, *, level: float | None = None):
     sd = np.sqrt(np.einsum("...i,ij,...j->...", grad, cov, grad))
     t = stats.t.ppf(0.5 + level / 2.0, max(fit.n - len(x), 1))
     return power, power - t * sd, power + t * sd
+
+
+# -- saved fits: the table ``labkit cutwidth fit`` prints and saves, read back by ``settings``/``window`` --
+
+#: The ``format`` field of a saved fit.
+FIT_FORMAT = "labkit-cutwidth-fit"
+
+
+def _cut_column(df):
+    """The cut_through column as booleans, or None when absent or not filled in on every row."""
+    if "cut_through" not in df.columns or not len(df):
+        return None
+    text = df["cut_through"].astype(str).str.strip().str.lower()
+    if not text.isin(["true", "false", "1", "0", "yes", "no"]).all():
+        return None
+    return text.isin(["true", "1", "yes"]).to_numpy()
+
+
+def fit_table(df, *, model: str = "both", degree: int = 2, level: float = 0.95, source: str = "") -> dict:
+    """Fit the models to a widths table; the JSON-ready result that is printed and saved.
+
+    Parameters
+    ----------
+    df : DataFrame
+        With ``power_mw`` (mW), ``speed_mm_min`` (mm/min), ``width_mm`` (mm; 0: not burned),
+        optionally ``cut_through``.
+    model : {"dose", "empirical", "both"}
+        ``"empirical"`` fits the power law and (``degree`` > 1) the polynomial.
+    degree : int
+        Empirical polynomial degree.
+    level : float
+        Confidence level.
+    source : str
+        Where the data came from (recorded).
+
+    Returns
+    -------
+    dict
+        ``format`` (:data:`FIT_FORMAT`), ``source``, ``data`` (counts, ranges), ``models``
+        (name → :meth:`Fit.to_dict` plus ``residuals_mm``), ``cv_rmse_mm`` (name →
+        held-out RMSE, when more than one model), ``chosen``, ``cut_through``
+        (logistic model or None).
+
+    Raises
+    ------
+    InputError
+        A power or speed that is not a finite value > 0, naming its row.
+    """
+    from labkit.laser.measure import REQUIRED
+
+    p, v, w = (df[c].to_numpy(float) for c in REQUIRED)
+    for col, x in (("power_mw", p), ("speed_mm_min", v)):
+        bad = np.flatnonzero(~(np.isfinite(x) & (x > 0)))
+        if len(bad):
+            raise InputError(f"{source or 'table'}: row {bad[0] + 1} of the data: {col} = {x[bad[0]]:g}; "
+                             "expected a value > 0")
+    fits = {}
+    if model in ("dose", "both"):
+        fits["dose"] = fit_dose(p, v, w, level=level)
+    if model in ("empirical", "both"):
+        fits["power_law"] = fit_power_law(p, v, w, level=level)
+        if degree > 1:
+            fits["empirical"] = fit_empirical(p, v, w, degree=degree, level=level)
+    burned = w > 0
+    out = dict(format=FIT_FORMAT, version=1, source=str(source),
+               data=dict(n=int(len(w)), burned=int(burned.sum()),
+                         power_mw=[float(p.min()), float(p.max())],
+                         speed_mm_min=[float(v.min()), float(v.max())]),
+               models={})
+    for name, f in fits.items():
+        d = f.to_dict()
+        d["residuals_mm"] = (w[burned] - f.width(p[burned], v[burned])).tolist()
+        out["models"][name] = d
+    if len(fits) > 1:
+        cv = cross_validate(p, v, w, models=list(fits))
+        out["cv_rmse_mm"] = cv
+        out["chosen"] = min(cv, key=cv.get)
+    else:
+        out["chosen"] = next(iter(fits))
+    cut = _cut_column(df)
+    out["cut_through"] = fit_cut_through(p, v, cut) if cut is not None and 0 < cut.sum() < len(cut) else None
+    return out
+
+
+def fit_report(res: dict) -> str:
+    """:func:`fit_table`'s result as text: parameters with intervals, residuals (mm),
+    cross-validation, the no-burn ratio and cut-through (mW per mm/min)."""
+    d = res["data"]
+    lines = [f"{res['source']}: {d['n']} lines, {d['burned']} burned; power {d['power_mw'][0]:g}…"
+             f"{d['power_mw'][1]:g} mW, speed {d['speed_mm_min'][0]:g}…{d['speed_mm_min'][1]:g} mm/min"]
+    for name, m in res["models"].items():
+        pct = round(100 * m["level"])
+        r = np.asarray(m["residuals_mm"])
+        lines.append(f"{name}: RMSE {m['rmse_mm']:.4f} mm, largest residual {np.abs(r).max():.4f} mm, n = {m['n']}")
+        for k, (lo, hi) in m["ci"].items():
+            lines.append(f"  {k:>10} = {m['params'][k]:.6g}   {pct} % interval {lo:.6g} … {hi:.6g}")
+        if name == "dose":
+            r50 = threshold_ratio(m["params"]["w0_mm"], m["params"]["fth_mj_mm2"])
+            lines.append(f"  no burn below P/v = {r50:.4g} mW per mm/min")
+    if "cv_rmse_mm" in res:
+        cv = ", ".join(f"{k} {v:.4f}" for k, v in res["cv_rmse_mm"].items())
+        lines.append(f"cross-validated RMSE (mm): {cv} -> {res['chosen']}")
+    c = res.get("cut_through")
+    if c:
+        lines.append(f"cut through (logistic on ln P/v, {c['n_cut']} of {c['n']} lines cut): 50 % at "
+                     f"P/v = {c['ratio50_mw_per_mm_min']:.4g} mW per mm/min")
+    return "\n".join(lines)
+
+
+def load_fit(path, model: str | None = None) -> tuple[dict, Fit]:
+    """A fit saved from :func:`fit_table`: (the saved dict, the chosen or named :class:`Fit`).
+
+    Raises
+    ------
+    InputError
+        Not a regular file, not JSON, not a saved cut-width fit, or without the named model.
+    """
+    from labkit._files import read_json
+
+    res = read_json(path, what="fit file")
+    if not isinstance(res, dict) or res.get("format") != FIT_FORMAT:
+        raise InputError(f"{path}: not a cut-width fit (write one with 'labkit cutwidth fit -o')")
+    name = model or res["chosen"]
+    if name not in res["models"]:
+        raise InputError(f"{path}: has no '{name}' model (has {', '.join(res['models'])})")
+    return res, Fit.from_dict(res["models"][name])
+
+
+def check_width_reach(fit: Fit, res: dict, width_mm: float, given, value, *, solve_for: str) -> None:
+    """Refuse a setting the model gives only far outside what was measured (or not at all).
+
+    Parameters
+    ----------
+    fit : Fit
+        The model in use.
+    res : dict
+        The saved fit (:func:`load_fit`): its measured ranges bound the search.
+    width_mm : float
+        Wanted width, mm.
+    given : float
+        The speed (mm/min, ``solve_for="power"``) or power (mW, ``solve_for="speed"``).
+    value : float or None
+        The power or speed the model gave (None: none).
+    solve_for : {"power", "speed"}
+
+    Raises
+    ------
+    InputError
+        Naming the width, the range searched and the widths the model reaches there.
+    """
+    key, unit, other = (("power_mw", "mW", "mm/min") if solve_for == "power" else ("speed_mm_min", "mm/min", "mW"))
+    (w_lo, w_hi), (s_lo, s_hi) = width_reach(fit, given, solve_for=solve_for, span=res["data"][key])
+    if value is not None and s_lo <= value <= s_hi:
+        return
+    reach = ("burns no line there" if w_lo != w_lo else
+             f"reaches {w_lo:.4g}…{w_hi:.4g} mm there")
+    raise InputError(f"--width {width_mm:g}: the {fit.model} model gives no {solve_for} for it at {given:g} {other} "
+                     f"within {s_lo:.4g}…{s_hi:.4g} {unit} (the measured {solve_for}s widened by half their span); "
+                     f"it {reach}; expected a width in that range")

@@ -230,7 +230,7 @@ def test_settings_refuse_a_width_the_model_does_not_reach(burned, capsys, width,
     lo, hi = map(float, re.search(r"it reaches ([\d.e+-]+)…([\d.e+-]+) mm there", err).groups())
     s_lo, s_hi = map(float, re.search(r"within ([\d.e+-]+)…([\d.e+-]+) (mW|mm/min)", err).groups()[:2])
     # the searched span is the measured one (the fit's data) widened by half its length each side, in ln
-    from labkit.commands.cutwidth import load_fit
+    from labkit.laser.models import load_fit
 
     res, fit = load_fit(tmp / "FIT.json", model)
     m_lo, m_hi = res["data"]["power_mw" if solve == "power" else "speed_mm_min"]
