@@ -200,7 +200,8 @@ def _try(p, i, j, tol, allow_arcs, buf):
     return _line_fits(p, i, j, tol), 0
 
 
-@jit(python_below=20_000)  # sample coordinates: ~2 µs each as Python (n log n)
+# views: as Python it indexes p element by element, on Python floats (twice as fast)
+@jit(python_below=20_000, views=True)  # sample coordinates: ~1 µs each as Python (n log n)
 def fit_runs(p, tol, allow_arcs):
     n = p.shape[0]
     ends = np.empty(n, np.int64)

@@ -1,0 +1,86 @@
+"""The geometry kernels' Python paths (what a small drawing runs) give the compiled results:
+the numpy twins of flattening and of the distance grid, and the greedy fit run on
+memoryviews (``views=True``)."""
+
+import numpy as np
+import pytest
+
+from labkit import _jit
+from labkit.geometry import Path, cubics_to_arcs, flatten_cubics, path_distance
+from labkit.geometry import measure
+from tests.geometry.test_measure import _brute
+from tests.test_jit import _both
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_flattening_twin_gives_the_kernels_points(seed):
+    rng = np.random.default_rng(seed)
+    halved = 0
+    for _ in range(20):
+        ctrls = rng.normal(0, rng.uniform(0.1, 60), (int(rng.integers(1, 40)), 4, 2))
+        ctrls[0, 1:] = ctrls[0, 0]                       # a curve of one point: one piece
+        kwargs = dict(max_depth=int(rng.choice([24, 3, 0])), segment=bool(rng.integers(2)))
+        if rng.random() < 0.3:
+            kwargs["chord_fraction"] = 0.01
+        else:
+            kwargs["tol_mm"] = float(rng.choice([0.1, 0.01, 0.001]))
+        (pts_py, n_py), (pts_nb, n_nb) = _both(flatten_cubics, ctrls, **kwargs)
+        np.testing.assert_array_equal(n_py, n_nb)
+        np.testing.assert_array_equal(pts_py, pts_nb)      # the same halving, bit for bit
+        halved += len(pts_py) - len(ctrls)
+    assert halved > 100
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_distance_twin_gives_the_kernels_distances(seed):
+    """Queries near the paths (answered from the 3 × 3 cells) and far outside the grid (the
+    ring search's leftovers), against lines and arcs of both directions."""
+    rng = np.random.default_rng(seed)
+    paths = [Path.arc(rng.uniform(-20, 20, 2), rng.uniform(0.5, 20), rng.uniform(-3, 3),
+                      rng.uniform(-6, 6)) for _ in range(4)]
+    paths.append(Path(np.cumsum(rng.normal(0, 2, (300, 2)), axis=0)))
+    near = np.vstack([p.sample(0.01) for p in paths]) + rng.normal(0, 0.05, (1, 2))
+    q = np.vstack([near, rng.uniform(-300, 300, (200, 2))])
+    d_py, d_nb = _both(path_distance, paths, q)
+    np.testing.assert_allclose(d_py, d_nb, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(d_py, _brute(paths, q), atol=2e-6)
+    far = np.abs(q).max(axis=1) > 100
+    assert far.sum() > 50 and np.all(d_py[far] > 10)       # the leftovers were measured too
+
+
+def test_distance_twin_answers_most_queries_from_the_neighbouring_cells(monkeypatch):
+    rng = np.random.default_rng(7)
+    chain = Path(np.cumsum(rng.normal(0, 1, (500, 2)), axis=0))
+    q = chain.sample(0.01)[::3] + rng.normal(0, 0.01, (1, 2))
+    left = []
+    real = measure._ring_search
+    monkeypatch.setattr(measure, "_ring_search", lambda px, *a: left.append(len(px)) or real(px, *a))
+    measure._grid_dist.__dict__.pop("_twin", None)         # rebind the twin's names
+    try:
+        with _jit.forced("python"):
+            d = path_distance(chain, q)
+    finally:
+        measure._grid_dist.__dict__.pop("_twin", None)
+    assert d.max() < 0.05
+    assert sum(left) < 0.01 * len(q)
+
+
+@pytest.mark.parametrize("tol", [0.1, 0.01])
+def test_greedy_fit_on_memoryviews_gives_the_numpy_scalar_and_the_compiled_arcs(tol, monkeypatch):
+    """On memoryviews the fit's arithmetic runs on Python floats: bit for bit what it gives on
+    numpy scalars; compiled, the same runs and arcs (centres to rounding: numba's libm)."""
+    from labkit.geometry._greedyfit import fit_runs
+
+    rng = np.random.default_rng(11)
+    ctrls = rng.normal(0, 15, (60, 4, 2))
+    ctrls[1:, 0] = ctrls[:-1, 3]                           # a chain
+    views, compiled = _both(cubics_to_arcs, ctrls, tol)
+    monkeypatch.setattr(fit_runs, "views", False)
+    with _jit.forced("python"):
+        scalars = cubics_to_arcs(ctrls, tol)
+    assert int(views.is_arc.sum()) > 20
+    for name in ("vertices", "centres", "sweeps"):
+        np.testing.assert_array_equal(getattr(views, name), getattr(scalars, name))
+        np.testing.assert_allclose(getattr(views, name), getattr(compiled, name), rtol=0, atol=1e-9)
+    assert views.deviation_mm == scalars.deviation_mm
+    assert views.deviation_mm == pytest.approx(compiled.deviation_mm, abs=1e-12)
