@@ -45,7 +45,7 @@ def _settings(args):
 
 
 def _connect(args, transcript=None):
-    from labkit.machine.link import open_link, save_config
+    from labkit.machine.link import is_virtual_port, open_link, save_config
 
     port, baud, protocol, cfg = _settings(args)
     opts = {"time_scale": args.virtual_speed, "tick_s": 0.05}
@@ -62,7 +62,7 @@ def _connect(args, transcript=None):
     except BaseException:
         machine.close()
         raise
-    if port and not port.startswith(("virtual://", "loop://")):
+    if not is_virtual_port(port) and not port.startswith("loop://"):     # a device to remember
         cfg.port, cfg.baud, cfg.protocol = port, baud, protocol
         if args.machine:
             cfg.machine = args.machine
@@ -160,9 +160,9 @@ def run_stream(args) -> int:
         check_output_file(args.log, args.file)
     port, baud, protocol, cfg = _settings(args)
     if protocol == "dobot":
-        from labkit.machine.dobot import stream_file
+        from labkit.commands.dobot import run_dobot_stream
 
-        return stream_file(args, port, baud)
+        return run_dobot_stream(args, port, baud)
     if args.s_max is not None:
         from labkit.errors import InputError
 

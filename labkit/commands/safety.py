@@ -73,10 +73,12 @@ def run_safety_check(args) -> int:
 
     if args.port is not None and args.sim is not None:
         raise InputError("give --port or --sim, not both")
-    if args.port is not None and not args.port.startswith("virtual://") and not _confirm(args):
+    from labkit.machine.link import is_virtual_port
+
+    if not is_virtual_port(args.port) and not _confirm(args):
         print("labkit safety-check: nothing was sent", file=sys.stderr)
         return 1
-    port = None if args.port is None or args.port.startswith("virtual://") else args.port
+    port = None if is_virtual_port(args.port) else args.port
 
     def show(result):
         if not args.json:

@@ -41,7 +41,6 @@ was not told to stop" and what that leaves.
 from __future__ import annotations
 
 import bisect
-import shlex
 import signal
 import struct
 import time
@@ -52,7 +51,7 @@ import numpy as np
 from labkit.errors import MachineError
 
 __all__ = ["frame", "checksum", "FrameReader", "Frame", "canvas_to_robot", "check_reach",
-           "check_drawable", "job_commands", "Dobot", "DobotEmulator", "StopReport", "StopStep",
+           "check_drawable", "job_commands", "Dobot", "DobotJob", "DobotEmulator", "StopReport", "StopStep",
            "CMD", "ORIGIN_MM", "REACH_MM", "STOP_TIMEOUT_S"]
 
 HEADER = b"\xAA\xAA"
@@ -285,6 +284,7 @@ def check_drawable(moves, *, s_max: float | None = None) -> float:
     labkit.errors.MachineError: <string>:2: the Dobot draws in one plane ...
     """
     from labkit.toolpath.moves import check_moves
+    from labkit.units import s_within
 
     check_moves(moves)
     s_max = float(moves.s_max if s_max is None else s_max)
@@ -306,7 +306,7 @@ def check_drawable(moves, *, s_max: float | None = None) -> float:
                                f"stays where the laser is focused); this move goes from Z{z0:g} "
                                f"to Z{z1:g} mm: remove the Z words from the program")
         s = float(moves.power_s[i])
-        if on[i] and not s <= s_max * (1 + 1e-9):
+        if on[i] and not s_within(s, s_max):
             raise MachineError(f"{_where(moves, i)}: S{s:g} is above full laser power "
                                f"S{s_max:g}: it would be sent as a PWM duty of "
                                f"{s * 100 / s_max:.0f} %; lower S, or give the S of full power "
@@ -794,71 +794,99 @@ class DobotEmulator:
         pass
 
 
-#: ``labkit stream``'s options for GRBL and the labkit firmware, with their defaults: given to
-#: the Dobot path they are refused rather than ignored.
-_STREAM_ONLY = {"mode": "counting", "check_first": False, "on_error": "stop", "log": None,
-                "allow_spindle_mode": False, "virtual_speed": 0.0, "machine": None}
+class DobotJob:
+    """A G-code job for the arm, checked and turned into queued commands, then run on a port.
 
+    Constructing it refuses, before anything is sent, what the arm cannot draw
+    as written (:func:`job_commands`). :meth:`run` opens the port (the emulator
+    for the virtual machine's port names), runs the commands with
+    :meth:`Dobot.run` and closes the port on every end; what it did stays on the
+    object for the caller to read.
 
-def stream_file(args, port, baud) -> int:
-    """``labkit stream --protocol dobot``: draw a G-code file with the arm (or its emulator).
+    Parameters
+    ----------
+    moves : Moves
+        The job, canvas millimetres.
+    s_max : float, optional
+        The S of full laser power (default ``moves.s_max``).
+    from_line : int, optional
+        Resume: draw only the moves of this source line and after.
+    origin : (float, float)
+        The canvas origin on the arm's table, mm.
+    z_mm : float
+        The drawing plane's Z in the arm's frame, mm.
 
-    Everything the arm cannot draw as written is refused before the first frame
-    (:func:`job_commands`). Any end but completion prints what the safe stop sent
-    and what the Dobot confirmed; the exit status is 1, 130 after Ctrl-C and 143
-    after SIGTERM.
+    Attributes
+    ----------
+    commands : list of (int, bytes, int)
+        The queued commands (:func:`job_commands`).
+    last_index : int or None
+        The arm's last queue index when the job completed.
+    last_stop : StopReport or None
+        What the safe stop sent and the arm confirmed, when the job ended early.
+    elapsed_s : float or None
+        Wall time of the last :meth:`run`, s.
+
+    Examples
+    --------
+    >>> from labkit.gcode import parse
+    >>> job = DobotJob(parse("M3 S500\\nG1 X10 F600\\nM5\\n"))
+    >>> job.feed_range_mm_min()
+    (600.0, 600.0)
+    >>> job.run(None) == job.last_index, job.last_stop
+    (True, None)
     """
-    from labkit.errors import InputError
-    from labkit.gcode import parse_file
 
-    unused = [f"--{name.replace('_', '-')}" for name, default in _STREAM_ONLY.items()
-              if getattr(args, name, default) != default]
-    if unused:
-        raise InputError(f"{', '.join(unused)}: not available with --protocol dobot (it sends "
-                         f"the job as it is, and keeps no transcript)")
-    moves = parse_file(args.file, dialect=args.dialect or "grbl")
-    commands = job_commands(moves, s_max=getattr(args, "s_max", None),
-                            from_line=getattr(args, "resume_from", None))
-    feeds = moves.feed_mm_min[moves.is_feed & np.isfinite(moves.feed_mm_min)]
-    if feeds.size:
-        lo, hi = float(feeds.min()), float(feeds.max())
-        span = f"F{lo:g}" if lo == hi else f"F{lo:g} to F{hi:g}"
-        print(f"note: F is not sent to the Dobot: the arm draws at the speed set on it (its PTP "
-              f"and ARC parameters), not at the job's {span} mm/min")
-    link = None
-    if port is None or port.startswith("virtual://"):
-        dev = DobotEmulator()
-    else:
-        from labkit.machine.link import open_link
+    def __init__(self, moves, *, s_max: float | None = None, from_line: int | None = None,
+                 origin=ORIGIN_MM, z_mm: float = 0.0):
+        self.moves = moves
+        self.commands = job_commands(moves, origin=origin, z_mm=z_mm, s_max=s_max, from_line=from_line)
+        self.last_index: int | None = None
+        self.last_stop: StopReport | None = None
+        self.elapsed_s: float | None = None
 
-        link = open_link(port, baud)
-        dev = link.port
-    bot = Dobot(dev)
-    t0 = time.monotonic()
-    try:
-        last = bot.run(commands)
-    except (MachineError, KeyboardInterrupt, SystemExit) as exc:
-        if isinstance(exc, KeyboardInterrupt):
-            why, status = "interrupted (Ctrl-C)", 130
-        elif isinstance(exc, SystemExit):
-            why, status = "terminated (SIGTERM)", exc.code if isinstance(exc.code, int) else 1
+    def feed_range_mm_min(self) -> tuple[float, float] | None:
+        """The job's lowest and highest feed, mm/min (None without feed moves): the arm does
+        not receive F, it draws at the speeds set on it."""
+        m = self.moves
+        feeds = m.feed_mm_min[m.is_feed & np.isfinite(m.feed_mm_min)]
+        return (float(feeds.min()), float(feeds.max())) if feeds.size else None
+
+    def run(self, port: str | None, baud: int | None = None, **run_options) -> int:
+        """Draw the job on ``port``; returns the last queue index executed.
+
+        Parameters
+        ----------
+        port : str or None
+            Serial device or URL; None or ``virtual://`` runs the emulator
+            (:func:`labkit.machine.link.is_virtual_port`).
+        baud : int, optional
+            Baud rate (default :data:`labkit.machine.link.DEFAULT_BAUD`).
+        **run_options
+            :meth:`Dobot.run`'s ``ahead``, ``progress``, ``cancel``, ``timeout_s``,
+            ``stall_s``, ``stop_timeout_s``.
+
+        Raises
+        ------
+        MachineError, KeyboardInterrupt, SystemExit
+            After the safe stop (:attr:`last_stop` holds its report).
+        """
+        from labkit.machine.link import DEFAULT_BAUD, is_virtual_port, open_link
+
+        self.last_index = self.last_stop = None
+        link = None
+        if is_virtual_port(port):
+            dev = DobotEmulator()
         else:
-            why, status = str(exc), 1
-        print(f"STOPPED: {why}")
-        if bot.last_stop is not None:
-            print(bot.last_stop.summary())
-            if bot.last_stop.resume_line is not None:
-                again = ["labkit", "stream", str(args.file), "--protocol", "dobot"]
-                for option in ("port", "baud", "dialect", "s_max"):
-                    if getattr(args, option, None) is not None:
-                        again += [f"--{option.replace('_', '-')}", f"{getattr(args, option):g}"
-                                  if option == "s_max" else str(getattr(args, option))]
-                print(f"to go on from there (the laser off, a joint move to where that line "
-                      f"starts): {shlex.join(again)} --resume-from {bot.last_stop.resume_line}")
-        return status
-    finally:
-        if link is not None:
-            link.close()
-    print(f"completed: {len(commands)} commands queued and executed (last queue index {last}) "
-          f"in {time.monotonic() - t0:.1f} s")
-    return 0
+            link = open_link(port, baud or DEFAULT_BAUD)
+            dev = link.port
+        bot = Dobot(dev)
+        t0 = time.monotonic()
+        try:
+            self.last_index = bot.run(self.commands, **run_options)
+            return self.last_index
+        finally:
+            self.last_stop = bot.last_stop
+            self.elapsed_s = time.monotonic() - t0
+            if link is not None:
+                link.close()

@@ -29,10 +29,23 @@ from pathlib import Path
 from labkit.errors import MachineError
 
 __all__ = ["Link", "PortInfo", "list_ports", "describe_usb", "open_link", "MachineConfig",
-           "load_config", "save_config", "config_path", "DEFAULT_BAUD"]
+           "load_config", "save_config", "config_path", "DEFAULT_BAUD", "is_virtual_port"]
 
 #: GRBL 1.1's and the labkit firmware's baud rate (and the Dobot's).
 DEFAULT_BAUD = 115200
+
+#: The port name of the simulated machine (``virtual://`` and anything after it).
+VIRTUAL_PORT = "virtual://"
+
+
+def is_virtual_port(port: str | None) -> bool:
+    """Whether ``port`` names the simulated machine (None, the default, or ``virtual://…``)
+    rather than a device or URL: the one place that decides it.
+
+    >>> is_virtual_port(None), is_virtual_port("virtual://"), is_virtual_port("/dev/ttyUSB0")
+    (True, True, False)
+    """
+    return port is None or port.startswith(VIRTUAL_PORT)
 
 #: (VID, PID or None for any) → what the chip or board is. Public USB ids.
 _USB_IDS: dict[tuple[int, int | None], str] = {
@@ -229,7 +242,7 @@ def open_link(port: str | None = None, baud: int = DEFAULT_BAUD, *, exclusive: b
     if virtual_options is not None and not isinstance(virtual_options, dict):
         raise MachineError(f"open_link: virtual_options must be a dict of VirtualMachine "
                            f"options (e.g. {{'time_scale': 0}}), got {type(virtual_options).__name__}")
-    if port is None or port.startswith("virtual://"):
+    if is_virtual_port(port):
         import inspect
 
         from labkit.errors import LabkitError
@@ -246,7 +259,7 @@ def open_link(port: str | None = None, baud: int = DEFAULT_BAUD, *, exclusive: b
             vm = VirtualMachine(**opts)
         except LabkitError as exc:
             raise MachineError(f"open_link: virtual_options['machine']: {exc}") from None
-        return Link(vm, "virtual://")
+        return Link(vm, VIRTUAL_PORT)
     import serial
 
     try:

@@ -178,7 +178,7 @@ class ControlPanel:
         """Open the chosen port, wait for the banner, read $I and $$."""
         from labkit.errors import LabkitError
         from labkit.machine.grbl import Grbl
-        from labkit.machine.link import load_config, open_link, save_config
+        from labkit.machine.link import is_virtual_port, load_config, open_link, save_config
 
         try:
             link = open_link(self.port.value, virtual_options=self.virtual_options)
@@ -191,7 +191,7 @@ class ControlPanel:
                 self.machine.close()
             self.machine = None
             return
-        if not self.port.value.startswith("virtual://"):
+        if not is_virtual_port(self.port.value):
             cfg = load_config()
             cfg.port = self.port.value
             save_config(cfg)
