@@ -33,6 +33,8 @@ __all__ = [
     "s_to_mw",
     "mw_to_s",
     "s_to_percent",
+    "s_within",
+    "S_MAX_RTOL",
 ]
 
 MM_PER_INCH = 25.4
@@ -61,6 +63,41 @@ def mm_s_to_mm_min(speed_mm_s):
 def _check_s_max(s_max):
     if not s_max > 0:
         raise ValueError(f"s_max must be > 0 (the S value of full power), got {s_max!r}")
+
+
+#: Relative slack above ``s_max`` that still counts as full power: an S written back with six
+#: significant digits, or scaled between dialects, may land a rounding above it.
+S_MAX_RTOL = 1e-6
+
+
+def s_within(s, s_max, *, positive: bool = False):
+    """Whether power word S lies within the laser's range: the one test of S against ``s_max``.
+
+    Every check of an S against full power (the writer, the job builders, the Dobot,
+    the test pulse, the commands' ``--power``) asks this and words its own refusal.
+
+    Parameters
+    ----------
+    s : float or array
+        Power word S.
+    s_max : float
+        S of full power (GRBL ``$30``), > 0.
+    positive : bool
+        Require S > 0 (a power that burns) instead of S ≥ 0.
+
+    Returns
+    -------
+    bool or ndarray of bool
+        False for NaN, for S above ``s_max · (1 + S_MAX_RTOL)`` and below the floor.
+
+    >>> s_within(1000, 1000), s_within(1000.0005, 1000), s_within(1001, 1000), s_within(float("nan"), 1000)
+    (True, True, False, False)
+    >>> s_within(0, 255), s_within(0, 255, positive=True)
+    (True, False)
+    """
+    v = np.asarray(s, dtype=float)
+    ok = ((v > 0) if positive else (v >= 0)) & (v <= float(s_max) * (1.0 + S_MAX_RTOL))
+    return bool(ok) if ok.ndim == 0 else ok
 
 
 def s_to_duty(s, *, s_max=1000.0):

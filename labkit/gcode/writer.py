@@ -38,6 +38,7 @@ from labkit.errors import EmitError
 from labkit.gcode import _emit_kernel as EK
 from labkit.gcode.dialects import DIALECTS, Dialect, get_dialect
 from labkit.toolpath.moves import MoveKind, Moves, check_moves
+from labkit.units import s_within
 
 __all__ = ["emit", "write_gcode", "comment_lines", "decimals_for", "format_number",
            "VALUE_DECIMALS", "LINE_CHARS"]
@@ -280,7 +281,7 @@ def _refuse_unwritable(moves: Moves, d: Dialect, decimals: int) -> None:
     if not (moves.s_max > 0 and math.isfinite(moves.s_max)):
         raise EmitError(f"s_max must be a finite number > 0, got {moves.s_max!r}")
     power = moves.power_s.astype(np.float64)
-    bad = moves.is_motion & ~((power >= 0) & (power <= moves.s_max * (1 + 1e-6)))
+    bad = moves.is_motion & ~s_within(power, moves.s_max)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         raise EmitError(f"{_where(moves, i)}: power S {float(power[i])!r} is outside "

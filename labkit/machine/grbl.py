@@ -31,6 +31,7 @@ from importlib import resources
 
 from labkit.errors import MachineError, status_code
 from labkit.machine.link import Link
+from labkit.units import s_within
 
 __all__ = ["Grbl", "Status", "parse_status", "error_message", "alarm_message", "Event",
            "SafeStop", "Transcript", "REALTIME", "DEFAULT_RX_BYTES", "DEFAULT_PLANNER_BLOCKS",
@@ -705,7 +706,7 @@ class Grbl:
             Length of the step out and back, mm (a few motor steps).
         """
         s_max = self.setting(30, 1000.0)
-        if not 0 < power_s <= s_max:
+        if not s_within(power_s, s_max, positive=True):
             raise MachineError(f"test pulse power S{power_s:g}: expected 0 < S ≤ $30 = {s_max:g}")
         if not 0.01 <= duration_s <= 5.0:
             raise MachineError(f"test pulse of {duration_s:g} s: expected 0.01…5 s")

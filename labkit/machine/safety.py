@@ -41,6 +41,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from labkit.errors import InputError, MachineError
+from labkit.units import s_within
 
 __all__ = ["SCENARIOS", "ScenarioResult", "SafetyReport", "run_safety_check", "default_sim_path",
            "end_process", "CUT_MM", "CUT_FEED_MM_MIN"]
@@ -562,7 +563,8 @@ class _Check:
         s_max = self.g.setting(30, 1000.0)
         if power_s is None:
             power_s = max(1.0, round(0.01 * s_max))
-        if not (isinstance(power_s, (int, float)) and math.isfinite(power_s) and 0 < power_s <= s_max):
+        if not (isinstance(power_s, (int, float)) and math.isfinite(power_s)
+                and s_within(power_s, s_max, positive=True)):
             raise InputError(f"power_s: expected 0 < S ≤ $30 = {s_max:g}, got {power_s!r}")
         if cut_mode not in ("M3", "M4"):
             raise InputError(f"cut_mode: expected 'M3' or 'M4', got {cut_mode!r}")

@@ -30,6 +30,7 @@ from labkit.raster.islands import label_islands
 from labkit.raster.pathing import Connection, Segments, connect, spiral_segments, zigzag_segments
 from labkit.raster.resample import beam_shape, resample_to_beam
 from labkit.toolpath.moves import LaserMode, MoveKind, Moves
+from labkit.units import s_within
 
 __all__ = ["MODES", "RasterSettings", "placed_size", "DEFAULT_DPI", "RasterReport", "RasterJob", "segments_to_moves", "mask_job", "gray_job",
            "power_map", "image_to_job", "summarize"]
@@ -174,7 +175,7 @@ def segments_to_moves(segments: Segments, *, pixel_mm: float, feed_mm_min: float
     """
     _check_positive("pixel_mm", pixel_mm)
     _check_positive("feed_mm_min", feed_mm_min)
-    if not 0 < power_s <= s_max:
+    if not s_within(power_s, s_max, positive=True):
         raise RasterError(f"power_s must be in (0, {s_max:g}], got {power_s!r}")
     a, b = segments.cuts()
     scale = 0.5 * float(pixel_mm)

@@ -20,6 +20,7 @@ from labkit.geometry.arcfit import tolerance_budget
 from labkit.geometry.path import Path
 from labkit.toolpath.build import LayerSettings, build_moves, prepare_paths
 from labkit.toolpath.moves import Moves
+from labkit.units import s_within
 
 __all__ = ["VectorJob", "vector_job"]
 
@@ -102,7 +103,7 @@ def vector_job(paths: Sequence[Path], *, default: LayerSettings = LayerSettings(
     tolerance_budget(tol_mm, arcs=arcs)          # refuses a tolerance that is not a length
     layers = dict(layers or {})
     for name, layer in [("default", default)] + list(layers.items()):
-        if layer.power_s > s_max:
+        if not s_within(layer.power_s, s_max):      # LayerSettings refused S < 0
             raise GeometryError(f"layer {name}: power S{layer.power_s:g} is above s_max {s_max:g}; "
                                 f"expected a power within 0…{s_max:g}")
     paths = list(paths)
