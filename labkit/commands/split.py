@@ -4,7 +4,7 @@
 ``DIR/NAME.part001.gcode`` … (DIR defaults to the file's folder); every part after the
 first restates the modal state and the position, and the parts are checked, each parsed
 alone, against the whole program before anything is written
-(:func:`labkit.toolpath.split.split_program`, [MicroCAM] §6.2.1).
+(:func:`labkit.gcode.split.split_program`, [MicroCAM] §6.2.1).
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ def run_split(args) -> int:
 
     from labkit._files import atomic_output, check_input_file
     from labkit.errors import InputError
-    from labkit.toolpath.split import split_program
+    from labkit.gcode.split import split_program
 
     if args.max_lines is None and args.max_bytes is None:
         raise InputError("give --max-lines N or --max-bytes N (the controller's program buffer)")

@@ -294,35 +294,84 @@ ERROR_ROW = np.dtype((np.record, [("line", np.int64), ("pos", np.int64), ("end",
 RECORD_ROW = np.dtype((np.record, [("line", np.int64), ("kind", np.int64), ("span", np.int64, (2,)),
                        ("value", np.float64), ("index", np.int64)]))
 
-#: The modal state after one line (for teaching, :func:`labkit.gcode.reader.modal_trace`):
-#: G numbers of the motion, plane, units, distance and arc-distance groups, the feed
-#: (mm/min, NaN while undefined), S, the laser mode and the position (mm, machine); the
-#: offsets GRBL keeps: the coordinate system in use (54…59), the G54…G59 origins and the
-#: G92 offset (mm, machine) and the G43.1 tool length offset (mm).
+#: The modal state after one line — the one record of it (:class:`labkit.gcode.state.ModalState`
+#: reads a row; :func:`interpret` starts from one and ends in one): G numbers of the motion,
+#: plane, units, distance, arc-distance and feed-mode (93, 94) groups, the feed (mm/min, NaN
+#: while undefined), S, the laser mode (0 M5, 3, 4) and the position (mm, machine); the offsets
+#: GRBL keeps: the coordinate system in use (54…59), the G54…G59 origins and the G92 offset
+#: (mm, machine), the G43.1 tool length offset (mm) and the G28.1 / G30.1 stored positions
+#: (mm, machine); coolant (bit 0 M7, bit 1 M8). Then what the line itself did: ``syncing``
+#: (it waits for the planner to empty before it runs, on GRBL: a dwell, G10, G28, G30, G92,
+#: a program stop or end, a laser or coolant M word), ``axis_words`` (X, Y or Z in a G-code
+#: line), ``motion_word`` (a motion-group G word: G0-G3, G38.x, G80) and ``sets_offsets``
+#: (G10, G28, G30, G92, G92.1, G43.1, G49, M2, M30). A rejected line did nothing.
 TRACE_ROW = np.dtype((np.record, [("motion", np.float64), ("plane", np.float64), ("units", np.float64),
                       ("distance", np.float64), ("arc_distance", np.float64),
                       ("feed_mm_min", np.float64), ("power_s", np.float64),
                       ("laser", np.float64), ("position", np.float64, (3,)),
                       ("coord_system", np.float64), ("coord_origins", np.float64, (6, 3)),
-                      ("g92", np.float64, (3,)), ("tool_offset", np.float64)]))
+                      ("g92", np.float64, (3,)), ("tool_offset", np.float64),
+                      ("feed_mode", np.float64), ("coolant", np.int64),
+                      ("home28", np.float64, (3,)), ("home30", np.float64, (3,)),
+                      ("syncing", np.bool_), ("axis_words", np.bool_), ("motion_word", np.bool_),
+                      ("sets_offsets", np.bool_)]))
+
+
+def initial_state() -> np.ndarray:
+    """GRBL's power-on modal state as a one-row :data:`TRACE_ROW` array: G0 G17 G21 G90
+    G91.1 G94 G54, no feed, S0, M5, M9, at machine zero with every offset zero."""
+    st = np.zeros(1, TRACE_ROW)
+    st["motion"], st["plane"], st["units"], st["distance"] = 0, 17, 21, 90
+    st["arc_distance"], st["feed_mm_min"], st["coord_system"], st["feed_mode"] = 91.1, np.nan, 54, 94
+    return st
+
 
 #: What :func:`interpret` returns: ``moves`` (array of ``MOVE_ROW``), ``errors`` (of
 #: :data:`ERROR_ROW`, at most ``max_errors``), ``error_total`` (all rejected lines),
 #: ``records`` (of :data:`RECORD_ROW`) and ``trace`` (of :data:`TRACE_ROW`, one per line
-#: when asked, else empty).
+#: when asked, else empty) and ``final`` (the state after the last line, one
+#: :data:`TRACE_ROW`).
 Interpretation = namedtuple("Interpretation", ["moves", "errors", "error_total", "records",
-                                               "trace"])
+                                               "trace", "final"])
+
+
+@jit
+def _put_state(t, motion, plane, inches, absolute, arc_absolute, feed, power, laser, pos,
+               coord, wcs, g92, tlo, inverse, cool, home28, home30):
+    """Write the modal state into trace record ``t`` (the per-line flags are the caller's)."""
+    t.motion = motion
+    t.plane = 17 + plane
+    t.units = 20 if inches else 21
+    t.distance = 90 if absolute else 91
+    t.arc_distance = 90.1 if arc_absolute else 91.1
+    t.feed_mm_min = feed if feed > 0 else np.nan
+    t.power_s = power
+    t.laser = laser
+    for a in range(3):
+        t.position[a] = pos[a]
+        t.g92[a] = g92[a]
+        t.home28[a] = home28[a]
+        t.home30[a] = home30[a]
+        for k in range(6):
+            t.coord_origins[k, a] = wcs[k, a]
+    t.coord_system = 54 + coord
+    t.tool_offset = tlo
+    t.feed_mode = 93 if inverse else 94
+    t.coolant = cool
 
 
 @jit(python_below=150_000)  # bytes of text: ~3 µs each as Python vs ~0.6 s to load compiled
 def interpret(buf, options, lenient, max_errors, trace):
-    """Interpret G-code bytes; returns an :class:`Interpretation`.
+    """Interpret G-code bytes from the modal state ``options.start``; returns an
+    :class:`Interpretation`.
 
     ``options`` is a :class:`labkit.gcode.reader.ParseOptions` (the dialect's settings, read
     by name). ``options.line_limit`` > 0 rejects a line with more significant characters
     (not spaces, comments or ``/``) than a controller's line buffer holds (GRBL error 11).
     ``lenient`` goes on after a rejected line; at most ``max_errors`` diagnostics are kept
     (``error_total`` counts them all); ``trace`` records the modal state after every line.
+    ``options.start`` is a one-row :data:`TRACE_ROW` array (:func:`initial_state`: GRBL's
+    power-on state); the state after the last line is returned as ``final``.
     """
     n = buf.shape[0]
     nlines_est = 1
@@ -342,23 +391,32 @@ def interpret(buf, options, lenient, max_errors, trace):
     nrec = 0
     states = np.zeros(nlines_est if trace else 0, TRACE_ROW)
 
-    # Modal state (GRBL's power-on defaults).
+    # Modal state, from where the options say the controller is.
+    s0 = options.start[0]
     pos = np.zeros(3)
-    motion = 0            # G0
-    plane = 0             # index into _PLANE_AXES: 0 G17, 1 G18, 2 G19
-    inches = False
-    absolute = True
-    arc_absolute = False  # G91.1
-    feed = 0.0            # mm/min; 0 = undefined
-    power = 0.0
-    laser = LASER_OFF
-    inverse = False       # G94 (G93 inverse time when True)
-    coord = 0             # G54
-    wcs = np.zeros((6, 3))    # G54…G59 origins, machine mm (GRBL keeps them in EEPROM; here 0)
+    wcs = np.zeros((6, 3))    # G54…G59 origins, machine mm (GRBL keeps them in EEPROM)
     g92 = np.zeros(3)     # G92 offset, mm
-    tlo = 0.0             # G43.1 dynamic tool length offset (Z), mm
     home28 = np.zeros(3)  # G28.1 / G30.1 stored machine positions
     home30 = np.zeros(3)
+    for a in range(3):
+        pos[a] = s0.position[a]
+        g92[a] = s0.g92[a]
+        home28[a] = s0.home28[a]
+        home30[a] = s0.home30[a]
+        for k in range(6):
+            wcs[k, a] = s0.coord_origins[k, a]
+    motion = int(s0.motion)       # 0-3, 80, or 382-385 (G38.2-G38.5)
+    plane = int(s0.plane) - 17    # index into _PLANE_AXES: 0 G17, 1 G18, 2 G19
+    inches = s0.units == 20
+    absolute = s0.distance == 90
+    arc_absolute = s0.arc_distance == 90.1
+    feed = s0.feed_mm_min if s0.feed_mm_min > 0 else 0.0   # mm/min; 0 = undefined
+    power = s0.power_s
+    laser = int(s0.laser)
+    inverse = s0.feed_mode == 93  # G93 inverse time
+    coord = int(s0.coord_system) - 54
+    tlo = s0.tool_offset  # G43.1 dynamic tool length offset (Z), mm
+    cool = s0.coolant     # bit 0 M7, bit 1 M8
 
     # Per-line word storage.
     present = np.zeros(26, np.bool_)
@@ -1055,6 +1113,10 @@ def interpret(buf, options, lenient, max_errors, trace):
                 if coolant >= 0:
                     nrec = _put_record(recs, nrec, lineno, REC_COOLANT, ls, le, float(coolant),
                                        nrows)
+                    if coolant == 9:
+                        cool = 0
+                    elif coolant == 7 or coolant == 8:
+                        cool |= 1 << (coolant - 7)
                 if m_record >= 0:
                     nrec = _put_record(recs, nrec, lineno, REC_PRINTER, ls, le,
                                        val[L_S] if present[L_S] else np.nan, nrows)
@@ -1103,24 +1165,25 @@ def interpret(buf, options, lenient, max_errors, trace):
                         laser = LASER_OFF
                         inverse = False
                         coord = 0
+                        cool = 0
         if trace:
             t = states[lineno - 1]
-            t.motion = motion
-            t.plane = 17 + plane
-            t.units = 20 if inches else 21
-            t.distance = 90 if absolute else 91
-            t.arc_distance = 90.1 if arc_absolute else 91.1
-            t.feed_mm_min = feed if feed > 0 else np.nan
-            t.power_s = power
-            t.laser = laser
-            for a in range(3):
-                t.position[a] = pos[a]
-                t.g92[a] = g92[a]
-                for k in range(6):
-                    t.coord_origins[k, a] = wcs[k, a]
-            t.coord_system = 54 + coord
-            t.tool_offset = tlo
+            _put_state(t, motion, plane, inches, absolute, arc_absolute, feed, power, laser, pos,
+                       coord, wcs, g92, tlo, inverse, cool, home28, home30)
+            if err == OK and not is_system and not is_jog:
+                t.syncing = (dwell or nonmodal == 100 or nonmodal == 280 or nonmodal == 281
+                             or nonmodal == 300 or nonmodal == 301 or nonmodal == 920
+                             or nonmodal == 921 or stop >= 0 or coolant >= 0
+                             or (groups & (1 << M_LASER)) != 0)
+                t.axis_words = axis_words
+                t.motion_word = motion_new >= 0
+                t.sets_offsets = (nonmodal == 100 or nonmodal == 280 or nonmodal == 300
+                                  or nonmodal == 920 or nonmodal == 921 or tlo_cmd != 0
+                                  or stop == 2 or stop == 30)
         ls = le + 1
 
+    final = np.zeros(1, TRACE_ROW)
+    _put_state(final[0], motion, plane, inches, absolute, arc_absolute, feed, power, laser, pos,
+               coord, wcs, g92, tlo, inverse, cool, home28, home30)
     return Interpretation(rows[:nrows], errs[:nerr], nerr_total, recs[:nrec],
-                          states[:lineno] if trace else states)
+                          states[:lineno] if trace else states, final)

@@ -71,7 +71,9 @@ _COMMON_LETTERS = "FGIJKMNPRSXYZ"
 
 
 class ParseOptions(NamedTuple):
-    """Settings of the interpreter derived from a dialect (see :class:`~labkit.gcode.dialects.Dialect`).
+    """Settings of the interpreter derived from a dialect (see :class:`~labkit.gcode.dialects.Dialect`),
+    and the modal state it starts from (``start``, a one-row
+    :data:`~labkit.gcode._kernel.TRACE_ROW` array; GRBL's power-on state by default).
 
     A named tuple: the compiled :func:`labkit.gcode._kernel.interpret` takes it whole and
     reads the fields by name, so a new setting is one field here and its use there.
@@ -95,6 +97,7 @@ class ParseOptions(NamedTuple):
     line_limit: int = 0
     grbl_verdicts: bool = False
     grbl_streamed: bool = False
+    start: np.ndarray = K.initial_state()
 
     @classmethod
     def from_dialect(cls, dialect: Dialect, *, streaming: bool = False) -> "ParseOptions":
@@ -141,12 +144,23 @@ def _as_bytes(text) -> bytes:
 _LONE_CR = re.compile(rb"\r(?!\n)")
 
 
+def _text_lines(data: bytes) -> list[str]:
+    """The lines of :func:`_as_bytes` output as the interpreter numbers them (ends removed)."""
+    lines = data.decode("utf-8", "replace").split("\n")
+    if lines and lines[-1] == "" and len(lines) > 1:
+        lines = lines[:-1]
+    return [s.rstrip("\r") for s in lines]
+
+
 def _run(data: bytes, dialect: Dialect, lenient: bool, trace: bool,
-         streaming: bool = False) -> K.Interpretation:
-    """Run the compiled interpreter on ``data`` with the dialect's settings."""
+         streaming: bool = False, start=None) -> K.Interpretation:
+    """Run the compiled interpreter on ``data`` with the dialect's settings, from the modal
+    state ``start`` (a one-row :data:`~labkit.gcode._kernel.TRACE_ROW` array; None: power-on)."""
     from labkit.budget import budget
 
     o = ParseOptions.from_dialect(dialect, streaming=streaming)
+    if start is not None:
+        o = o._replace(start=start)
     buf = np.frombuffer(data, dtype=np.uint8)
     max_errors = int(budget("diagnostics")) if lenient else 1
     return K.interpret(buf, o, lenient, max_errors, trace)
@@ -369,16 +383,14 @@ def modal_trace(text, *, dialect: str | Dialect = "grbl", filename: str | None =
     data = _as_bytes(text)
     out = _run(data, d, lenient=True, trace=True)
     state = out.trace
-    lines = data.decode("utf-8", "replace").split("\n")
-    if lines and lines[-1] == "" and len(lines) > 1:
-        lines = lines[:-1]
+    lines = _text_lines(data)
     n = len(lines)
     errs = dict(zip(out.errors["line"].tolist(), out.errors["code"].tolist()))
     laser_names = {int(LaserMode.OFF): "M5", int(LaserMode.CONSTANT): "M3",
                    int(LaserMode.DYNAMIC): "M4"}
     table = pd.DataFrame({
         "line": np.arange(1, n + 1),
-        "text": [s.rstrip("\r") for s in lines],
+        "text": lines,
         "motion": [f"G{int(v)}" for v in state["motion"][:n]],
         "plane": [f"G{int(v)}" for v in state["plane"][:n]],
         "units": [f"G{int(v)}" for v in state["units"][:n]],

@@ -5,23 +5,22 @@ program buffer as sub-programs, each uploaded "after completing the previous one
 For that to machine the same part, every sub-program has to run as if the whole
 program had run up to its first line. :func:`split_program` therefore
 
-1. parses the program once (strictly: a bad line is a :class:`~labkit.errors.GcodeError`
-   with file, line and column), and takes the modal state after every line from
-   :func:`labkit.gcode.modal_trace` (motion mode, plane, units, distance mode, arc
-   centre mode, feed, S, laser) plus a few words the trace does not carry (feed
-   mode G93/G94, coordinate system G54–G59, coolant), read from the words of each line;
+1. parses the program (strictly: a bad line is a :class:`~labkit.errors.GcodeError`
+   with file, line and column), and takes the modal state after every line from the
+   interpreter's trace (:func:`labkit.gcode.state.line_states`), with what each line
+   did (axis words, a motion word, an offset change);
 2. cuts between whole lines, as late as the size limit allows, at a *safe point*:
    a line boundary where the beam is not cutting across the cut (the move before or
    the move after is not burning) — a part ends with the head stopped while the next
    part uploads, and a stop in the middle of a cut would mark the work. Only if a
    single cut is longer than a part is it split inside (counted in
    :attr:`SplitResult.inside_cuts`);
-3. starts each part after the first with a *preamble* that restates the state from a
-   fresh controller: offsets cleared, beam off (M5), a rapid to the position the
-   previous part ended at, the motion mode (a zero-length G1 when it is G1), plane,
-   feed mode, arc-centre mode, feed, coordinate system, work offset (G92),
-   coolant, S and M3/M4/M5, units and distance mode — and ends each part but the
-   last with M5, so the beam is off while the next part uploads.
+3. starts each part after the first with a *preamble* that restates the state on a
+   fresh controller (:func:`labkit.gcode.state.restate`): offsets cleared, beam off
+   (M5), a rapid to the position the previous part ended at, the motion mode (a
+   zero-length G1 when it is G1), plane, feed mode, arc-centre mode, feed, coordinate
+   system, work offset (G92), coolant, S and M3/M4/M5, units and distance mode — and
+   ends each part but the last with M5, so the beam is off while the next part uploads.
 
 A boundary is refused where the state cannot be restated: inside modal G2/G3 when
 the next line with axis words relies on it (an arc mode cannot be set without an
@@ -38,24 +37,20 @@ lines). :func:`split_program` runs it before returning.
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from labkit.errors import InputError
+from labkit.gcode.dialects import get_dialect
+from labkit.gcode.reader import parse
+from labkit.gcode.state import ModalState, line_states, restate
 from labkit.toolpath.moves import Moves
 
-__all__ = ["Part", "SplitResult", "split_program", "verify_parts", "restated_state"]
+__all__ = ["Part", "SplitResult", "split_program", "verify_parts"]
 
 #: Position tolerance of the verification, mm (restated coordinates round-trip a double).
 POSITION_ATOL_MM = 1e-9
-
-_COMMENT = re.compile(r"\([^)]*\)|;.*$")
-_WORD = re.compile(r"([A-Za-z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
-_OFFSET_G = {10.0, 28.0, 30.0, 43.1, 49.0, 92.0, 92.1}
-_OFFSET_M = {2.0, 30.0}
-_MOTION_G = {0.0, 1.0, 2.0, 3.0, 38.2, 38.3, 38.4, 38.5, 80.0}
 
 
 @dataclass(frozen=True)
@@ -114,128 +109,6 @@ class SplitResult:
     source_lines: int = 0
 
 
-def _num(value: float) -> str:
-    """Shortest decimal that reads back as the same double, never in exponent form."""
-    if value == 0:
-        return "0"
-    return np.format_float_positional(float(value), unique=True, trim="-")
-
-
-def _line_words(lines: list[str]):
-    """Per line: (G numbers, M numbers, has axis words), comments removed."""
-    out = []
-    for text in lines:
-        if text.lstrip().startswith("$"):
-            out.append(((), (), False))
-            continue
-        words = _WORD.findall(_COMMENT.sub("", text))
-        gs = tuple(round(float(v), 1) for k, v in words if k in "Gg")
-        ms = tuple(round(float(v), 1) for k, v in words if k in "Mm")
-        axes = any(k in "XYZxyz" for k, _ in words)
-        out.append((gs, ms, axes))
-    return out
-
-
-def restated_state(state: dict, dialect) -> list[str]:
-    """The preamble lines that bring a fresh controller to ``state``.
-
-    Parameters
-    ----------
-    state : dict
-        ``motion`` (0, 1, 2, 3, 80), ``plane`` (17–19), ``inches`` (bool),
-        ``absolute`` (bool), ``arc_absolute`` (bool), ``feed_mm_min`` (NaN if unset),
-        ``s`` (S word), ``laser`` (0, 3, 4), ``position`` (machine X Y Z, mm),
-        ``offset`` (work offset: machine − work, mm), ``coord`` (54–59),
-        ``inverse_time`` (bool), ``coolant`` (M numbers on, e.g. ``(8,)``).
-    dialect : Dialect
-
-    Returns
-    -------
-    list of str
-        G-code lines (no newlines).
-
-    Examples
-    --------
-    >>> from labkit.gcode import get_dialect
-    >>> st = dict(motion=1, plane=17, inches=False, absolute=True, arc_absolute=False,
-    ...           feed_mm_min=600.0, s=800.0, laser=3, position=(10.0, 2.5, 0.0),
-    ...           offset=(0.0, 0.0, 0.0), coord=54, inverse_time=False, coolant=())
-    >>> restated_state(st, get_dialect("grbl"))
-    ['G92.1 G49 G54', 'G21 G90 M5', 'G0 X10 Y2.5 Z0', 'F600', 'G1 X10 Y2.5 Z0', 'G17', 'S800 M3']
-    """
-    g_ok = set(round(g, 1) for g in dialect.g_codes)
-    out = []
-    reset = [w for w, g in (("G92.1", 92.1), ("G49", 49.0), ("G54", 54.0)) if g in g_ok]
-    if reset:
-        out.append(" ".join(reset))
-    out.append("G21 G90 " + f"M{dialect.laser_off_codes[0]}")
-    p = [float(v) for v in state["position"]]
-    xyz = f"X{_num(p[0])} Y{_num(p[1])} Z{_num(p[2])}"
-    out.append(f"G0 {xyz}")
-    feed = state["feed_mm_min"]
-    if feed == feed:                                           # not NaN
-        out.append(f"F{_num(dialect.feed_from_mm_min(feed))}")
-    motion = int(state["motion"])
-    if motion == 1:
-        out.append(f"G1 {xyz}")                                # zero length, beam off: sets G1
-    elif motion == 80:
-        out.append("G80")
-    out.append(f"G{int(state['plane'])}")
-    if state["inverse_time"]:
-        out.append("G93")
-    if state["arc_absolute"]:
-        out.append("G90.1")
-    coord = int(state["coord"])
-    if coord != 54:
-        out.append(f"G{coord}")
-    w = [float(v) for v in state["offset"]]
-    if any(w):
-        if 92.0 not in g_ok:
-            raise InputError(f"a work offset ({', '.join(_num(v) for v in w)}) mm is in effect and "
-                             f"the {dialect.name} dialect has no G92 to restate it")
-        out.append("G92 " + " ".join(f"{a}{_num(pa - wa)}" for a, pa, wa in zip("XYZ", p, w)))
-    for m in state["coolant"]:
-        out.append(f"M{int(m)}")
-    laser = int(state["laser"])
-    word = f"M{laser}" if laser else f"M{dialect.laser_off_codes[0]}"
-    out.append(f"S{_num(state['s'])} {word}")
-    if state["inches"]:
-        out.append("G20")
-    if not state["absolute"]:
-        out.append("G91")
-    return out
-
-
-def _states(text, dialect, filename):
-    """Moves, line texts and the state after every line (arrays), parsed strictly."""
-    from labkit.gcode import modal_trace, parse
-
-    moves = parse(text, dialect=dialect, filename=filename)
-    trace = modal_trace(text, dialect=dialect, filename=filename)
-    lines = trace["text"].tolist()
-    words = _line_words(lines)
-    n = len(lines)
-    coolant_codes = set(float(c) for c in dialect.coolant_codes)
-    inverse = np.zeros(n, bool)
-    coord = np.full(n, 54, np.int16)
-    coolant = []
-    inv, cs, cool = False, 54, ()
-    for i, (gs, ms, _) in enumerate(words):
-        for g in gs:
-            if g in (93.0, 94.0):
-                inv = g == 93.0
-            elif 54.0 <= g <= 59.0:
-                cs = int(g)
-        for m in ms:
-            if m in coolant_codes:
-                cool = () if m == 9.0 else tuple(sorted(set(cool) | {int(m)}))
-            elif m in _OFFSET_M:             # program end: GRBL resets these
-                inv, cs, cool = False, 54, ()
-        inverse[i], coord[i] = inv, cs
-        coolant.append(cool)
-    return moves, trace, lines, words, inverse, coord, coolant
-
-
 def split_program(text, *, max_lines: int | None = None, max_bytes: int | None = None,
                   dialect="grbl", filename: str | None = None, verify: bool = True) -> SplitResult:
     """Split a G-code program into sub-programs of at most ``max_lines`` lines / ``max_bytes`` bytes.
@@ -285,8 +158,6 @@ def split_program(text, *, max_lines: int | None = None, max_bytes: int | None =
     G1 Y1
     Y2
     """
-    from labkit.gcode import get_dialect
-
     d = get_dialect(dialect)
     if max_lines is None and max_bytes is None:
         raise InputError("give max_lines or max_bytes (the controller's program buffer)")
@@ -295,54 +166,44 @@ def split_program(text, *, max_lines: int | None = None, max_bytes: int | None =
             raise InputError(f"{name} must be a whole number >= 1, got {v!r}")
     lim_lines = math.inf if max_lines is None else int(max_lines)
     lim_bytes = math.inf if max_bytes is None else int(max_bytes)
-    moves, trace, lines, words, inverse, coord, coolant = _states(text, d, filename)
+    moves = parse(text, dialect=d, filename=filename)
+    trace, lines = line_states(text, dialect=d)
     n = len(lines)
     sizes = np.array([len(s.encode("utf-8")) + 1 for s in lines], np.int64)
     cum_bytes = np.concatenate([[0], np.cumsum(sizes)])
 
     # per boundary b (part starts at 0-based line b, 1 <= b <= n-1): can it be restated?
-    motion = trace["motion"].str[1:].astype(float).to_numpy()
-    axis_or_motion = np.array([bool(ax) or any(g in _MOTION_G for g in gs) for gs, _, ax in words])
-    states_motion = np.array([any(g in _MOTION_G for g in gs) for gs, _, _ in words])
+    motion = trace["motion"]
+    states_motion = trace["motion_word"]
+    axis_or_motion = trace["axis_words"] | states_motion
     next_am = np.full(n + 1, n, np.int64)      # first line >= i with axis or motion words
     for i in range(n - 1, -1, -1):
         next_am[i] = i if axis_or_motion[i] else next_am[i + 1]
-    offset_line = np.array([any(g in _OFFSET_G for g in gs) or any(m in _OFFSET_M for m in ms)
-                            for gs, ms, _ in words])
+    offset_line = trace["sets_offsets"]
     n_off_before = np.concatenate([[0], np.cumsum(offset_line)])     # offset lines in [0, i)
     move_line0 = moves.line.astype(np.int64) - 1                      # 0-based source line per move
     burning = moves.laser_on & moves.is_motion
     motion_rows = np.flatnonzero(moves.is_motion)
 
     def boundary_info(b):
-        """(restatable, safe, offset) for a part starting at 0-based line b."""
+        """(restatable, safe) for a part starting at 0-based line b. Restatable: not inside a
+        modal arc the next lines rely on, and no offset change between the boundary and the
+        nearest move (G10 L2 origins or G28.1 positions a later part uses cannot be restated
+        on a fresh controller; a move on the far side shows what the offset was)."""
         m = int(motion[b - 1])
         nxt = next_am[b]
         if m in (2, 3) and nxt < n and not states_motion[nxt]:
-            return False, False, None
+            return False, False
         k = np.searchsorted(move_line0[motion_rows], b)         # first motion row at line >= b
         before = motion_rows[k - 1] if k > 0 else -1
         after = motion_rows[k] if k < len(motion_rows) else -1
-        offset = None
-        if after >= 0 and n_off_before[move_line0[after]] == n_off_before[b]:
-            offset = moves.work_offset[after]
-        elif before >= 0 and n_off_before[b] == n_off_before[move_line0[before] + 1]:
-            offset = moves.work_offset[before]
-        elif n_off_before[b] == 0:
-            offset = np.zeros(3)
-        if offset is None:
-            return False, False, None
+        known = ((after >= 0 and n_off_before[move_line0[after]] == n_off_before[b])
+                 or (before >= 0 and n_off_before[b] == n_off_before[move_line0[before] + 1])
+                 or n_off_before[b] == 0)
+        if not known:
+            return False, False
         safe = (before < 0 or not burning[before]) or (after < 0 or not burning[after])
-        return True, bool(safe), offset
-
-    def state_at(b, offset):
-        row = trace.iloc[b - 1]
-        return dict(motion=int(motion[b - 1]), plane=int(row["plane"][1:]), inches=row["units"] == "G20",
-                    absolute=row["distance"] == "G90", arc_absolute=row["arc_centres"] == "G90.1",
-                    feed_mm_min=float(row["feed_mm_min"]), s=float(row["S"]),
-                    laser={"M5": 0, "M3": 3, "M4": 4}[row["laser"]],
-                    position=(float(row["x"]), float(row["y"]), float(row["z"])), offset=offset,
-                    coord=int(coord[b - 1]), inverse_time=bool(inverse[b - 1]), coolant=coolant[b - 1])
+        return True, bool(safe)
 
     off_word = f"M{d.laser_off_codes[0]}"
     result = SplitResult(source_lines=n)
@@ -366,16 +227,16 @@ def split_program(text, *, max_lines: int | None = None, max_bytes: int | None =
         chosen = None
         fallback = None
         for b in range(min(end_max, n - 1), start, -1):
-            ok, safe, offset = boundary_info(b)
+            ok, safe = boundary_info(b)
             if not ok:
                 continue
             if fallback is None:
-                fallback = (b, offset)
+                fallback = b
             if safe:
-                chosen = (b, offset, True)
+                chosen = (b, True)
                 break
         if chosen is None and fallback is not None:
-            chosen = (*fallback, False)
+            chosen = (fallback, False)
             result.inside_cuts += 1
         if chosen is None:
             need_l = head + pre_lines + 2
@@ -385,9 +246,9 @@ def split_program(text, *, max_lines: int | None = None, max_bytes: int | None =
                 f"{pre_lines} lines / {pre_bytes} bytes, and no line boundary after line {start + 1} can "
                 f"be restated within it; raise the limit (at least {need_l} lines, or "
                 f"{pre_bytes + 60 + int(sizes[start]) + len(off_word) + 1} bytes)")
-        b, offset, safe = chosen
+        b, safe = chosen
         pieces.append((start, b, preamble, safe))
-        preamble = restated_state(state_at(b, offset), d)
+        preamble = restate(ModalState.at(trace, b - 1), d)
         start = b
 
     total = len(pieces)
@@ -449,8 +310,6 @@ def verify_parts(text, parts, *, dialect="grbl", filename=None, moves: Moves | N
     >>> [(p.first_line, p.last_line) for p in res.parts], len(verify_parts(prog, res.parts))
     ([(1, 10), (11, 12)], 11)
     """
-    from labkit.gcode import parse
-
     if moves is None:
         moves = parse(text, dialect=dialect, filename=filename)
     got, records = [], []

@@ -17,24 +17,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from labkit.errors import InputError
+from labkit.gcode.state import ModalState, axis_words, line_states, restate
 
 if TYPE_CHECKING:                        # the runner imports this module; Job is a type here only
     from labkit.machine.stream import Job
 
 __all__ = ["resume_text", "frame_text"]
-
-
-def _modal_at(job: "Job", line: int):
-    """The modal state in effect *before* source line ``line`` (a pandas row, offsets
-    included), and whether the job set a G92 offset or a tool length offset before it."""
-    from labkit.gcode.reader import modal_trace
-
-    text = "\n".join(job.source_lines[: max(0, line - 1)])
-    if line <= 1 or not text:
-        return None, False
-    trace = modal_trace(text, dialect=job.dialect, offsets=True)
-    volatile = bool((trace[["g92_x", "g92_y", "g92_z", "tool_offset"]] != 0).to_numpy().any())
-    return trace.iloc[-1], volatile
 
 
 def resume_text(job: "Job", line: int, position=None) -> list[str]:
@@ -81,41 +69,10 @@ def resume_text(job: "Job", line: int, position=None) -> list[str]:
     """
     if not 1 <= line <= len(job.source_lines):
         raise InputError(f"resume line {line} is outside the file (1–{len(job.source_lines)})")
-    st, volatile = _modal_at(job, line)
-    out = ["M5 S0"]
-    g92 = np.zeros(3)                    # the job's own G92 and G43.1 at the line (restated below)
-    tool = 0.0
-    if st is None:
-        start = np.zeros(3)
-        units, distance, arc, plane, coords = "G21", "G90", "G91.1", "G17", "G54"
-        feed, s, laser = math.nan, 0.0, "M5"
-    else:
-        start = np.array([st["wx"], st["wy"], st["wz"]], float)
-        units, distance, arc, plane, coords = st["units"], st["distance"], st["arc_centres"], st["plane"], st["coords"]
-        feed, s, laser = float(st["feed_mm_min"]), float(st["S"]), st["laser"]
-        if volatile:
-            tool = float(st["tool_offset"])
-            g92 = np.array([st["g92_x"], st["g92_y"], st["g92_z"]], float)
-    out.append(f"G21 G90 {arc} {plane} {coords}")
-    here = np.asarray(position, float) if position is not None else start
-    if volatile:
-        # from the bare origin (G92.1; the tool offset restated), the move, then G92 so that
-        # the point reads `here` again
-        out.append("G92.1")
-        if tool:
-            out.append(f"G43.1 Z{tool:g}")
-        out.append("G0 " + _xyz(here + g92))
-        if np.any(g92 != 0):
-            out.append("G92 " + _xyz(here))
-    else:
-        out.append("G0 " + _xyz(here))
-    words = []
-    if math.isfinite(feed):
-        words.append(f"F{feed:g}")
-    words.append(f"S{s:g}")
-    out.append("G1 " + " ".join(words))
-    if laser != "M5":
-        out.append(laser)
+    trace, _ = line_states("\n".join(job.source_lines[:line]), dialect=job.dialect)
+    before = ModalState.at(trace, line - 2)            # the state the line starts from
+    here = before.work_position if position is None else np.asarray(position, float)
+    finish = []
     if position is not None:
         m = job.moves
         rows = np.flatnonzero(m.line == line)
@@ -126,24 +83,17 @@ def resume_text(job: "Job", line: int, position=None) -> list[str]:
         offset = m.work_offset[r]                    # Moves are machine coordinates
         end = m.end[r] - offset
         # the rest of the line burns with the line's own F, S and M3/M4 (its words may set them)
-        own, _ = _modal_at(job, line + 1)
-        if own["laser"] != laser:
-            out.append(own["laser"])
-        words = (f" F{float(own['feed_mm_min']):g}" if math.isfinite(own["feed_mm_min"]) else "") + \
-            f" S{float(own['S']):g}"
+        own = ModalState.at(trace, line - 1)
+        if own.laser != before.laser:
+            finish.append(f"M{own.laser}")
+        words = (f" F{own.feed_mm_min:g}" if math.isfinite(own.feed_mm_min) else "") + f" S{own.s_word:g}"
+        xyz = axis_words(end, 4)
         if kind in (2, 3):
             c = m.centre[r] - offset - here
-            out.append(f"G{kind} {_xyz(end)} I{c[0]:.4f} J{c[1]:.4f}{words}")
+            finish.append(f"G{kind} {xyz} I{c[0]:.4f} J{c[1]:.4f}{words}")
         else:
-            out.append(f"G{kind} {_xyz(end)}{words}")
-    # back to the file's own units and distance mode for the lines that follow
-    if units != "G21" or distance != "G90":
-        out.append(f"{units} {distance}")
-    return out
-
-
-def _xyz(p) -> str:
-    return " ".join(f"{a}{float(v):.4f}".rstrip("0").rstrip(".") for a, v in zip("XYZ", p))
+            finish.append(f"G{kind} {xyz}{words}")
+    return restate(before, job.dialect, here, origins_kept=True, then=finish)
 
 
 def frame_text(job: "Job", *, power_s: float = 0.0, feed_mm_min: float = 3000.0) -> list[str]:

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from labkit.cli import main
 from labkit.errors import GcodeError, InputError
 from labkit.gcode import parse
-from labkit.toolpath.split import POSITION_ATOL_MM, split_program, verify_parts
+from labkit.gcode.split import POSITION_ATOL_MM, split_program, verify_parts
 
 DATA = Path(__file__).parents[2] / "data" / "gcode" / "cncjs"
 
