@@ -47,7 +47,8 @@ typedef struct {
 static const int16_t g_labkit[] = {0, 10, 20, 30, 40, 50, 170, 180, 190, 200, 210, 400, 490, 540,
                                    610, 900, 910, 901, 911, 940, -1};
 static const int16_t g_grbl[] = {0, 10, 20, 30, 40, 100, 170, 180, 190, 200, 210, 280, 281, 300, 301,
-                                 400, 431, 490, 530, 540, 550, 560, 570, 580, 590, 610, 800, 900,
+                                 382, 383, 384, 385, 400, 431, 490, 530, 540, 550, 560, 570, 580, 590, 610, 800,
+                                 900,
                                  910, 911, 920, 921, 930, 940, -1};
 static const uint8_t cool_labkit[] = {7, 8, 9, 0};
 static const uint8_t cool_grbl[] = {8, 9, 0};
@@ -184,6 +185,128 @@ static int wait_for_slot(void)
   return 1;
 }
 
+/* The commands of one line, as its G and M words set them. */
+typedef struct {
+  uint32_t groups;           /* modal groups seen */
+  int motion_new, dwell, lookahead, stop, coolant;
+  int nonmodal;              /* 10 x G of G10 G28 G28.1 G30 G30.1 G53 G92 G92.1 */
+  int axis_command;          /* GRBL: 1 motion, 2 non-modal (G10 G28 G30 G92), 3 tool length */
+  int tool_new;              /* 0 G49, 1 G43.1 */
+  uint8_t coord_new, inverse_new, plane_new, inches_new, absolute_new, arc_absolute_new, laser_new;
+} commands_t;
+
+static void commands_init(commands_t *c)
+{
+  memset(c, 0, sizeof *c);
+  c->motion_new = -1;
+  c->stop = -1;
+  c->coolant = -1;
+  c->tool_new = -1;
+  c->coord_new = gc.coord_select;
+  c->inverse_new = gc.inverse_time;
+  c->plane_new = gc.plane;
+  c->inches_new = gc.inches;
+  c->absolute_new = gc.absolute;
+  c->arc_absolute_new = gc.arc_absolute;
+  c->laser_new = gc.laser;
+}
+
+/* One G word: its command, its modal group, its conflicts. */
+static uint8_t take_g(commands_t *c, const dialect_t *d, double v)
+{
+  if (v < 0 || v >= 100000.0) return STATUS_UNSUPPORTED_COMMAND;   /* no such G (and no overflow) */
+  int t10 = (int)lrint(v * 10.0);
+  int grp;
+  if (fabs(v * 10.0 - t10) > 1e-6) return STATUS_UNSUPPORTED_COMMAND;
+  if (!in_list16(d->g_codes, t10)) {
+    int base = t10 - t10 % 10;
+    if (t10 % 10 != 0 && in_list16(d->g_codes, base) && !(base == 900 || base == 910 ||
+        base == 280 || base == 300 || base == 920 || base == 610))
+      return STATUS_NON_INTEGER_COMMAND;
+    return STATUS_UNSUPPORTED_COMMAND;
+  }
+  int code = t10 / 10;
+  if (code <= 3 || code == 38 || t10 == 100 || t10 == 280 || t10 == 300 || t10 == 920 ||
+      code == 43 || code == 49) {
+    if (c->axis_command && gc_dialect == GC_DIALECT_GRBL)
+      return STATUS_AXIS_COMMAND_CONFLICT;   /* GRBL: before the modal groups */
+    c->axis_command = (code <= 3 || code == 38) ? 1 : (code == 43 || code == 49) ? 3 : 2;
+  }
+  if (code <= 3 || code == 80) {
+    grp = G_MOTION;
+    c->motion_new = code;
+  } else if (code == 38) {
+    grp = G_MOTION;
+    c->motion_new = GC_MOTION_PROBE + t10 % 10;   /* G38.2 .. G38.5 */
+  } else if (code == 4) {
+    grp = G_NONMODAL;
+    c->dwell = 1;
+  } else if (code == 5) {
+    grp = G_NONMODAL;
+    c->lookahead = 1;
+  } else if (code >= 17 && code <= 19) {
+    grp = G_PLANE;
+    c->plane_new = (uint8_t)(code - 17);
+  } else if (code == 20 || code == 21) {
+    grp = G_UNITS;
+    c->inches_new = code == 20;
+  } else if (t10 == 900 || t10 == 910) {
+    grp = G_DISTANCE;
+    c->absolute_new = code == 90;
+  } else if (t10 == 901 || t10 == 911) {
+    grp = G_ARCDIST;
+    c->arc_absolute_new = t10 == 901;
+  } else if (code == 10 || code == 28 || code == 30 || code == 53 || code == 92) {
+    grp = G_NONMODAL;
+    c->nonmodal = t10;
+  } else if (code == 93 || code == 94) {
+    grp = G_FEEDMODE;
+    c->inverse_new = code == 93;
+  } else if (code == 40) {
+    grp = G_CUTTER;
+  } else if (code == 49 || code == 43) {
+    grp = G_TOOLLEN;
+    c->tool_new = code == 43;
+  } else if (code >= 54 && code <= 59) {
+    grp = G_COORD;
+    c->coord_new = (uint8_t)(code - 54);
+  } else if (code == 61) {
+    grp = G_PATH;
+  } else {
+    return STATUS_UNSUPPORTED_COMMAND;
+  }
+  if (c->groups & (1u << grp)) return STATUS_MODAL_GROUP_VIOLATION;
+  c->groups |= 1u << grp;
+  return STATUS_OK;
+}
+
+/* One M word. */
+static uint8_t take_m(commands_t *c, const dialect_t *d, double v)
+{
+  if (v < 0 || fabs(v - nearbyint(v)) > 1e-9) return STATUS_NON_INTEGER_COMMAND;
+  if (v >= 100000.0) return STATUS_UNSUPPORTED_COMMAND;   /* no such M (and no overflow) */
+  long code = lrint(v);
+  int grp;
+  if (code == 0 || code == 1 || code == 2 || code == 30) {
+    grp = M_STOP;
+    c->stop = (int)code;
+  } else if (code == 3 || code == 4) {
+    grp = M_LASER;
+    c->laser_new = (uint8_t)code;
+  } else if (code == 5) {
+    grp = M_LASER;
+    c->laser_new = 0;
+  } else if (code < 256 && strchr((const char *)d->coolant, (int)code) && code != 0) {
+    grp = M_COOLANT;
+    c->coolant = (int)code;
+  } else {
+    return STATUS_UNSUPPORTED_COMMAND;
+  }
+  if (c->groups & (1u << grp)) return STATUS_MODAL_GROUP_VIOLATION;
+  c->groups |= 1u << grp;
+  return STATUS_OK;
+}
+
 uint8_t gc_execute_line(char *line)
 {
   const dialect_t *d = &dialects[gc_dialect];
@@ -192,6 +315,9 @@ uint8_t gc_execute_line(char *line)
   double g_val[MAX_COMMANDS], m_val[MAX_COMMANDS];
   int ng = 0, nm = 0, checksum_seen = 0, first = 1;
   int i = 0;
+  uint8_t grbl = gc_dialect == GC_DIALECT_GRBL;
+  commands_t cmd;
+  commands_init(&cmd);
 
   /* ---- phase 1: scan ---- */
   while (line[i] != 0 && line[i] != '\n') {
@@ -208,6 +334,7 @@ uint8_t gc_execute_line(char *line)
       continue;
     }
     if (c == ';') break;
+    if (c == '*' && grbl) return STATUS_EXPECTED_LETTER;   /* GRBL has no checksums */
     if (c == '*') {
       uint8_t x = 0;
       for (int k = 0; k < i; k++) x ^= (uint8_t)line[k];
@@ -244,7 +371,11 @@ uint8_t gc_execute_line(char *line)
     int rc = read_number(line, &i, &v);
     /* GRBL reads the number and then finds no letter where the next word should start: 1 */
     if (rc != 0 && !(rc == 2 && gc_dialect == GC_DIALECT_GRBL)) return STATUS_BAD_NUMBER;
-    if (letter == L_G) {
+    if (grbl && (letter == L_G || letter == L_M)) {
+      /* GRBL checks each command word as it reads it: an unknown M fails before a bad word after it */
+      uint8_t st = letter == L_G ? take_g(&cmd, d, v) : take_m(&cmd, d, v);
+      if (st != STATUS_OK) return st;
+    } else if (letter == L_G) {
       if (ng == MAX_COMMANDS) return STATUS_MODAL_GROUP_VIOLATION;
       g_val[ng++] = v;
     } else if (letter == L_M) {
@@ -252,108 +383,34 @@ uint8_t gc_execute_line(char *line)
       m_val[nm++] = v;
     } else {
       if (!strchr(d->letters, u)) return STATUS_UNSUPPORTED_COMMAND;
+      if (grbl && letter == L_T && v > d->max_tool) return STATUS_MAX_VALUE_EXCEEDED;
       if (present[letter]) return STATUS_REPEATED_WORD;
+      /* GRBL: F N P T S are never negative, checked as the word is read */
+      if (grbl && v < 0 && (letter == L_F || letter == L_N || letter == L_P || letter == L_T ||
+                            letter == L_S))
+        return STATUS_NEGATIVE_VALUE;
       present[letter] = 1;
       val[letter] = v;
     }
   }
 
   /* ---- phase 2: check and compute ---- */
-  uint32_t groups = 0;
-  int motion_new = -1, dwell = 0, lookahead = 0, stop = -1, coolant = -1;
-  int nonmodal = 0;          /* 10 x G of G10 G28 G28.1 G30 G30.1 G53 G92 G92.1 */
-  int axis_command = 0;      /* GRBL: 1 motion, 2 non-modal (G10 G28 G30 G92), 3 tool length */
-  int tool_new = -1;         /* 0 G49, 1 G43.1 */
-  uint8_t coord_new = gc.coord_select, inverse_new = gc.inverse_time;
-  uint8_t plane_new = gc.plane, inches_new = gc.inches, absolute_new = gc.absolute;
-  uint8_t arc_absolute_new = gc.arc_absolute, laser_new = gc.laser;
-  for (int k = 0; k < ng; k++) {
-    double v = g_val[k];
-    if (v < 0 || v >= 100000.0) return STATUS_UNSUPPORTED_COMMAND;   /* no such G (and no overflow) */
-    int t10 = (int)lrint(v * 10.0);
-    int grp;
-    if (fabs(v * 10.0 - t10) > 1e-6) return STATUS_UNSUPPORTED_COMMAND;
-    if (!in_list16(d->g_codes, t10)) {
-      int base = t10 - t10 % 10;
-      if (t10 % 10 != 0 && in_list16(d->g_codes, base) && !(base == 900 || base == 910 ||
-          base == 280 || base == 300 || base == 920 || base == 610))
-        return STATUS_NON_INTEGER_COMMAND;
-      return STATUS_UNSUPPORTED_COMMAND;
+  if (gc_dialect != GC_DIALECT_GRBL) {      /* GRBL's were taken word by word */
+    for (int k = 0; k < ng; k++) {
+      uint8_t st = take_g(&cmd, d, g_val[k]);
+      if (st != STATUS_OK) return st;
     }
-    int code = t10 / 10;
-    if (code <= 3 || t10 == 100 || t10 == 280 || t10 == 300 || t10 == 920 || code == 43 ||
-        code == 49) {
-      if (axis_command && gc_dialect == GC_DIALECT_GRBL)
-        return STATUS_AXIS_COMMAND_CONFLICT;   /* GRBL: before the modal groups */
-      axis_command = code <= 3 ? 1 : (code == 43 || code == 49) ? 3 : 2;
+    for (int k = 0; k < nm; k++) {
+      uint8_t st = take_m(&cmd, d, m_val[k]);
+      if (st != STATUS_OK) return st;
     }
-    if (code <= 3 || code == 80) {
-      grp = G_MOTION;
-      motion_new = code;
-    } else if (code == 4) {
-      grp = G_NONMODAL;
-      dwell = 1;
-    } else if (code == 5) {
-      grp = G_NONMODAL;
-      lookahead = 1;
-    } else if (code >= 17 && code <= 19) {
-      grp = G_PLANE;
-      plane_new = (uint8_t)(code - 17);
-    } else if (code == 20 || code == 21) {
-      grp = G_UNITS;
-      inches_new = code == 20;
-    } else if (t10 == 900 || t10 == 910) {
-      grp = G_DISTANCE;
-      absolute_new = code == 90;
-    } else if (t10 == 901 || t10 == 911) {
-      grp = G_ARCDIST;
-      arc_absolute_new = t10 == 901;
-    } else if (code == 10 || code == 28 || code == 30 || code == 53 || code == 92) {
-      grp = G_NONMODAL;
-      nonmodal = t10;
-    } else if (code == 93 || code == 94) {
-      grp = G_FEEDMODE;
-      inverse_new = code == 93;
-    } else if (code == 40) {
-      grp = G_CUTTER;
-    } else if (code == 49 || code == 43) {
-      grp = G_TOOLLEN;
-      tool_new = code == 43;
-    } else if (code >= 54 && code <= 59) {
-      grp = G_COORD;
-      coord_new = (uint8_t)(code - 54);
-    } else if (code == 61) {
-      grp = G_PATH;
-    } else {
-      return STATUS_UNSUPPORTED_COMMAND;
-    }
-    if (groups & (1u << grp)) return STATUS_MODAL_GROUP_VIOLATION;
-    groups |= 1u << grp;
   }
-  for (int k = 0; k < nm; k++) {
-    double v = m_val[k];
-    if (v < 0 || fabs(v - nearbyint(v)) > 1e-9) return STATUS_NON_INTEGER_COMMAND;
-    if (v >= 100000.0) return STATUS_UNSUPPORTED_COMMAND;   /* no such M (and no overflow) */
-    long code = lrint(v);
-    int grp;
-    if (code == 0 || code == 1 || code == 2 || code == 30) {
-      grp = M_STOP;
-      stop = (int)code;
-    } else if (code == 3 || code == 4) {
-      grp = M_LASER;
-      laser_new = (uint8_t)code;
-    } else if (code == 5) {
-      grp = M_LASER;
-      laser_new = 0;
-    } else if (code < 256 && strchr((const char *)d->coolant, (int)code) && code != 0) {
-      grp = M_COOLANT;
-      coolant = (int)code;
-    } else {
-      return STATUS_UNSUPPORTED_COMMAND;
-    }
-    if (groups & (1u << grp)) return STATUS_MODAL_GROUP_VIOLATION;
-    groups |= 1u << grp;
-  }
+  int motion_new = cmd.motion_new, dwell = cmd.dwell, lookahead = cmd.lookahead, stop = cmd.stop;
+  int coolant = cmd.coolant, nonmodal = cmd.nonmodal, axis_command = cmd.axis_command;
+  int tool_new = cmd.tool_new;
+  uint8_t coord_new = cmd.coord_new, inverse_new = cmd.inverse_new, plane_new = cmd.plane_new;
+  uint8_t inches_new = cmd.inches_new, absolute_new = cmd.absolute_new;
+  uint8_t arc_absolute_new = cmd.arc_absolute_new, laser_new = cmd.laser_new;
 
   double scale = inches_new ? 25.4 : 1.0;
   double feed_new = gc.feed_mm_min;
@@ -361,10 +418,13 @@ uint8_t gc_execute_line(char *line)
   double dwell_s = 0.0, lookahead_p = 0.0;
   int axis_words = present[L_X] || present[L_Y] || present[L_Z];
   int motion_mode = motion_new >= 0 ? motion_new : gc.motion;
-  int moving = 0, move_kind = PLAN_MOVE_RAPID;
+  int moving = 0, move_kind = PLAN_MOVE_RAPID, arc_taken = 0;
   double target[3], ctr[3] = {0, 0, 0};
 
-  if (present[L_N]) {
+  if (present[L_N] && grbl) {
+    val[L_N] = trunc(val[L_N]);        /* GRBL: N1.5 is N1; at most 10,000,000 */
+    if (val[L_N] > GC_GRBL_MAX_LINE_NUMBER) return STATUS_BAD_LINE_NUMBER;
+  } else if (present[L_N]) {
     double nv = val[L_N];
     if (nv < 0 || nv > GC_MAX_LINE_NUMBER || nv != floor(nv)) return STATUS_BAD_LINE_NUMBER;
   }
@@ -477,6 +537,14 @@ uint8_t gc_execute_line(char *line)
         moving = 1;
         move_kind = motion_mode == 0 ? PLAN_MOVE_RAPID : PLAN_MOVE_LINE;
       }
+    } else if (motion_mode >= GC_MOTION_PROBE) {
+      /* G38.2-.5 (GRBL): a straight move at F, beam off, that the probe input may end */
+      if (!feed_ok || (inverse_new && !present[L_F])) return STATUS_UNDEFINED_FEED;
+      if (!axis_words) return STATUS_MISSING_AXIS_WORDS;
+      if (target[0] == gc.pos_mm[0] && target[1] == gc.pos_mm[1] && target[2] == gc.pos_mm[2])
+        return STATUS_INVALID_ARC;     /* GRBL's invalid target (33): the probe is already there */
+      moving = 1;
+      move_kind = PLAN_MOVE_LINE;
     } else {
       int a0 = plane_axes[plane_new][0], a1 = plane_axes[plane_new][1];
       int lin = plane_axes[plane_new][2];
@@ -505,6 +573,7 @@ uint8_t gc_execute_line(char *line)
         ctr[a1] = 0.5 * (pos[a1] + target[a1]) + sgn * h * dx / q;
         ctr[lin] = pos[lin];
         moving = 1;
+        arc_taken = 1;
       } else {
         int io0 = L_I + a0, io1 = L_I + a1;
         if (!(present[io0] || present[io1])) return STATUS_MISSING_OFFSET_WORDS;
@@ -523,11 +592,21 @@ uint8_t gc_execute_line(char *line)
         double r0 = hypot(pos[a0] - ctr[a0], pos[a1] - ctr[a1]);
         double r1 = hypot(target[a0] - ctr[a0], target[a1] - ctr[a1]);
         double dr = fabs(r1 - r0);
-        if (r0 <= 1e-9) return STATUS_INVALID_ARC;
-        if (dr > 0.005 && dr > 0.001 * r0) return STATUS_INVALID_ARC;
-        moving = 1;
+        arc_taken = 1;
+        if (r0 <= 1e-9 && grbl) {
+          /* GRBL 1.1h: a centre on the start point is a circle of radius 0, accepted when the end
+             is within 0.005 mm of it; it moves (at most) straight to the end */
+          if (dr > 0.005) return STATUS_INVALID_ARC;
+          moving = target[0] != pos[0] || target[1] != pos[1] || target[2] != pos[2];
+          move_kind = PLAN_MOVE_LINE;
+        } else {
+          if (r0 <= 1e-9) return STATUS_INVALID_ARC;
+          if (dr > 0.005 && dr > 0.001 * r0) return STATUS_INVALID_ARC;
+          moving = 1;
+        }
       }
-      move_kind = motion_mode == 2 ? PLAN_MOVE_ARC_CW : PLAN_MOVE_ARC_CCW;
+      if (move_kind != PLAN_MOVE_LINE)
+        move_kind = motion_mode == 2 ? PLAN_MOVE_ARC_CW : PLAN_MOVE_ARC_CCW;
     }
   }
   if (moving) {
@@ -536,8 +615,8 @@ uint8_t gc_execute_line(char *line)
         return STATUS_VALUE_OUT_OF_RANGE;
   }
   {
-    int arc_r = moving && move_kind >= PLAN_MOVE_ARC_CW && present[L_R];
-    int arc_ijk = moving && move_kind >= PLAN_MOVE_ARC_CW && !present[L_R];
+    int arc_r = arc_taken && present[L_R];
+    int arc_ijk = arc_taken && !present[L_R];
     static const uint8_t checked[] = {L_I, L_J, L_K, L_R, L_P, L_L};
     for (unsigned k = 0; k < sizeof checked; k++) {
       int letter = checked[k], used;
@@ -557,7 +636,8 @@ uint8_t gc_execute_line(char *line)
   /* the block of the move: the machine may still refuse it (an arc it cannot walk) */
   if (moving) {
     plan_move_t mv;
-    int burning = move_kind != PLAN_MOVE_RAPID && laser_new != 0 && power_new > 0;
+    int burning = move_kind != PLAN_MOVE_RAPID && laser_new != 0 && power_new > 0 &&
+                  motion_mode < GC_MOTION_PROBE;   /* a probe never fires the beam */
     mv.kind = (uint8_t)move_kind;
     mv.plane = plane_new;
     mv.laser = burning ? laser_new : 0;
@@ -596,8 +676,9 @@ uint8_t gc_execute_line(char *line)
 
   /* ---- phase 3: commit ---- */
   gc.stop_now = 0;
+  gc.probe_now = moving && motion_mode >= GC_MOTION_PROBE ? (uint8_t)(motion_mode - GC_MOTION_PROBE) : 0;
   gc.sync_now = gc_dialect == GC_DIALECT_GRBL &&
-                (dwell || stop == 2 || stop == 30 || nonmodal == 100 || nonmodal == 281 ||
+                (dwell || gc.probe_now || stop == 2 || stop == 30 || nonmodal == 100 || nonmodal == 281 ||
                  nonmodal == 301 || nonmodal == 920 || nonmodal == 921 || tool_new >= 0 ||
                  coord_new != gc.coord_select);
   gc_line_count++;

@@ -19,7 +19,9 @@
   F S P I J K R N X Y Z (T L). In the grbl dialect also GRBL's offsets and
   homes, as GRBL 1.1h runs them: G10 L2/L20, G28 G30 (.1), G53, G54-G59,
   G92 (.1), G43.1 G49, G93 (offsets of G54-G59, G28 and G30 are kept in the
-  settings storage like GRBL's EEPROM). Probing (G38.x) is error 20.
+  settings storage like GRBL's EEPROM), and probing G38.2-G38.5 (the move;
+  protocol.c watches the probe input and reports). GRBL checks each G and M
+  word as it reads it, and its F N P S T words for sign as they come.
 */
 #ifndef LK_GCODE_H
 #define LK_GCODE_H
@@ -35,8 +37,13 @@
 #define GC_FLOW_OPTIONAL_PAUSE 2   /* M1 */
 #define GC_FLOW_END            3   /* M2 / M30 */
 
+/* G38.2 .. G38.5 (grbl dialect) are the motion modes GC_MOTION_PROBE + 2 .. + 5. */
+#define GC_MOTION_PROBE 100
+/* GRBL 1.1h's largest N (a fraction is cut off first). */
+#define GC_GRBL_MAX_LINE_NUMBER 10000000.0
+
 typedef struct {
-  uint8_t motion;        /* 0 1 2 3, or 80 (G80) */
+  uint8_t motion;        /* 0 1 2 3, 80 (G80), GC_MOTION_PROBE + 2..5 (G38.2..5) */
   uint8_t plane;         /* 0 G17 (XY), 1 G18 (ZX), 2 G19 (YZ) */
   uint8_t inches;        /* G20 */
   uint8_t absolute;      /* G90 */
@@ -53,6 +60,7 @@ typedef struct {
   uint8_t coord_select;  /* 0..5: G54..G59 */
   uint8_t inverse_time;  /* G93 */
   uint8_t stop_now;      /* GC_FLOW_* of an M0 M1 M2 M30 in the line just run, else 0 */
+  uint8_t probe_now;     /* 2..5: the line just run is a G38.x probe move, else 0 */
   uint8_t sync_now;      /* the line just run waits for the moves before it (GRBL: G4, M2,
                             M30, offsets and stored positions) */
   double coord[3];       /* offset of the selected system (stored, settings.coord) */

@@ -67,6 +67,13 @@ void hal_laser_gate(uint32_t pwm_hz, uint16_t on_permille);
 /* Air assist (M7 / M8 on, M9 off). bit 0 = mist (M7), bit 1 = flood (M8). (main) */
 void hal_air_set(uint8_t bits);
 
+/* Inputs, read as the switch's state with GRBL's wiring (a normally open
+   switch to ground, pull-up on: a low pin is a pressed switch); the core
+   applies $5 / $6. (main) limits.c gives defaults for a hal without them:
+   nothing pressed. */
+uint8_t hal_limits_read(void);   /* bit i: limit switch of axis i pressed */
+uint8_t hal_probe_read(void);    /* 1: the probe touches */
+
 /* Keep the step interrupt out while the main loop changes data it shares with
    it (st_reset, feed hold). Must nest at least one level. */
 void hal_irq_disable(void);

@@ -11,6 +11,7 @@
 #include "gcode.h"
 #include "hal.h"
 #include "laser.h"
+#include "limits.h"
 #include "menu.h"
 #include "planner.h"
 #include "report.h"
@@ -49,6 +50,18 @@ static uint8_t program_pause;
 static uint8_t sync_ok;
 
 uint8_t protocol_program_paused(void) { return program_pause; }
+
+/* A G38.x probe move (grbl dialect): 2..5 while it runs (its ok waits with
+   sync_ok), and whether and where the probe switched. The input is read on
+   every pass of the main loop (not in the step interrupt): the head stops
+   within one pass of the touch, and the position reported is where it was
+   when the touch was seen. */
+static uint8_t probe_cycle;
+static uint8_t probe_hit;
+static double probe_hit_mm[3];
+
+/* G38.4 / G38.5 move until the probe stops touching. */
+static uint8_t probe_reached(uint8_t kind) { return limits_probe_touching() != (kind >= 4); }
 
 /* GRBL's critical event (a soft limit, grbl dialect): after "ALARM:2" and
    "[MSG:Reset to continue]" nothing is read or reported until a reset, and
@@ -135,7 +148,7 @@ int line_asm_push(line_asm_t *a, uint8_t c) {
     a->xor_raw ^= c;
     return -1;
   }
-  if (c == '*' && !a->sys) {
+  if (c == '*' && !a->sys && !a->grbl) {   /* GRBL has no checksums: '*' is a character */
     a->star = 1;
     return -1;
   }
@@ -150,6 +163,8 @@ int line_asm_push(line_asm_t *a, uint8_t c) {
   }
   if (c == ' ' || c == '\t')
     return -1;
+  if (c == '/' && a->grbl)
+    return -1;             /* GRBL ignores the block-delete character wherever it is */
   if (c == ')' || c < 0x20 || c > 0x7E) {
     a->bad = 1;
     return -1;
@@ -208,10 +223,15 @@ void protocol_estop(void) {
   protocol_events |= EV_SYSTEM;
 }
 
+/* The soft-limit envelope in machine coordinates: GRBL's machine space is
+   -$13x .. 0 (homing sets 0 at the switch end, whichever side $23 homes to);
+   labkit-fw's is 0 .. travel. */
 static uint8_t outside_envelope(const double mm[3]) {
   const lk_machine_t *m = plan_machine();
+  uint8_t grbl = settings.dialect == GC_DIALECT_GRBL;
   for (int i = 0; i < 3; i++) {
-    if (mm[i] < -1e-6 || mm[i] > m->travel_mm[i] + 1e-6)
+    double lo = grbl ? -m->travel_mm[i] : 0.0, hi = grbl ? 0.0 : m->travel_mm[i];
+    if (mm[i] < lo - 1e-6 || mm[i] > hi + 1e-6)
       return 1;
   }
   return 0;
@@ -241,6 +261,7 @@ static void soft_reset(void) {
   if (program_pause || critical || sync_ok)
     report_status_message(STATUS_OK);
   sync_ok = 0;   /* GRBL: the line held (M0, a soft limit) is answered now */
+  probe_cycle = 0;
   critical = 0;
   stop_all();
   serial_rx_flush();
@@ -250,6 +271,8 @@ static void soft_reset(void) {
   serial_overrides_t dropped;
   serial_take_overrides(&dropped);
   plan_set_overrides(100, 100);   /* GRBL: a reset restores every override */
+  double origin[3] = {0.0, 0.0, 0.0};
+  limits_set_probe_result(origin, 0);   /* GRBL: a reset clears the probe position */
   laser_set_override(100);
   gc_init();
   (void)settings_apply();
@@ -279,6 +302,7 @@ uint8_t protocol_jog(const char *words);
 static uint8_t jog(const char *p) {
   const gc_state_t *g = gc_state();
   uint8_t inches = g->inches, absolute = g->absolute, have_f = 0, have_axis = 0, machine = 0;
+  uint8_t invalid = 0;          /* a word a jog cannot take: GRBL says so after the F check */
   double target[3], f = 0, v;
   uint8_t seen[3] = {0, 0, 0};
   for (int i = 0; i < 3; i++)
@@ -296,7 +320,7 @@ static uint8_t jog(const char *p) {
       else if (v == 90) absolute = 1;
       else if (v == 91) absolute = 0;
       else if (v == 53) machine = 1;
-      else return STATUS_INVALID_JOG;
+      else invalid = 1;
     } else if (letter == 'F') {
       if (have_f) return STATUS_REPEATED_WORD;
       if (v <= 0) return STATUS_NEGATIVE_VALUE;
@@ -309,11 +333,13 @@ static uint8_t jog(const char *p) {
       word[ax] = v;
       have_axis = 1;
     } else {
-      return STATUS_INVALID_JOG;
+      invalid = 1;
     }
   }
   if (!have_f)
     return STATUS_UNDEFINED_FEED;
+  if (invalid)
+    return STATUS_INVALID_JOG;
   if (!have_axis)
     return STATUS_MISSING_AXIS_WORDS;
   double unit = inches ? 25.4 : 1.0, wco[3];
@@ -323,7 +349,7 @@ static uint8_t jog(const char *p) {
       target[i] = machine ? word[i] * unit
                   : absolute ? word[i] * unit + wco[i] : target[i] + word[i] * unit;
   if (settings.soft_limits && outside_envelope(target))
-    return STATUS_OUT_OF_BOUNDS;
+    return settings.dialect == GC_DIALECT_GRBL ? STATUS_TRAVEL_EXCEEDED : STATUS_OUT_OF_BOUNDS;
   double feed_mm_min = f * unit * (gc_get_dialect() == GC_DIALECT_LABKIT ? 60.0 : 1.0);
   plan_move_t mv;
   plan_block_t b;
@@ -388,6 +414,11 @@ static uint8_t store_startup_line(const char *p) {
   uint32_t n = (uint32_t)trunc(index);
   if (n < SET_N_STARTUP) {            /* GRBL accepts (and loses) a higher index */
     strcpy(settings.startup[n], text);
+    settings_store();
+  } else if (n == SET_N_STARTUP && settings.dialect == GC_DIALECT_GRBL) {
+    /* GRBL 1.1h writes a third start-up line over its $I= text, which then fails its
+       checksum and reads empty (tests/vectors/grbl/dollar_commands.json, $N2= then $I) */
+    settings.build_info[0] = 0;
     settings_store();
   }
   return STATUS_OK;
@@ -502,10 +533,55 @@ static uint8_t system_command(char *line) {
   }
 }
 
+static void machine_position_mm(double mm[3]) {
+  int32_t steps[3];
+  st_get_position(steps);
+  for (int a = 0; a < 3; a++)
+    mm[a] = (double)steps[a] / plan_machine()->steps_per_mm[a];
+}
+
+/* GRBL's probe cycle: a probe already where the move should take it is
+   ALARM:4 and nothing moves; else the move runs and its ok waits for the end
+   (finish_probe). The machine was idle before the line (needs_idle). */
+static void start_probe(uint8_t kind) {
+  if (probe_reached(kind)) {
+    stop_all();                   /* the queued probe move never runs */
+    state = PROTO_ALARM;
+    report_alarm(ALARM_PROBE_FAIL_INITIAL);
+    report_status_message(STATUS_OK);
+    return;
+  }
+  probe_cycle = kind;
+  probe_hit = 0;
+  plan_flush();
+  sync_ok = 1;
+}
+
+/* The probe move has ended (touched and stopped, or run out): GRBL's alarm
+   for G38.2 / G38.4 without a touch, then [PRB:...]; the ok follows. */
+static void finish_probe(void) {
+  double mm[3];
+  uint8_t touched;
+  if (probe_hit) {
+    limits_set_probe_result(probe_hit_mm, 1);
+  } else if (probe_cycle == 3 || probe_cycle == 5) {
+    machine_position_mm(mm);
+    limits_set_probe_result(mm, 0);
+  } else {
+    limits_probe_result(mm, &touched);
+    limits_set_probe_result(mm, 0);   /* the position of the last touch stays */
+    state = PROTO_ALARM;
+    report_alarm(ALARM_PROBE_FAIL_CONTACT);
+  }
+  probe_cycle = 0;                /* the parser's position: where the head stopped after a touch
+                                     (stop_all), else the move's target, as GRBL keeps it */
+  report_probe();
+}
+
 /* Does the line need an idle machine (empty planner, stopped stepper)? */
 static uint8_t needs_idle(const char *line) {
-  if (line[0] != '$')
-    return state == PROTO_JOG;   /* G-code waits for a jog to end */
+  if (line[0] != '$')            /* G-code waits for a jog to end; GRBL probes from rest */
+    return state == PROTO_JOG || (settings.dialect == GC_DIALECT_GRBL && strstr(line, "G38"));
   if (settings.dialect == GC_DIALECT_GRBL)
     return 0;                     /* GRBL answers at once: error:8 when not idle */
   const char *p = line + 1;
@@ -542,6 +618,10 @@ void protocol_execute_line(char *line) {
         if (settings.dialect != GC_DIALECT_GRBL)
           report_status_message(STATUS_OUT_OF_BOUNDS);
         soft_limit_alarm();
+        return;
+      }
+      if (g->probe_now && settings.dialect == GC_DIALECT_GRBL) {
+        start_probe(g->probe_now);
         return;
       }
       if (g->stop_now == GC_FLOW_END) {
@@ -612,8 +692,15 @@ static void system_task(void) {
       hold_req = 1;              /* GRBL holds at rest too: Hold:0 until '~' */
     }
   }
+  if (probe_cycle && !probe_hit && probe_reached(probe_cycle)) {
+    machine_position_mm(probe_hit_mm);
+    probe_hit = 1;
+    stop_all();                   /* the rest of the probe move is dropped */
+  }
   if (sync_ok && st_is_idle() && plan_is_empty() && !hold_req) {
     sync_ok = 0;
+    if (probe_cycle)
+      finish_probe();
     report_status_message(STATUS_OK);
   }
   if ((f & RT_RESUME) && program_pause && st_is_idle() && plan_is_empty()) {
@@ -642,7 +729,10 @@ static void system_task(void) {
     gc_sync_position();
     state = PROTO_IDLE;
   }
-  if (state != PROTO_ALARM && settings.soft_limits && !st_is_idle()) {
+  /* labkit-fw also watches the head while it moves; GRBL checks each line's target only
+     (a move from outside the envelope back into it runs) */
+  if (state != PROTO_ALARM && settings.soft_limits && !st_is_idle() &&
+      settings.dialect != GC_DIALECT_GRBL) {
     float mm[3];
     double d[3];
     st_get_position_mm(mm);
@@ -718,6 +808,7 @@ void protocol_init(void) {
   program_pause = 0;
   sync_ok = 0;
   critical = 0;
+  probe_cycle = 0;
   flushed = 1;
   last_rx_ms = hal_millis();
   empty_slots = plan_free_slots();

@@ -8,6 +8,7 @@
 #include "config.h"
 #include "gcode.h"
 #include "laser.h"
+#include "limits.h"
 #include "planner.h"
 #include "protocol.h"
 #include "serial.h"
@@ -285,7 +286,12 @@ void report_help(void) {
 void report_gcode_modes(void) {
   const gc_state_t *g = gc_state();
   serial_write("[GC:G");
-  report_uint(g->motion);
+  if (g->motion >= GC_MOTION_PROBE) {
+    serial_write("38.");
+    report_uint(g->motion - GC_MOTION_PROBE);
+  } else {
+    report_uint(g->motion);
+  }
   serial_write(" G");
   report_uint(54u + g->coord_select);
   serial_write(" G");
@@ -327,8 +333,15 @@ void report_offsets(void) {
     report_float(tlo[0] / 25.4, 4);
   else
     report_float(tlo[0], 3);
-  serial_write("]\r\n[PRB:");
-  tlo[0] = 0.0;
-  report_coords(tlo);
-  serial_write(":0]\r\n");
+  serial_write("]\r\n");
+  report_probe();
+}
+
+void report_probe(void) {
+  double mm[3];
+  uint8_t touched;
+  limits_probe_result(mm, &touched);
+  serial_write("[PRB:");
+  report_coords(mm);
+  serial_write(touched ? ":1]\r\n" : ":0]\r\n");
 }

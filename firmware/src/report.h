@@ -24,6 +24,11 @@
 #define ALARM_HARD_LIMIT  1
 #define ALARM_SOFT_LIMIT  2   /* a move would leave / left the machine envelope */
 #define ALARM_ABORT_CYCLE 3   /* reset or emergency stop while moving */
+#define ALARM_PROBE_FAIL_INITIAL 4   /* G38.x: the probe was already where the cycle should take it */
+#define ALARM_PROBE_FAIL_CONTACT 5   /* G38.2 / G38.4: the move ended and the probe never switched */
+#define ALARM_HOMING_FAIL_RESET   6  /* a reset during the homing cycle */
+#define ALARM_HOMING_FAIL_PULLOFF 8  /* the pull-off did not clear the switch */
+#define ALARM_HOMING_FAIL_APPROACH 9 /* no switch within the search distance */
 
 /* GRBL's error 9 (G-code locked out during an alarm) is not a status of the
    shared table (labkit/status_codes.csv): the table lists what a line can
@@ -46,6 +51,7 @@ void report_build_info(void);                 /* $I */
 void report_help(void);                       /* $ */
 void report_gcode_modes(void);                /* $G */
 void report_offsets(void);                    /* $# */
+void report_probe(void);                      /* [PRB:x,y,z:touched] of the last probe cycle */
 
 /* Formatting helpers (no printf: keeps the ARM image small). */
 void report_uint(uint32_t v);

@@ -83,10 +83,9 @@ uint8_t settings_apply(void) {
   lk_machine_t old = *m;
   *m = settings.machine;
   uint8_t st = plan_apply_machine();
-  if (st != STATUS_OK) {
+  if (st != STATUS_OK) {         /* the core keeps the machine it had; the rest still applies */
     *m = old;
     (void)plan_apply_machine();
-    return st;
   }
   plan_set_mode(settings_plan_mode());
   plan_set_law(settings.law);
@@ -94,7 +93,7 @@ uint8_t settings_apply(void) {
   gc_set_dialect(settings.dialect);
   if (settings.dialect == GC_DIALECT_GRBL)
     gc_set_s_max(settings.s_max);
-  return STATUS_OK;
+  return st;
 }
 
 uint8_t settings_read_number(const char *s, double *out) {
@@ -281,18 +280,23 @@ uint8_t settings_store_setting(const char *line) {
     if (v < d->lo || v > d->hi)
       return STATUS_MAX_VALUE_EXCEEDED;
   }
-  if (d->kind == K_DOUBLE && (v < d->lo || v > d->hi))
+  uint8_t grbl_number = settings.dialect == GC_DIALECT_GRBL && d->num < FIRST_LABKIT;
+  if (d->kind == K_DOUBLE && !grbl_number && (v < d->lo || v > d->hi))
     return STATUS_MAX_VALUE_EXCEEDED;  /* a value the machine cannot run with (labkit) */
   settings_t old = settings;
   set_value(&settings, d, v);
   if (d->num == 22 && v == 0.0)
     settings.soft_limits = 0;        /* GRBL: no homing, no soft limits */
   if (machine_check(&settings.machine) != 0) {
-    settings = old;
-    return STATUS_MAX_VALUE_EXCEEDED;
+    if (!grbl_number) {
+      settings = old;
+      return STATUS_MAX_VALUE_EXCEEDED;
+    }
+    /* GRBL keeps any value of its own settings it can store ($100=0, $12=0); the core cannot
+       run on such a machine and keeps the last one it could (settings_apply) */
   }
   uint8_t st = settings_apply();
-  if (st != STATUS_OK) {
+  if (st != STATUS_OK && !grbl_number) {
     settings = old;
     (void)settings_apply();
     return st;

@@ -92,7 +92,11 @@ uint32_t settings_checksum(const settings_t *s);   /* Fletcher-32 over the bytes
 uint8_t settings_init(void);
 void settings_store(void);
 /* Push settings into the core (machine, planner mode, law, depth, dialect,
-   S max). Returns STATUS_OK or the core's status; only while idle. */
+   S max). Returns STATUS_OK or the core's status when it refuses the machine
+   (it then keeps the machine it had, and the rest is applied); only while
+   idle. In the grbl dialect $N= stores any value GRBL stores ($100=0, $12=0)
+   even when the core cannot run on it: $$ shows it, the core keeps running
+   on the last machine it could use. */
 uint8_t settings_apply(void);
 /* The planner mode the settings ask for (PLAN_MODE_*). */
 uint8_t settings_plan_mode(void);

@@ -160,7 +160,7 @@ static const gc_case_t cases[] = {
   {GC_DIALECT_GRBL, "", "G92 X1", 0, 0},
   {GC_DIALECT_GRBL, "", "G10 L2 P1 X1", 0, 0},
   {GC_DIALECT_GRBL, "", "G28", 0, 0},
-  {GC_DIALECT_GRBL, "", "G38.2 X1 F100", 20, 0}, /* not run by the firmware (GRBL offsets/probing/system lines) */
+  {GC_DIALECT_GRBL, "", "G38.2 X1 F100", 0, 0},
   {GC_DIALECT_GRBL, "", "G43.1 Z1", 0, 0},
   {GC_DIALECT_GRBL, "", "G55", 0, 0},
   {GC_DIALECT_GRBL, "", "G1.5 X1", 23, 23},

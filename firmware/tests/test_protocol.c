@@ -206,7 +206,7 @@ int main(int argc, char **argv) {
   /* soft limit: a move out of the envelope raises ALARM:2 and locks */
   o = run("$X\n$20=1\n");
   CHECK_HAS(o, "error:10");                      /* GRBL: soft limits need homing */
-  o = run("$22=1\n$20=1\nG90 G0 X-5\n");
+  o = run("$22=1\n$20=1\nG90 G0 X5\n");          /* GRBL's machine space is -travel .. 0 */
   CHECK_HAS(o, "ok\r\nok\r\nALARM:2\r\n[MSG:Reset to continue]\r\n");   /* GRBL: no ok for the line */
   CHECK(protocol_state() == PROTO_ALARM);
   o = run("?G0 X1\n");                          /* GRBL's critical event: nothing until a reset */
@@ -240,8 +240,9 @@ int main(int argc, char **argv) {
   CHECK(!strcmp(o, "error:22\r\n"));
   o = run("$J=G91 M3 X1 F100\n");
   CHECK(!strcmp(o, "error:16\r\n"));
-  o = run("$J=G90 X-1 F100\n");
-  CHECK(!strcmp(o, "error:102\r\n"));
+  o = run("$J=G90 X1 F100\n");
+  CHECK(!strcmp(o, "error:15\r\n"));             /* GRBL: a jog past the travel is refused */
+  run("$20=0\n");                                 /* the moves below run in positive X */
 
   /* emergency stop input (the board's pin, the simulator's panel channel);
      its byte on the serial line is dropped like every byte above 0x7F
