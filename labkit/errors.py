@@ -1,14 +1,26 @@
-"""Errors raised by labkit, and the status-code table shared with the firmware.
+"""Errors raised by labkit, and the table of what a controller says, shared with the firmware.
 
 Every error says what was wrong, where, and what was expected. G-code errors
 carry the file, 1-based line and column, the offending text and a numeric
 status code from ``status_codes.csv`` — the same table the firmware's header
 is generated from, with GRBL's numbers where GRBL has the same error.
+
+The table has a ``kind`` column: ``error`` (``error:N`` / ``er:N``; 0 is ``ok``),
+``alarm`` (``ALARM:N``) and ``reply`` (GRBL's ``[MSG:…]`` feedback, by GRBL's
+message number; the message is the exact text the controller sends). Each kind's
+names are an :class:`~enum.IntEnum` here (:class:`ErrorCode`, :class:`AlarmCode`,
+:class:`Feedback`), so code that speaks GRBL writes names, not numbers.
+
+Provenance: the numbers are GRBL 1.1's, from the error, alarm and feedback-message
+numbering GRBL documents publicly; the messages of the ``error`` and ``alarm`` rows are
+labkit's own wording (an error labkit itself raises keeps labkit's sentence), the
+``reply`` messages are the controller's exact text. Codes 100 and up are labkit's.
 """
 
 from __future__ import annotations
 
 import csv
+import enum
 from dataclasses import dataclass
 from importlib import resources
 
@@ -26,41 +38,80 @@ __all__ = [
     "StatusCode",
     "STATUS_CODES",
     "status_code",
+    "ErrorCode",
+    "AlarmCode",
+    "Feedback",
 ]
+
+
+#: The kinds of the table's rows, in its order.
+KINDS = ("error", "alarm", "reply")
 
 
 @dataclass(frozen=True)
 class StatusCode:
-    """One row of the shared status-code table."""
+    """One row of the shared table of what a controller says."""
 
     code: int
     name: str
     message: str
+    kind: str = "error"
 
 
-def _load_status_codes() -> dict[str, StatusCode]:
+def _load_status_codes() -> dict[str, dict[str, StatusCode]]:
+    """kind → name → row, read once from the package's ``status_codes.csv``."""
     text = resources.files("labkit").joinpath("status_codes.csv").read_text("utf-8")
-    rows = csv.DictReader(text.splitlines())
-    return {r["name"]: StatusCode(int(r["code"]), r["name"], r["message"]) for r in rows}
+    table: dict[str, dict[str, StatusCode]] = {k: {} for k in KINDS}
+    for r in csv.DictReader(text.splitlines()):
+        table[r["kind"]][r["name"]] = StatusCode(int(r["code"]), r["name"], r["message"], r["kind"])
+    return table
 
 
-STATUS_CODES: dict[str, StatusCode] = _load_status_codes()
-_BY_NUMBER = {s.code: s for s in STATUS_CODES.values()}
+_TABLE = _load_status_codes()
+#: The ``error`` rows by name (what a line can be refused for; 0 is ``ok``).
+STATUS_CODES: dict[str, StatusCode] = _TABLE["error"]
+_BY_NUMBER = {k: {s.code: s for s in rows.values()} for k, rows in _TABLE.items()}
 
 
-def status_code(key: str | int) -> StatusCode:
-    """Look a status code up by name or number.
+def status_code(key: str | int, kind: str = "error") -> StatusCode:
+    """Look a row of the table up by name or number.
+
+    Parameters
+    ----------
+    key : str or int
+        The row's name or number.
+    kind : {"error", "alarm", "reply"}
+        Which numbering.
 
     >>> status_code("bad_checksum").code
     100
     >>> status_code(33).name
     'invalid_arc'
+    >>> status_code(2, "alarm").name
+    'soft_limit'
     """
-    table = _BY_NUMBER if isinstance(key, int) else STATUS_CODES
+    if kind not in _TABLE:
+        raise KeyError(f"unknown kind {kind!r}; expected one of {', '.join(KINDS)}")
+    table = _BY_NUMBER[kind] if isinstance(key, int) else _TABLE[kind]
     try:
         return table[key]
     except KeyError:
-        raise KeyError(f"unknown status code {key!r}") from None
+        raise KeyError(f"unknown {'status' if kind == 'error' else kind} code {key!r}") from None
+
+
+def _names(cls_name: str, kind: str, doc: str) -> type[enum.IntEnum]:
+    """The names of one kind's rows as an IntEnum (upper case: ``soft_limit`` → ``SOFT_LIMIT``)."""
+    rows = sorted(_TABLE[kind].values(), key=lambda s: s.code)
+    names = enum.IntEnum(cls_name, [(s.name.upper(), s.code) for s in rows], module=__name__)
+    names.__doc__ = doc
+    return names
+
+
+ErrorCode = _names("ErrorCode", "error", "The ``error`` rows: ``ErrorCode.NOT_IDLE == 8`` (``error:8``); "
+                                         "``ErrorCode.OK`` is 0 (``ok``).")
+AlarmCode = _names("AlarmCode", "alarm", "The ``alarm`` rows: ``AlarmCode.SOFT_LIMIT == 2`` (``ALARM:2``).")
+Feedback = _names("Feedback", "reply", "The ``reply`` rows, GRBL's ``[MSG:…]`` by its message number: "
+                                       "``Feedback.RESET_TO_CONTINUE == 1``.")
 
 
 class LabkitError(Exception):

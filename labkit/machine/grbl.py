@@ -19,7 +19,6 @@ character counting on top of :meth:`Grbl.send_line` and :meth:`Grbl.next_event`.
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import math
 import queue
@@ -27,13 +26,12 @@ import re
 import threading
 import time
 from dataclasses import dataclass
-from importlib import resources
 
-from labkit.errors import MachineError, status_code
+from labkit.errors import AlarmCode, ErrorCode, Feedback, MachineError, status_code
 from labkit.machine.link import Link
 from labkit.units import s_within
 
-__all__ = ["Grbl", "Status", "parse_status", "error_message", "alarm_message", "Event",
+__all__ = ["Grbl", "Status", "parse_status", "error_message", "alarm_message", "grbl_reply", "Event",
            "SafeStop", "Transcript", "REALTIME", "DEFAULT_RX_BYTES", "DEFAULT_PLANNER_BLOCKS",
            "NOT_TOLD"]
 
@@ -53,16 +51,8 @@ REALTIME = {
 }
 
 
-def _load_codes() -> dict[tuple[str, int], str]:
-    text = resources.files("labkit.machine").joinpath("grbl_codes.csv").read_text("utf-8")
-    return {(r["kind"], int(r["code"])): r["message"] for r in csv.DictReader(text.splitlines())}
-
-
-_CODES = _load_codes()
-
-
 def error_message(code: int) -> str:
-    """The message of ``error:N``: the shared status table first, then GRBL's numbers.
+    """The message of ``error:N`` (the ``error`` rows of ``labkit/status_codes.csv``).
 
     >>> error_message(33)
     'arc cannot be made from its words'
@@ -78,16 +68,36 @@ def error_message(code: int) -> str:
     try:
         return status_code(int(code)).message
     except KeyError:
-        return _CODES.get(("error", int(code)), f"unknown error {code}")
+        return f"unknown error {code}"
 
 
 def alarm_message(code: int) -> str:
-    """The message of ``ALARM:N``.
+    """The message of ``ALARM:N`` (the ``alarm`` rows of ``labkit/status_codes.csv``).
 
     >>> alarm_message(2)
     'soft limit: a move would leave the machine travel; position kept, unlock with $X'
     """
-    return _CODES.get(("alarm", int(code)), f"unknown alarm {code}")
+    try:
+        return status_code(int(code), "alarm").message
+    except KeyError:
+        return f"unknown alarm {code}"
+
+
+def grbl_reply(name: ErrorCode | AlarmCode | Feedback) -> str:
+    """The line GRBL 1.1 sends for a row of the table, by its name.
+
+    >>> grbl_reply(ErrorCode.OK), grbl_reply(ErrorCode.NOT_IDLE), grbl_reply(AlarmCode.SOFT_LIMIT)
+    ('ok', 'error:8', 'ALARM:2')
+    >>> grbl_reply(Feedback.RESET_TO_CONTINUE)
+    '[MSG:Reset to continue]'
+    """
+    if isinstance(name, AlarmCode):
+        return f"ALARM:{int(name)}"
+    if isinstance(name, Feedback):
+        return f"[MSG:{status_code(int(name), 'reply').message}]"
+    if isinstance(name, ErrorCode):
+        return "ok" if name == ErrorCode.OK else f"error:{int(name)}"
+    raise TypeError(f"grbl_reply: expected an ErrorCode, AlarmCode or Feedback name, got {name!r}")
 
 
 # -- status reports -----------------------------------------------------------------------------

@@ -57,7 +57,7 @@ def short_job(tmp_path):
 
 def _status_name(number):
     with open(ROOT / "labkit/status_codes.csv", newline="", encoding="utf-8") as f:
-        return {int(row["code"]): row["name"] for row in csv.DictReader(f)}[number]
+        return {int(row["code"]): row["name"] for row in csv.DictReader(f) if row["kind"] == "error"}[number]
 
 
 class _Sim:
