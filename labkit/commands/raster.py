@@ -67,6 +67,9 @@ def add_img2gcode_arguments(parser: argparse.ArgumentParser) -> None:
                              "burn on G0 (GRBL with $32=0)")
     parser.add_argument("--preview", default=None, metavar="PNG",
                         help="preview image (default: OUTPUT with .png); 'none' for no preview")
+    from labkit.materials import add_material_options
+
+    add_material_options(parser, "raster")
 
 
 def run_img2gcode(args) -> int:
@@ -81,6 +84,11 @@ def run_img2gcode(args) -> int:
     from labkit.errors import InputError
     from labkit.viz.preview import preview_format, write_job_preview
 
+    from labkit.materials import apply_material
+
+    material = apply_material(args, "raster", raster_mode=args.mode)    # typed options beat the library's
+    if material:
+        print(f"material {material}")
     output = check_output_file(args.output, args.input)
     preview = None
     if (args.preview or "").lower() != "none":      # checked before any work, like the output
@@ -132,7 +140,8 @@ def run_img2gcode(args) -> int:
         raise RasterError(f"{args.input}: nothing to burn in mode {args.mode} (no marked pixel); "
                           f"expected an image with dark content — try {hint}")
     text = emit(job.moves, dialect=args.dialect, travel_beam_off=args.travel_beam_off or None,
-                comment=f"img2gcode {Path(args.input).name}: mode {args.mode}, beam {args.beam:g} mm")
+                comment=f"img2gcode {Path(args.input).name}: mode {args.mode}, beam {args.beam:g} mm"
+                        + (f"; material {material}" if material else ""))
     with atomic_output(output, encoding="ascii") as fh:
         fh.write(text)
     report = job.report.with_gcode(text)

@@ -97,6 +97,9 @@ def _common_arguments(parser: argparse.ArgumentParser, kind: str) -> None:
                              "burn on G0 (GRBL with $32=0)")
     parser.add_argument("--preview", default=None, metavar="PNG", help="also draw the job to this PNG")
     add_machine_options(parser)
+    from labkit.materials import add_material_options
+
+    add_material_options(parser, "vector")
 
 
 def add_svg2gcode_arguments(parser: argparse.ArgumentParser) -> None:
@@ -132,6 +135,9 @@ def _run(args, drawing) -> int:
     from labkit.toolpath.moves import LaserMode
     from labkit.viz.preview import preview_format, write_moves_preview
 
+    from labkit.materials import apply_material
+
+    material = apply_material(args, "vector")    # typed options beat the library's
     output = check_output_file(args.output, args.input)
     if args.preview:                 # checked before any work, like the output
         check_output_file(args.preview, args.input)
@@ -161,7 +167,7 @@ def _run(args, drawing) -> int:
         check_fits(args, extent if extent[2] > 0 else extent[:2])
     text = job.gcode(args.dialect, travel_beam_off=args.travel_beam_off or None,
                      comment=f"{FilePath(args.input).name}: tol {args.tol:g} mm, "
-                             f"{'arcs' if args.arcs else 'lines'}")
+                             f"{'arcs' if args.arcs else 'lines'}" + (f"; material {material}" if material else ""))
     with atomic_output(output, encoding="ascii") as fh:
         fh.write(text)
     opts = {} if args.rapid is None else {"rapid_mm_min": args.rapid}
@@ -171,6 +177,8 @@ def _run(args, drawing) -> int:
     print(f"input           {args.input} ({len(drawing.paths)} paths, layers {', '.join(drawing.layers) or '-'})")
     if drawing.skipped:
         print(f"skipped         {', '.join(drawing.skipped)}")
+    if material:
+        print(f"material        {material}")
     print(f"segments        {lines + arcs} ({lines} lines, {arcs} arcs) in {len(paths)} paths")
     print(f"G-code lines    {text.count(chr(10))} ({motion} motion)")
     print(f"max deviation   {max_deviation(paths):.4f} mm (tolerance {args.tol:g} mm)")
