@@ -2,8 +2,8 @@
   machine.h - the machine as the core sees it: the fields of
   labkit.motion.Machine (see labkit/motion/machine.py for their meaning).
 
-  The live copy is plan_machine() (planner.h); machine_load_defaults() fills
-  one from defaults.h. Units are in the names: mm, mm/min, mm/s^2, Hz, mW.
+  The live copy is plan_machine() (planner.h); machine.c fills one from
+  defaults.h and checks one. Units are in the names: mm, mm/min, mm/s^2, Hz, mW.
 */
 #ifndef LK_MACHINE_H
 #define LK_MACHINE_H

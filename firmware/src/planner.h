@@ -27,6 +27,7 @@
 #define LK_PLANNER_H
 
 #include <stdint.h>
+#include "arc.h"
 #include "config.h"
 #include "machine.h"
 
@@ -64,18 +65,6 @@ typedef struct {
   uint32_t line;
 } plan_move_t;
 
-/* Octant arc walk state (one per arc; shared by the planner, which counts
-   the ticks, and the step interrupt, which walks them again). */
-typedef struct {
-  int64_t cxq, cyq, r2, q;
-  int32_t x, y, px, py, ex, ey;
-  int32_t n, max_ticks;
-  int32_t crossed, n_cross;
-  int8_t octant, phase, mirror;
-  int32_t t_n, t_k, t_ex, t_ey, t_dx, t_dy, t_errx, t_erry;
-  int8_t t_sx, t_sy;
-} plan_arc_t;
-
 typedef struct {
   uint8_t kind;                  /* PLAN_BLOCK_* */
   uint8_t rapid;
@@ -94,7 +83,7 @@ typedef struct {
   double power_mw;
   double dwell_s;
   int32_t group;                 /* MBLA super block id (set when buffered) */
-  plan_arc_t arc;                /* initial walk state (arcs) */
+  arc_walk_t arc;                /* the arc walk at its start (arcs) */
   /* set by plan_get_current_block(): */
   double entry_mm_s, peak_mm_s, exit_mm_s, plan_cap_mm_s;   /* the profile (no slower than the floor) */
   double junction_exit_mm_s;     /* planned speed at the end junction: the next block's entry */
@@ -151,8 +140,5 @@ int32_t plan_to_steps(double mm, double steps_per_mm);   /* llround, halves away
 uint32_t plan_isqrt(uint64_t x);
 uint32_t plan_tick_rate(const plan_block_t *b, uint32_t k, uint8_t law);
 uint32_t plan_timer_period(uint32_t f_hz);               /* ceil(clock/(f(pre+1))) - 1 */
-/* Arc walk: next lattice point (returns 1) or end of the walk (0); -1 when
-   the walk fails to close. */
-int plan_arc_next(plan_arc_t *a, int32_t *x, int32_t *y);
 
 #endif /* LK_PLANNER_H */

@@ -2,15 +2,18 @@
   stepper.c - ticks prepared in the main loop, pulses in the step interrupt.
 
   st_prep_buffer() (main loop) evaluates each block's rate program tick by
-  tick (labkit.motion.timer: f_k, the period register, the laser power) and
-  queues {period, rate, duty}. st_tick() (interrupt) pulses the steps of the
-  tick that ended, pops the next tick and finds its steps with the block's
-  Bresenham line or octant arc walk: integer work only.
+  tick (labkit.motion.timer: f_k, the period register, the laser power),
+  finds the tick's steps with the block's Bresenham line or octant arc walk
+  (arc.c), and queues {period, steps, directions, duty}. st_tick()
+  (interrupt) pulses the steps of the tick that ended, counts them into the
+  position, pops the next tick and sets its directions, duty and period: no
+  arithmetic beyond that, as grbl's stepper.c.
 */
 #include "stepper.h"
 
 #include <string.h>
 
+#include "arc.h"
 #include "config.h"
 #include "hal.h"
 #include "laser.h"
@@ -20,26 +23,20 @@
 #define TICK_DWELL     0x02u
 
 typedef struct {
-  uint32_t period;
-  uint32_t rate;
+  uint32_t period;         /* timer register of the tick's first period */
+  uint32_t extra;          /* timer counts after it (a tick longer than the register) */
+  uint32_t cycles;         /* the tick's clock cycles, (period + 1) x (prescaler + 1) */
+  uint32_t rate;           /* step rate, Hz */
   uint16_t duty;
+  uint8_t bits;            /* axes stepping at the end of the tick */
+  uint8_t dir;             /* direction output during the tick (bit set: negative) */
   uint8_t flags;
   uint8_t slot;
 } st_tick_t;
 
-typedef struct {
-  st_block_info_t info;
-  /* geometry for the interrupt */
-  int32_t delta[3];        /* |steps| per axis (lines) */
-  uint8_t a0, a1, lin;     /* arc plane axes */
-  int32_t helix;           /* |steps| of the helix axis */
-  int8_t helix_sign;
-  plan_arc_t arc;          /* initial walk */
-} st_block_t;
-
 static st_tick_t tick_buf[ST_TICK_BUFFER_SIZE];
 static volatile uint32_t tick_head, tick_tail;      /* head: main loop, tail: interrupt */
-static st_block_t blk_buf[ST_BLOCK_BUFFER_SIZE];
+static st_block_info_t blk_buf[ST_BLOCK_BUFFER_SIZE];
 static volatile uint32_t blk_head, blk_tail;        /* tail: the running block */
 
 /* main loop: the block being prepared */
@@ -53,6 +50,16 @@ static struct {
   uint8_t ramp;            /* resuming: rate limited to ramp_rate */
   uint32_t ramp_rate;
   uint32_t cycles;         /* clock cycles of the ticks prepared (mod 2^32) */
+  uint8_t dir;             /* direction output after the last prepared tick */
+  /* the block's walk: Bresenham of a line, or octant walk of an arc plus its helix axis */
+  int32_t delta[3];        /* |steps| per axis (lines) */
+  int32_t err[3];
+  uint8_t a0, a1, lin;     /* arc plane axes */
+  int32_t helix;           /* |steps| of the helix axis */
+  uint8_t helix_neg;
+  int32_t herr;
+  arc_walk_t arc;
+  int32_t ax, ay;          /* arc position in its plane (steps) */
 } prep;
 
 /* interrupt state */
@@ -62,19 +69,12 @@ static struct {
   volatile uint8_t abort;
   uint8_t have_block, loaded_any;
   uint32_t slot;
-  uint32_t seq;
   uint8_t dwell;
-  int32_t err[3];
-  uint32_t n;
-  plan_arc_t arc;
-  int32_t ax, ay;          /* arc position in its plane (steps) */
-  int32_t herr;
   uint8_t dir_out;
-  uint8_t pending_bits, pending_neg;
+  uint8_t pending_bits;
   uint8_t pending;
   uint32_t extra_counts;   /* timer counts of the tick still to run after this period */
   uint32_t max_counts;     /* 2^timer_bits, capped */
-  uint32_t pre1;           /* prescaler + 1 */
   volatile uint32_t done_cycles;   /* clock cycles of the ticks loaded (mod 2^32) */
   volatile int32_t pos[3];
   volatile uint32_t rate;
@@ -96,94 +96,29 @@ void st_init(void)
 
 /* ------------------------------------------------------------------ interrupt */
 
-static void load_block(uint32_t slot)
-{
-  st_block_t *sb = &blk_buf[slot % ST_BLOCK_BUFFER_SIZE];
-  if (sti.loaded_any) blk_tail++;   /* the previous block's slot is free now */
-  sti.loaded_any = 1;
-  sti.slot = slot;
-  sti.have_block = 1;
-  sti.dwell = sb->info.kind == PLAN_BLOCK_DWELL;
-  sti.n = sb->info.ticks;
-  if (sb->info.kind == PLAN_BLOCK_LINE) {
-    for (int a = 0; a < 3; a++) sti.err[a] = 2 * sb->delta[a] - (int32_t)sti.n;
-  } else if (sb->info.kind == PLAN_BLOCK_ARC) {
-    sti.arc = sb->arc;
-    sti.ax = sb->info.start_steps[sb->a0];
-    sti.ay = sb->info.start_steps[sb->a1];
-    sti.herr = 2 * sb->helix - (int32_t)sti.n;
-  }
-}
-
-/* steps (bits) and their negative directions (bits) of the next tick */
-static void next_steps(uint8_t *bits, uint8_t *neg)
-{
-  const st_block_t *sb = &blk_buf[sti.slot % ST_BLOCK_BUFFER_SIZE];
-  uint8_t b = 0, ng = 0;
-  if (sb->info.kind == PLAN_BLOCK_LINE) {
-    for (int a = 0; a < 3; a++) {
-      if (sti.err[a] >= 0) {
-        b |= (uint8_t)(1u << a);
-        sti.err[a] -= 2 * (int32_t)sti.n;
-      }
-      sti.err[a] += 2 * sb->delta[a];
-    }
-    ng = sb->info.dir_bits & b;
-  } else if (sb->info.kind == PLAN_BLOCK_ARC) {
-    int32_t x, y;
-    if (plan_arc_next(&sti.arc, &x, &y) == 1) {
-      int32_t dx = x - sti.ax, dy = y - sti.ay;
-      if (dx) {
-        b |= (uint8_t)(1u << sb->a0);
-        if (dx < 0) ng |= (uint8_t)(1u << sb->a0);
-      }
-      if (dy) {
-        b |= (uint8_t)(1u << sb->a1);
-        if (dy < 0) ng |= (uint8_t)(1u << sb->a1);
-      }
-      sti.ax = x;
-      sti.ay = y;
-    }
-    if (sti.herr >= 0) {
-      b |= (uint8_t)(1u << sb->lin);
-      if (sb->helix_sign < 0) ng |= (uint8_t)(1u << sb->lin);
-      sti.herr -= 2 * (int32_t)sti.n;
-    }
-    sti.herr += 2 * sb->helix;
-  }
-  *bits = b;
-  *neg = ng;
-}
-
 /* load the next prepared tick; 0 when there is none */
 static int load_tick(void)
 {
   if (tick_tail == tick_head) return 0;
   const st_tick_t *t = &tick_buf[tick_tail % ST_TICK_BUFFER_SIZE];
-  if (t->flags & TICK_NEW_BLOCK) load_block(t->slot);
-  uint8_t bits = 0, neg = 0;
-  if (!(t->flags & TICK_DWELL)) next_steps(&bits, &neg);
-  uint8_t dir = (uint8_t)((sti.dir_out & (uint8_t)~bits) | neg);
-  if (dir != sti.dir_out) {
-    sti.dir_out = dir;
-    hal_set_dir(dir);
+  if (t->flags & TICK_NEW_BLOCK) {
+    if (sti.loaded_any) blk_tail++;   /* the previous block's slot is free now */
+    sti.loaded_any = 1;
+    sti.have_block = 1;
+    sti.slot = t->slot;
+    sti.dwell = (t->flags & TICK_DWELL) != 0;
+  }
+  if (t->dir != sti.dir_out) {
+    sti.dir_out = t->dir;
+    hal_set_dir(t->dir);
   }
   /* beam off from the moment a hold is taken: the deceleration is not a cut */
   laser_output(sti.state == ST_HOLDING ? 0 : t->duty);
   sti.rate = t->rate;
-  sti.done_cycles += (t->period + 1u) * sti.pre1;
-  /* a tick longer than the period register runs as several periods; its
-     step pulse comes at the end of the last */
-  uint32_t counts = t->period + 1u;
-  if (counts == 0u || counts > sti.max_counts) {
-    sti.extra_counts = t->period - (sti.max_counts - 1u);
-    hal_timer_set_period(sti.max_counts - 1u);
-  } else {
-    sti.extra_counts = 0;
-    hal_timer_set_period(t->period);
-  }
-  sti.pending_bits = bits;
-  sti.pending_neg = neg;
+  sti.done_cycles += t->cycles;
+  sti.extra_counts = t->extra;
+  hal_timer_set_period(t->period);
+  sti.pending_bits = t->bits;
   sti.pending = 1;
   tick_tail++;
   return 1;
@@ -199,10 +134,11 @@ void st_tick(void)
     return;
   }
   if (sti.pending) {
-    uint8_t bits = sti.pending_bits;
+    uint8_t bits = sti.pending_bits, neg = sti.dir_out & bits;
     hal_step_pulse(bits);
-    for (int a = 0; a < 3; a++)
-      if (bits & (1u << a)) sti.pos[a] += (sti.pending_neg & (1u << a)) ? -1 : 1;
+    if (bits & 1u) sti.pos[0] += (neg & 1u) ? -1 : 1;
+    if (bits & 2u) sti.pos[1] += (neg & 2u) ? -1 : 1;
+    if (bits & 4u) sti.pos[2] += (neg & 4u) ? -1 : 1;
     sti.pending = 0;
   }
   if (!load_tick()) {
@@ -225,7 +161,6 @@ static void wake_up(void)
   {
     uint32_t bits = plan_machine()->timer_bits;
     sti.max_counts = bits >= 32 ? 0x80000000u : (1u << bits);
-    sti.pre1 = plan_machine()->prescaler + 1u;
   }
   if (sti.state == ST_HELD || sti.state == ST_HOLDING) return;
   sti.running = 1;
@@ -236,14 +171,9 @@ static void wake_up(void)
 
 /* ------------------------------------------------------------------ main loop */
 
-static int start_block(void)
+static void copy_block_info(st_block_info_t *in, const plan_block_t *b)
 {
-  plan_block_t *b = plan_get_current_block();
-  if (!b) return 0;
-  if (blk_head - blk_tail >= ST_BLOCK_BUFFER_SIZE) return 0;
-  st_block_t *sb = &blk_buf[blk_head % ST_BLOCK_BUFFER_SIZE];
-  memset(sb, 0, sizeof *sb);
-  st_block_info_t *in = &sb->info;
+  memset(in, 0, sizeof *in);
   in->seq = ++block_seq;
   in->kind = b->kind;
   in->rapid = b->rapid;
@@ -267,20 +197,79 @@ static int start_block(void)
   in->peak_mm_s = b->peak_mm_s;
   in->exit_mm_s = b->exit_mm_s;
   in->dwell_cycles = b->dwell_cycles;
+}
+
+/* the walk of block b from its first tick (labkit.motion.bresenham) */
+static void start_walk(const plan_block_t *b)
+{
+  int32_t n = (int32_t)b->ticks;
   for (int a = 0; a < 3; a++) {
     int32_t d = b->end_steps[a] - b->start_steps[a];
-    sb->delta[a] = d < 0 ? -d : d;
+    prep.delta[a] = d < 0 ? -d : d;
+    prep.err[a] = 2 * prep.delta[a] - n;
   }
   if (b->kind == PLAN_BLOCK_ARC) {
     static const uint8_t axes[3][3] = {{0, 1, 2}, {2, 0, 1}, {1, 2, 0}};
-    sb->a0 = axes[b->plane][0];
-    sb->a1 = axes[b->plane][1];
-    sb->lin = axes[b->plane][2];
-    int32_t h = b->end_steps[sb->lin] - b->start_steps[sb->lin];
-    sb->helix = h < 0 ? -h : h;
-    sb->helix_sign = h < 0 ? -1 : 1;
-    sb->arc = b->arc;
+    prep.a0 = axes[b->plane][0];
+    prep.a1 = axes[b->plane][1];
+    prep.lin = axes[b->plane][2];
+    int32_t h = b->end_steps[prep.lin] - b->start_steps[prep.lin];
+    prep.helix = h < 0 ? -h : h;
+    prep.helix_neg = h < 0;
+    prep.herr = 2 * prep.helix - n;
+    prep.arc = b->arc;
+    prep.ax = b->start_steps[prep.a0];
+    prep.ay = b->start_steps[prep.a1];
   }
+}
+
+/* the steps (bits) and their negative directions (bits) of the block's next tick */
+static void walk_steps(const plan_block_t *b, uint8_t *bits, uint8_t *neg)
+{
+  uint8_t s = 0, ng = 0;
+  const int32_t n2 = 2 * (int32_t)b->ticks;
+  if (b->kind == PLAN_BLOCK_LINE) {
+    for (int a = 0; a < 3; a++) {
+      if (prep.err[a] >= 0) {
+        s |= (uint8_t)(1u << a);
+        prep.err[a] -= n2;
+      }
+      prep.err[a] += 2 * prep.delta[a];
+    }
+    ng = b->dir_bits & s;
+  } else if (b->kind == PLAN_BLOCK_ARC) {
+    int32_t x, y;
+    if (arc_next(&prep.arc, &x, &y) == 1) {
+      int32_t dx = x - prep.ax, dy = y - prep.ay;
+      if (dx) {
+        s |= (uint8_t)(1u << prep.a0);
+        if (dx < 0) ng |= (uint8_t)(1u << prep.a0);
+      }
+      if (dy) {
+        s |= (uint8_t)(1u << prep.a1);
+        if (dy < 0) ng |= (uint8_t)(1u << prep.a1);
+      }
+      prep.ax = x;
+      prep.ay = y;
+    }
+    if (prep.herr >= 0) {
+      s |= (uint8_t)(1u << prep.lin);
+      if (prep.helix_neg) ng |= (uint8_t)(1u << prep.lin);
+      prep.herr -= n2;
+    }
+    prep.herr += 2 * prep.helix;
+  }
+  *bits = s;
+  *neg = ng;
+}
+
+static int start_block(void)
+{
+  plan_block_t *b = plan_get_current_block();
+  if (!b) return 0;
+  if (blk_head - blk_tail >= ST_BLOCK_BUFFER_SIZE) return 0;
+  copy_block_info(&blk_buf[blk_head % ST_BLOCK_BUFFER_SIZE], b);
+  start_walk(b);
   prep.b = b;
   prep.k = 0;
   prep.slot = blk_head;
@@ -296,6 +285,22 @@ static void end_block(void)
   prep.b = NULL;
 }
 
+/* the tick's period as the timer runs it: a tick longer than the period
+   register runs as several periods, its step pulse at the end of the last */
+static void set_tick_period(st_tick_t *t, uint32_t period, const lk_machine_t *m)
+{
+  uint32_t max_counts = m->timer_bits >= 32 ? 0x80000000u : (1u << m->timer_bits);
+  uint32_t counts = period + 1u;
+  if (counts == 0u || counts > max_counts) {
+    t->period = max_counts - 1u;
+    t->extra = period - (max_counts - 1u);
+  } else {
+    t->period = period;
+    t->extra = 0;
+  }
+  t->cycles = (period + 1u) * (m->prescaler + 1u);
+}
+
 void st_prep_buffer(void)
 {
   const lk_machine_t *m = plan_machine();
@@ -308,6 +313,7 @@ void st_prep_buffer(void)
     if (!prep.b && !start_block()) break;
     plan_block_t *b = prep.b;
     st_tick_t t;
+    uint8_t bits = 0, neg = 0;
     t.slot = (uint8_t)(prep.slot % ST_BLOCK_BUFFER_SIZE);
     t.flags = prep.k == 0 ? TICK_NEW_BLOCK : 0;
     if (b->kind == PLAN_BLOCK_DWELL) {
@@ -319,7 +325,7 @@ void st_prep_buffer(void)
       uint64_t counts = (prep.dwell_left + per - 1) / per;
       uint64_t top = 1ull << m->timer_bits;
       if (counts > top) counts = top;
-      t.period = (uint32_t)(counts - 1);
+      set_tick_period(&t, (uint32_t)(counts - 1), m);
       t.rate = 0;
       t.duty = 0;
       t.flags |= TICK_DWELL;
@@ -352,15 +358,20 @@ void st_prep_buffer(void)
       }
       prep.last_rate = f;
       t.rate = f;
-      t.period = plan_timer_period(f);
+      set_tick_period(&t, plan_timer_period(f), m);
       double p = laser_override_mw(
           laser_tick_power_mw(b->laser, b->power_mw, b->f_feed, f, m->laser_max_power_mw),
           m->laser_max_power_mw);
       t.duty = laser_duty_from_mw(p, m->laser_max_power_mw);
+      walk_steps(b, &bits, &neg);
       prep.k++;
     }
+    /* an axis that does not step keeps its direction pin (as the interrupt did) */
+    prep.dir = (uint8_t)((prep.dir & (uint8_t)~bits) | neg);
+    t.bits = bits;
+    t.dir = prep.dir;
     tick_buf[tick_head % ST_TICK_BUFFER_SIZE] = t;
-    prep.cycles += (t.period + 1u) * (m->prescaler + 1u);
+    prep.cycles += t.cycles;
     tick_head++;
     if (b->kind != PLAN_BLOCK_DWELL && prep.k >= b->ticks) end_block();
     else if (b->kind == PLAN_BLOCK_DWELL && prep.dwell_left == 0) end_block();
@@ -400,6 +411,7 @@ void st_reset(void)
   prep.b = NULL;
   prep.ramp = 0;
   prep.cycles = sti.done_cycles;
+  prep.dir = sti.dir_out;   /* the pins as the last tick left them */
   sti.running = 0;
   sti.pending = 0;
   sti.extra_counts = 0;
@@ -435,6 +447,13 @@ void st_get_position(int32_t steps[3])
   for (int a = 0; a < 3; a++) steps[a] = sti.pos[a];
 }
 
+void st_set_position(const int32_t steps[3])
+{
+  hal_irq_disable();
+  for (int a = 0; a < 3; a++) sti.pos[a] = steps[a];
+  hal_irq_enable();
+}
+
 void st_get_position_mm(float mm[3])
 {
   const lk_machine_t *m = plan_machine();
@@ -446,7 +465,7 @@ uint32_t st_current_rate_hz(void) { return sti.running ? sti.rate : 0; }
 const st_block_info_t *st_running_block(void)
 {
   if (!sti.have_block) return NULL;
-  return &blk_buf[sti.slot % ST_BLOCK_BUFFER_SIZE].info;
+  return &blk_buf[sti.slot % ST_BLOCK_BUFFER_SIZE];
 }
 
 uint32_t st_current_line(void)

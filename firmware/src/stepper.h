@@ -2,12 +2,14 @@
   stepper.h - step generation of the labkit firmware.
 
   Main loop: st_prep_buffer() takes planned blocks and prepares their ticks
-  (timer period, step rate, laser duty; the ramp arithmetic of
-  labkit.motion.timer) into a ring buffer, and starts the step timer.
+  into a ring buffer: timer period, step rate and laser duty (the ramp
+  arithmetic of labkit.motion.timer), and the tick's step and direction bits
+  from the 3-axis Bresenham of a line or the octant walk of an arc (arc.c,
+  plus the helix axis by the line rule); then it starts the step timer.
   Interrupt: st_tick() (see hal.h for when it is called) pulses the steps of
-  the tick that ended and loads the next prepared tick; for it it runs the
-  3-axis Bresenham of a line or the octant walk of an arc (plus the helix
-  axis by the line rule). No floating point, no loops over blocks.
+  the tick that ended, counts them into the position, and loads the next
+  prepared tick: its directions, duty and period. No arithmetic there beyond
+  that, no floating point, no loops over blocks.
 
   Feed hold decelerates at the block's slope down to its floor rate, keeps
   the rest of the job and resumes with a ramp; reset drops everything at
@@ -52,6 +54,8 @@ uint8_t st_state(void);
 uint8_t st_is_idle(void);
 void st_get_position(int32_t steps[3]);
 void st_get_position_mm(float mm[3]);
+/* (main, idle only) The machine position becomes steps: homing sets it at the switches. */
+void st_set_position(const int32_t steps[3]);
 uint32_t st_current_rate_hz(void);
 uint32_t st_current_line(void);
 
