@@ -85,7 +85,8 @@ def travel_length(starts, ends, origin=(0.0, 0.0)) -> float:
 
 # -- greedy nearest neighbour on a grid -----------------------------------------------------
 
-@jit(python_below=200_000)  # ~1.2 µs an element as Python
+# views: as Python it indexes its arrays element by element, on Python scalars (~20 % faster)
+@jit(python_below=200_000, views=True)  # ~1 µs an element as Python
 def greedy_grid(cx, cy, ex, ey, citem, n_items, remaining, parent, ox, oy, cell, x0, y0, nx, ny):
     """Greedy nearest-entry order over candidates filed in a uniform grid (compiled).
 

@@ -84,3 +84,25 @@ def test_greedy_fit_on_memoryviews_gives_the_numpy_scalar_and_the_compiled_arcs(
         np.testing.assert_allclose(getattr(views, name), getattr(compiled, name), rtol=0, atol=1e-9)
     assert views.deviation_mm == scalars.deviation_mm
     assert views.deviation_mm == pytest.approx(compiled.deviation_mm, abs=1e-12)
+
+
+def test_greedy_order_on_memoryviews_gives_the_compiled_order():
+    """The greedy grid search (``views=True``) as Python: the compiled order, reversals and
+    travel, on float segments with parents (containment) and on a raster's integer runs."""
+    from labkit.geometry import order_segments
+    from labkit.raster.pathing import connect, zigzag_segments
+
+    rng = np.random.default_rng(5)
+    starts = rng.uniform(0, 200, (400, 2))
+    ends = starts + rng.normal(0, 5, (400, 2))
+    a, b = _both(order_segments, starts, ends, improve=False)
+    np.testing.assert_array_equal(a.order, b.order)
+    np.testing.assert_array_equal(a.reversed, b.reversed)
+    assert a.travel_mm == b.travel_mm
+    mask = rng.random((120, 90)) < 0.3
+    segs = zigzag_segments(mask)
+    a, b = _both(connect, segs)
+    assert len(segs) > 1000
+    np.testing.assert_array_equal(a.order, b.order)
+    np.testing.assert_array_equal(a.flipped, b.flipped)
+    assert a.examined == b.examined
