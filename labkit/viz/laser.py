@@ -53,7 +53,8 @@ def plot_scan_annotations(image, layout: dict, widths, ax=None, *, transform=Non
         colour = "tab:green" if r["burned"] else "tab:red"
         ax.plot(pix[:, 0], pix[:, 1], color=colour, lw=0.8)
         label = f"{1000 * r['width_mm']:.0f}" if r["burned"] else "×"
-        ax.text(pix[2, 0], pix[2, 1], label, color=colour, fontsize=6, ha="right", va="bottom")
+        right = (pix[1] + pix[2]) / 2                  # the middle of the box's right side
+        ax.text(right[0] + 4, right[1], label, color=colour, fontsize=8, ha="left", va="center")
     for f in layout.get("fiducials_mm", []):
         c = tf(np.array([[f[0], -f[1]]]))[0]
         ax.plot(*c, "+", color="tab:blue", ms=14, mew=1.5)
@@ -157,20 +158,27 @@ def process_window(fit, ax=None, *, power_range_mw=(200.0, 2500.0), speed_range_
 
 
 def target_width_explorer(fits: dict, *, speeds_mm_min=(200.0, 2000.0), max_power_mw: float | None = None,
-                          width_mm: float = 0.2):
+                          width_mm: float = 0.2, max_width_mm: float | None = None):
     """Target-width slider → the power each model asks for at every speed, with the band.
+
+    The slider ends at the widest line a fit can burn within the laser's maximum at the
+    slowest speed shown (and at ``max_width_mm``, the widest line measured, when given:
+    a fit says nothing beyond its data). A speed at which a model needs more than the
+    laser's maximum, or where it cannot be inverted, is drawn as not reachable and said so.
 
     Parameters
     ----------
     fits : dict
         Name → :class:`labkit.laser.models.Fit`.
     speeds_mm_min : (float, float)
-        Speed axis span.
+        Speed axis span, mm/min.
     max_power_mw : float, optional
-        The laser's maximum (drawn as a line; settings above it cannot be burned);
+        The laser's maximum, mW (drawn as a line; settings above it cannot be burned);
         default the machine description's (``labkit.motion.CBR40``).
     width_mm : float
-        Slider's starting value.
+        Slider's starting value, mm.
+    max_width_mm : float, optional
+        The widest line the data hold, mm; the slider does not go beyond it.
 
     Returns
     -------
@@ -187,25 +195,49 @@ def target_width_explorer(fits: dict, *, speeds_mm_min=(200.0, 2000.0), max_powe
     from labkit.viz._widgets import interact_figure
 
     v = np.linspace(*speeds_mm_min, 120)
+    # the widest line any fit burns at full power and the slowest speed shown
+    widest = max(float(np.nan_to_num(f.width(max_power_mw, v[0]))) for f in fits.values())
+    if max_width_mm is not None:
+        widest = min(widest, float(max_width_mm))
+    slider_max = np.floor(widest * 100.0) / 100.0
+    slider_min = min(0.05, slider_max)
+    k600 = int(np.argmin(np.abs(v - 600.0)))
 
     def draw(width):
         fig, ax = plt.subplots(figsize=(6.5, 4))
         lines = []
         for name, f in fits.items():
-            p, lo, hi = power_band(f, width, v)
-            ax.plot(v, p, label=name)
-            ax.fill_between(v, lo, hi, alpha=0.25)
-            k = np.argmin(np.abs(v - 600.0))
-            lines.append(f"{name}: {p[k]:.0f} mW at 600 mm/min (band {lo[k]:.0f}…{hi[k]:.0f})")
+            p, lo, hi = (np.asarray(a, float) for a in power_band(f, width, v))
+            ok = np.isfinite(p) & (p <= max_power_mw)
+            shown = np.where(ok, p, np.nan)
+            if ok.any():
+                (line,) = ax.plot(v, shown, label=name)
+                ax.fill_between(v, np.where(ok, lo, np.nan), np.where(ok, hi, np.nan),
+                                color=line.get_color(), alpha=0.25)
+            else:
+                ax.plot([], [], label=f"{name}: not reachable")
+            if ok[k600] and np.isfinite(lo[k600]) and np.isfinite(hi[k600]):
+                lines.append(f"{name}: {p[k600]:.0f} mW at {v[k600]:.0f} mm/min "
+                             f"(95 % band {lo[k600]:.0f}…{hi[k600]:.0f} mW)")
+            elif ok[k600]:
+                lines.append(f"{name}: {p[k600]:.0f} mW at {v[k600]:.0f} mm/min (no band here)")
+            elif np.isfinite(p[k600]):
+                lines.append(f"{name}: not reachable at {v[k600]:.0f} mm/min (needs {p[k600]:.0f} mW, "
+                             f"more than the laser's {max_power_mw:.0f} mW)")
+            else:
+                lines.append(f"{name}: not reachable at {v[k600]:.0f} mm/min (the model gives no power "
+                             f"for this width within its data)")
         ax.axhline(max_power_mw, color="k", ls=":", label="laser maximum")
         ax.set_ylim(0, 1.3 * max_power_mw)
+        ax.set_xlim(*speeds_mm_min)
         ax.set_xlabel("speed (mm/min)")
         ax.set_ylabel("power (mW)")
-        ax.set_title(f"power for a {width:.3f} mm line")
-        ax.legend(fontsize="small")
+        ax.set_title(f"power for a {width:.2f} mm line")
+        ax.legend(fontsize="small", loc="upper right")
         return fig, "\n".join(lines)
 
-    return interact_figure(draw, width=w.FloatSlider(value=width_mm, min=0.05, max=0.4, step=0.01,
+    return interact_figure(draw, width=w.FloatSlider(value=min(width_mm, slider_max), min=slider_min,
+                                                    max=slider_max, step=0.01,
                                                     description="width (mm)", readout_format=".2f"))
 
 
