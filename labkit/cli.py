@@ -47,6 +47,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "stream": ("machine", "send a G-code job to a machine (the virtual one by default), safely"),
     "console": ("machine", "talk to a machine line by line"),
     "safety-check": ("safety", "check that the beam is off on every stop, reset, alarm and end"),
+    "record": ("record", "provenance records of programs and streams: show one, diff two"),
     "course": ("course", "course material: the student edition of the chapters (no answers, no appendices)"),
 }
 

@@ -47,7 +47,6 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
-import hashlib
 import json
 import math
 import os
@@ -388,14 +387,6 @@ def _width_band(fit, power_mw: float, speed_mm_min: float) -> tuple[float, float
     return w, float(w - t * sd), float(w + t * sd)
 
 
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
 def setting_from_fit(fit_path, operation: str = "cut", *, power_mw: float, width_mm: float | None = None,
                      cut_probability: float = 0.95, model: str | None = None, passes: int = 1,
                      dynamic: bool | None = None, air: bool | None = None, max_speed_mm_min: float | None = None,
@@ -443,6 +434,7 @@ def setting_from_fit(fit_path, operation: str = "cut", *, power_mw: float, width
     import numpy as np
 
     from labkit.laser.models import check_width_reach, load_fit, speed_for_width
+    from labkit.record import file_entry
 
     if operation not in OPERATIONS:
         raise InputError(f"operation {operation!r}; expected one of {', '.join(OPERATIONS)}")
@@ -476,15 +468,14 @@ def setting_from_fit(fit_path, operation: str = "cut", *, power_mw: float, width
         # the cut-through model knows P/v alone; at a power far from the measured ones heat flow differs
         lo, hi = res["data"]["power_mw"]
         if not lo <= power_mw <= hi:
-            raise InputError(f"{fit_path}: a cut at {power_mw:g} mW lies outside the measured powers {lo:g}…{hi:g} mW; "
-                             "expected a power in that range (--power-mw)")
+            raise InputError(f"{fit_path}: a cut at {power_mw:g} mW lies outside the measured powers "
+                             f"{lo:g}…{hi:g} mW; expected a power in that range (--power-mw)")
     kerf, k_lo, k_hi = _width_band(fit, power_mw, speed)
-    path = Path(fit_path)
     when = (now or datetime.datetime.now(datetime.timezone.utc)).isoformat(timespec="seconds")
     s = Setting(origin="fit", power_mw=float(power_mw), speed_mm_min=round(float(speed), 3), passes=passes,
                 kerf_mm=round(kerf, 5), air=air, dynamic=dynamic,
-                fit=dict(file=os.fspath(fit_path), sha256=_sha256(path), date=when, scan=str(res.get("source", "")),
-                         model=fit.model, level=float(fit.level), rule=rule))
+                fit=dict(file=os.fspath(fit_path), sha256=file_entry(fit_path, "fit")["sha256"], date=when,
+                         scan=str(res.get("source", "")), model=fit.model, level=float(fit.level), rule=rule))
     if math.isfinite(k_lo) and math.isfinite(k_hi):
         s.kerf_ci_mm = (round(max(k_lo, 0.0), 5), round(k_hi, 5))
     if operation in ("fill", "image"):

@@ -117,6 +117,9 @@ def add_stream_arguments(parser):
     parser.add_argument("--s-max", type=number(0, 1e9, lo_open=True), default=None, metavar="S",
                         help="Dobot only: the S of full laser power, 100 %% PWM duty (default: "
                              "the dialect's, GRBL 1000, labkit-fw 255); a higher S is refused")
+    from labkit.record import add_record_option
+
+    add_record_option(parser, default_on=True)
 
 
 class _Progress:
@@ -171,6 +174,10 @@ def run_stream(args) -> int:
 
     dialect = args.dialect or ("labkit-fw" if protocol == "labkit-fw" else "grbl")
     job = Job.from_file(args.file, dialect=dialect, machine=args.machine or "grbl-diode")
+    from labkit.record import stream_record_target, utc_now
+
+    started = utc_now()
+    record_path = stream_record_target(args, started)      # checked before the first byte
     log = _open_transcript(args.log)         # before the first byte goes out
     try:
         machine = _connect(args, transcript=log)
@@ -191,6 +198,13 @@ def run_stream(args) -> int:
         if log is not None:
             log.fh.close()
     print(text)
+    if record_path is not None:
+        from labkit.record import stream_record, write_record
+
+        write_record(stream_record(args, report, started=started, ended=utc_now(),
+                                   machine_name=args.machine or "grbl-diode", command=_stream_command(args)),
+                     record_path)
+        print(f"record: {record_path}")
     return 0 if report.ok else 1
 
 

@@ -128,8 +128,8 @@ def _store(args, lib, setting) -> int:
 
     m = lib.materials.setdefault(args.name, Material(name=args.name))
     if args.operation in m.operations and not args.replace:
-        raise InputError(f"{lib.path}: {args.name}:{args.operation} exists ({m.operations[args.operation].describe()}); "
-                         "expected --replace to overwrite it")
+        raise InputError(f"{lib.path}: {args.name}:{args.operation} exists "
+                         f"({m.operations[args.operation].describe()}); expected --replace to overwrite it")
     if args.thickness is not None:
         m.thickness_mm = args.thickness
     m.operations[args.operation] = setting

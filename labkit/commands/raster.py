@@ -70,6 +70,9 @@ def add_img2gcode_arguments(parser: argparse.ArgumentParser) -> None:
     from labkit.materials import add_material_options
 
     add_material_options(parser, "raster")
+    from labkit.record import add_record_option
+
+    add_record_option(parser)
 
 
 def run_img2gcode(args) -> int:
@@ -150,6 +153,12 @@ def run_img2gcode(args) -> int:
     if preview is not None:
         write_job_preview(job, preview)
         print(f"{'preview':<{_label_width(report)}}  {preview}")
+    from labkit.record import record_program
+
+    made = record_program("img2gcode", args, inputs=[(args.input, "input")], program=output,
+                          extra_outputs=[(preview, "preview")])
+    if made:
+        print(f"{'record':<{_label_width(report)}}  {made}")
     return 0
 
 

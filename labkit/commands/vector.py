@@ -100,6 +100,9 @@ def _common_arguments(parser: argparse.ArgumentParser, kind: str) -> None:
     from labkit.materials import add_material_options
 
     add_material_options(parser, "vector")
+    from labkit.record import add_record_option
+
+    add_record_option(parser)
 
 
 def add_svg2gcode_arguments(parser: argparse.ArgumentParser) -> None:
@@ -187,6 +190,12 @@ def _run(args, drawing) -> int:
     if args.preview:
         write_moves_preview(moves, args.preview)
         print(f"preview         {args.preview}")
+    from labkit.record import record_program
+
+    made = record_program("svg2gcode" if hasattr(args, "fit") else "dxf2gcode", args,
+                          inputs=[(args.input, "input")], program=output, extra_outputs=[(args.preview, "preview")])
+    if made:
+        print(f"record          {made}")
     return 0
 
 

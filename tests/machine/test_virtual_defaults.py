@@ -111,10 +111,11 @@ def test_door_stops_and_the_beam_goes_off():
     assert [round(lv, 3) for _, lv, _, _ in vm.beam_log] == [0.5, 0.0, 0.5]
 
 
-def test_the_readme_sample_streams_to_completion_on_the_default_machine(capsys):
+def test_the_readme_sample_streams_to_completion_on_the_default_machine(capsys, tmp_path):
     """`labkit stream data/gcode/cncjs/jsdc-laser.gcode` (the job lies at negative Y: with GRBL's
-    $20=0 it runs, as on a stock GRBL; it stopped at line 17 with ALARM:2 before)."""
-    assert main(["stream", "data/gcode/cncjs/jsdc-laser.gcode"]) == 0
+    $20=0 it runs, as on a stock GRBL; it stopped at line 17 with ALARM:2 before). Its provenance
+    record goes to tmp_path, not beside the repository's data file."""
+    assert main(["stream", "data/gcode/cncjs/jsdc-laser.gcode", "--record", str(tmp_path / "r.json")]) == 0
     out = capsys.readouterr().out
     assert out.startswith("completed: 2384/2418 lines acknowledged"), out
     assert "ALARM" not in out and "STOPPED" not in out

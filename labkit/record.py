@@ -1,0 +1,335 @@
+"""A provenance record per burn: what made a program, and what happened when it was streamed.
+
+A record is one JSON file written beside the program (``OUT.gcode.record.json``) or, for a
+stream, beside the job with the start time in its name. Its format (version 1)::
+
+    {
+      "format": "labkit-record",          # required, exactly this
+      "version": 1,                       # required; a later version is refused
+      "kind": "program" | "stream",
+      "created": "2026-11-25T13:00:00+00:00",   # UTC
+      "labkit": "0.1.0",                  # labkit's version
+      "command": "svg2gcode",             # the labkit command
+      "options": {"feed": 600.0, …},      # every option as parsed (after the library filled in)
+      "inputs":  [{"role": "input", "path": "card.svg", "sha256": "…", "bytes": 123}, …],
+      "outputs": [{"role": "program", "path": "card.gcode", "sha256": "…", "bytes": 456}],
+      "machine": {…},                     # the machine description's fields (MachineSpec.to_dict)
+      "material": null | {"spec": "card:cut", "library": {path, sha256, bytes},
+                          "entry": {…the library's setting…}, "fit": {…its fit provenance…}},
+      "planned": {"estimated_time_s": …, "laser_on_time_s": …, "cut_length_mm": …,
+                  "travel_length_mm": …, "moves": …, "bounds_mm": [[x, y, z], [x, y, z]]},
+      "stream": null | {"started": …, "ended": …, "ok": true, "lines_total": …,
+                        "lines_acknowledged": …, "elapsed_s": …, "planned_s": …, "fault": null,
+                        "errors": [[line, code, message], …], "resume_line": null,
+                        "resumed_from": null, "safe_stop": […], "warnings": […], "summary": "…"}
+    }
+
+Paths are stored as given on the command line; hashes let :func:`diff_records` tell a changed
+input from a renamed one. Records are written through :func:`labkit._files.atomic_output`.
+"""
+
+from __future__ import annotations
+
+import datetime
+import hashlib
+import json
+import os
+from pathlib import Path
+
+from labkit.errors import InputError
+
+__all__ = ["FORMAT", "VERSION", "file_entry", "program_record", "stream_record", "write_record",
+           "read_record", "diff_records", "format_record", "default_record_path", "add_record_option",
+           "record_program", "stream_record_target", "utc_now"]
+
+FORMAT = "labkit-record"
+VERSION = 1
+
+
+def utc_now() -> str:
+    return datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+
+
+def file_entry(path, role: str) -> dict:
+    """``{"role", "path", "sha256", "bytes"}`` of a file (hash read in blocks)."""
+    h = hashlib.sha256()
+    size = 0
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+            size += len(block)
+    return dict(role=role, path=os.fspath(path), sha256=h.hexdigest(), bytes=size)
+
+
+def _plain(value):
+    """A JSON-ready copy of an option's value."""
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value if not isinstance(value, float) else float(value)
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    return str(value)
+
+
+def _material(args) -> dict | None:
+    spec = getattr(args, "material", None)
+    if not spec:
+        return None
+    from labkit.materials import default_library_path, parse_material_spec, read_library
+    from labkit.motion.machine import load_machine
+
+    path = getattr(args, "library", None) or default_library_path(load_machine(args.machine).name)
+    lib = read_library(path)
+    name, op = parse_material_spec(spec)
+    m, op, s = lib.get(name, op)
+    import dataclasses
+
+    entry = {k: _plain(v) for k, v in dataclasses.asdict(s).items() if k != "fit"}
+    return dict(spec=f"{name}:{op}", library=file_entry(path, "library"), thickness_mm=m.thickness_mm,
+                entry=entry, fit=_plain(s.fit))
+
+
+def _planned(text: str) -> dict:
+    from labkit.gcode import parse
+    from labkit.gcode.simulate import summarize
+
+    s = summarize(parse(text))
+    return dict(estimated_time_s=float(s.estimated_time_s), laser_on_time_s=float(s.laser_on_time_s),
+                cut_length_mm=float(s.cut_length_mm), travel_length_mm=float(s.travel_length_mm),
+                moves=int(s.moves), bounds_mm=_plain([list(map(float, b)) for b in s.bounds]))
+
+
+def program_record(command: str, args, *, inputs: list, program, extra_outputs: list = ()) -> dict:
+    """The record of a program a command wrote.
+
+    Parameters
+    ----------
+    command : str
+        The labkit command (``svg2gcode``, ``job``, …).
+    args : argparse.Namespace
+        Its options (recorded as parsed; ``--material`` is looked up again for the entry).
+    inputs : list of (path, role)
+        The files read.
+    program : str or os.PathLike
+        The G-code written; its planned time comes from labkit's job summary of that text.
+    extra_outputs : list of (path, role)
+
+    Returns
+    -------
+    dict
+        In the format of the module docstring, ``kind = "program"``.
+    """
+    from labkit import __version__
+    from labkit.motion.machine import load_machine
+
+    text = Path(program).read_text("ascii")
+    options = {k: _plain(v) for k, v in sorted(vars(args).items()) if k not in ("traceback",)}
+    return dict(format=FORMAT, version=VERSION, kind="program", created=utc_now(), labkit=__version__,
+                command=command, options=options,
+                inputs=[file_entry(p, role) for p, role in inputs],
+                outputs=[file_entry(program, "program")] + [file_entry(p, r) for p, r in extra_outputs],
+                machine=_plain(load_machine(getattr(args, "machine", None)).to_dict()),
+                material=_material(args), planned=_planned(text), stream=None)
+
+
+def stream_record(args, report, *, started: str, ended: str, machine_name: str, command: list) -> dict:
+    """The record of a stream: the job's file, the machine, the options and the run's outcome.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        ``labkit stream``'s options.
+    report : labkit.machine.stream.JobReport
+    started, ended : str
+        UTC times (ISO 8601).
+    machine_name : str
+        The machine description the stream planned with.
+    command : list of str
+        The command line that runs the job again.
+    """
+    from labkit import __version__
+    from labkit.motion.machine import load_machine
+
+    options = {k: _plain(v) for k, v in sorted(vars(args).items()) if k not in ("traceback",)}
+    # the program's own record, when it was written with one, ties the burn to its making
+    made_by = Path(os.fspath(args.file) + ".record.json")
+    inputs = [file_entry(args.file, "program")]
+    if made_by.is_file():
+        inputs.append(file_entry(made_by, "program record"))
+    stream = dict(started=started, ended=ended, ok=bool(report.ok), lines_total=report.lines_total,
+                  lines_acknowledged=report.lines_acknowledged, elapsed_s=float(report.elapsed_s),
+                  planned_s=float(report.planned_s), fault=report.fault,
+                  errors=_plain(report.errors), resume_line=report.resume_line,
+                  resumed_from=getattr(args, "resume_from", None), safe_stop=_plain(report.safe_actions),
+                  warnings=_plain(report.warnings), summary=report.summary(command=command))
+    return dict(format=FORMAT, version=VERSION, kind="stream", created=ended, labkit=__version__,
+                command="stream", options=options, inputs=inputs, outputs=[],
+                machine=_plain(load_machine(machine_name).to_dict()), material=None,
+                planned=dict(estimated_time_s=float(report.planned_s)), stream=stream)
+
+
+def write_record(record: dict, path) -> Path:
+    """Write a record whole (atomic_output); returns its path."""
+    from labkit._files import atomic_output
+
+    with atomic_output(path, encoding="utf-8") as fh:
+        json.dump(record, fh, indent=1, ensure_ascii=False)
+        fh.write("\n")
+    return Path(path)
+
+
+def read_record(path) -> dict:
+    """A record, checked for its format and version.
+
+    Raises
+    ------
+    InputError
+        Not a file, not JSON, not a labkit record, or a later version.
+    """
+    from labkit._files import read_json
+
+    rec = read_json(path, what="record file")
+    if not isinstance(rec, dict) or rec.get("format") != FORMAT:
+        raise InputError(f"{path}: not a labkit record (expected \"format\": \"{FORMAT}\")")
+    if rec.get("version") != VERSION:
+        raise InputError(f"{path}: record version {rec.get('version')!r}; this labkit reads version {VERSION}")
+    return rec
+
+
+def default_record_path(output, *, stream_started: str | None = None) -> Path:
+    """``OUT.record.json`` beside a program; for a stream ``JOB.stream-<UTC time>.record.json``.
+
+    >>> default_record_path("part.gcode").name
+    'part.gcode.record.json'
+    >>> default_record_path("part.gcode", stream_started="2026-11-25T13:00:05+00:00").name
+    'part.gcode.stream-20261125T130005Z.record.json'
+    """
+    p = Path(os.fspath(output))
+    if stream_started is None:
+        return p.with_name(p.name + ".record.json")
+    stamp = stream_started.replace("+00:00", "Z").replace("-", "").replace(":", "")
+    return p.with_name(f"{p.name}.stream-{stamp}.record.json")
+
+
+def _flatten(value, prefix="") -> dict:
+    if isinstance(value, dict):
+        out = {}
+        for k, v in value.items():
+            out.update(_flatten(v, f"{prefix}.{k}" if prefix else str(k)))
+        return out
+    if isinstance(value, list) and value and all(isinstance(v, dict) and "role" in v for v in value):
+        # inputs/outputs: keyed by role (several of one role by position)
+        out, seen = {}, {}
+        for v in value:
+            n = seen.get(v["role"], 0)
+            seen[v["role"]] = n + 1
+            key = v["role"] if n == 0 else f"{v['role']}#{n + 1}"
+            out.update(_flatten({k: x for k, x in v.items() if k != "role"}, f"{prefix}.{key}"))
+        return out
+    return {prefix: value}
+
+
+#: Keys that differ between any two runs and say nothing about the burn (where the record itself went).
+_ALWAYS_DIFFERENT = ("created", "stream.started", "stream.ended", "stream.summary", "options.record")
+
+
+def diff_records(a: dict, b: dict, *, everything: bool = False) -> list[tuple[str, object, object]]:
+    """What differs between two records: ``(key, value in a, value in b)``, keys dotted.
+
+    Missing keys show as ``None`` on their side. The creation and stream times, the stream's
+    text summary (its numbers are compared one by one) and the record's own path are left out
+    unless ``everything``.
+
+    Examples
+    --------
+    >>> diff_records({"options": {"feed": 600, "power": 500}}, {"options": {"feed": 900, "power": 500}})
+    [('options.feed', 600, 900)]
+    """
+    fa, fb = _flatten(a), _flatten(b)
+    out = []
+    for key in sorted(set(fa) | set(fb)):
+        if not everything and key in _ALWAYS_DIFFERENT:
+            continue
+        if fa.get(key) != fb.get(key):
+            out.append((key, fa.get(key), fb.get(key)))
+    return out
+
+
+def format_record(rec: dict) -> str:
+    """A record in words, for ``labkit record show``."""
+    lines = [f"{rec['kind']} record, labkit {rec.get('labkit')}, {rec.get('created')}: labkit {rec.get('command')}"]
+    for f in rec.get("inputs", []):
+        lines.append(f"  input   {f['role']:<14} {f['path']}  sha256 {f['sha256'][:16]}…  {f['bytes']} B")
+    for f in rec.get("outputs", []):
+        lines.append(f"  output  {f['role']:<14} {f['path']}  sha256 {f['sha256'][:16]}…  {f['bytes']} B")
+    m = rec.get("machine") or {}
+    lines.append(f"  machine {m.get('name')}: {m.get('description', '')}")
+    mat = rec.get("material")
+    if mat:
+        e = mat["entry"]
+        lines.append(f"  material {mat['spec']} from {mat['library']['path']} [{e.get('origin')}]: "
+                     f"{e.get('power_mw'):g} mW, {e.get('speed_mm_min'):g} mm/min, {e.get('passes')} pass(es)"
+                     + (f", kerf {e['kerf_mm']:g} mm" if e.get("kerf_mm") is not None else ""))
+        if mat.get("fit"):
+            f = mat["fit"]
+            lines.append(f"           fit {f.get('file')} (sha256 {str(f.get('sha256'))[:16]}…), scan "
+                         f"{f.get('scan')}, {f.get('date')}")
+    p = rec.get("planned") or {}
+    if "estimated_time_s" in p:
+        lines.append(f"  planned {p['estimated_time_s']:.1f} s"
+                     + (f", laser on {p['laser_on_time_s']:.1f} s, cut {p['cut_length_mm']:.1f} mm"
+                        if "laser_on_time_s" in p else ""))
+    s = rec.get("stream")
+    if s:
+        lines.append(f"  stream  {s['started']} → {s['ended']}: {'ok' if s['ok'] else 'STOPPED'}, "
+                     f"{s['lines_acknowledged']}/{s['lines_total']} lines in {s['elapsed_s']:.1f} s"
+                     + (f", resumed from line {s['resumed_from']}" if s.get("resumed_from") else ""))
+        if s.get("fault"):
+            lines.append(f"          fault: {s['fault']}; resume line {s.get('resume_line')}")
+        for ln, code, msg in s.get("errors", []):
+            lines.append(f"          line {ln}: error:{code}: {msg}")
+    opts = rec.get("options") or {}
+    shown = ", ".join(f"{k}={v}" for k, v in opts.items() if v not in (None, False, [], ""))
+    lines.append(f"  options {shown}")
+    return "\n".join(lines)
+
+
+def add_record_option(parser, *, default_on: bool = False) -> None:
+    """``--record [FILE]`` (and ``--no-record`` when on by default)."""
+    if default_on:
+        parser.add_argument("--record", default="auto", metavar="FILE",
+                            help="provenance record (JSON; default: beside the job, see labkit.record)")
+        parser.add_argument("--no-record", dest="record", action="store_const", const=None,
+                            help="write no record")
+    else:
+        parser.add_argument("--record", nargs="?", const="auto", default=None, metavar="FILE",
+                            help="also write a provenance record (JSON; alone: OUTPUT.record.json)")
+
+
+def record_program(command: str, args, *, inputs: list, program, extra_outputs: list = ()) -> Path | None:
+    """Write ``--record``'s file for a program just written (nothing when ``args.record`` is unset).
+
+    ``"auto"`` (``--record`` alone) is ``PROGRAM.record.json``. Returns the path written.
+    """
+    from labkit._files import check_output_file
+
+    target = getattr(args, "record", None)
+    if not target:
+        return None
+    path = default_record_path(program) if target == "auto" else Path(target)
+    check_output_file(path, *[p for p, _ in inputs])
+    rec = program_record(command, args, inputs=inputs, program=program,
+                         extra_outputs=[(p, r) for p, r in extra_outputs if p and Path(p).is_file()])
+    return write_record(rec, path)
+
+
+def stream_record_target(args, started: str) -> Path | None:
+    """Where ``labkit stream``'s record goes (None: ``--no-record``), checked before anything is sent."""
+    from labkit._files import check_output_file
+
+    target = getattr(args, "record", None)
+    if not target:
+        return None
+    path = default_record_path(args.file, stream_started=started) if target == "auto" else Path(target)
+    return check_output_file(path, args.file, option="--record")
