@@ -446,6 +446,10 @@ def interpret(buf, options, lenient, max_errors, trace):
         while le < n and buf[le] != 10:
             le += 1
         lineno += 1
+        line_syncs = False
+        line_axes = False
+        line_motion = False
+        line_offsets = False
 
         err = OK
         detail = D_NONE
@@ -1166,24 +1170,33 @@ def interpret(buf, options, lenient, max_errors, trace):
                         inverse = False
                         coord = 0
                         cool = 0
+        # what the line did (a rejected line did nothing)
+        did = err == OK and not is_system and not is_jog
+        line_syncs = did and (dwell or nonmodal == 100 or nonmodal == 280 or nonmodal == 281
+                              or nonmodal == 300 or nonmodal == 301 or nonmodal == 920
+                              or nonmodal == 921 or stop >= 0 or coolant >= 0
+                              or (groups & (1 << M_LASER)) != 0)
+        line_axes = did and axis_words
+        line_motion = did and motion_new >= 0
+        line_offsets = did and (nonmodal == 100 or nonmodal == 280 or nonmodal == 300
+                                or nonmodal == 920 or nonmodal == 921 or tlo_cmd != 0
+                                or stop == 2 or stop == 30)
         if trace:
             t = states[lineno - 1]
             _put_state(t, motion, plane, inches, absolute, arc_absolute, feed, power, laser, pos,
                        coord, wcs, g92, tlo, inverse, cool, home28, home30)
-            if err == OK and not is_system and not is_jog:
-                t.syncing = (dwell or nonmodal == 100 or nonmodal == 280 or nonmodal == 281
-                             or nonmodal == 300 or nonmodal == 301 or nonmodal == 920
-                             or nonmodal == 921 or stop >= 0 or coolant >= 0
-                             or (groups & (1 << M_LASER)) != 0)
-                t.axis_words = axis_words
-                t.motion_word = motion_new >= 0
-                t.sets_offsets = (nonmodal == 100 or nonmodal == 280 or nonmodal == 300
-                                  or nonmodal == 920 or nonmodal == 921 or tlo_cmd != 0
-                                  or stop == 2 or stop == 30)
+            t.syncing = line_syncs
+            t.axis_words = line_axes
+            t.motion_word = line_motion
+            t.sets_offsets = line_offsets
         ls = le + 1
 
-    final = np.zeros(1, TRACE_ROW)
-    _put_state(final[0], motion, plane, inches, absolute, arc_absolute, feed, power, laser, pos,
+    end_state = np.zeros(1, TRACE_ROW)
+    _put_state(end_state[0], motion, plane, inches, absolute, arc_absolute, feed, power, laser, pos,
                coord, wcs, g92, tlo, inverse, cool, home28, home30)
+    end_state[0].syncing = line_syncs
+    end_state[0].axis_words = line_axes
+    end_state[0].motion_word = line_motion
+    end_state[0].sets_offsets = line_offsets
     return Interpretation(rows[:nrows], errs[:nerr], nerr_total, recs[:nrec],
-                          states[:lineno] if trace else states, final)
+                          states[:lineno] if trace else states, end_state)

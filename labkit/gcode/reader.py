@@ -65,7 +65,8 @@ from labkit.gcode import _kernel as K
 from labkit.gcode.dialects import Dialect, get_dialect
 from labkit.toolpath.moves import LaserMode, MoveKind, Moves, Record
 
-__all__ = ["parse", "parse_file", "check", "modal_trace", "ParseOptions", "grbl_system_verdict"]
+__all__ = ["parse", "parse_file", "check", "modal_trace", "ParseOptions", "grbl_system_verdict",
+           "Interpreter"]
 
 _COMMON_LETTERS = "FGIJKMNPRSXYZ"
 
@@ -227,12 +228,90 @@ def parse(text, *, dialect: str | Dialect = "grbl", filename: str | None = None,
         errors = sorted(errors + [e for e in refused if e is not None], key=lambda e: e.line)
     if errors and not lenient:
         raise errors[0]
-    records = [Record(int(r["line"]), int(r["index"]), K.RECORD_NAMES[int(r["kind"])],
-                      _clip(data[r["span"][0]:r["span"][1]].decode("utf-8", "replace").strip()),
-                      float(r["value"]))
-               for r in kept]
-    return Moves.from_rows(out.moves, source=filename, s_max=d.s_max, records=records,
+    return Moves.from_rows(out.moves, source=filename, s_max=d.s_max, records=_records(data, kept),
                            diagnostics=errors, dropped_diagnostics=out.error_total - len(out.errors))
+
+
+def _records(data: bytes, kept) -> list[Record]:
+    """The :class:`Record` of each kernel record row."""
+    return [Record(int(r["line"]), int(r["index"]), K.RECORD_NAMES[int(r["kind"])],
+                   _clip(data[r["span"][0]:r["span"][1]].decode("utf-8", "replace").strip()),
+                   float(r["value"]))
+            for r in kept]
+
+
+class Interpreter:
+    """G-code interpreted line by line, the modal state kept between lines: for a
+    controller's view of a stream (the virtual machine, a step-through in a notebook).
+
+    Parameters
+    ----------
+    dialect : str or Dialect
+    state : ModalState, optional
+        Where the interpreter starts (default GRBL's power-on state).
+    streaming : bool
+        Also refuse what the controller refuses of a streamed line (its line buffer; see
+        :func:`parse`).
+
+    Attributes
+    ----------
+    state : ModalState
+        The state after the last accepted line; assign one to move the interpreter (a
+        reset, a cancelled jog, homing).
+
+    Examples
+    --------
+    >>> it = Interpreter()
+    >>> moves, error = it.feed("G91 G1 X5 F600")
+    >>> moves.end.tolist(), error
+    ([[5.0, 0.0, 0.0]], None)
+    >>> moves, error = it.feed("X5 X6")
+    >>> len(moves), error.code, it.state.position
+    (0, 25, (5.0, 0.0, 0.0))
+    >>> it.feed("X5")[0].end.tolist(), it.state.distance
+    ([[10.0, 0.0, 0.0]], 91)
+    """
+
+    def __init__(self, dialect: str | Dialect = "grbl", state=None, *, streaming: bool = False):
+        from labkit.gcode.state import ModalState
+
+        self.dialect = get_dialect(dialect)
+        self._options = ParseOptions.from_dialect(self.dialect, streaming=streaming)
+        self.state = ModalState() if state is None else state
+
+    @property
+    def state(self):
+        return self._state
+
+    @state.setter
+    def state(self, value) -> None:
+        self._state = value
+        self._options = self._options._replace(start=value.record())
+
+    def feed(self, line) -> tuple[Moves, GcodeError | None]:
+        """Interpret one line (str or bytes, without a line end).
+
+        Returns
+        -------
+        moves : Moves
+            What the line does (empty when it is rejected or does not move); its
+            ``records`` hold a pause, coolant, a ``$`` line … as :func:`parse` keeps them.
+        error : GcodeError or None
+            Why the line was rejected (``error.code``: the status number); a rejected line
+            changes nothing, as on a controller.
+        """
+        from labkit.gcode.state import ModalState
+
+        data = _as_bytes(line)
+        if b"\n" in data.rstrip(b"\n"):
+            raise ValueError("Interpreter.feed takes one line; got a line end inside it")
+        out = K.interpret(np.frombuffer(data.rstrip(b"\n"), np.uint8), self._options, False, 1, False)
+        if out.error_total:
+            return Moves.empty(), _make_error(data, None, out.errors[0])
+        self._state = ModalState.at(out.final, 0)
+        self._options = self._options._replace(start=out.final)
+        return Moves.from_rows(out.moves, s_max=self.dialect.s_max,
+                               records=_records(data, out.records)), None
 
 
 #: GRBL 1.1's settings ($n=value) below the per-axis ones ($100…$132, three axes).

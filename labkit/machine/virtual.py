@@ -11,8 +11,9 @@ through a reset as in GRBL's EEPROM, G92 and G43.1 cleared by it; ``WCO`` is the
 sum), soft-limit alarms for moves outside the machine's travel, ``$`` commands (``$$ $I $G $# $X $H $J= $C $N=V``), feed hold,
 resume and soft reset (a reset while moving raises ALARM:3, as GRBL does).
 
-Lines are interpreted by :mod:`labkit.gcode`'s parser (the one home of the
-modal state); arcs are cut into GRBL's ``$12`` chord segments
+Lines are interpreted one at a time by :class:`labkit.gcode.Interpreter`, which
+keeps the modal state (:class:`labkit.gcode.ModalState`, its one home) between them;
+arcs are cut into GRBL's ``$12`` chord segments
 (:func:`labkit.geometry.circle.grbl_segments`). When a block starts it is timed
 by a trapezoidal profile with the machine description's acceleration and
 maximum rates: from the current speed, to the speed the next queued block
@@ -44,8 +45,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from labkit.gcode.dialects import get_dialect
-from labkit.gcode.reader import _run as _parse_run
+from dataclasses import replace
+
+from labkit.gcode.reader import Interpreter
+from labkit.gcode.state import ModalState
 from labkit.geometry.circle import arc_points, grbl_segments, sweep_angle
 # The one place labkit.machine imports the motion machine description (a rename is a one-line fix).
 from labkit.motion import load_machine
@@ -185,7 +188,7 @@ class VirtualMachine:
         self._wco_sent = np.zeros(3)
         self._speed = 0.0           # mm/s at the end of the last block executed
         self._hold_v = 0.0          # mm/s while braking for a feed hold
-        self.coord_origins = np.zeros((6, 3))    # G54…G59, machine mm: GRBL keeps them in EEPROM
+        self._parser = Interpreter("grbl")
         self._reset_parser()
         if self._flag(22):                  # GRBL's HOMING_INIT_LOCK: homing first, or $X
             self.state, self.alarm_code = "Alarm", 0
@@ -324,18 +327,65 @@ class VirtualMachine:
         self._out += text.encode("ascii") + b"\r\n"
 
     def _reset_parser(self) -> None:
-        self.units, self.distance, self.arc_mode, self.plane, self.motion = 21, 90, 91.1, 17, 0
-        self.feed_mm_min, self.s_word, self.laser_mode_word = math.nan, 0.0, 0
+        """GRBL's reset: the power-on modal state (G54, no G92, no tool offset) where the head
+        is; the G54…G59 origins and the G28.1/G30.1 positions stay (GRBL keeps them in EEPROM)."""
+        kept = self._parser.state
+        self._parser.state = ModalState(position=tuple(float(v) for v in self.pos),
+                                        coord_origins=kept.coord_origins, home28=kept.home28,
+                                        home30=kept.home30)
         self._rest_level = 0.0      # the beam once the queue is empty (GRBL's M3 leaves it on)
-        # GRBL's reset selects G54 and clears the G92 offset and the tool length offset
-        self.coord_system, self.g92, self.tool_offset = 54, np.zeros(3), 0.0
+
+    # the parser's state, as GRBL's $G and $# and the status report show it
+    @property
+    def motion(self) -> float:
+        return self._parser.state.motion
+
+    @property
+    def plane(self) -> int:
+        return self._parser.state.plane
+
+    @property
+    def units(self) -> int:
+        return self._parser.state.units
+
+    @property
+    def distance(self) -> int:
+        return self._parser.state.distance
+
+    @property
+    def feed_mm_min(self) -> float:
+        return self._parser.state.feed_mm_min
+
+    @property
+    def s_word(self) -> float:
+        return self._parser.state.s_word
+
+    @property
+    def laser_mode_word(self) -> int:
+        """3 (M3), 4 (M4) or 0 (M5)."""
+        return self._parser.state.laser % 5
+
+    @property
+    def coord_system(self) -> int:
+        return self._parser.state.coord_system
+
+    @property
+    def coord_origins(self) -> np.ndarray:
+        """G54…G59 origins, machine mm."""
+        return np.array(self._parser.state.coord_origins, float)
+
+    @property
+    def g92(self) -> np.ndarray:
+        return np.array(self._parser.state.g92, float)
+
+    @property
+    def tool_offset(self) -> float:
+        return self._parser.state.tool_offset
 
     @property
     def work_offset(self) -> np.ndarray:
         """WCO: machine position minus work position, mm (G54…G59 origin + G92 + TLO on Z)."""
-        wco = self.coord_origins[self.coord_system - 54] + self.g92
-        wco[2] += self.tool_offset
-        return wco
+        return self._parser.state.work_offset
 
     def _beam_fraction(self, laser: int, s: float) -> float:
         s_max = float(self.settings[30]) or 1000.0
@@ -597,13 +647,16 @@ class VirtualMachine:
         elif cmd == "G":
             laser = {0: "M5", 3: "M3", 4: "M4"}[self.laser_mode_word]
             feed = 0 if math.isnan(self.feed_mm_min) else self.feed_mm_min
-            self._emit(f"[GC:G{self.motion} G{self.coord_system} G{self.plane} G{self.units} G{self.distance} G94 "
-                       f"{laser} M9 T0 F{feed:g} S{self.s_word:g}]")
+            st = self._parser.state
+            coolant = " ".join(f"M{m}" for m in st.coolant) or "M9"
+            self._emit(f"[GC:G{self.motion} G{self.coord_system} G{self.plane} G{self.units} G{self.distance} "
+                       f"G{st.feed_mode} {laser} {coolant} T0 F{feed:g} S{self.s_word:g}]")
         elif cmd == "#":
             for k in range(6):
                 self._emit("[G{}:{:.3f},{:.3f},{:.3f}]".format(54 + k, *self.coord_origins[k]))
-            for name in ("G28", "G30"):
-                self._emit(f"[{name}:0.000,0.000,0.000]")
+            st = self._parser.state
+            for name, p in (("G28", st.home28), ("G30", st.home30)):
+                self._emit("[{}:{:.3f},{:.3f},{:.3f}]".format(name, *p))
             self._emit("[G92:{:.3f},{:.3f},{:.3f}]".format(*self.g92))
             self._emit(f"[TLO:{self.tool_offset:.3f}]")
             self._emit("[PRB:0.000,0.000,0.000:0]")
@@ -633,11 +686,7 @@ class VirtualMachine:
             if self.state not in ("Idle", "Jog"):
                 self._emit("error:8" if self.state != "Alarm" else "error:9")
                 return
-            saved = (self.units, self.distance, self.arc_mode, self.plane, self.motion,
-                     self.feed_mm_min, self.s_word, self.laser_mode_word)
-            err = self._gcode("G1 " + text[3:], jog=True)
-            (self.units, self.distance, self.arc_mode, self.plane, self.motion,
-             self.feed_mm_min, self.s_word, self.laser_mode_word) = saved
+            err = self._gcode(text, jog=True)          # the parser runs $J= as GRBL's jog
             if err is not None:
                 self._emit(f"error:{err}")
                 return
@@ -678,47 +727,23 @@ class VirtualMachine:
         base = self._blocks[-1].end if self._blocks else self.pos
         if self.check_mode:
             base = self._check_pos
-        x, y, z = (float(v) for v in base)
-        arc = " G90.1" if self.arc_mode == 90.1 else ""
-        feed = ""
-        if not math.isnan(self.feed_mm_min):
-            feed = f" F{float(self.feed_mm_min) / (25.4 if self.units == 20 else 1.0)!r}"
-        motion = f"G{self.motion}" if self.motion in (0, 1) else ""
-        # the state restated for the parser: position (machine, offsets still zero), the work
-        # offsets (G54…G59 origins, the system in use, TLO, G92), then the modal words
-        prefix = [f"G21 G90 G0 X{x!r} Y{y!r} Z{z!r}"]
-        for k in np.flatnonzero(np.any(self.coord_origins != 0, axis=1)):
-            ox, oy, oz = (float(v) for v in self.coord_origins[k])
-            prefix.append(f"G10 L2 P{k + 1} X{ox!r} Y{oy!r} Z{oz!r}")
-        prefix.append(f"G{self.coord_system}")
-        if self.tool_offset:
-            prefix.append(f"G43.1 Z{float(self.tool_offset)!r}")
-        if np.any(self.g92 != 0):
-            # G92 v makes the current position read v: v = machine − origin − G92 − TLO
-            v = base - self.coord_origins[self.coord_system - 54] - self.g92
-            v[2] -= self.tool_offset
-            prefix.append("G92 X{!r} Y{!r} Z{!r}".format(*(float(c) for c in v)))
-        prefix += [f"G{self.units} G{self.distance}{arc} G{self.plane}{feed} S{float(self.s_word)!r} "
-                   f"M{self.laser_mode_word or 5}", motion]
-        data = ("\n".join(prefix) + "\n" + text + "\n").encode("ascii", "replace")
-        out = _parse_run(data, get_dialect("grbl"), True, True)
-        rows = out.moves
-        kind, start, end, centre, plane = (rows[k] for k in ("kind", "start", "end", "centre", "plane"))
-        feed_col, power, laser, dwell, line = (rows[k] for k in ("feed_mm_min", "power_s", "laser",
-                                                                  "dwell_s", "line"))
-        e_code = out.errors["code"]
-        if len(e_code):
-            return int(e_code[0])
-        state, pos = out.trace, out.trace["position"]
-        row = len(prefix)                                # the trace row of the sent line
-        new_pos = pos[row]
+        before = self._parser.state
+        if not np.array_equal(before.position, base):   # moved under the parser: a stop, $H
+            before = replace(before, position=tuple(float(v) for v in base))
+            self._parser.state = before
+        moves, error = self._parser.feed(text)
+        if error is not None:
+            return error.code
+        after = self._parser.state
+        new_pos = np.array(after.position, float)
         lo = np.zeros(3)
         hi = np.asarray(self.machine.travel_mm, float)
         target_ok = bool(np.all(new_pos >= lo - 1e-6) and np.all(new_pos <= hi + 1e-6))
         if not target_ok and self._flag(20):          # soft limits ($20, GRBL: off by default)
+            self._parser.state = before               # the line is not executed
             if jog:
                 return 15
-            # soft limit: GRBL holds, resets and raises ALARM:2; the line is not executed
+            # soft limit: GRBL holds, resets and raises ALARM:2
             self._blocks.clear()
             self._rest_level = 0.0
             self._rx.clear()
@@ -726,30 +751,24 @@ class VirtualMachine:
             self._emit("ALARM:2")
             self._emit("[MSG:Reset to continue]")
             return _ALARMED
-        (self.motion, self.plane, self.units, self.distance, self.arc_mode, self.feed_mm_min,
-         self.s_word, self.laser_mode_word) = (
-            int(state["motion"][row]), int(state["plane"][row]), int(state["units"][row]),
-            int(state["distance"][row]), float(state["arc_distance"][row]),
-            float(state["feed_mm_min"][row]), float(state["power_s"][row]),
-            int(state["laser"][row]))
         self.lines_accepted += 1
-        if not self.check_mode:                          # check mode changes no offsets
-            self.coord_system = int(state["coord_system"][row])
-            self.coord_origins = np.array(state["coord_origins"][row], float)
-            self.g92 = np.array(state["g92"][row], float)
-            self.tool_offset = float(state["tool_offset"][row])
-        if self.check_mode:
-            self._check_pos = np.array(new_pos, float)
+        if self.check_mode:                              # check mode changes no offsets
+            self._parser.state = replace(after, coord_system=before.coord_system,
+                                         coord_origins=before.coord_origins, g92=before.g92,
+                                         tool_offset=before.tool_offset, home28=before.home28,
+                                         home30=before.home30)
+            self._check_pos = new_pos
             return None
-        mine = np.flatnonzero(line == row + 1)
         n_word = -1
         head = text.lstrip().upper()
         if head.startswith("N"):
             digits = "".join(c for c in head[1:].split(" ")[0] if c.isdigit())
             n_word = int(digits) if digits else -1
-        cursor = np.array(pos[row - 1], float)
+        kind, start, end, centre, plane = moves.kind, moves.start, moves.end, moves.centre, moves.plane
+        feed_col, power, laser, dwell = moves.feed_mm_min, moves.power_s, moves.laser, moves.dwell_s
+        cursor = np.array(base, float)
         queued = len(self._blocks)
-        for i in mine:
+        for i in range(len(moves)):
             k = int(kind[i])
             if k == 4:                                   # dwell: standing still at the beam's level
                 self._queue(cursor, cursor, 0.0, float(dwell[i]), self._rest_level, False, text,
