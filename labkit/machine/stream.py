@@ -1,7 +1,8 @@
 """The job runner: stream a G-code job safely, with progress, faults and resume.
 
 :func:`run_job` sends a :class:`Job` to a :class:`~labkit.machine.grbl.Grbl`
-machine by character counting (keep the bytes of unanswered lines, newline
+machine — through a :class:`JobRunner`, whose steps (send, poll, acknowledge,
+fault, finish) and state a test can drive and read — by character counting (keep the bytes of unanswered lines, newline
 included, within the RX buffer; every ``ok``/``error`` retires the oldest) or
 send-response (one line at a time), polls status reports, and reports
 progress by source line with an ETA from :func:`labkit.motion.plan`.
@@ -48,7 +49,7 @@ from labkit.errors import InputError, LabkitError, MachineError
 from labkit.machine.grbl import Grbl, alarm_message, error_message
 from labkit.machine.resume import frame_text, resume_text
 
-__all__ = ["Job", "JobReport", "run_job", "resume_text", "frame_text", "strip_line", "Controls",
+__all__ = ["Job", "JobReport", "run_job", "JobRunner", "resume_text", "frame_text", "strip_line", "Controls",
            "StopSignals", "preflight_check", "check_job"]
 
 _COMMENT = re.compile(r"\([^)]*\)|;.*$")
@@ -466,11 +467,11 @@ def run_job(grbl: Grbl, job: Job, *, mode: str = "counting", on_error: str = "st
     t0 = time.monotonic()
     try:
         with StopSignals() if handle_signals else _no_signals() as signals:
-            _stream(grbl, job, report, controls, signals, mode=mode, on_error=on_error,
-                    check_first=check_first, resume_from=resume_from,
-                    resume_position=resume_position, progress=progress,
-                    status_interval_s=status_interval_s, watchdog_s=watchdog_s, stall_s=stall_s,
-                    preflight=preflight, machine=machine)
+            runner = JobRunner(grbl, job, report, controls, signals, mode=mode, on_error=on_error,
+                               progress=progress, status_interval_s=status_interval_s,
+                               watchdog_s=watchdog_s, stall_s=stall_s)
+            runner.run(check_first=check_first, resume_from=resume_from,
+                       resume_position=resume_position, preflight=preflight, machine=machine)
     finally:
         _RUNNING.pop(key, None)
         done.set()
@@ -496,82 +497,469 @@ class _no_signals:
         return False
 
 
-def _stream(grbl: Grbl, job: Job, report: JobReport, controls: Controls, signals, *, mode,
-            on_error, check_first, resume_from, resume_position, progress, status_interval_s,
-            watchdog_s, stall_s, preflight, machine) -> None:
-    """The run itself: pre-flight, sending, accounting; every end through :func:`_make_safe`."""
-    # before anything is sent: answers that no line asked for (before and after the pre-flight
-    # commands, which would take one as theirs), and the job against the controller
-    for stage in ("before", "after") if preflight else ("before",):
+class JobRunner:
+    """One run of a job on a controller, as steps whose state a test can inspect.
+
+    :func:`run_job` makes one and calls :meth:`run`; the steps are :meth:`preflight`
+    (before anything is sent), :meth:`send` (what fits the controller's RX buffer),
+    :meth:`poll` (stop requests, pause, status reports, re-synchronisation, the
+    watchdog), :meth:`acknowledge` (an ``ok``/``error`` retires the oldest line in
+    flight), :meth:`fault` (every early end, through :func:`_make_safe`) and
+    :meth:`finish` (wait for the motion to end, then the beam off).
+
+    Attributes
+    ----------
+    phase : str
+        ``"ready"``, ``"sending"``, ``"finishing"``, then ``"done"``, ``"refused"``
+        (nothing was sent) or ``"faulted"``.
+    lines : list of (int, str)
+        (source line, text) to send, in order; ``next_index`` is the next to go.
+    inflight : deque of (int, int)
+        (source line, bytes) of the lines sent and not yet answered, oldest first; the
+        bytes are negative for a ``$`` line (sent alone: it waits for every answer).
+    rx_used, rx_limit : int
+        Bytes of the unanswered lines, and how many may be (counting: the RX buffer
+        less one; send-response: no limit, one line at a time).
+    acked : list of (int, int, int)
+        (source line, planner blocks, answer number) of the acknowledged motion lines.
+    sent_lines, sent_texts, line_ends : list
+        Per line sent: its source line, its text, the bytes sent up to its end.
+    """
+
+    def __init__(self, grbl: Grbl, job: Job, report: JobReport, controls: Controls, signals, *,
+                 mode: str = "counting", on_error: str = "stop", progress=None,
+                 status_interval_s: float = 0.1, watchdog_s: float = 3.0, stall_s: float = 2.0):
+        self.grbl, self.job, self.report, self.controls, self.signals = grbl, job, report, controls, signals
+        self.mode, self.on_error, self.progress = mode, on_error, progress
+        self.status_interval_s, self.watchdog_s, self.stall_s = status_interval_s, watchdog_s, stall_s
+        self.phase = "ready"
+        self.lines: list = list(job.send)
+        self.start_accounting()
+
+    def start_accounting(self) -> None:
+        """Nothing in flight, the answer and status counts taken from the controller as they
+        are now: at the first line sent (after the pre-flight and check-mode exchanges)."""
+        grbl = self.grbl
+        self.next_index = 0
+        self.inflight: deque = deque()
+        self.acked: list[tuple] = []
+        self.rx_used = 0
+        self.rx_limit = grbl.info.rx_bytes - 1 if self.mode == "counting" else 10 ** 9
+        self.paused = False
+        self.last_poll = 0.0
+        self.last_status_seen = grbl.status_count
+        self.last_status_t = time.monotonic()
+        self.stall_since = None
+        # Re-synchronisation after a lost answer (character counting): the bytes sent before each
+        # '?' are in the controller (one ordered link), so bytes sent − its RX fill is a lower bound
+        # on what it has consumed; every consumed line but the one it may be blocked on has been
+        # answered. The bytes sent by the time a report is read, minus its RX fill, bound it from
+        # above: more answers than lines it can have read is a surplus (an unsolicited or doubled
+        # 'ok').
+        self.answers_base = grbl.answer_count
+        self.answers_start = self.answers_base
+        self.events_taken = 0              # ok/error events taken from the queue
+        self.line_ends: list[int] = []     # cumulative bytes at the end of each line sent
+        self.sent_texts: list[str] = []
+        self.sent_lines: list[int] = []    # source line of each line sent
+        self.sent_bytes = 0
+        self.q_marks: deque = deque()      # sent_bytes when each '?' went out
+        self.synced = 0                    # lines sent whose answers are known to be theirs
+
+    # -- the whole run ---------------------------------------------------------------------------
+
+    def run(self, *, check_first: bool = False, resume_from: int | None = None, resume_position=None,
+            preflight: bool = True, machine=None) -> None:
+        """Pre-flight, sending, accounting; every end through :meth:`fault` or :meth:`finish`."""
+        if not self.preflight(preflight, machine):
+            self.phase = "refused"
+            return
+        if resume_from is not None:
+            self.lines = _resume_send(self.job, int(resume_from), resume_position)
         try:
-            st0 = grbl.get_status(max(2.0, watchdog_s))   # in wire order after any stray answer
-        except MachineError as exc:
-            report.refused = True
-            report.fault = f"no status report before the job ({exc}); nothing was sent"
-            return
-        stray = [ev for ev in grbl.drain_events() if ev.kind in ("ok", "error")]
-        if stray:
-            report.refused = True
-            report.fault = (f"protocol error: {len(stray)} answer(s) ('{stray[0].text}') arrived "
-                            f"that no line asked for, before the job started — another program "
-                            f"may be sending to this controller, or an earlier job is still "
-                            f"running; nothing was sent")
-            return
-        if stage == "before" and preflight:
-            problems, notes = preflight_check(grbl, job, machine=machine, status=st0)
-            report.warnings.extend(notes)
-            if problems:
+            if check_first:
+                bad = check_job(self.grbl, self.job, stop=self.stop_requested)
+                if bad:
+                    self.report.errors.extend(bad)
+                    self.report.fault = f"check mode ($C) rejected {len(bad)} line(s); nothing was cut"
+                    self.phase = "refused"
+                    return
+            self.phase = "sending"
+            self.start_accounting()
+            self.send_all()
+            self.phase = "finishing"
+            self.finish()
+        except BaseException as exc:
+            self.fault(exc)
+            if not isinstance(exc, Exception):      # KeyboardInterrupt without our handler, SystemExit
+                raise
+
+    def preflight(self, enabled: bool = True, machine=None) -> bool:
+        """Before anything is sent: answers that no line asked for (before and after the
+        pre-flight commands, which would take one as theirs), and the job against the
+        controller (:func:`preflight_check`). False: refused, with ``report.fault`` saying why."""
+        grbl, report = self.grbl, self.report
+        for stage in ("before", "after") if enabled else ("before",):
+            try:
+                st0 = grbl.get_status(max(2.0, self.watchdog_s))   # in wire order after any stray answer
+            except MachineError as exc:
                 report.refused = True
-                report.fault = ("refused before anything was sent (pre-flight check against the "
-                                "controller): " + " · ".join(problems))
-                return
-    send = list(job.send)
-    if resume_from is not None:
-        send = _resume_send(job, int(resume_from), resume_position)
-    rx_limit = grbl.info.rx_bytes - 1 if mode == "counting" else 10 ** 9
-    inflight: deque = deque()          # (source line, bytes)
-    acked: list[tuple] = []            # (source line, blocks, answer number) of acknowledged motion lines
-    try:
-        if check_first:
-            bad = check_job(grbl, job, stop=lambda: _requested_stop(controls, signals))
-            if bad:
-                report.errors.extend(bad)
-                report.fault = f"check mode ($C) rejected {len(bad)} line(s); nothing was cut"
-                return
-        _send_all(grbl, job, report, controls, signals, send, inflight, acked, mode=mode,
-                  on_error=on_error, rx_limit=rx_limit, progress=progress,
-                  status_interval_s=status_interval_s, watchdog_s=watchdog_s, stall_s=stall_s)
+                report.fault = f"no status report before the job ({exc}); nothing was sent"
+                return False
+            stray = [ev for ev in grbl.drain_events() if ev.kind in ("ok", "error")]
+            if stray:
+                report.refused = True
+                report.fault = (f"protocol error: {len(stray)} answer(s) ('{stray[0].text}') arrived "
+                                f"that no line asked for, before the job started — another program "
+                                f"may be sending to this controller, or an earlier job is still "
+                                f"running; nothing was sent")
+                return False
+            if stage == "before" and enabled:
+                problems, notes = preflight_check(grbl, self.job, machine=machine, status=st0)
+                report.warnings.extend(notes)
+                if problems:
+                    report.refused = True
+                    report.fault = ("refused before anything was sent (pre-flight check against the "
+                                    "controller): " + " · ".join(problems))
+                    return False
+        return True
+
+    def fault(self, exc: BaseException) -> None:
+        """Any early end: say what it was, then :func:`_make_safe` (stop, beam off, report)."""
+        grbl, report = self.grbl, self.report
+        self.phase = "faulted"
+        self.signals.stopping()
+        if isinstance(exc, _Fault):
+            report.fault = str(exc)
+            fault = exc
+        elif isinstance(exc, MachineError):
+            if grbl.disconnected or grbl.link.lost or grbl.link.closed:   # a write failed: the link is gone
+                grbl.disconnected = grbl.disconnected or grbl.link.lost or str(exc)
+                report.fault = f"link lost: {exc}"
+                fault = _Fault(str(exc), reset=False, hold=False)
+            else:
+                report.fault = str(exc)
+                fault = _Fault(str(exc))
+        elif isinstance(exc, Exception):    # a bug (ours or a callback's): stop, then say so
+            report.exception = exc
+            report.fault = f"stopped by an exception during the run: {type(exc).__name__}: {exc}"
+            fault = _Fault(report.fault)
+        else:
+            report.exception = exc
+            report.fault = f"interrupted ({type(exc).__name__})"
+            fault = _Fault(report.fault)
+        _make_safe(grbl, fault, report, self.acked, self.inflight, self.job)
+
+    def stop_requested(self) -> str | None:
+        """Why the user (a signal, a cancel, the exit hook) wants the job stopped, or None."""
+        return _requested_stop(self.controls, self.signals)
+
+    # -- sending and accounting ------------------------------------------------------------------
+
+    def send_all(self) -> None:
+        """Send every line and account for every answer; raise :class:`_Fault` on any fault."""
+        grbl = self.grbl
+        while self.next_index < len(self.lines) or self.inflight:
+            now = time.monotonic()
+            self.poll(now)
+            sent_any = self.send()
+            ev = grbl.next_event(0.0 if sent_any else 0.01)
+            if ev is None:
+                self.check_stall(now)
+                continue
+            self.stall_since = None
+            if ev.kind in ("ok", "error"):
+                self.acknowledge(ev)
+            elif ev.kind == "alarm":
+                raise _Fault(f"ALARM:{ev.code}: {alarm_message(ev.code)}", reset=True)
+            elif ev.kind == "reset":
+                raise _Fault("the machine reset during the job (power, cable, or a reset)",
+                             reset=False, hold=False)
+            elif ev.kind == "disconnect":
+                raise _Fault(f"link lost: {ev.text}", reset=False, hold=False)
+
+    def poll(self, now: float) -> None:
+        """Stop requests and pause, a status request every ``status_interval_s``, and what a
+        fresh report tells: surplus answers, lost answers (re-synchronised), or the watchdog."""
+        grbl = self.grbl
+        why = self.stop_requested()
+        if why:
+            raise _Fault(why)
+        if self.controls.pause_requested and not self.paused:
+            grbl.feed_hold()
+            self.paused = True
+        elif self.paused and not self.controls.pause_requested:
+            grbl.resume()
+            self.paused = False
+        if now - self.last_poll >= self.status_interval_s:
+            self.q_marks.append(self.sent_bytes)
+            grbl.realtime("status")
+            self.last_poll = now
+        if grbl.status_count != self.last_status_seen:
+            fresh = grbl.status_count - self.last_status_seen
+            self.last_status_seen = grbl.status_count
+            self.last_status_t = now
+            snap = None
+            for _ in range(min(fresh, len(self.q_marks))):
+                snap = self.q_marks.popleft()
+            st = grbl.status
+            self.check_count(st, snap)
+            # only once every answer before this report has been taken: an error among them
+            # must first be named (in acknowledge), not skipped over
+            if (self.mode == "counting" and st is not None
+                    and st.answers_before - self.answers_start == self.events_taken):
+                lost = _answers_lost(grbl, snap, self.line_ends, self.sent_texts, self.answers_base)
+                if lost:
+                    self.too_many_lost(lost)
+                self.rx_used -= self.drop_lost(lost)
+                self.answers_base -= lost
+        elif now - self.last_status_t > self.watchdog_s:
+            raise _Fault(f"watchdog: no status report for {self.watchdog_s:g} s; stopped sending",
+                         reset=True)
+
+    def send(self) -> bool:
+        """Send the lines that fit (counting: within ``rx_limit``; a ``$`` line alone;
+        send-response: one line when none is in flight). True when a line went out."""
+        sent_any = False
+        while self.next_index < len(self.lines) and not self.paused:
+            ln, text = self.lines[self.next_index]
+            n = len(text) + 1
+            settings_line = text.startswith("$")
+            if self.inflight and (self.mode == "send-response" or settings_line
+                                  or self.inflight[0][1] < 0 or self.rx_used + n > self.rx_limit):
+                break
+            self.grbl.send_line(text)
+            self.inflight.append((ln, -n if settings_line else n))
+            self.sent_bytes += n
+            self.line_ends.append(self.sent_bytes)
+            self.sent_texts.append(text)
+            self.sent_lines.append(ln)
+            self.rx_used += n
+            self.report.max_rx_used = max(self.report.max_rx_used, self.rx_used)
+            self.report.lines_sent += 1
+            self.next_index += 1
+            sent_any = True
+            if settings_line or self.mode == "send-response":
+                break
+        return sent_any
+
+    def check_stall(self, now: float) -> None:
+        """No answer while the machine idles with an empty RX buffer: a byte was lost."""
+        st = self.grbl.status
+        if (self.inflight and st is not None and st.state == "Idle" and st.rx_free is not None
+                and st.rx_free >= self.grbl.info.rx_bytes - 1 and st.received_s > now - 0.5):
+            self.stall_since = self.stall_since or now
+            if now - self.stall_since > self.stall_s:
+                raise _Fault(f"no answer for line {self.inflight[0][0]} while the machine is "
+                             f"idle with an empty buffer (a byte was lost on the link)")
+        else:
+            self.stall_since = None
+
+    def acknowledge(self, ev) -> None:
+        """An ``ok`` or ``error`` retires the oldest line in flight — after an error, once a
+        status report has settled which line it belongs to."""
+        grbl, report, inflight, job = self.grbl, self.report, self.inflight, self.job
+        if not inflight:
+            raise self.surplus(f"'{ev.text}' arrived with no line awaiting an answer")
+        lost = 0
+        if ev.kind == "error":
+            lost = self.settle_error(ev)
+        self.events_taken += 1
+        if lost:
+            # An answer was lost just before this error: the error belongs to one of the
+            # oldest lost + 1 lines in flight (a lost 'ok': the later one; a lost line
+            # end merging two lines: the earlier). Name the earliest, so that a resume
+            # from it runs every line at least once, and say so.
+            first, last = inflight[0][0], inflight[lost][0]
+            report.warnings.append(
+                f"an answer was lost on the link just before this error: it rejected one "
+                f"of lines {first}…{last}; reported on line {first}, the earliest, so a "
+                f"resume from it runs every line at least once — check the work near "
+                f"lines {first}…{last} before resuming")
+        ln, n = inflight.popleft()
+        self.rx_used -= abs(n)
+        report.lines_acknowledged += 1
+        report.last_acknowledged_line = ln
+        if ev.kind == "ok" and ln in job.blocks_per_line:   # a rejected line plans nothing
+            self.acked.append((ln, job.blocks_per_line[ln], ev.seq))
+        if lost:
+            # the later candidates: answered, but not known to have run (a resume from
+            # the named line runs them again rather than skip one)
+            self.rx_used -= self.drop_lost(lost, ran=False)
+            self.answers_base -= lost
+        if ev.kind == "error":
+            report.errors.append((ln, ev.code, error_message(ev.code)))
+            if self.on_error == "stop":
+                raise _Fault(f"line {ln} rejected: error:{ev.code}: {error_message(ev.code)}")
+        ex = _executed_line(grbl, self.acked, report.last_acknowledged_line)
+        report.last_executed_line = max(report.last_executed_line, ex)
+        if self.progress is not None:
+            self.progress(ex, ln, len(job.source_lines), job.eta_s(ex))
+
+    def settle_error(self, ev) -> int:
+        """Before naming an error's line: ask for a report after it, in case an earlier answer
+        was lost (or one was doubled) and the oldest line in flight is not this one; returns the
+        answers lost just before it (counting), or raises a fault naming the lines in doubt."""
+        grbl, report, inflight = self.grbl, self.report, self.inflight
+        # A full planner leaves one line possibly unanswered for a while: wait for a free block
+        # so that the report tells a blocked line from a lost answer. A line taken but not yet
+        # answered (blocked on a full planner, or one that waits for the planner to empty) hides
+        # a doubled 'ok' exactly: wait, briefly, for a report in which the controller cannot be
+        # holding one.
+        snap = None
+        deadline = time.monotonic() + _ERROR_SETTLE_S
+        drained = False        # a report already showed the planner empty and idle
+        while True:
+            self.q_marks.append(self.sent_bytes)
+            grbl.realtime("status")
+            wanted = self.last_status_seen + len(self.q_marks)      # every '?' in flight answered
+            while grbl.status_count < wanted and time.monotonic() < deadline:
+                time.sleep(0.005)
+            for _ in range(min(grbl.status_count - self.last_status_seen, len(self.q_marks))):
+                snap = self.q_marks.popleft()
+            self.last_status_seen = grbl.status_count
+            st = grbl.status
+            if (time.monotonic() >= deadline or st is None or st.rx_free is None
+                    or st.state == "Alarm"
+                    or not _may_hold(st, self.sent_texts,
+                                     _lines_read(grbl, st, snap, self.line_ends) - 1, drained=drained)):
+                break
+            drained = drained or _drained(grbl, st)
+        # answers that came after the error and before that report: more answers than
+        # lines sent means one of those before it was not owed, and this error may
+        # belong to an earlier line
+        if grbl.answer_count - self.answers_base > len(self.line_ends):
+            first, last = self.in_doubt(inflight[0][0])
+            report.errors.append((first, ev.code, f"{error_message(ev.code)} — on one of "
+                                  f"lines {first}…{last} (the answers were out of step)"))
+            raise self.surplus(f"error:{ev.code} ({error_message(ev.code)}) came among "
+                               f"{grbl.answer_count - self.answers_base} answers to "
+                               f"{len(self.line_ends)} lines sent; it rejected one of the lines "
+                               f"in doubt", inflight[0][0])
+        try:
+            self.check_count(st, snap)
+        except _Fault:
+            first, last = self.in_doubt(inflight[0][0])
+            report.errors.append((first, ev.code, f"{error_message(ev.code)} — on one of "
+                                  f"lines {first}…{last} (the answers were out of step)"))
+            raise
+        if self.mode != "counting":
+            return 0
+        _name_a_held_line(grbl, st, snap, self.line_ends, self.sent_texts, self.sent_lines,
+                          self.answers_base, report, inflight, ev, drained=drained)
+        return min(_answers_lost(grbl, snap, self.line_ends, self.sent_texts, self.answers_base),
+                   len(inflight) - 1)
+
+    def in_doubt(self, last=None) -> tuple[int, int]:
+        """First and last source line acknowledged since the count was last known to be right."""
+        first = (self.sent_lines[self.synced] if self.synced < len(self.sent_lines)
+                 else self.report.last_acknowledged_line)
+        return first, max(last or self.report.last_acknowledged_line, first)
+
+    def surplus(self, what: str, last=None) -> _Fault:
+        """The fault of answers out of step with the lines, naming the lines in doubt."""
+        first, last = self.in_doubt(last)
+        self.report.resume_line = first
+        return _Fault(f"protocol error: {what} — the controller has answered more lines than it "
+                      f"can have read (an unsolicited or doubled 'ok'), so answers no longer match "
+                      f"lines: lines {first}…{last} were acknowledged by answers that may not be "
+                      f"theirs; check the work from line {first}")
+
+    def check_count(self, st, snap) -> None:
+        """A fresh status report: surplus answers are a protocol fault; equal bounds re-sync."""
+        if st is None or st.rx_free is None:
+            return
+        rx_used = max(0, self.grbl.info.rx_bytes - 1 - st.rx_free)
+        answered = st.answers_before - self.answers_base
+        upper = bisect.bisect_right(self.line_ends, self.sent_bytes - rx_used)
+        if answered > upper:
+            raise self.surplus(f"{answered} answers before a status report that shows at most "
+                               f"{upper} lines read")
+        if snap is not None and bisect.bisect_right(self.line_ends, snap - rx_used) == upper == answered:
+            self.synced = answered
+
+    def drop_lost(self, lost: int, *, ran: bool = True) -> int:
+        """Count the oldest ``lost`` lines in flight as answered (``ran``: as executed too);
+        returns their bytes."""
+        grbl, report = self.grbl, self.report
+        freed = 0
+        seq = grbl.status.answers_before if grbl.status is not None else grbl.answer_count
+        for _ in range(min(lost, len(self.inflight))):
+            ln, n = self.inflight.popleft()
+            freed += abs(n)
+            report.lines_acknowledged += 1
+            report.last_acknowledged_line = max(report.last_acknowledged_line, ln)
+            if ran and ln in self.job.blocks_per_line:
+                self.acked.append((ln, self.job.blocks_per_line[ln], seq))
+            report.answers_lost += 1
+            report.warnings.append(
+                f"an answer (or a line end) was lost on the link near line {ln}: re-synchronised "
+                f"from the controller's buffer report, so later errors name the right line; check "
+                f"the work there (a lost line end merges two lines)")
+        return freed
+
+    def too_many_lost(self, lost: int) -> None:
+        """A controller that takes lines without answering is not streamed to further: one lost
+        answer now and then is a noisy link, more is a controller that does not answer."""
+        report, inflight = self.report, self.inflight
+        if lost > 1 or report.answers_lost + lost > _MAX_LOST_ANSWERS:
+            first = inflight[0][0] if inflight else report.last_acknowledged_line
+            last = inflight[min(lost, len(inflight)) - 1][0] if inflight else first
+            raise _Fault(f"protocol error: the controller took lines {first}…{last} from its "
+                         f"buffer without answering ({report.answers_lost + lost} answers missing "
+                         f"in this job); a controller that does not answer cannot be streamed to "
+                         f"safely — check the link (baud rate, cable) and the controller")
+
+    # -- the end -------------------------------------------------------------------------------
+
+    def finish(self) -> None:
+        """Everything acknowledged: wait for the motion to finish (answers still arriving are a
+        surplus), then the beam off whatever the file's last lines did."""
+        grbl, report, job, controls = self.grbl, self.report, self.job, self.controls
+        deadline_idle = time.monotonic() + max(10.0, 3 * job.job_time_s + 10.0)
+        while True:
+            why = self.stop_requested()
+            if why:
+                raise _Fault(why)
+            try:
+                st = grbl.get_status(self.watchdog_s)
+            except MachineError as exc:
+                if grbl.disconnected:
+                    raise _Fault(f"link lost: {grbl.disconnected}", reset=False, hold=False) from exc
+                raise _Fault(f"watchdog: {exc}") from exc
+            ev = grbl.next_event(0.0)
+            if ev is not None and ev.kind in ("ok", "error"):
+                raise self.surplus(f"'{ev.text}' arrived after every line had its answer")
+            if ev is not None and ev.kind == "alarm":
+                raise _Fault(f"ALARM:{ev.code}: {alarm_message(ev.code)}")
+            if ev is not None and ev.kind in ("reset", "disconnect"):
+                raise _Fault(f"link lost or machine reset: {ev.text}", reset=False, hold=False)
+            if st.state in ("Idle", "Check") and (st.planner_free is None
+                                                  or st.planner_free >= grbl.info.planner_blocks):
+                break
+            if st.state == "Alarm":
+                raise _Fault(f"machine in alarm: {alarm_message(grbl.alarm or 0)}")
+            if time.monotonic() > deadline_idle:
+                raise _Fault("the machine never finished the job (still running long after the "
+                             "planned time)")
+            if controls.pause_requested and st.state == "Run":
+                grbl.feed_hold()
+            elif not controls.pause_requested and st.state == "Hold":
+                grbl.resume()
+            time.sleep(min(0.05, self.status_interval_s))
+        # A link that lost bytes is not a clean run, even when every line was answered.
+        report.ok = not report.errors and not report.answers_lost
+        report.last_executed_line = report.last_acknowledged_line
+        if self.progress is not None:
+            self.progress(report.last_executed_line, report.last_acknowledged_line,
+                          len(job.source_lines), 0.0)
         # everything acknowledged and executed: the beam off whatever the file's last lines did
-        signals.stopping()
+        self.signals.stopping()
         stop = grbl.stop_safely(hold=False, reset=False)
         if not stop.beam_off_confirmed:
             report.warnings.append("warning: the job completed but the laser-off that follows it "
                                    "was not confirmed: " + "; ".join(stop.steps))
-    except _Fault as fault:
-        signals.stopping()
-        report.fault = str(fault)
-        _make_safe(grbl, fault, report, acked, inflight, job)
-    except MachineError as exc:
-        signals.stopping()
-        if grbl.disconnected or grbl.link.lost or grbl.link.closed:   # a write failed: the link is gone
-            grbl.disconnected = grbl.disconnected or grbl.link.lost or str(exc)
-            report.fault = f"link lost: {exc}"
-            _make_safe(grbl, _Fault(str(exc), reset=False, hold=False), report, acked, inflight,
-                       job)
-        else:
-            report.fault = str(exc)
-            _make_safe(grbl, _Fault(str(exc)), report, acked, inflight, job)
-    except Exception as exc:                # a bug (ours or a callback's): stop, then say so
-        signals.stopping()
-        report.exception = exc
-        report.fault = (f"stopped by an exception during the run: {type(exc).__name__}: {exc}")
-        _make_safe(grbl, _Fault(report.fault), report, acked, inflight, job)
-    except BaseException as exc:            # KeyboardInterrupt without our handler, SystemExit
-        signals.stopping()
-        report.exception = exc
-        report.fault = f"interrupted ({type(exc).__name__})"
-        _make_safe(grbl, _Fault(report.fault), report, acked, inflight, job)
-        raise
+        self.phase = "done"
 
 
 def _requested_stop(controls: Controls, signals) -> str | None:
@@ -582,294 +970,6 @@ def _requested_stop(controls: Controls, signals) -> str | None:
     if controls.cancel_requested:
         return controls.stop_reason or "cancelled by the user"
     return None
-
-
-def _send_all(grbl: Grbl, job: Job, report: JobReport, controls: Controls, signals, send: list,
-              inflight: deque, acked: list, *, mode, on_error, rx_limit, progress,
-              status_interval_s, watchdog_s, stall_s) -> None:
-    """Send every line and account for every answer; raise :class:`_Fault` on any fault."""
-    used = 0
-    i = 0
-    last_poll = 0.0
-    last_status_seen = grbl.status_count
-    last_status_t = time.monotonic()
-    stall_since = None
-    paused = False
-    # Re-synchronisation after a lost answer (character counting): the bytes sent before each '?'
-    # are in the controller (one ordered link), so bytes sent − its RX fill is a lower bound on what
-    # it has consumed; every consumed line but the one it may be blocked on has been answered.
-    # The bytes sent by the time a report is read, minus its RX fill, bound it from above: more
-    # answers than lines it can have read is a surplus (an unsolicited or doubled 'ok').
-    answers_base = grbl.answer_count
-    answers_start = answers_base
-    events_taken = 0                   # ok/error events taken from the queue
-    line_ends: list[int] = []          # cumulative bytes at the end of each line sent
-    sent_texts: list[str] = []
-    sent_lines: list[int] = []         # source line of each line sent
-    sent_bytes = 0
-    q_marks: deque = deque()           # sent_bytes when each '?' went out
-    synced = 0                         # lines sent whose answers are known to be theirs
-
-    def _in_doubt(last=None) -> tuple[int, int]:
-        """First and last source line acknowledged since the count was last known to be right."""
-        first = sent_lines[synced] if synced < len(sent_lines) else report.last_acknowledged_line
-        return first, max(last or report.last_acknowledged_line, first)
-
-    def _surplus(what: str, last=None) -> _Fault:
-        first, last = _in_doubt(last)
-        report.resume_line = first
-        return _Fault(f"protocol error: {what} — the controller has answered more lines than it "
-                      f"can have read (an unsolicited or doubled 'ok'), so answers no longer match "
-                      f"lines: lines {first}…{last} were acknowledged by answers that may not be "
-                      f"theirs; check the work from line {first}")
-
-    def _check_count(st, snap) -> None:
-        """A fresh status report: surplus answers are a protocol fault; equal bounds re-sync."""
-        nonlocal synced
-        if st is None or st.rx_free is None:
-            return
-        rx_used = max(0, grbl.info.rx_bytes - 1 - st.rx_free)
-        answered = st.answers_before - answers_base
-        upper = bisect.bisect_right(line_ends, sent_bytes - rx_used)
-        if answered > upper:
-            raise _surplus(f"{answered} answers before a status report that shows at most "
-                           f"{upper} lines read")
-        if snap is not None and bisect.bisect_right(line_ends, snap - rx_used) == upper == answered:
-            synced = answered
-
-    def _drop_lost(lost: int, *, ran: bool = True) -> int:
-        """Count the oldest ``lost`` lines in flight as answered (``ran``: as executed too);
-        returns their bytes."""
-        freed = 0
-        seq = grbl.status.answers_before if grbl.status is not None else grbl.answer_count
-        for _ in range(min(lost, len(inflight))):
-            ln, n = inflight.popleft()
-            freed += abs(n)
-            report.lines_acknowledged += 1
-            report.last_acknowledged_line = max(report.last_acknowledged_line, ln)
-            if ran and ln in job.blocks_per_line:
-                acked.append((ln, job.blocks_per_line[ln], seq))
-            report.answers_lost += 1
-            report.warnings.append(
-                f"an answer (or a line end) was lost on the link near line {ln}: re-synchronised "
-                f"from the controller's buffer report, so later errors name the right line; check "
-                f"the work there (a lost line end merges two lines)")
-        return freed
-
-    def _too_many_lost(lost: int) -> None:
-        """A controller that takes lines without answering is not streamed to further: one lost
-        answer now and then is a noisy link, more is a controller that does not answer."""
-        if lost > 1 or report.answers_lost + lost > _MAX_LOST_ANSWERS:
-            first = inflight[0][0] if inflight else report.last_acknowledged_line
-            last = inflight[min(lost, len(inflight)) - 1][0] if inflight else first
-            raise _Fault(f"protocol error: the controller took lines {first}…{last} from its "
-                         f"buffer without answering ({report.answers_lost + lost} answers missing "
-                         f"in this job); a controller that does not answer cannot be streamed to "
-                         f"safely — check the link (baud rate, cable) and the controller")
-
-    while i < len(send) or inflight:
-        now = time.monotonic()
-        why = _requested_stop(controls, signals)
-        if why:
-            raise _Fault(why)
-        if controls.pause_requested and not paused:
-            grbl.feed_hold()
-            paused = True
-        elif paused and not controls.pause_requested:
-            grbl.resume()
-            paused = False
-        if now - last_poll >= status_interval_s:
-            q_marks.append(sent_bytes)
-            grbl.realtime("status")
-            last_poll = now
-        if grbl.status_count != last_status_seen:
-            fresh = grbl.status_count - last_status_seen
-            last_status_seen = grbl.status_count
-            last_status_t = now
-            snap = None
-            for _ in range(min(fresh, len(q_marks))):
-                snap = q_marks.popleft()
-            st = grbl.status
-            _check_count(st, snap)
-            # only once every answer before this report has been taken: an error among them
-            # must first be named (below), not skipped over
-            if (mode == "counting" and st is not None
-                    and st.answers_before - answers_start == events_taken):
-                lost = _answers_lost(grbl, snap, line_ends, sent_texts, answers_base)
-                if lost:
-                    _too_many_lost(lost)
-                used -= _drop_lost(lost)
-                answers_base -= lost
-        elif now - last_status_t > watchdog_s:
-            raise _Fault(f"watchdog: no status report for {watchdog_s:g} s; stopped sending",
-                         reset=True)
-        # send what fits
-        sent_any = False
-        while i < len(send) and not paused:
-            ln, text = send[i]
-            n = len(text) + 1
-            settings_line = text.startswith("$")
-            if inflight and (mode == "send-response" or settings_line
-                             or inflight[0][1] < 0 or used + n > rx_limit):
-                break
-            grbl.send_line(text)
-            inflight.append((ln, -n if settings_line else n))
-            sent_bytes += n
-            line_ends.append(sent_bytes)
-            sent_texts.append(text)
-            sent_lines.append(ln)
-            used += n
-            report.max_rx_used = max(report.max_rx_used, used)
-            report.lines_sent += 1
-            i += 1
-            sent_any = True
-            if settings_line or mode == "send-response":
-                break
-        ev = grbl.next_event(0.0 if sent_any else 0.01)
-        if ev is None:
-            st = grbl.status
-            if (inflight and st is not None and st.state == "Idle" and st.rx_free is not None
-                    and st.rx_free >= grbl.info.rx_bytes - 1 and st.received_s > now - 0.5):
-                stall_since = stall_since or now
-                if now - stall_since > stall_s:
-                    raise _Fault(f"no answer for line {inflight[0][0]} while the machine is "
-                                 f"idle with an empty buffer (a byte was lost on the link)")
-            else:
-                stall_since = None
-            continue
-        stall_since = None
-        if ev.kind in ("ok", "error"):
-            if not inflight:
-                raise _surplus(f"'{ev.text}' arrived with no line awaiting an answer")
-            lost = 0
-            if ev.kind == "error":
-                # before naming the line: ask for a report after this error, in case an
-                # earlier answer was lost (or one was doubled) and the oldest line in flight is
-                # not this one (a full planner leaves one line possibly unanswered for a while:
-                # wait for a free block so that the report tells a blocked line from a lost answer)
-                # A line taken but not yet answered (blocked on a full planner, or one that
-                # waits for the planner to empty) hides a doubled 'ok' exactly: wait, briefly,
-                # for a report in which the controller cannot be holding one.
-                snap = None
-                deadline = time.monotonic() + _ERROR_SETTLE_S
-                drained = False        # a report already showed the planner empty and idle
-                while True:
-                    q_marks.append(sent_bytes)
-                    grbl.realtime("status")
-                    wanted = last_status_seen + len(q_marks)      # every '?' in flight answered
-                    while grbl.status_count < wanted and time.monotonic() < deadline:
-                        time.sleep(0.005)
-                    for _ in range(min(grbl.status_count - last_status_seen, len(q_marks))):
-                        snap = q_marks.popleft()
-                    last_status_seen = grbl.status_count
-                    st = grbl.status
-                    if (time.monotonic() >= deadline or st is None or st.rx_free is None
-                            or st.state == "Alarm"
-                            or not _may_hold(st, sent_texts, _lines_read(grbl, st, snap,
-                                                                         line_ends) - 1,
-                                             drained=drained)):
-                        break
-                    drained = drained or _drained(grbl, st)
-                # answers that came after the error and before that report: more answers than
-                # lines sent means one of those before it was not owed, and this error may
-                # belong to an earlier line
-                if grbl.answer_count - answers_base > len(line_ends):
-                    first, last = _in_doubt(inflight[0][0])
-                    report.errors.append((first, ev.code, f"{error_message(ev.code)} — on one of "
-                                          f"lines {first}…{last} (the answers were out of step)"))
-                    raise _surplus(f"error:{ev.code} ({error_message(ev.code)}) came among "
-                                   f"{grbl.answer_count - answers_base} answers to "
-                                   f"{len(line_ends)} lines sent; it rejected one of the lines "
-                                   f"in doubt", inflight[0][0])
-                try:
-                    _check_count(st, snap)
-                except _Fault:
-                    first, last = _in_doubt(inflight[0][0])
-                    report.errors.append((first, ev.code, f"{error_message(ev.code)} — on one of "
-                                          f"lines {first}…{last} (the answers were out of step)"))
-                    raise
-                if mode == "counting":
-                    _name_a_held_line(grbl, st, snap, line_ends, sent_texts, sent_lines,
-                                      answers_base, report, inflight, ev, drained=drained)
-                    lost = min(_answers_lost(grbl, snap, line_ends, sent_texts, answers_base),
-                               len(inflight) - 1)
-            events_taken += 1
-            if lost:
-                # An answer was lost just before this error: the error belongs to one of the
-                # oldest lost + 1 lines in flight (a lost 'ok': the later one; a lost line
-                # end merging two lines: the earlier). Name the earliest, so that a resume
-                # from it runs every line at least once, and say so.
-                first, last = inflight[0][0], inflight[lost][0]
-                report.warnings.append(
-                    f"an answer was lost on the link just before this error: it rejected one "
-                    f"of lines {first}…{last}; reported on line {first}, the earliest, so a "
-                    f"resume from it runs every line at least once — check the work near "
-                    f"lines {first}…{last} before resuming")
-            ln, n = inflight.popleft()
-            used -= abs(n)
-            report.lines_acknowledged += 1
-            report.last_acknowledged_line = ln
-            if ev.kind == "ok" and ln in job.blocks_per_line:   # a rejected line plans nothing
-                acked.append((ln, job.blocks_per_line[ln], ev.seq))
-            if lost:
-                # the later candidates: answered, but not known to have run (a resume from
-                # the named line runs them again rather than skip one)
-                used -= _drop_lost(lost, ran=False)
-                answers_base -= lost
-            if ev.kind == "error":
-                report.errors.append((ln, ev.code, error_message(ev.code)))
-                if on_error == "stop":
-                    raise _Fault(f"line {ln} rejected: error:{ev.code}: "
-                                 f"{error_message(ev.code)}")
-            ex = _executed_line(grbl, acked, report.last_acknowledged_line)
-            report.last_executed_line = max(report.last_executed_line, ex)
-            if progress is not None:
-                progress(ex, ln, len(job.source_lines), job.eta_s(ex))
-        elif ev.kind == "alarm":
-            raise _Fault(f"ALARM:{ev.code}: {alarm_message(ev.code)}", reset=True)
-        elif ev.kind == "reset":
-            raise _Fault("the machine reset during the job (power, cable, or a reset)",
-                         reset=False, hold=False)
-        elif ev.kind == "disconnect":
-            raise _Fault(f"link lost: {ev.text}", reset=False, hold=False)
-    # everything acknowledged: wait for the motion to finish; answers still arriving are a surplus
-    deadline_idle = time.monotonic() + max(10.0, 3 * job.job_time_s + 10.0)
-    while True:
-        why = _requested_stop(controls, signals)
-        if why:
-            raise _Fault(why)
-        try:
-            st = grbl.get_status(watchdog_s)
-        except MachineError as exc:
-            if grbl.disconnected:
-                raise _Fault(f"link lost: {grbl.disconnected}", reset=False, hold=False) from exc
-            raise _Fault(f"watchdog: {exc}") from exc
-        ev = grbl.next_event(0.0)
-        if ev is not None and ev.kind in ("ok", "error"):
-            raise _surplus(f"'{ev.text}' arrived after every line had its answer")
-        if ev is not None and ev.kind == "alarm":
-            raise _Fault(f"ALARM:{ev.code}: {alarm_message(ev.code)}")
-        if ev is not None and ev.kind in ("reset", "disconnect"):
-            raise _Fault(f"link lost or machine reset: {ev.text}", reset=False, hold=False)
-        if st.state in ("Idle", "Check") and (st.planner_free is None
-                                              or st.planner_free >= grbl.info.planner_blocks):
-            break
-        if st.state == "Alarm":
-            raise _Fault(f"machine in alarm: {alarm_message(grbl.alarm or 0)}")
-        if time.monotonic() > deadline_idle:
-            raise _Fault("the machine never finished the job (still running long after the "
-                         "planned time)")
-        if controls.pause_requested and st.state == "Run":
-            grbl.feed_hold()
-        elif not controls.pause_requested and st.state == "Hold":
-            grbl.resume()
-        time.sleep(min(0.05, status_interval_s))
-    # A link that lost bytes is not a clean run, even when every line was answered.
-    report.ok = not report.errors and not report.answers_lost
-    report.last_executed_line = report.last_acknowledged_line
-    if progress is not None:
-        progress(report.last_executed_line, report.last_acknowledged_line,
-                 len(job.source_lines), 0.0)
 
 
 #: Answers a job may lose (each re-synchronised from a buffer report) before the link is

@@ -366,3 +366,25 @@ def test_cli_refuses_options_the_dobot_path_does_not_have(tmp_path, capsys):
     assert not (tmp_path / "t.log").exists()
     assert main(["stream", str(p), "--s-max", "255"]) == 1
     assert "--s-max is for --protocol dobot" in capsys.readouterr().err
+
+
+def test_dobot_job_runs_from_plain_values_and_keeps_what_happened():
+    """The library's entry (issue 28 §3): a job built from Moves, run on a port name (the
+    emulator for the virtual machine's), its commands, queue index and stop report kept."""
+    from labkit.machine.dobot import DobotJob
+
+    text = "G0 X0 Y0\nM3 S200\n" + "".join(f"G1 X{k % 7} Y{k % 5} F{600 + 100 * (k % 3)}\n"
+                                           for k in range(40))
+    job = DobotJob(parse(text + "M5\n", dialect="labkit-fw"))
+    assert job.commands == job_commands(parse(text + "M5\n", dialect="labkit-fw"))
+    assert job.feed_range_mm_min() == (600.0 * 60, 800.0 * 60)     # labkit-fw's F is mm/s
+    assert job.run("virtual://") == len(job.commands) - 1 == job.last_index
+    assert job.last_stop is None and job.elapsed_s >= 0.0
+    # an early end: the safe stop's report is kept, naming where to go on from
+    executed = iter(range(10 ** 6))
+    with pytest.raises(MachineError, match="cancelled"):
+        job.run(None, ahead=4, cancel=lambda: next(executed) > 3)
+    assert job.last_index is None and job.last_stop is not None
+    assert job.last_stop.laser_off_confirmed and job.last_stop.resume_line is not None
+    resumed = DobotJob(parse(text + "M5\n", dialect="labkit-fw"), from_line=job.last_stop.resume_line)
+    assert resumed.run(None) == len(resumed.commands) - 1
