@@ -73,14 +73,17 @@ for f in job_units(sys.argv[2:]):          # the batch declared: the rule projec
 """
 
 
+CLOCK = ["wall"]                    # --clock: "wall" or "cpu" (see _process.process_time)
+
+
 def timed(argv, repeat, mode=None):
-    """Best wall time of ``argv`` as a fresh process, with ``LABKIT_JIT=mode`` when given."""
+    """Best time of ``argv`` as a fresh process, with ``LABKIT_JIT=mode`` when given."""
     if mode is None or mode == "auto":
         os.environ.pop("LABKIT_JIT", None)
     else:
         os.environ["LABKIT_JIT"] = mode
     try:
-        return process_time(argv, repeat)
+        return process_time(argv, repeat, CLOCK[0])
     finally:
         os.environ.pop("LABKIT_JIT", None)
 
@@ -202,13 +205,18 @@ def svg_targets(tmp, repeat):
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=1)
+    ap.add_argument("--clock", choices=("wall", "cpu"), default="wall",
+                    help="time each process by the wall clock or by its CPU time (user + system; "
+                         "steadier on a loaded machine)")
     ap.add_argument("--only", nargs="*", default=[],
                     help="parts to run: gcode (or check, info, plan, preview, stream), svg, dxf, img, "
                          "targets")
     args = ap.parse_args()
     only = set(args.only)
+    CLOCK[0] = args.clock
     start = time.perf_counter()
-    print(f"load average at start: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+    print(f"load average at start: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores; "
+          f"{args.clock} time of each process")
     print(f"{'command':18s} {'input':>16s} {'labkit':>9s}  {'peer':14s} {'time':>9s}  {'ratio':>7s}")
     with tempfile.TemporaryDirectory() as name:
         tmp = Path(name)

@@ -189,8 +189,9 @@ def _point_distance_np(p, s, e, segment):
     return np.hypot(px - t * dx, py - t * dy)
 
 
-# as Python the numpy twin above runs (~1 µs a control value); compiled ~0.7 s to load numba
-@jit(python_below=4_000, python=_flatten_numpy)
+# as Python the numpy twin above runs: ~4 µs a control value at 0.01 mm (measured on 20,000
+# and 200,000), so Python costs a load of numba (LOAD_COST_S) at about 200,000
+@jit(python_below=200_000, python=_flatten_numpy)
 def _flatten_kernel(ctrl, tol, frac, max_depth, segment):
     """Flatten m cubics (m, 4, 2); returns (points, counts): counts[i] points per curve,
     the first point of each curve omitted (it is the previous curve's end)."""
