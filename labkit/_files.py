@@ -316,3 +316,24 @@ def read_json(path, *, what: str = "JSON file"):
         return json.loads(p.read_text())
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise InputError(f"{p}: not JSON ({exc})") from None
+
+
+def read_toml(path, *, what: str, format: str, version: int) -> tuple[Path, dict]:
+    """(the path, the table) of a labkit TOML document with ``format`` and ``version`` keys.
+
+    A syntax error names its line and column; another ``format`` or ``version`` is refused.
+    """
+    import tomllib
+
+    p = check_input_file(path, what=what)
+    try:
+        data = tomllib.loads(p.read_text("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{p}: not UTF-8 text ({exc.reason} at byte {exc.start}); expected a {what}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{p}: not valid TOML: {exc}") from None
+    if data.get("format") != format:
+        raise InputError(f"{p}: format = {data.get('format')!r}; expected format = \"{format}\" (a {what})")
+    if data.get("version") != version:
+        raise InputError(f"{p}: version = {data.get('version')!r}; this labkit reads version {version}")
+    return p, data

@@ -33,6 +33,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "svg2gcode": ("vector", "convert SVG artwork to laser G-code"),
     "dxf2gcode": ("vector", "convert DXF drawings to laser G-code"),
     "img2gcode": ("raster", "engrave a raster image: zig-zag, spiral, edges, gray, dither"),
+    "job": ("job", "compose a job file's layers (SVG, DXF, images; cut, score, fill, image) into one program"),
     "pattern": ("pattern", "write a parametric toolpath: helix, spiral, square-spiral, zigzag, cone"),
     "slice": ("slice", "planar sections of a 3-D model (STL), each pocketed, as one laser job"),
     "split": ("split", "split a long G-code program into sub-programs that each restate the state"),

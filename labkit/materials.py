@@ -50,7 +50,6 @@ import datetime
 import json
 import math
 import os
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -273,21 +272,9 @@ def read_library(path) -> Library:
         Not a file, not TOML (with its line and column), not this format, a later version, or a
         bad entry (the message names the material, the operation and the key).
     """
-    from labkit._files import check_input_file
+    from labkit._files import read_toml
 
-    p = check_input_file(path, what="material library (TOML)")
-    try:
-        data = tomllib.loads(p.read_text("utf-8"))
-    except UnicodeDecodeError as exc:
-        raise InputError(f"{p}: not UTF-8 text ({exc.reason} at byte {exc.start}); expected a TOML file") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"{p}: not valid TOML: {exc}") from None
-    if data.get("format") != FORMAT:
-        raise InputError(f"{p}: format = {data.get('format')!r}; expected format = \"{FORMAT}\" "
-                         "(a labkit material library)")
-    version = data.get("version")
-    if version != VERSION:
-        raise InputError(f"{p}: version = {version!r}; this labkit reads version {VERSION}")
+    p, data = read_toml(path, what="labkit material library", format=FORMAT, version=VERSION)
     _unknown(str(p), data, {"format", "version", "machine", "material"})
     lib = Library(machine=_text(str(p), "machine", data.get("machine", "")), path=p)
     materials = data.get("material", {})

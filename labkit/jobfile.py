@@ -1,0 +1,381 @@
+"""A job file: several sources, each a layer with an operation, composed into one program.
+
+``svg2gcode``, ``dxf2gcode`` and ``img2gcode`` each turn one file into one program; a job file
+composes them. Its format (version 1, TOML)::
+
+    format = "labkit-job"          # required, exactly this
+    version = 1                    # required; a later version is refused
+    machine = "cbr40-laser"        # required: a machine name or a machine TOML
+    material = "paperboard-0.2mm"  # optional: the library entry every layer uses unless it names its own
+    library = "materials.toml"     # optional: the library file (default: the machine's)
+    dialect = "grbl"               # optional (grbl, labkit-fw, marlin)
+    s_max = 1000.0                 # optional: S of full power (GRBL $30)
+    tol_mm = 0.01                  # optional: largest deviation of the cut from the drawing, mm
+
+    [placement]                    # optional
+    start_from = "absolute"        # "absolute": as drawn, in the work coordinates in effect;
+                                   # "origin": the job's lower-left corner at the work origin
+    offset_mm = [0.0, 0.0]         # added after start_from, mm
+
+    [[layer]]
+    source = "card.svg"            # relative to the job file: .svg, .dxf, or an image
+    operation = "cut"              # cut, score, fill (vector: the hatch, then the outline, as
+                                   # svg2gcode --fill), image (an image file)
+    select = ["#000000"]           # optional (vector): only these SVG colours / DXF layers / element ids
+    material = "card:cut"          # optional: NAME[:OPERATION], else the job's material with this operation
+    power_mw = 1200.0              # optional overrides, each beating the library:
+    speed_mm_min = 600.0           #   mW, mm/min, whole passes, kerf (cut) and line interval
+    passes = 2                     #   (fill spacing, image pitch), mm; dynamic = M4
+    kerf_mm = 0.2
+    line_interval_mm = 0.1
+    dynamic = true
+    at_mm = [10.0, 10.0]           # image: where its lower-left corner goes, mm (default 0, 0)
+    width_mm = 40.0                # image: engraved width, mm (else the file's dpi)
+    mode = "gray"                  # image: zigzag, spiral, edges, gray or dither (default gray)
+
+A layer's settings come from its own keys first, then its material entry; one with neither power
+nor speed is refused. The program is written in the order a laser user expects: images, then
+fills, then scores, then cuts (engraving before cutting, so a part does not drop or shift before it
+is engraved), layers of one operation in file order; a layer's passes run one after the other, each
+pass the whole layer, and within each pass every shape inside another is cut before its container
+(:mod:`labkit.geometry.order`'s inner-first rule), so a hole is cut while its part still holds.
+Inner-first holds within a layer: two cut layers run in file order whatever their nesting.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from labkit.errors import InputError
+
+__all__ = ["FORMAT", "VERSION", "ORDER", "JobLayer", "JobFile", "read_job", "compose_job", "ComposedJob"]
+
+FORMAT = "labkit-job"
+VERSION = 1
+#: Operations in the order they are burned.
+ORDER = ("image", "fill", "score", "cut")
+_TOP_KEYS = {"format", "version", "machine", "material", "library", "dialect", "s_max", "tol_mm", "placement",
+             "layer"}
+_LAYER_KEYS = {"source", "operation", "select", "material", "power_mw", "speed_mm_min", "passes", "kerf_mm",
+               "line_interval_mm", "dynamic", "at_mm", "width_mm", "mode"}
+_IMAGE_SUFFIXES = {".png", ".bmp", ".jpg", ".jpeg", ".gif", ".tif", ".tiff", ".webp"}
+
+
+@dataclass
+class JobLayer:
+    """One ``[[layer]]`` table, checked; ``index`` counts from 1 in file order."""
+
+    index: int
+    source: Path
+    operation: str
+    select: list = field(default_factory=list)
+    material: str | None = None
+    overrides: dict = field(default_factory=dict)
+    at_mm: tuple = (0.0, 0.0)
+    width_mm: float | None = None
+    mode: str = "gray"
+
+
+@dataclass
+class JobFile:
+    """A job file read and checked (see the module docstring for the format)."""
+
+    path: Path
+    machine: str
+    layers: list
+    material: str | None = None
+    library: Path | None = None
+    dialect: str = "grbl"
+    s_max: float = 1000.0
+    tol_mm: float = 0.01
+    start_from: str = "absolute"
+    offset_mm: tuple = (0.0, 0.0)
+
+
+def _num(where, key, v, *, lo=None, lo_open=False, whole=False):
+    from labkit.materials import _number      # one checker for TOML numbers
+
+    return _number(where, key, v, lo=lo, lo_open=lo_open, whole=whole)
+
+
+def _pair(where, key, v):
+    if not (isinstance(v, list) and len(v) == 2):
+        raise InputError(f"{where}: {key} = {v!r}; expected [x, y] in mm")
+    return tuple(_num(where, key, c) for c in v)
+
+
+def read_job(path) -> JobFile:
+    """Read and check a job file; sources are resolved against its folder and must exist.
+
+    Raises
+    ------
+    InputError
+        Not TOML (line and column), another format or version, unknown keys, a bad value or a
+        missing source — naming the file, the layer's number and the key.
+    """
+    from labkit._files import read_toml
+
+    p, data = read_toml(path, what="labkit job file", format=FORMAT, version=VERSION)
+    extra = sorted(set(data) - _TOP_KEYS)
+    if extra:
+        raise InputError(f"{p}: unknown key(s) {', '.join(extra)}; expected some of {', '.join(sorted(_TOP_KEYS))}")
+    if not isinstance(data.get("machine"), str):
+        raise InputError(f"{p}: machine is missing; expected machine = \"NAME\" (e.g. \"cbr40-laser\") or a TOML file")
+    here = p.parent
+    job = JobFile(path=p, machine=data["machine"], layers=[], material=data.get("material"),
+                  dialect=data.get("dialect", "grbl"))
+    if "library" in data:
+        job.library = here / data["library"]
+    if "s_max" in data:
+        job.s_max = _num(str(p), "s_max", data["s_max"], lo=0, lo_open=True)
+    if "tol_mm" in data:
+        job.tol_mm = _num(str(p), "tol_mm", data["tol_mm"], lo=1e-4)
+    place = data.get("placement", {})
+    if not isinstance(place, dict) or set(place) - {"start_from", "offset_mm"}:
+        raise InputError(f"{p}: [placement] takes start_from and offset_mm; got {place!r}")
+    job.start_from = place.get("start_from", "absolute")
+    if job.start_from not in ("absolute", "origin"):
+        raise InputError(f"{p}: placement start_from = {job.start_from!r}; expected \"absolute\" or \"origin\"")
+    if "offset_mm" in place:
+        job.offset_mm = _pair(f"{p}: [placement]", "offset_mm", place["offset_mm"])
+    layers = data.get("layer")
+    if not isinstance(layers, list) or not layers:
+        raise InputError(f"{p}: no [[layer]] tables; expected at least one layer with source and operation")
+    for i, t in enumerate(layers, 1):
+        job.layers.append(_layer(p, i, t))
+    return job
+
+
+def _layer(p: Path, i: int, t: dict) -> JobLayer:
+    where = f"{p}: layer {i}"
+    extra = sorted(set(t) - _LAYER_KEYS)
+    if extra:
+        raise InputError(f"{where}: unknown key(s) {', '.join(extra)}; "
+                         f"expected some of {', '.join(sorted(_LAYER_KEYS))}")
+    for key in ("source", "operation"):
+        if not isinstance(t.get(key), str):
+            raise InputError(f"{where}: {key} is missing; expected {key} = \"…\"")
+    op = t["operation"]
+    if op not in ORDER:
+        raise InputError(f"{where}: operation = {op!r}; expected one of {', '.join(ORDER)}")
+    src = p.parent / t["source"]
+    if not src.is_file():
+        raise InputError(f"{where}: source {t['source']!r} is not a file ({src}); expected a path relative to "
+                         "the job file")
+    is_image = src.suffix.lower() in _IMAGE_SUFFIXES
+    if is_image != (op == "image"):
+        raise InputError(f"{where}: operation {op!r} on {src.name}: images take operation \"image\", "
+                         "SVG and DXF drawings cut, score or fill")
+    if not is_image and src.suffix.lower() not in (".svg", ".dxf"):
+        raise InputError(f"{where}: source {src.name}: expected an .svg, .dxf or image file")
+    layer = JobLayer(index=i, source=src, operation=op, material=t.get("material"))
+    sel = t.get("select", [])
+    if isinstance(sel, str):
+        sel = [sel]
+    if not (isinstance(sel, list) and all(isinstance(s, str) for s in sel)):
+        raise InputError(f"{where}: select = {sel!r}; expected a list of colours, layer names or ids")
+    layer.select = sel
+    for key in ("power_mw", "kerf_mm", "line_interval_mm", "speed_mm_min", "passes", "width_mm"):
+        if key in t:
+            lo, open_ = {"power_mw": (0, False), "kerf_mm": (0, False), "passes": (1, False)}.get(key, (0, True))
+            v = _num(where, key, t[key], lo=lo, lo_open=open_, whole=key == "passes")
+            if key == "width_mm":
+                layer.width_mm = v
+            else:
+                layer.overrides[key] = v
+    if "dynamic" in t:
+        if not isinstance(t["dynamic"], bool):
+            raise InputError(f"{where}: dynamic = {t['dynamic']!r}; expected true or false")
+        layer.overrides["dynamic"] = t["dynamic"]
+    if "at_mm" in t:
+        layer.at_mm = _pair(where, "at_mm", t["at_mm"])
+    if "mode" in t:
+        from labkit.raster.engrave import MODES
+
+        if t["mode"] not in MODES:
+            raise InputError(f"{where}: mode = {t['mode']!r}; expected one of {', '.join(MODES)}")
+        layer.mode = t["mode"]
+    return layer
+
+
+@dataclass
+class ComposedJob:
+    """The composed program and what each layer used.
+
+    Attributes
+    ----------
+    moves : Moves
+        Every layer, in burning order, placed.
+    layers : list of dict
+        Per layer in burning order: ``index``, ``source``, ``operation``, ``power_mw``, ``power_s``,
+        ``speed_mm_min``, ``passes``, ``kerf_mm``, ``line_interval_mm``, ``dynamic``, ``material``
+        (spec or None), ``from_library`` (keys taken from it), ``moves`` (rows), ``bounds_mm``.
+    tol_mm : float
+    """
+
+    moves: object
+    layers: list
+    tol_mm: float
+
+
+def _settings(job: JobFile, layer: JobLayer, machine) -> dict:
+    """The layer's settings: its own keys, then its material entry."""
+    from labkit.materials import default_library_path, parse_material_spec, read_library
+
+    spec = layer.material or job.material
+    values, from_library = dict(layer.overrides), []
+    if spec:
+        name, op = parse_material_spec(spec)
+        path = job.library or default_library_path(machine.name)
+        if not Path(path).exists():
+            raise InputError(f"{job.path}: layer {layer.index}: material {spec!r} but the library {path} does not "
+                             "exist; expected library = \"FILE\" in the job or a machine library")
+        _, op, s = read_library(path).get(name, op or layer.operation)
+        entry = dict(power_mw=s.power_mw, speed_mm_min=s.speed_mm_min, passes=s.passes, dynamic=s.dynamic)
+        if s.kerf_mm is not None and layer.operation == "cut":
+            entry["kerf_mm"] = s.kerf_mm
+        if s.line_interval_mm is not None:
+            entry["line_interval_mm"] = s.line_interval_mm
+        for k, v in entry.items():
+            if k not in values and v is not None:
+                values[k] = v
+                from_library.append(k)
+        spec = f"{name}:{op}"
+    for key in ("power_mw", "speed_mm_min"):
+        if key not in values:
+            raise InputError(f"{job.path}: layer {layer.index}: no {key} (give {key} in the layer, or a material "
+                             "whose entry has it)")
+    values.setdefault("passes", 1)
+    values.setdefault("dynamic", False)
+    values.setdefault("kerf_mm", 0.0)
+    values.setdefault("line_interval_mm", 0.1)
+    values["material"] = spec
+    values["from_library"] = from_library
+    return values
+
+
+def _vector_moves(job: JobFile, layer: JobLayer, s: dict, power_s: float):
+    import warnings
+
+    from labkit.toolpath.build import LayerSettings
+    from labkit.toolpath.job import vector_job
+    from labkit.toolpath.moves import LaserMode
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        if layer.source.suffix.lower() == ".svg":
+            from labkit.vector.svg import read_svg
+
+            drawing = read_svg(layer.source, tol_mm=job.tol_mm)
+        else:
+            from labkit.vector.dxf import read_dxf
+
+            drawing = read_dxf(layer.source, tol_mm=job.tol_mm)
+    paths = drawing.paths
+    if layer.select:
+        paths = [q for q in paths if q.layer in layer.select or q.source in layer.select
+                 or q.source.lstrip("#") in layer.select]
+    if not paths:
+        have = ", ".join(drawing.layers) or "none"
+        raise InputError(f"{job.path}: layer {layer.index}: nothing to {layer.operation} in {layer.source.name}"
+                         + (f" with select {layer.select} (its layers: {have})" if layer.select else ""))
+    laser = LaserMode.DYNAMIC if s["dynamic"] else LaserMode.CONSTANT
+    settings = LayerSettings(feed_mm_min=s["speed_mm_min"], power_s=power_s, passes=int(s["passes"]), laser=laser)
+    fill = layer.operation == "fill"
+    vj = vector_job(paths, default=settings, tol_mm=job.tol_mm, kerf_mm=s["kerf_mm"], fill=fill,
+                    fill_spacing_mm=s["line_interval_mm"], s_max=job.s_max)
+    return vj.moves
+
+
+def _image_moves(job: JobFile, layer: JobLayer, s: dict, power_s: float):
+    import numpy as np
+
+    from labkit.raster.engrave import RasterSettings, image_to_job
+    from labkit.raster.io import read_image
+    from labkit.toolpath.moves import LaserMode
+
+    img = read_image(layer.source)
+    settings = RasterSettings(mode=layer.mode, beam_mm=s["line_interval_mm"], width_mm=layer.width_mm,
+                              feed_mm_min=s["speed_mm_min"], s_max=job.s_max, power_s=power_s,
+                              max_power=min(power_s / job.s_max, 1.0),
+                              laser=LaserMode.DYNAMIC if s["dynamic"] else None)
+    moves = image_to_job(img, settings).moves
+    if not len(moves):
+        raise InputError(f"{job.path}: layer {layer.index}: nothing to burn in {layer.source.name} (mode {layer.mode})")
+    home = moves.start[0].copy()
+    moves = _shift(moves, np.array([layer.at_mm[0], layer.at_mm[1], 0.0]))
+    moves.start[0] = home
+    passes = int(s["passes"])
+    return moves if passes == 1 else _chain([moves] * passes)
+
+
+def _shift(moves, d):
+    out = moves.copy()
+    out.start[:] += d
+    out.end[:] += d
+    out.centre[:] += d
+    return out
+
+
+def _chain(parts):
+    """Concatenate programs so each part's first move starts where the one before ended."""
+    from labkit.toolpath.moves import Moves
+
+    parts = [p.copy() for p in parts if len(p)]
+    for before, after in zip(parts, parts[1:]):
+        after.start[0] = before.end[-1]
+    return Moves.concat(parts)
+
+
+def compose_job(job: JobFile) -> ComposedJob:
+    """Build every layer and join them in burning order, placed.
+
+    Parameters
+    ----------
+    job : JobFile
+        From :func:`read_job`.
+
+    Returns
+    -------
+    ComposedJob
+    """
+    import numpy as np
+
+    from labkit.motion.machine import load_machine
+    from labkit.units import mw_to_s
+
+    machine = load_machine(job.machine)
+    order = sorted(job.layers, key=lambda L: (ORDER.index(L.operation), L.index))
+    parts, info = [], []
+    for layer in order:
+        s = _settings(job, layer, machine)
+        power_s = float(mw_to_s(s["power_mw"], s_max=job.s_max, max_power_mw=machine.laser_max_power_mw))
+        if s["power_mw"] > machine.laser_max_power_mw:
+            raise InputError(f"{job.path}: layer {layer.index}: power {s['power_mw']:g} mW is above the machine's "
+                             f"{machine.laser_max_power_mw:g} mW")
+        moves = _image_moves(job, layer, s, power_s) if layer.operation == "image" else \
+            _vector_moves(job, layer, s, power_s)
+        parts.append(moves)
+        info.append(dict(index=layer.index, source=os.fspath(layer.source), operation=layer.operation,
+                         power_mw=s["power_mw"], power_s=round(power_s, 3), speed_mm_min=s["speed_mm_min"],
+                         passes=int(s["passes"]), kerf_mm=s["kerf_mm"], line_interval_mm=s["line_interval_mm"],
+                         dynamic=bool(s["dynamic"]), material=s["material"], from_library=s["from_library"],
+                         moves=len(moves)))
+    home = parts[0].start[0].copy()          # where the head is before the program (the origin)
+    if job.start_from == "origin" or any(job.offset_mm):
+        shift = np.array([*job.offset_mm, 0.0])
+        if job.start_from == "origin":
+            lows = np.min([p.bounds(p.laser_on)[0] for p in parts], axis=0)
+            shift[:2] -= lows[:2]
+        parts = [_shift(p, shift) for p in parts]
+    moves = _chain(parts)
+    moves.start[0] = home                    # the first move leaves from there, not from a placed copy
+    for d, p in zip(info, parts):
+        b = p.bounds(p.laser_on)
+        d["bounds_mm"] = [[round(float(v), 4) for v in b[0][:2]], [round(float(v), 4) for v in b[1][:2]]]
+    if not all(math.isfinite(v) for d in info for row in d["bounds_mm"] for v in row):
+        raise InputError(f"{job.path}: a layer burns nothing")
+    return ComposedJob(moves=moves, layers=info, tol_mm=job.tol_mm)
