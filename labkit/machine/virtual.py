@@ -88,6 +88,11 @@ def _setting_text(number: int, value: float) -> str:
     return f"{value:.0f}" if number in _RPM_SETTINGS else f"{value:.3f}"
 
 
+def _parser_field(name: str, doc: str) -> property:
+    """A read-only view of one field of the virtual machine's parser state."""
+    return property(lambda self: getattr(self._parser.state, name), doc=doc)
+
+
 @dataclass(frozen=True)
 class Piece:
     """A stretch of motion the virtual machine executed."""
@@ -336,38 +341,19 @@ class VirtualMachine:
         self._rest_level = 0.0      # the beam once the queue is empty (GRBL's M3 leaves it on)
 
     # the parser's state, as GRBL's $G and $# and the status report show it
-    @property
-    def motion(self) -> float:
-        return self._parser.state.motion
-
-    @property
-    def plane(self) -> int:
-        return self._parser.state.plane
-
-    @property
-    def units(self) -> int:
-        return self._parser.state.units
-
-    @property
-    def distance(self) -> int:
-        return self._parser.state.distance
-
-    @property
-    def feed_mm_min(self) -> float:
-        return self._parser.state.feed_mm_min
-
-    @property
-    def s_word(self) -> float:
-        return self._parser.state.s_word
+    motion = _parser_field("motion", "Motion mode: 0-3, 80 or 382-385 (G38.2-G38.5).")
+    plane = _parser_field("plane", "17, 18 or 19.")
+    units = _parser_field("units", "20 (inch) or 21 (mm).")
+    distance = _parser_field("distance", "90 or 91.")
+    feed_mm_min = _parser_field("feed_mm_min", "F, mm/min (NaN while undefined).")
+    s_word = _parser_field("s_word", "S as written.")
+    coord_system = _parser_field("coord_system", "54-59.")
+    tool_offset = _parser_field("tool_offset", "G43.1 tool length offset, mm.")
 
     @property
     def laser_mode_word(self) -> int:
         """3 (M3), 4 (M4) or 0 (M5)."""
         return self._parser.state.laser % 5
-
-    @property
-    def coord_system(self) -> int:
-        return self._parser.state.coord_system
 
     @property
     def coord_origins(self) -> np.ndarray:
@@ -376,11 +362,8 @@ class VirtualMachine:
 
     @property
     def g92(self) -> np.ndarray:
+        """G92 offset, mm."""
         return np.array(self._parser.state.g92, float)
-
-    @property
-    def tool_offset(self) -> float:
-        return self._parser.state.tool_offset
 
     @property
     def work_offset(self) -> np.ndarray:
