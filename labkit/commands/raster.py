@@ -85,6 +85,7 @@ def run_img2gcode(args) -> int:
     from labkit.budget import check_budget
     from labkit.commands._args import check_fits
     from labkit.errors import InputError
+    from labkit.units import s_within
     from labkit.viz.preview import preview_format, write_job_preview
 
     from labkit.materials import apply_material
@@ -100,7 +101,7 @@ def run_img2gcode(args) -> int:
             preview = str(Path(args.output).with_suffix(".preview.png"))   # never the image itself
         check_output_file(preview, args.input)
         preview_format(preview)
-    if args.power > args.s_max:
+    if not s_within(args.power, args.s_max):
         raise InputError(f"--power {args.power:g} is above --s-max {args.s_max:g}; "
                          f"expected a power within 0…{args.s_max:g}")
     if args.min_power > args.max_power:

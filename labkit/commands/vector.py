@@ -132,6 +132,7 @@ def _run(args, drawing) -> int:
     from labkit.commands._args import check_fits
     from labkit.errors import GeometryError, InputError
     from labkit.gcode.simulate import summarize
+    from labkit.units import s_within
     from labkit.geometry.path import count_segments, max_deviation
     from labkit.toolpath.build import LayerSettings
     from labkit.toolpath.job import vector_job
@@ -153,7 +154,7 @@ def _run(args, drawing) -> int:
         name, s = parse_layer_option(text)
         per_layer[name] = LayerSettings(s.feed_mm_min, s.power_s, s.passes, s.z_step_mm, laser)
     for name, layer in [("--power", default)] + [(f"--layer {n}", v) for n, v in per_layer.items()]:
-        if layer.power_s > args.s_max:
+        if not s_within(layer.power_s, args.s_max):
             raise InputError(f"{name}: power S{layer.power_s:g} is above --s-max {args.s_max:g}; "
                              f"expected a power within 0…{args.s_max:g}")
     try:
