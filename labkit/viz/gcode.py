@@ -233,6 +233,26 @@ def _draw_image(ax, moves, view, show_travel, cmap, colorbar):
     return handles
 
 
+def _line_handles(ax):
+    """Legend entries for the drawn collections, a cut coloured as its lines are (by power: the
+    colour of the mean power drawn), not in the default colour of an uncoloured line."""
+    from matplotlib.lines import Line2D
+
+    handles = []
+    for c in ax.collections:
+        label = c.get_label()
+        if not label or label.startswith("_"):
+            continue
+        if c.get_array() is not None:
+            colour = c.cmap(c.norm(float(np.mean(c.get_array()))))
+        else:
+            colour = c.get_edgecolor()[0]
+        style = c.get_linestyle()[0]
+        handles.append(Line2D([], [], color=colour, lw=max(float(c.get_linewidth()[0]), 1.0),
+                              ls=(style[0], style[1]) if style[1] else "-", label=label))
+    return handles
+
+
 def _finish(ax, moves, box, extent, ax0, ax1, title, handles=None):
     first = int(np.flatnonzero(moves.is_motion)[0])
     start = ax.plot(*moves.start[first, [ax0, ax1]], "o", color="tab:green", ms=7, label="start",
@@ -243,9 +263,10 @@ def _finish(ax, moves, box, extent, ax0, ax1, title, handles=None):
     ax.set_xlabel(f"{'XYZ'[ax0]} (mm)")
     ax.set_ylabel(f"{'XYZ'[ax1]} (mm)")
     if handles is None:
-        ax.legend(loc="upper right", fontsize="small")
-    else:
-        ax.legend(handles=handles + [start], loc="upper right", fontsize="small")
+        handles = _line_handles(ax)
+    # below the drawing, never over it
+    ax.legend(handles=handles + [start], loc="upper center", bbox_to_anchor=(0.5, -0.13),
+              ncol=len(handles) + 1, fontsize="small", frameon=False)
     if title is None and moves.source:
         title = str(moves.source).rsplit("/", 1)[-1]
     if title:
@@ -266,6 +287,10 @@ def save_preview(moves: Moves, path, *, dpi: int = 120, **options) -> None:
 
     write_figure(fig, path, dpi=dpi)
     plt.close(fig)
+
+
+#: a legend under the drawing, where it hides none of the circles
+_LEGEND_BELOW = dict(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, fontsize="small", frameon=False)
 
 
 def plot_arc_choice(start, end, radius, clockwise, ax=None):
@@ -302,7 +327,9 @@ def plot_arc_choice(start, end, radius, clockwise, ax=None):
     except GeometryError as exc:
         ax.set_title(f"{word} R{radius:g}: {exc}", fontsize="small", color="tab:red")
         ax.set_aspect("equal")
-        ax.legend(loc="upper right", fontsize="small")
+        ax.set_xlabel("X (mm)")
+        ax.set_ylabel("Y (mm)")
+        ax.legend(**_LEGEND_BELOW)
         return ax
     chosen = centre_from_radius(p1, p2, radius, clockwise)
     r = abs(radius)
@@ -323,7 +350,7 @@ def plot_arc_choice(start, end, radius, clockwise, ax=None):
     ax.set_aspect("equal")
     ax.set_xlabel("X (mm)")
     ax.set_ylabel("Y (mm)")
-    ax.legend(loc="upper right", fontsize="small")
+    ax.legend(**_LEGEND_BELOW)
     return ax
 
 

@@ -36,13 +36,14 @@ def _ax(ax, figsize=(6, 6)):
 
 
 def plot_paths(paths, ax=None, *, by="kind", show_vertices=False, lw=1.2, title=None):
-    """Draw Paths: lines blue and arcs red (``by="kind"``) or one colour per layer (``by="layer"``)."""
+    """Draw Paths: lines blue and arcs red (``by="kind"``), one colour per layer (``by="layer"``) or one
+    colour per path (``by="path"``: how many separate pieces a drawing is made of)."""
     from matplotlib.collections import LineCollection
 
     ax = _ax(ax)
     layers = list(dict.fromkeys(p.layer for p in paths))
     cmap = {name: f"C{i % 10}" for i, name in enumerate(layers)}
-    for p in paths:
+    for k, p in enumerate(paths):
         for i in range(p.n_segments):
             seg = p.vertices[i:i + 2]
             if p.sweeps[i] != 0:
@@ -51,7 +52,10 @@ def plot_paths(paths, ax=None, *, by="kind", show_vertices=False, lw=1.2, title=
                 a0 = math.atan2(seg[0, 1] - c[1], seg[0, 0] - c[0])
                 t = a0 + p.sweeps[i] * np.linspace(0, 1, max(8, int(abs(p.sweeps[i]) * 20)))
                 seg = c + r * np.c_[np.cos(t), np.sin(t)]
-            colour = cmap[p.layer] if by == "layer" else (ARC_COLOUR if p.sweeps[i] else LINE_COLOUR)
+            if by == "path":
+                colour = f"C{k % 10}"
+            else:
+                colour = cmap[p.layer] if by == "layer" else (ARC_COLOUR if p.sweeps[i] else LINE_COLOUR)
             ax.add_collection(LineCollection([seg], colors=colour, linewidths=lw))
         if show_vertices:
             ax.plot(*p.vertices.T, ".", color="k", ms=3)
@@ -62,10 +66,11 @@ def plot_paths(paths, ax=None, *, by="kind", show_vertices=False, lw=1.2, title=
     if by == "kind":
         ax.plot([], [], color=LINE_COLOUR, label="line (G1)")
         ax.plot([], [], color=ARC_COLOUR, label="arc (G2/G3)")
-    else:
+    elif by == "layer":
         for name in layers:
             ax.plot([], [], color=cmap[name], label=f"layer {name}")
-    ax.legend(loc="best", fontsize="small")
+    if by != "path":                  # one colour per path: the colours are the message, no legend
+        ax.legend(loc="best", fontsize="small")
     if title:
         ax.set_title(title)
     return ax

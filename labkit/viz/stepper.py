@@ -116,6 +116,8 @@ def gcode_stepper(text: str, *, dialect: str = "grbl", interval_ms: int = 900):
         ax.set_xlim(lo[0] - pad, hi[0] + pad)
         ax.set_ylim(lo[1] - pad, hi[1] + pad)
         ax.set_aspect("equal")
+        ax.set_xlabel("X (mm)")            # also before the first move, when plot_moves has not run
+        ax.set_ylabel("Y (mm)")
         show(picture, figure=fig)
 
     line.observe(redraw, names="value")
