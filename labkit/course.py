@@ -11,6 +11,11 @@ nbconvert's ``TagRemovePreprocessor``, Jupyter Book and JupyterLab all read:
 ``appendix``
     a cell of the chapter's "Appendix — for researchers": the verification a student does not
     need, from its heading to the end (the navigation line after it stays).
+``autograde``
+    a check cell: it runs the student's program for a graded exercise on the virtual machine
+    (:func:`labkit.grade.check_exercise`). It stays in the student edition without its stored
+    output (the teacher's run of the model answer); the solution cell before it that assigns
+    the program (``answer_N = "..."``) becomes a stub assigning an empty program.
 
 nbgrader's markup (``### BEGIN SOLUTION`` inside a cell, its own metadata and an ``assign``
 step) was considered and not used: the chapters' answers are whole cells that follow the
@@ -31,17 +36,20 @@ import re
 import shutil
 from pathlib import Path
 
-__all__ = ["APPENDIX_HEADING", "APPENDIX_TAG", "SOLUTION_TAG", "STUB_TAG", "mark_chapter",
+__all__ = ["APPENDIX_HEADING", "APPENDIX_TAG", "CHECK_TAG", "SOLUTION_TAG", "STUB_TAG", "mark_chapter",
            "student_edition", "write_student_edition"]
 
 SOLUTION_TAG = "solution"
 APPENDIX_TAG = "appendix"
 STUB_TAG = "exercise-stub"
+CHECK_TAG = "autograde"
 APPENDIX_HEADING = "## Appendix — for researchers"
 #: folders beside the chapters that their links and pictures need
 SUPPORT_FOLDERS = ("figures", "handouts")
 
 _SOLUTION_FIRST_LINE = re.compile(r"#\s*Solution\s+(\d+)\b\s*[:.]?\s*(.*)")
+#: a solution cell that hands a program to a check cell: ``answer_N = ...`` on a line of its own
+_ANSWER_ASSIGNMENT = re.compile(r"^(answer_\d+)\s*=", re.M)
 
 
 def _tags(cell) -> list:
@@ -133,8 +141,10 @@ def student_edition(nb):
     -------
     nbformat.NotebookNode
         A new notebook: every cell tagged ``solution`` is replaced by an empty code cell
-        tagged ``exercise-stub`` ("# Exercise N: your answer here"), every cell tagged
-        ``appendix`` is dropped with its outputs, and the other cells keep their outputs.
+        tagged ``exercise-stub`` ("# Exercise N: your answer here"; for a solution that
+        assigns a graded program, the same assignment of an empty program), every cell
+        tagged ``appendix`` is dropped with its outputs, cells tagged ``autograde`` lose
+        their outputs, and the other cells keep their outputs.
     """
     import nbformat
 
@@ -145,9 +155,18 @@ def student_edition(nb):
         if SOLUTION_TAG in tags:
             number = solution_number(cell)
             label = f"Exercise {number}" if number is not None else "Exercise"
-            stub = nbformat.v4.new_code_cell(f"# {label}: your answer here\n")
+            answer = _ANSWER_ASSIGNMENT.search(cell.source)
+            if answer:
+                text = (f"# {label}: your program here, between the quotes; the cell below runs it "
+                        f"on the virtual machine\n{answer.group(1)} = \"\"\"\n\"\"\"\n")
+            else:
+                text = f"# {label}: your answer here\n"
+            stub = nbformat.v4.new_code_cell(text)
             stub.metadata["tags"] = [STUB_TAG]
             cells.append(stub)
+        elif CHECK_TAG in tags:
+            cell.outputs, cell.execution_count = [], None
+            cells.append(cell)
         elif APPENDIX_TAG not in tags:
             cells.append(cell)
     edition.cells = cells

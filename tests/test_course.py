@@ -7,8 +7,8 @@ import nbformat
 import pytest
 
 from labkit.cli import main
-from labkit.course import (APPENDIX_HEADING, APPENDIX_TAG, SOLUTION_TAG, STUB_TAG, mark_chapter,
-                           student_edition, write_student_edition)
+from labkit.course import (APPENDIX_HEADING, APPENDIX_TAG, CHECK_TAG, SOLUTION_TAG, STUB_TAG,
+                           mark_chapter, student_edition, write_student_edition)
 
 ROOT = Path(__file__).resolve().parents[1]
 NOTEBOOKS = ROOT / "notebooks"
@@ -107,12 +107,46 @@ def test_student_edition_has_every_chapter_valid_and_no_answer(edition):
                 line = line.strip()
                 if len(line) >= 12 and line not in kept_text:
                     assert line not in student_text, f"{path.name}: {line!r} survived"
-        # one stub per solution, and the remaining cells keep their outputs
+        # one stub per solution, and the remaining cells keep their outputs — but for the check
+        # cells of graded exercises, whose stored output is the model answer's report
         n_solutions = sum(SOLUTION_TAG in _tags(c) for c in source.cells)
         assert sum(STUB_TAG in _tags(c) for c in student.cells) == n_solutions
-        outputs = [c.outputs for c in source.cells
-                   if c.cell_type == "code" and not {SOLUTION_TAG, APPENDIX_TAG} & set(_tags(c))]
-        assert outputs == [c.outputs for c in student.cells if c.cell_type == "code" and STUB_TAG not in _tags(c)]
+        kept = lambda c: c.cell_type == "code" and not {SOLUTION_TAG, APPENDIX_TAG, STUB_TAG} & set(_tags(c))  # noqa: E731
+        assert [c.outputs if CHECK_TAG not in _tags(c) else [] for c in source.cells if kept(c)] == \
+            [c.outputs for c in student.cells if kept(c)]
+
+
+def test_graded_exercises_have_a_check_cell_that_works_in_the_student_edition(edition, capsys):
+    from labkit.grade import EXERCISES, check_exercise, grade
+
+    seen = {}
+    for path in sorted(edition.glob("*.ipynb")):
+        teacher, student = _read(NOTEBOOKS / path.name).cells, _read(path).cells
+        for k, cell in enumerate(student):
+            if CHECK_TAG not in _tags(cell):
+                continue
+            key = re.search(r'check_exercise\("([0-9]+-[0-9]+)", (answer_[0-9]+)\)', cell.source)
+            assert key, f"{path.name} cell {k}: a check cell names its exercise and answer"
+            seen[key.group(1)] = path.name
+            assert cell.outputs == []
+            # the stub before it assigns the empty program the check cell reads
+            stub = student[k - 1]
+            assert STUB_TAG in _tags(stub) and f"{key.group(2)} = " in stub.source
+            namespace = {}
+            exec(stub.source, namespace)
+            assert grade(key.group(1), namespace[key.group(2)]).checks[0].detail.startswith(
+                "the program is empty")
+            check_exercise(key.group(1), namespace[key.group(2)])      # what the student sees
+            assert "the program is empty" in capsys.readouterr().out
+            # in the teacher's chapter the model answer before it passes, and its report is stored
+            (source_cell,) = [c for c in teacher if c.source == cell.source]
+            model = teacher[teacher.index(source_cell) - 1]
+            namespace = {}
+            exec(model.source, namespace)
+            assert grade(key.group(1), namespace[key.group(2)]).passed
+            assert "PASSED" in source_cell.outputs[0]["text"]
+    capsys.readouterr()
+    assert sorted(seen) == sorted(EXERCISES) and len(seen) >= 6
 
 
 def test_chapter_23_answer_is_not_in_the_edition(edition):
