@@ -511,7 +511,8 @@ class JobRunner:
     ----------
     phase : str
         ``"ready"``, ``"sending"``, ``"finishing"``, then ``"done"``, ``"refused"``
-        (nothing was sent) or ``"faulted"``.
+        (stopped before the job's first line: the pre-flight check, or check mode
+        rejecting a line) or ``"faulted"``.
     lines : list of (int, str)
         (source line, text) to send, in order; ``next_index`` is the next to go.
     inflight : deque of (int, int)
