@@ -295,12 +295,8 @@ def figure_format(path) -> str:
 def read_json(path, *, what: str = "JSON file"):
     """The JSON value in the regular file ``path``, or a clear :class:`InputError`.
 
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The file the user named.
-    what : str
-        How to call it in the message ("layout file", "fit file", …).
+    ``path`` and ``what`` (how the message calls the file: "layout file", "fit file", …)
+    are checked as by :func:`check_input_file`; text that is not JSON is refused too.
 
     Examples
     --------
