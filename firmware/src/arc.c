@@ -10,6 +10,12 @@
 
 #define LK_PI 3.141592653589793
 
+/* the kept walks: 4 bits a tick, head and tail count ticks (mod 2^32) */
+static struct {
+  uint8_t codes[ARC_KEEP_TICKS / 2];
+  uint32_t head, tail, epoch, count;
+} keep;
+
 
 /* per CCW octant: driver axis, driver direction, driven axis, driven direction */
 static const int8_t arc_octant_moves[8][4] = {
@@ -255,3 +261,66 @@ double arc_sweep_angle(double p0x, double p0y, double p1x, double p1y, double cx
   return ang;
 }
 
+
+/* ------------------------------------------------------------------ kept walks */
+
+static void keep_put(uint32_t i, uint8_t code)
+{
+  uint8_t *c = &keep.codes[(i % ARC_KEEP_TICKS) / 2];
+  *c = (i & 1u) ? (uint8_t)((*c & 0x0Fu) | (code << 4)) : (uint8_t)((*c & 0xF0u) | code);
+}
+
+int arc_count(const arc_walk_t *start, int32_t x0, int32_t y0, uint32_t *ticks, arc_kept_t *kept,
+              void (*idle)(void))
+{
+  arc_walk_t walk = *start;
+  int32_t x, y, px = x0, py = y0;
+  uint32_t n = 0;
+  int st, fits = 1;
+  kept->at = keep.head;
+  kept->epoch = keep.epoch;
+  kept->count = ++keep.count;
+  while ((st = arc_next(&walk, &x, &y)) == 1) {
+    if (fits && n + (keep.head - keep.tail) >= ARC_KEEP_TICKS) fits = 0;
+    if (fits) {
+      uint8_t code = 0;
+      if (x != px) code |= x < px ? ARC_STEP_A0 | ARC_NEG_A0 : ARC_STEP_A0;
+      if (y != py) code |= y < py ? ARC_STEP_A1 | ARC_NEG_A1 : ARC_STEP_A1;
+      keep_put(keep.head + n, code);
+    }
+    px = x;
+    py = y;
+    if ((++n & 4095u) == 0 && idle) idle();
+  }
+  *ticks = n;
+  kept->len = fits ? n : 0;
+  return st < 0 ? -1 : 0;
+}
+
+void arc_keep_commit(arc_kept_t *kept)
+{
+  if (kept->len == 0) return;
+  if (kept->epoch != keep.epoch || kept->count != keep.count || kept->at != keep.head) {
+    kept->len = 0;
+    return;
+  }
+  keep.head += kept->len;
+}
+
+uint8_t arc_kept_step(const arc_kept_t *kept, uint32_t k)
+{
+  uint32_t i = kept->at + k;
+  uint8_t c = keep.codes[(i % ARC_KEEP_TICKS) / 2];
+  return (uint8_t)((i & 1u) ? c >> 4 : c & 0x0Fu);
+}
+
+void arc_keep_release(const arc_kept_t *kept)
+{
+  if (kept->len && kept->epoch == keep.epoch) keep.tail = kept->at + kept->len;
+}
+
+void arc_keep_reset(void)
+{
+  keep.head = keep.tail = 0;
+  keep.epoch++;
+}

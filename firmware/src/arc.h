@@ -9,9 +9,12 @@
   of the eight neighbours, and the last piece is a straight line to the end.
   A clockwise arc is walked as its mirror image y -> -y.
 
-  Used twice, both in the main loop: the planner counts a block's ticks with
-  it (plan_prepare_move) and st_prep_buffer() walks it again for the step
-  bits. Integer arithmetic only after arc_init.
+  The planner walks an arc once to count its ticks (arc_count, in
+  plan_prepare_move) and keeps each tick's in-plane step (4 bits) in a ring
+  of ARC_KEEP_TICKS, from which st_prep_buffer() takes them; an arc that
+  does not fit in what the ring has free is walked a second time by the
+  stepper from its start (arc_next), both in the main loop. Integer
+  arithmetic only after arc_init.
 */
 #ifndef LK_ARC_H
 #define LK_ARC_H
@@ -39,6 +42,43 @@ int arc_init(arc_walk_t *a, const int32_t s[2], const int32_t e[2], const double
 /* Next lattice point into *x, *y (steps): 1; the end of the walk: 0; the walk
    failed to close (a start off the circle): -1. */
 int arc_next(arc_walk_t *a, int32_t *x, int32_t *y);
+
+/* Ticks of counted arcs whose steps the ring keeps (4 bits a tick); an arc
+   that does not fit in its free part is walked again by the stepper. */
+#ifndef ARC_KEEP_TICKS
+#define ARC_KEEP_TICKS 32768u   /* power of two; 16 KB */
+#endif
+
+/* Where a counted walk's steps are kept: ticks [at, at + len) of the ring
+   (len 0: not kept, walk again); the ring's epoch (reset) and the count's
+   number, which the commit checks. */
+typedef struct {
+  uint32_t at, len, epoch, count;
+} arc_kept_t;
+
+/* In-plane step of a kept tick: bit 0 first axis steps, 1 it steps
+   negative, 2 second axis steps, 3 it steps negative. */
+#define ARC_STEP_A0  0x1u
+#define ARC_NEG_A0   0x2u
+#define ARC_STEP_A1  0x4u
+#define ARC_NEG_A1   0x8u
+
+/* Walk *start (not changed) to its end from lattice point (x0, y0): its
+   ticks into *ticks, its steps kept in the ring's free space when they fit
+   (*kept; committed only by arc_keep_commit). idle() is called every 4096
+   ticks (a long arc: the motors keep being fed). 0, or -1 when the walk
+   fails to close. */
+int arc_count(const arc_walk_t *start, int32_t x0, int32_t y0, uint32_t *ticks, arc_kept_t *kept,
+              void (*idle)(void));
+/* The block of *kept is queued: its steps stay until released. Clears
+   kept->len when another count or a reset came since its count. */
+void arc_keep_commit(arc_kept_t *kept);
+/* Step code (ARC_STEP_A0 ...) of tick k of a committed walk. */
+uint8_t arc_kept_step(const arc_kept_t *kept, uint32_t k);
+/* The stepper is done with *kept: its ticks are free again. */
+void arc_keep_release(const arc_kept_t *kept);
+/* Empty the ring (planner reset): every kept walk is void. */
+void arc_keep_reset(void);
 
 /* Signed sweep (radians) from p0 to p1 around c, a full turn when they meet
    (labkit.geometry.circle.sweep_angle). Any unit of length. */

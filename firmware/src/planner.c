@@ -50,6 +50,7 @@ lk_machine_t *plan_machine(void) { return &pl.m; }
 
 static void clear_buffer(void)
 {
+  arc_keep_reset();
   pl.tail = 0;
   pl.count = 0;
   pl.flushed = 1;
@@ -230,14 +231,10 @@ uint8_t plan_prepare_move(const plan_move_t *mv, plan_block_t *b)
     int32_t e2[2] = {b->end_steps[a0], b->end_steps[a1]};
     double c2[2] = {c[a0] * spm[a0], c[a1] * spm[a0]};
     if (arc_init(&b->arc, s2, e2, c2, cw, r * spm[a0], sw) != 0) return STATUS_INVALID_ARC;
-    arc_walk_t walk = b->arc;
-    int32_t x, y, st;
-    uint32_t n_ticks = 0;
-    while ((st = arc_next(&walk, &x, &y)) == 1) {
-      /* a big arc takes a while to count: keep the motors fed meanwhile */
-      if ((++n_ticks & 4095u) == 0) st_prep_buffer();
-    }
-    if (st < 0) return STATUS_INVALID_ARC;
+    uint32_t n_ticks;
+    /* a big arc takes a while to count: the motors are fed meanwhile */
+    if (arc_count(&b->arc, s2[0], s2[1], &n_ticks, &b->kept, st_prep_buffer) != 0)
+      return STATUS_INVALID_ARC;
     int32_t h = b->end_steps[lin] - b->start_steps[lin];
     if ((uint32_t)(h < 0 ? -h : h) > n_ticks) return STATUS_INVALID_ARC;
     ticks = n_ticks;
@@ -305,6 +302,7 @@ void plan_push_block(const plan_block_t *src)
   if (src->ticks == 0 || plan_is_full()) return;   /* no step: no block (GRBL drops them too) */
   plan_block_t b = *src;
   apply_overrides(&b);   /* the overrides may have changed since it was prepared */
+  if (b.kind == PLAN_BLOCK_ARC) arc_keep_commit(&b.kept);
   if (pl.flushed)
     b.stop_before = PLAN_STOP_START;
   else if (pl.pending_dwell)

@@ -84,6 +84,7 @@ typedef struct {
   double dwell_s;
   int32_t group;                 /* MBLA super block id (set when buffered) */
   arc_walk_t arc;                /* the arc walk at its start (arcs) */
+  arc_kept_t kept;               /* its steps as counted, when the ring kept them (arcs) */
   /* set by plan_get_current_block(): */
   double entry_mm_s, peak_mm_s, exit_mm_s, plan_cap_mm_s;   /* the profile (no slower than the floor) */
   double junction_exit_mm_s;     /* planned speed at the end junction: the next block's entry */

@@ -58,7 +58,8 @@ static struct {
   int32_t helix;           /* |steps| of the helix axis */
   uint8_t helix_neg;
   int32_t herr;
-  arc_walk_t arc;
+  arc_kept_t kept;         /* the arc's steps as the planner counted them, or len 0 */
+  arc_walk_t arc;          /* else its walk */
   int32_t ax, ay;          /* arc position in its plane (steps) */
 } prep;
 
@@ -217,6 +218,7 @@ static void start_walk(const plan_block_t *b)
     prep.helix = h < 0 ? -h : h;
     prep.helix_neg = h < 0;
     prep.herr = 2 * prep.helix - n;
+    prep.kept = b->kept;
     prep.arc = b->arc;
     prep.ax = b->start_steps[prep.a0];
     prep.ay = b->start_steps[prep.a1];
@@ -237,6 +239,12 @@ static void walk_steps(const plan_block_t *b, uint8_t *bits, uint8_t *neg)
       prep.err[a] += 2 * prep.delta[a];
     }
     ng = b->dir_bits & s;
+  } else if (b->kind == PLAN_BLOCK_ARC && prep.kept.len) {
+    uint8_t c = arc_kept_step(&prep.kept, prep.k);
+    if (c & ARC_STEP_A0) s |= (uint8_t)(1u << prep.a0);
+    if (c & ARC_NEG_A0) ng |= (uint8_t)(1u << prep.a0);
+    if (c & ARC_STEP_A1) s |= (uint8_t)(1u << prep.a1);
+    if (c & ARC_NEG_A1) ng |= (uint8_t)(1u << prep.a1);
   } else if (b->kind == PLAN_BLOCK_ARC) {
     int32_t x, y;
     if (arc_next(&prep.arc, &x, &y) == 1) {
@@ -252,6 +260,8 @@ static void walk_steps(const plan_block_t *b, uint8_t *bits, uint8_t *neg)
       prep.ax = x;
       prep.ay = y;
     }
+  }
+  if (b->kind == PLAN_BLOCK_ARC) {   /* the helix axis, by the line rule */
     if (prep.herr >= 0) {
       s |= (uint8_t)(1u << prep.lin);
       if (prep.helix_neg) ng |= (uint8_t)(1u << prep.lin);
@@ -281,6 +291,7 @@ static int start_block(void)
 
 static void end_block(void)
 {
+  if (prep.b->kind == PLAN_BLOCK_ARC) arc_keep_release(&prep.kept);
   plan_discard_current_block();
   prep.b = NULL;
 }
