@@ -32,6 +32,9 @@ composes them. Its format (version 1, TOML)::
     at_mm = [10.0, 10.0]           # image: where its lower-left corner goes, mm (default 0, 0)
     width_mm = 40.0                # image: engraved width, mm (else the file's dpi)
     mode = "gray"                  # image: zigzag, spiral, edges, gray or dither (default gray)
+    tabs = 4                       # cut/score: uncut bridges per closed shape, spread evenly and
+    tab_mm = 1.0                   #   slid clear of corners (tab_gaps), each this long, mm (default 1)
+    perforate = [2.0, 1.0]         # cut/score: cut 2 mm, skip 1 mm, along every path (not with tabs)
 
 A layer's settings come from its own keys first, then its material entry; one with neither power
 nor speed is refused. The program is written in the order a laser user expects: images, then
@@ -51,7 +54,8 @@ from pathlib import Path
 
 from labkit.errors import InputError
 
-__all__ = ["FORMAT", "VERSION", "ORDER", "JobLayer", "JobFile", "read_job", "compose_job", "ComposedJob"]
+__all__ = ["FORMAT", "VERSION", "ORDER", "JobLayer", "JobFile", "read_job", "compose_job", "ComposedJob",
+           "tab_gaps", "perforation_gaps", "split_at_gaps"]
 
 FORMAT = "labkit-job"
 VERSION = 1
@@ -60,7 +64,7 @@ ORDER = ("image", "fill", "score", "cut")
 _TOP_KEYS = {"format", "version", "machine", "material", "library", "dialect", "s_max", "tol_mm", "placement",
              "layer"}
 _LAYER_KEYS = {"source", "operation", "select", "material", "power_mw", "speed_mm_min", "passes", "kerf_mm",
-               "line_interval_mm", "dynamic", "at_mm", "width_mm", "mode"}
+               "line_interval_mm", "dynamic", "at_mm", "width_mm", "mode", "tabs", "tab_mm", "perforate"}
 _IMAGE_SUFFIXES = {".png", ".bmp", ".jpg", ".jpeg", ".gif", ".tif", ".tiff", ".webp"}
 
 
@@ -77,6 +81,9 @@ class JobLayer:
     at_mm: tuple = (0.0, 0.0)
     width_mm: float | None = None
     mode: str = "gray"
+    tabs: int = 0
+    tab_mm: float = 1.0
+    perforate: tuple | None = None
 
 
 @dataclass
@@ -192,6 +199,16 @@ def _layer(p: Path, i: int, t: dict) -> JobLayer:
         layer.overrides["dynamic"] = t["dynamic"]
     if "at_mm" in t:
         layer.at_mm = _pair(where, "at_mm", t["at_mm"])
+    if "tabs" in t or "tab_mm" in t or "perforate" in t:
+        if op not in ("cut", "score"):
+            raise InputError(f"{where}: tabs and perforate are for cut and score layers, not {op}")
+        if "tabs" in t and "perforate" in t:
+            raise InputError(f"{where}: tabs and perforate together; expected one of them")
+        layer.tabs = _num(where, "tabs", t.get("tabs", 0), lo=1, whole=True) if "tabs" in t else 0
+        layer.tab_mm = _num(where, "tab_mm", t.get("tab_mm", 1.0), lo=0, lo_open=True)
+        if "perforate" in t:
+            layer.perforate = tuple(_num(where, "perforate", v, lo=0, lo_open=True)
+                                    for v in _pair(where, "perforate", t["perforate"]))
     if "mode" in t:
         from labkit.raster.engrave import MODES
 
@@ -285,9 +302,33 @@ def _vector_moves(job: JobFile, layer: JobLayer, s: dict, power_s: float):
     laser = LaserMode.DYNAMIC if s["dynamic"] else LaserMode.CONSTANT
     settings = LayerSettings(feed_mm_min=s["speed_mm_min"], power_s=power_s, passes=int(s["passes"]), laser=laser)
     fill = layer.operation == "fill"
+    if layer.tabs or layer.perforate:
+        return _gapped_moves(job, layer, paths, s, settings)
     vj = vector_job(paths, default=settings, tol_mm=job.tol_mm, kerf_mm=s["kerf_mm"], fill=fill,
                     fill_spacing_mm=s["line_interval_mm"], s_max=job.s_max)
     return vj.moves
+
+
+def _gapped_moves(job: JobFile, layer: JobLayer, paths, s: dict, settings):
+    """A cut or score with tabs or perforation: the kerf and the order as vector_job gives them, then
+    each path (as a polyline within tol_mm) cut in pieces with the gaps left uncut."""
+    import numpy as np
+
+    from labkit.geometry.path import Path as GeoPath
+    from labkit.toolpath.build import build_moves, prepare_paths
+
+    ordered = prepare_paths(paths, kerf_mm=s["kerf_mm"], tol_mm=job.tol_mm)
+    pieces = []
+    for p in ordered:
+        pts = p.sample(job.tol_mm)
+        if layer.tabs:
+            gaps = tab_gaps(pts, layer.tabs, layer.tab_mm) if p.closed else []
+        else:
+            gaps = perforation_gaps(pts, *layer.perforate)
+        # a dash shorter than the tolerance is the drawing's rounding, not a cut
+        pieces += [GeoPath.polyline(q, layer=p.layer) for q in split_at_gaps(pts, gaps, closed=p.closed)
+                   if len(q) >= 2 and float(np.hypot(*np.diff(q, axis=0).T).sum()) >= job.tol_mm]
+    return build_moves(pieces, settings, default=settings, s_max=job.s_max)
 
 
 def _image_moves(job: JobFile, layer: JobLayer, s: dict, power_s: float):
@@ -379,3 +420,141 @@ def compose_job(job: JobFile) -> ComposedJob:
     if not all(math.isfinite(v) for d in info for row in d["bounds_mm"] for v in row):
         raise InputError(f"{job.path}: a layer burns nothing")
     return ComposedJob(moves=moves, layers=info, tol_mm=job.tol_mm)
+
+
+# --- tabs and perforation: uncut gaps along a cut -------------------------------------------------
+
+def _arclength(points):
+    import numpy as np
+
+    return np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(points, axis=0).T))])
+
+
+def tab_gaps(points, count: int, length_mm: float, *, corner_deg: float = 30.0):
+    """Where ``count`` tabs of ``length_mm`` go on a closed polyline: (start, end) arc lengths, mm.
+
+    The tabs are spread evenly along the perimeter; a tab whose span, widened by one tab length on
+    each side, holds a corner (a turn sharper than ``corner_deg``) slides along the outline to the
+    nearest position clear of corners (a tab on a corner breaks as the part is pushed out and leaves
+    a nub where the part should be square). Where no clear position exists the even one is kept.
+
+    Parameters
+    ----------
+    points : ndarray, shape (n, 2)
+        The closed polyline, first point repeated at the end, mm.
+    count : int
+        Tabs on this shape (>= 1).
+    length_mm : float
+        Each tab's length along the path, mm.
+
+    Returns
+    -------
+    list of (float, float)
+        Sorted; arc lengths from the first point, each within 0…perimeter (a gap may wrap past the end).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> square = np.array([[0, 0], [40, 0], [40, 40], [0, 40], [0, 0]], float)
+    >>> tab_gaps(square, 4, 2.0)
+    [(19.0, 21.0), (59.0, 61.0), (99.0, 101.0), (139.0, 141.0)]
+    """
+    import numpy as np
+
+    pts = np.asarray(points, float)
+    s = _arclength(pts)
+    perimeter = float(s[-1])
+    if count < 1 or not length_mm > 0:
+        raise InputError(f"tabs: {count} of {length_mm!r} mm; expected a whole number >= 1 of a length > 0")
+    if count * length_mm >= perimeter:
+        raise InputError(f"tabs: {count} × {length_mm:g} mm do not fit on a shape {perimeter:.3g} mm round")
+    d_in = pts[1:-1] - pts[:-2]
+    d_out = pts[2:] - pts[1:-1]
+    turn = np.degrees(np.abs(np.arctan2(d_in[:, 0] * d_out[:, 1] - d_in[:, 1] * d_out[:, 0],
+                                        (d_in * d_out).sum(axis=1))))
+    corners = list(s[1:-1][turn > corner_deg])
+    d0, d1 = pts[1] - pts[0], pts[0] - pts[-2]          # the closing vertex
+    if abs(np.degrees(np.arctan2(d1[0] * d0[1] - d1[1] * d0[0], (d1 * d0).sum()))) > corner_deg:
+        corners.append(0.0)
+    corners = np.array(corners)
+    clear = 1.5 * length_mm                              # half the tab plus one tab length
+
+    def blocked(c):
+        if not len(corners):
+            return False
+        d = np.abs(((corners - c) + perimeter / 2) % perimeter - perimeter / 2)
+        return bool((d < clear).any())
+
+    step = perimeter / 400
+    gaps = []
+    for k in range(count):
+        centre = (k + 0.5) * perimeter / count
+        best = centre
+        for j in range(200):                             # search both ways, nearest first
+            found = [c for c in (centre + j * step, centre - j * step) if not blocked(c % perimeter)]
+            if found:
+                best = found[0] % perimeter
+                break
+        gaps.append((best - length_mm / 2, best + length_mm / 2))
+    return sorted((a % perimeter, (a % perimeter) + length_mm) for a, _ in gaps)
+
+
+def perforation_gaps(points, cut_mm: float, skip_mm: float):
+    """The skipped spans of a cut/skip dash pattern along a polyline: (start, end) arc lengths, mm.
+
+    >>> import numpy as np
+    >>> perforation_gaps(np.array([[0, 0], [10, 0]], float), 2.0, 1.0)
+    [(2.0, 3.0), (5.0, 6.0), (8.0, 9.0)]
+    """
+    import numpy as np
+
+    if not (cut_mm > 0 and skip_mm > 0):
+        raise InputError(f"perforation: cut {cut_mm!r} mm, skip {skip_mm!r} mm; expected two lengths > 0")
+    total = float(_arclength(np.asarray(points, float))[-1])
+    starts = np.arange(cut_mm, total, cut_mm + skip_mm)
+    return [(float(a), float(min(a + skip_mm, total))) for a in starts]
+
+
+def split_at_gaps(points, gaps, *, closed: bool):
+    """The pieces of a polyline left when the spans ``gaps`` (arc lengths, mm) are not cut.
+
+    A closed polyline's piece that runs past the end continues from its start, so the cut keeps
+    one direction. Returns a list of (k, 2) arrays in cutting order.
+    """
+    import numpy as np
+
+    pts = np.asarray(points, float)
+    s = _arclength(pts)
+    total = float(s[-1])
+
+    def at(t):
+        return np.array([np.interp(t, s, pts[:, 0]), np.interp(t, s, pts[:, 1])])
+
+    def piece(a, b):
+        inner = (s > a) & (s < b)
+        return np.vstack([at(a), pts[inner], at(b)])
+
+    gaps = sorted(gaps)
+    if not gaps:
+        return [pts]
+    spans = []
+    if closed:
+        wrap_end = gaps[0][0] + total                       # cut from the last gap round to the first
+        for (_, b), (a2, _) in zip(gaps, gaps[1:] + [(wrap_end, None)]):
+            spans.append((b, a2))
+    else:
+        edges = [0.0] + [v for g in gaps for v in g] + [total]
+        spans = [(edges[i], edges[i + 1]) for i in range(0, len(edges), 2)]
+    out = []
+    for a, b in spans:
+        if b - a <= 1e-9:
+            continue
+        if closed and b > total:
+            first, second = piece(a, total) if a < total else None, piece(max(a - total, 0.0), b - total)
+            parts = [q for q in (first, second) if q is not None]
+            out.append(np.vstack([parts[0], parts[1][1:]]) if len(parts) == 2 else parts[0])
+        elif closed and a >= total:
+            out.append(piece(a - total, b - total))
+        else:
+            out.append(piece(a, b))
+    return out
