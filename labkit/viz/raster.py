@@ -137,17 +137,21 @@ def gray_explorer(gray, *, pixel_mm: float = 0.2, feed_mm_min: float = 3000.0):
         axes[1].barh(["burn", "overscan + gaps (S0)", "rapids"], [r.cut_mm, r.idle_feed_mm, r.travel_mm],
                      color=["tab:red", "tab:cyan", "0.6"])
         axes[1].set_xlabel("distance (mm)")
+        axes[1].set_ylabel("the head's path")
         axes[1].set_title(f"estimated time {r.time_s / 60:.1f} min at F{feed_mm_min:g}")
         fig.tight_layout()
         return fig
 
+    wide = {"description_width": "initial"}       # the labels shown whole, not cut off
     return interact_figure(show,
-                         min_power=w.FloatSlider(value=0.1, min=0.0, max=1.0, step=0.05, description="min power"),
-                         max_power=w.FloatSlider(value=0.8, min=0.05, max=1.0, step=0.05, description="max power"),
+                         min_power=w.FloatSlider(value=0.1, min=0.0, max=1.0, step=0.05,
+                                                 description="min power (share of full)", style=wide),
+                         max_power=w.FloatSlider(value=0.8, min=0.05, max=1.0, step=0.05,
+                                                 description="max power (share of full)", style=wide),
                          gamma=w.FloatSlider(value=1.0, min=0.3, max=3.0, step=0.1, description="gamma"),
                          method=w.Dropdown(options=["power"] + sorted(DIFFUSION), description="mode"),
                          overscan_mm=w.FloatSlider(value=2.0, min=0.0, max=10.0, step=0.5,
-                                                   description="overscan mm"))
+                                                   description="overscan (mm)", style=wide))
 
 
 #: Above this many image pixels the preview's left panel draws the moves on a grid of
