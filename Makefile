@@ -12,7 +12,7 @@ PYTEST_ARGS ?=
 TEST_JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 XDIST := -n $(TEST_JOBS) --dist loadfile
 
-.PHONY: lab test test-fast bench firmware firmware-all clean browser-deps student
+.PHONY: lab test test-fast bench firmware firmware-all clean browser-deps student sheets
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; assert sys.version_info >= (3, 11), "labkit needs Python >= 3.11, found " + sys.version.split()[0]'
@@ -40,6 +40,12 @@ test: $(STAMP) browser-deps
 STUDENT_DIR ?= student
 student: $(STAMP)
 	$(PY) -m labkit course student "$(STUDENT_DIR)"
+
+## make sheets SHEETS_DIR=DIR: the printable material (HTML): exercise sheet, answer key, a handout
+## per lesson, the marking scheme, the capstone rubric (default build/sheets).
+SHEETS_DIR ?= build/sheets
+sheets: $(STAMP)
+	$(PY) tools/course_sheets.py "$(SHEETS_DIR)"
 
 ## make firmware-all: what CI adds to make test: the ARM images (sizes printed), the job
 ## streamed to the image in QEMU, and a bounded libFuzzer run (FUZZ_SECONDS per target).
