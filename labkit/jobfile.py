@@ -18,7 +18,8 @@ composes them. Its format (version 1, TOML)::
     offset_mm = [0.0, 0.0]         # added after start_from, mm
 
     [[layer]]
-    source = "card.svg"            # relative to the job file: .svg, .dxf, or an image
+    source = "card.svg"            # relative to the job file: .svg, .dxf, or an image; an SVG's
+                                   # <text> is drawn in its font (svg_text_paths), its colour its layer
     operation = "cut"              # cut, score, fill (vector: the hatch, then the outline, as
                                    # svg2gcode --fill), image (an image file)
     select = ["#000000"]           # optional (vector): only these SVG colours / DXF layers / element ids
@@ -55,7 +56,7 @@ from pathlib import Path
 from labkit.errors import InputError
 
 __all__ = ["FORMAT", "VERSION", "ORDER", "JobLayer", "JobFile", "read_job", "compose_job", "ComposedJob",
-           "tab_gaps", "perforation_gaps", "split_at_gaps"]
+           "tab_gaps", "perforation_gaps", "split_at_gaps", "svg_text_paths"]
 
 FORMAT = "labkit-job"
 VERSION = 1
@@ -291,7 +292,9 @@ def _vector_moves(job: JobFile, layer: JobLayer, s: dict, power_s: float):
             from labkit.vector.dxf import read_dxf
 
             drawing = read_dxf(layer.source, tol_mm=job.tol_mm)
-    paths = drawing.paths
+    paths = list(drawing.paths)
+    if any(name.startswith("text") for name in getattr(drawing, "skipped", [])):
+        paths += svg_text_paths(layer.source, tol_mm=job.tol_mm)      # the reader skips text; drawn here
     if layer.select:
         paths = [q for q in paths if q.layer in layer.select or q.source in layer.select
                  or q.source.lstrip("#") in layer.select]
@@ -557,4 +560,106 @@ def split_at_gaps(points, gaps, *, closed: bool):
             out.append(piece(a - total, b - total))
         else:
             out.append(piece(a, b))
+    return out
+
+
+# --- SVG text, drawn as a renderer draws it -------------------------------------------------------
+
+def svg_text_paths(source, *, tol_mm: float = 0.01, flip_y: bool = True) -> list:
+    """The outlines of an SVG's ``<text>`` elements, in mm, as closed Paths.
+
+    Each glyph comes from the named font through matplotlib's ``TextPath`` (its font manager finds
+    the family), is placed at the element's ``x``, ``y`` (``text-anchor`` start, middle or end) and
+    transform, and its quadratic and cubic curves are flattened within ``tol_mm`` after placing.
+    Page and units as :func:`labkit.vector.read_svg` takes them (96 px to the inch, y flipped).
+
+    Parameters
+    ----------
+    source : str or os.PathLike
+        The SVG file.
+    tol_mm : float
+        Largest distance of a flattened curve from the glyph's, mm.
+    flip_y : bool
+        As ``read_svg``'s.
+
+    Returns
+    -------
+    list of Path
+        Closed, layer and fill = the text's fill colour, source ``text#ID``, fill rule nonzero.
+
+    Raises
+    ------
+    InputError
+        A font family that is not installed (the message names it and the text).
+    """
+    import numpy as np
+    import svgelements as se
+    from matplotlib.font_manager import FontProperties, findfont
+    from matplotlib.path import Path as MplPath
+    from matplotlib.textpath import TextPath
+
+    from labkit.geometry import transform as tf
+    from labkit.geometry.bezier import flatten_cubic, quad_to_cubic
+    from labkit.geometry.path import Path as GeoPath
+    from labkit.vector.svg import MM_PER_PX, PX_PER_INCH
+
+    doc = se.SVG.parse(str(source), reify=False, ppi=PX_PER_INCH)
+    h = float(doc.height) if doc.height is not None else 0.0
+    page = tf.matrix(MM_PER_PX, 0, 0, -MM_PER_PX, 0, h * MM_PER_PX) if flip_y else tf.scale(MM_PER_PX)
+    out = []
+    for k, e in enumerate(doc.elements()):
+        if not isinstance(e, se.Text) or not (e.text or "").strip():
+            continue
+        name = f"text#{e.id}" if e.id else f"text[{k}]"
+        families = [f.strip().strip("'\"") for f in (e.font_family or "sans-serif").split(",") if f.strip()]
+        prop = FontProperties(family=families)
+        try:
+            findfont(prop, fallback_to_default=False)
+        except ValueError:
+            raise InputError(f"{source}: {name} ({e.text!r}): font {', '.join(families)!r} is not installed; "
+                             "expected an installed family (matplotlib.font_manager.get_font_names() lists them)"
+                             ", or the text converted to paths in the drawing program") from None
+        glyphs = TextPath((0, 0), e.text, size=float(e.font_size), prop=prop)
+        shift = 0.0
+        if getattr(e, "anchor", "start") in ("middle", "end"):     # the pen's advance, not the ink
+            from matplotlib.font_manager import get_font
+            from matplotlib import ft2font
+
+            # LoadFlags from matplotlib 3.10 (the module constant before it, deprecated after)
+            no_hinting = ft2font.LoadFlags.NO_HINTING if hasattr(ft2font, "LoadFlags") else ft2font.LOAD_NO_HINTING
+
+            font = get_font(findfont(prop))
+            font.set_size(float(e.font_size), 72)                  # 1 pt = 1 user unit
+            advance = sum(font.load_char(ord(ch), flags=no_hinting).linearHoriAdvance / 65536
+                          for ch in e.text)
+            shift = advance / 2 if e.anchor == "middle" else advance
+        m = e.transform
+        place = page @ tf.matrix(m.a, m.b, m.c, m.d, m.e, m.f) @ tf.matrix(1, 0, 0, -1, e.x - shift, e.y)
+        colour = e.fill.hexrgb if e.fill is not None and e.fill.value is not None else "#000000"
+        verts = tf.apply(place, glyphs.vertices)
+        ring, rings = [], []
+        i, codes = 0, glyphs.codes
+        while i < len(codes):
+            c = codes[i]
+            if c == MplPath.MOVETO:
+                if len(ring) > 1:
+                    rings.append(np.array(ring))
+                ring, i = [verts[i]], i + 1
+            elif c == MplPath.LINETO:
+                ring.append(verts[i])
+                i += 1
+            elif c == MplPath.CURVE3:
+                ctrl = quad_to_cubic(ring[-1], verts[i], verts[i + 1])
+                ring.extend(flatten_cubic(ctrl, tol_mm)[1:])
+                i += 2
+            elif c == MplPath.CURVE4:
+                ctrl = np.array([ring[-1], verts[i], verts[i + 1], verts[i + 2]])
+                ring.extend(flatten_cubic(ctrl, tol_mm)[1:])
+                i += 3
+            else:                                          # CLOSEPOLY
+                i += 1
+        if len(ring) > 1:
+            rings.append(np.array(ring))
+        out += [GeoPath.polyline(r, closed=True, layer=colour, fill=colour, stroke=None, fill_rule="nonzero",
+                                 source=name) for r in rings if len(r) >= 3]
     return out
