@@ -47,9 +47,11 @@ import numpy as np
 
 from dataclasses import replace
 
+from labkit.errors import AlarmCode, ErrorCode, Feedback
 from labkit.gcode.reader import Interpreter
 from labkit.gcode.state import ModalState
 from labkit.geometry.circle import arc_points, grbl_segments, sweep_angle
+from labkit.machine.grbl import grbl_reply
 # The one place labkit.machine imports the motion machine description (a rename is a one-line fix).
 from labkit.motion import load_machine
 
@@ -200,7 +202,7 @@ class VirtualMachine:
         if banner:
             self._emit("\r\nGrbl 1.1h ['$' for help]")
             if self.state == "Alarm":
-                self._emit("[MSG:'$H'|'$X' to unlock]")
+                self._emit(grbl_reply(Feedback.ALARM_LOCK))
 
     @staticmethod
     def _initial_settings(machine) -> dict:
@@ -430,13 +432,13 @@ class VirtualMachine:
             self._reset_parser()
             self.check_mode = False
             if moving:
-                self.state, self.alarm_code = "Alarm", 3
-                self._emit("ALARM:3")
+                self.state, self.alarm_code = "Alarm", AlarmCode.ABORT_CYCLE
+                self._emit(grbl_reply(AlarmCode.ABORT_CYCLE))
             elif self.state != "Alarm":
                 self.state = "Idle"
             self._emit("\r\nGrbl 1.1h ['$' for help]")
             if self.state == "Alarm":
-                self._emit("[MSG:'$H'|'$X' to unlock]")
+                self._emit(grbl_reply(Feedback.ALARM_LOCK))
 
     def _override(self, byte: int) -> None:
         """GRBL 1.1's override bytes: feed 10–200 %, rapid 25/50/100 %, laser power 10–200 %.
@@ -608,14 +610,14 @@ class VirtualMachine:
             self._system(text)
             return
         if self.state == "Alarm":
-            self._emit("error:9")
+            self._emit(grbl_reply(ErrorCode.GCODE_LOCKED))
             return
         if len(text) > 80:
-            self._emit("error:11")
+            self._emit(grbl_reply(ErrorCode.LINE_OVERFLOW))
             return
         err = self._gcode(text, jog=False)
         if err != _ALARMED:                       # an alarm replaces the line's answer
-            self._emit("ok" if err is None else f"error:{err}")
+            self._emit(grbl_reply(ErrorCode.OK if err is None else ErrorCode(err)))
 
     def _system(self, text: str) -> None:
         cmd = text[1:].upper()
@@ -646,60 +648,61 @@ class VirtualMachine:
         elif cmd == "X":
             if self.state == "Alarm":
                 self.state, self.alarm_code = "Idle", 0
-                self._emit("[MSG:Caution: Unlocked]")
+                self._emit(grbl_reply(Feedback.ALARM_UNLOCK))
         elif cmd == "H":
             if self._blocks:
-                self._emit("error:8")
+                self._emit(grbl_reply(ErrorCode.NOT_IDLE))
                 return
             self.pos = np.zeros(3)
             self.state, self.alarm_code = "Idle", 0
         elif cmd == "C":
             if self._blocks:
-                self._emit("error:8")
+                self._emit(grbl_reply(ErrorCode.NOT_IDLE))
                 return
             self.check_mode = not self.check_mode
             self._check_pos = self.pos.copy()
-            self._emit(f"[MSG:{'Enabled' if self.check_mode else 'Disabled'}]")
+            self._emit(grbl_reply(Feedback.ENABLED if self.check_mode else Feedback.DISABLED))
             if not self.check_mode:                 # GRBL resets when check mode ends
-                self._emit("ok")
+                self._emit(grbl_reply(ErrorCode.OK))
                 self._reset_parser()
                 self._emit("\r\nGrbl 1.1h ['$' for help]")
                 return
         elif cmd.startswith("J="):
             if self.state not in ("Idle", "Jog"):
-                self._emit("error:8" if self.state != "Alarm" else "error:9")
+                self._emit(grbl_reply(ErrorCode.NOT_IDLE if self.state != "Alarm"
+                                      else ErrorCode.GCODE_LOCKED))
                 return
             err = self._gcode(text, jog=True)          # the parser runs $J= as GRBL's jog
             if err is not None:
-                self._emit(f"error:{err}")
+                self._emit(grbl_reply(ErrorCode(err)))
                 return
         elif "=" in cmd and cmd.split("=")[0].isdigit():
             key, _, value = cmd.partition("=")
             try:
                 number = float(value)
             except ValueError:
-                self._emit("error:2")
+                self._emit(grbl_reply(ErrorCode.BAD_NUMBER))
                 return
             if int(key) not in self.settings:
-                self._emit("error:3")
+                self._emit(grbl_reply(ErrorCode.INVALID_STATEMENT))
                 return
             if self._blocks:
-                self._emit("error:8")
+                self._emit(grbl_reply(ErrorCode.NOT_IDLE))
                 return
             if number < 0:
-                self._emit("error:4")                 # GRBL: negative value
+                self._emit(grbl_reply(ErrorCode.NEGATIVE_VALUE))
                 return
             key = int(key)
             if key == 20 and int(number) and not self._flag(22):
-                self._emit("error:10")                # soft limits need homing enabled
+                self._emit(grbl_reply(ErrorCode.SOFT_LIMIT_ERROR))
                 return
             self.settings[key] = _setting_text(key, number)
             if key == 22 and not int(number):
                 self.settings[20] = "0"               # GRBL: homing off forces soft limits off
         else:
-            self._emit("error:3")
+            self._emit(grbl_reply(ErrorCode.INVALID_STATEMENT))
             return
-        self._emit("ok")
+        self._emit(grbl_reply(ErrorCode.OK))
 
     def _gcode(self, text: str, *, jog: bool) -> int | None:
         """Interpret one line after the modal state and queue its blocks.
@@ -725,14 +728,14 @@ class VirtualMachine:
         if not target_ok and self._flag(20):          # soft limits ($20, GRBL: off by default)
             self._parser.state = before               # the line is not executed
             if jog:
-                return 15
+                return ErrorCode.TRAVEL_EXCEEDED
             # soft limit: GRBL holds, resets and raises ALARM:2
             self._blocks.clear()
             self._rest_level = 0.0
             self._rx.clear()
-            self.state, self.alarm_code = "Alarm", 2
-            self._emit("ALARM:2")
-            self._emit("[MSG:Reset to continue]")
+            self.state, self.alarm_code = "Alarm", AlarmCode.SOFT_LIMIT
+            self._emit(grbl_reply(AlarmCode.SOFT_LIMIT))
+            self._emit(grbl_reply(Feedback.RESET_TO_CONTINUE))
             return _ALARMED
         self.lines_accepted += 1
         if self.check_mode:                              # check mode changes no offsets
