@@ -19,7 +19,9 @@ composes them. Its format (version 1, TOML)::
 
     [[layer]]
     source = "card.svg"            # relative to the job file: .svg, .dxf, or an image; an SVG's
-                                   # <text> is drawn in its font (svg_text_paths), its colour its layer
+                                   # <text> is drawn in its font (svg_text_paths), its colour its layer;
+                                   # operation "image" on an SVG engraves the bitmaps it embeds where
+                                   # it places them (svg_images; select by id)
     operation = "cut"              # cut, score, fill (vector: the hatch, then the outline, as
                                    # svg2gcode --fill), image (an image file)
     select = ["#000000"]           # optional (vector): only these SVG colours / DXF layers / element ids
@@ -56,7 +58,7 @@ from pathlib import Path
 from labkit.errors import InputError
 
 __all__ = ["FORMAT", "VERSION", "ORDER", "JobLayer", "JobFile", "read_job", "compose_job", "ComposedJob",
-           "tab_gaps", "perforation_gaps", "split_at_gaps", "svg_text_paths"]
+           "tab_gaps", "perforation_gaps", "split_at_gaps", "svg_text_paths", "svg_images", "PlacedImage"]
 
 FORMAT = "labkit-job"
 VERSION = 1
@@ -174,9 +176,9 @@ def _layer(p: Path, i: int, t: dict) -> JobLayer:
         raise InputError(f"{where}: source {t['source']!r} is not a file ({src}); expected a path relative to "
                          "the job file")
     is_image = src.suffix.lower() in _IMAGE_SUFFIXES
-    if is_image != (op == "image"):
-        raise InputError(f"{where}: operation {op!r} on {src.name}: images take operation \"image\", "
-                         "SVG and DXF drawings cut, score or fill")
+    if is_image != (op == "image") and not (op == "image" and src.suffix.lower() == ".svg"):
+        raise InputError(f"{where}: operation {op!r} on {src.name}: images (and the bitmaps an SVG embeds) take "
+                         "operation \"image\", SVG and DXF drawings cut, score or fill")
     if not is_image and src.suffix.lower() not in (".svg", ".dxf"):
         raise InputError(f"{where}: source {src.name}: expected an .svg, .dxf or image file")
     layer = JobLayer(index=i, source=src, operation=op, material=t.get("material"))
@@ -341,16 +343,29 @@ def _image_moves(job: JobFile, layer: JobLayer, s: dict, power_s: float):
     from labkit.raster.io import read_image
     from labkit.toolpath.moves import LaserMode
 
-    img = read_image(layer.source)
-    settings = RasterSettings(mode=layer.mode, beam_mm=s["line_interval_mm"], width_mm=layer.width_mm,
-                              feed_mm_min=s["speed_mm_min"], s_max=job.s_max, power_s=power_s,
-                              max_power=min(power_s / job.s_max, 1.0),
-                              laser=LaserMode.DYNAMIC if s["dynamic"] else None)
-    moves = image_to_job(img, settings).moves
-    if not len(moves):
-        raise InputError(f"{job.path}: layer {layer.index}: nothing to burn in {layer.source.name} (mode {layer.mode})")
-    home = moves.start[0].copy()
-    moves = _shift(moves, np.array([layer.at_mm[0], layer.at_mm[1], 0.0]))
+    if layer.source.suffix.lower() == ".svg":          # the bitmaps it embeds, where it places them
+        placed = [p for p in svg_images(layer.source)
+                  if not layer.select or p.name in layer.select or p.name.split("#")[-1] in layer.select]
+        if not placed:
+            raise InputError(f"{job.path}: layer {layer.index}: {layer.source.name} embeds no bitmap"
+                             + (f" named {layer.select}" if layer.select else ""))
+        items = [(p.image, p.width_mm, (p.height_mm / p.image.pixels.shape[0]) / (p.width_mm / p.image.pixels.shape[1]),
+                  (p.x_mm, p.y_mm)) for p in placed]
+    else:
+        items = [(read_image(layer.source), layer.width_mm, None, layer.at_mm)]
+    parts = []
+    for img, width_mm, pixel_aspect, at in items:
+        settings = RasterSettings(mode=layer.mode, beam_mm=s["line_interval_mm"], width_mm=width_mm,
+                                  pixel_aspect=pixel_aspect, feed_mm_min=s["speed_mm_min"], s_max=job.s_max,
+                                  power_s=power_s, max_power=min(power_s / job.s_max, 1.0),
+                                  laser=LaserMode.DYNAMIC if s["dynamic"] else None)
+        moves = image_to_job(img, settings).moves
+        if not len(moves):
+            raise InputError(f"{job.path}: layer {layer.index}: nothing to burn in {layer.source.name} "
+                             f"(mode {layer.mode})")
+        parts.append(_shift(moves, np.array([at[0], at[1], 0.0])))
+    home = parts[0].start[0] - np.array([*items[0][3], 0.0])
+    moves = _chain(parts)
     moves.start[0] = home
     passes = int(s["passes"])
     return moves if passes == 1 else _chain([moves] * passes)
@@ -565,6 +580,18 @@ def split_at_gaps(points, gaps, *, closed: bool):
 
 # --- SVG text, drawn as a renderer draws it -------------------------------------------------------
 
+def _svg_page(source, flip_y: bool):
+    """The SVG parsed as labkit.vector.read_svg parses it, and its user-units-to-mm page matrix."""
+    import svgelements as se
+
+    from labkit.geometry import transform as tf
+    from labkit.vector.svg import MM_PER_PX, PX_PER_INCH
+
+    doc = se.SVG.parse(str(source), reify=False, ppi=PX_PER_INCH)
+    h = float(doc.height) if doc.height is not None else 0.0
+    return doc, (tf.matrix(MM_PER_PX, 0, 0, -MM_PER_PX, 0, h * MM_PER_PX) if flip_y else tf.scale(MM_PER_PX))
+
+
 def svg_text_paths(source, *, tol_mm: float = 0.01, flip_y: bool = True) -> list:
     """The outlines of an SVG's ``<text>`` elements, in mm, as closed Paths.
 
@@ -601,11 +628,8 @@ def svg_text_paths(source, *, tol_mm: float = 0.01, flip_y: bool = True) -> list
     from labkit.geometry import transform as tf
     from labkit.geometry.bezier import flatten_cubic, quad_to_cubic
     from labkit.geometry.path import Path as GeoPath
-    from labkit.vector.svg import MM_PER_PX, PX_PER_INCH
 
-    doc = se.SVG.parse(str(source), reify=False, ppi=PX_PER_INCH)
-    h = float(doc.height) if doc.height is not None else 0.0
-    page = tf.matrix(MM_PER_PX, 0, 0, -MM_PER_PX, 0, h * MM_PER_PX) if flip_y else tf.scale(MM_PER_PX)
+    doc, page = _svg_page(source, flip_y)
     out = []
     for k, e in enumerate(doc.elements()):
         if not isinstance(e, se.Text) or not (e.text or "").strip():
@@ -662,4 +686,84 @@ def svg_text_paths(source, *, tol_mm: float = 0.01, flip_y: bool = True) -> list
             rings.append(np.array(ring))
         out += [GeoPath.polyline(r, closed=True, layer=colour, fill=colour, stroke=None, fill_rule="nonzero",
                                  source=name) for r in rings if len(r) >= 3]
+    return out
+
+
+# --- bitmaps embedded in an SVG -----------------------------------------------------------------
+
+@dataclass
+class PlacedImage:
+    """An SVG ``<image>`` read and placed: its pixels and where they go, mm (lower-left corner)."""
+
+    image: object
+    name: str
+    x_mm: float
+    y_mm: float
+    width_mm: float
+    height_mm: float
+
+
+def svg_images(source, *, flip_y: bool = True) -> list:
+    """The bitmaps an SVG embeds (``<image>`` with a ``data:`` URI or a file beside the SVG), placed.
+
+    The drawn rectangle follows ``preserveAspectRatio``: ``none`` fills the element's box, anything
+    else (the default ``xMidYMid meet``) fits the bitmap inside it, centred, at its own aspect. Each
+    bitmap is read by :func:`labkit.raster.io.read_image` (its budget, orientation and transparency).
+
+    Raises
+    ------
+    InputError
+        A rotated or skewed image, ``slice``, a missing file, or data that is not an image.
+    """
+    import base64
+    import tempfile
+    import urllib.parse
+
+    import numpy as np
+    import svgelements as se
+
+    from labkit.errors import LabkitError
+    from labkit.geometry import transform as tf
+    from labkit.raster.io import read_image
+
+    src = Path(source)
+    doc, page = _svg_page(src, flip_y)
+    out = []
+    for k, e in enumerate(doc.elements()):
+        if not isinstance(e, se.Image):
+            continue
+        name = f"image#{e.id}" if e.id else f"image[{k}]"
+        m = e.transform
+        if abs(m.b) > 1e-12 or abs(m.c) > 1e-12:
+            raise InputError(f"{src}: {name} is rotated or skewed; expected an image drawn upright (engrave it "
+                             "with img2gcode after turning it)")
+        url = e.url or ""
+        with tempfile.TemporaryDirectory() as tmp:
+            if url.startswith("data:"):
+                head, _, payload = url.partition(",")
+                data = base64.b64decode(payload) if head.endswith(";base64") else \
+                    urllib.parse.unquote_to_bytes(payload)
+                file = Path(tmp) / "embedded"
+                file.write_bytes(data)
+            else:
+                file = src.parent / urllib.parse.unquote(url.removeprefix("file://"))
+                if not file.is_file():
+                    raise InputError(f"{src}: {name} links {url!r}, which is not a file beside the SVG ({file})")
+            try:
+                img = read_image(file)
+            except LabkitError as exc:
+                raise InputError(f"{src}: {name}: {exc}") from None
+        rows, cols = img.pixels.shape[:2]
+        w, hh = float(e.width), float(e.height)
+        x, y = float(e.x), float(e.y)
+        aspect = str(e.values.get("preserveAspectRatio") or "xMidYMid meet")
+        if "slice" in aspect:
+            raise InputError(f"{src}: {name}: preserveAspectRatio {aspect!r} crops the bitmap; expected meet or none")
+        if aspect.strip() != "none":                       # fit inside the box, centred
+            scale = min(w / cols, hh / (rows * img.pixel_aspect))
+            dw, dh = cols * scale, rows * img.pixel_aspect * scale
+            x, y, w, hh = x + (w - dw) / 2, y + (hh - dh) / 2, dw, dh
+        corners = tf.apply(page @ tf.matrix(m.a, m.b, m.c, m.d, m.e, m.f), np.array([[x, y], [x + w, y + hh]]))
+        lo, hi = corners.min(axis=0), corners.max(axis=0)
+        out.append(PlacedImage(img, name, float(lo[0]), float(lo[1]), float(hi[0] - lo[0]), float(hi[1] - lo[1])))
     return out
