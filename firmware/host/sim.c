@@ -4,7 +4,7 @@
 
     labkit-fw-sim [--pty] [--dialect grbl|labkit-fw] [--trace FILE]
                   [--eeprom FILE] [--panel PATH] [--beam-log PATH] [--stats]
-                  [--realtime]
+                  [--realtime] [--switches SPEC]
 
   Serial: stdin/stdout by default; --pty creates a pseudo-terminal and
   prints its path on stderr ("labkit-fw-sim: pty /dev/pts/N"); open it with
@@ -42,6 +42,14 @@
   the serial input. A FIFO stays open for later writers; a file is read to
   its end. Firing the focus beam takes Laser, a turn to On, OK and OK again
   (menu.h). `$LCD` prints the LCD's four lines.
+
+  Limit switches (--switches SPEC): "X:+5,Y:+5,Z:-3" puts the switch of
+  each named axis that many mm from the power-up position, on the side its
+  sign names; it reads pressed at or beyond that point (counted from the
+  step pulses, whatever the core believes its position to be). "X:stuck" is
+  a switch that is always pressed; an axis not named has none. The same
+  spec is what grbl-sim was given for the homing transcripts
+  (tests/vectors/grbl/README.md). Without the option no switch is wired.
 
   At the end of stdin (stdin mode) the look-ahead is flushed, the job runs
   out and the simulator exits; SIGINT/SIGTERM end it at once. --stats
@@ -95,6 +103,10 @@ static uint16_t beam_logged;      /* the duty of the beam log's last row */
 static uint32_t tick_block, tick_line;
 static double tick_power_mw;
 static uint8_t tick_dwell;
+
+/* limit switches (--switches) */
+static uint8_t switch_wired, switch_stuck;
+static double switch_mm[3];
 
 /* storage */
 static const char *eeprom_path;
@@ -173,6 +185,45 @@ void hal_laser_gate(uint32_t pwm_hz, uint16_t on_permille) { (void)pwm_hz; (void
 void hal_air_set(uint8_t bits) { (void)bits; }
 void hal_irq_disable(void) {}
 void hal_irq_enable(void) {}
+
+uint8_t hal_limits_read(void) {
+  const lk_machine_t *m = plan_machine();
+  uint8_t pressed = switch_stuck;
+  for (int a = 0; a < 3; a++) {
+    if (!(switch_wired & (1u << a)) || (switch_stuck & (1u << a)))
+      continue;
+    double mm = (double)pos_steps[a] / m->steps_per_mm[a];
+    if (switch_mm[a] >= 0 ? mm >= switch_mm[a] : mm <= switch_mm[a])
+      pressed |= (uint8_t)(1u << a);
+  }
+  return pressed;
+}
+
+/* "X:+5,Y:+5,Z:stuck" (see the head of this file); 0 when the spec is malformed */
+static int parse_switches(const char *spec) {
+  while (*spec) {
+    int a = spec[0] == 'X' ? 0 : spec[0] == 'Y' ? 1 : spec[0] == 'Z' ? 2 : -1;
+    if (a < 0 || spec[1] != ':')
+      return 0;
+    spec += 2;
+    switch_wired |= (uint8_t)(1u << a);
+    if (!strncmp(spec, "stuck", 5)) {
+      switch_stuck |= (uint8_t)(1u << a);
+      spec += 5;
+    } else {
+      char *end;
+      switch_mm[a] = strtod(spec, &end);
+      if (end == spec)
+        return 0;
+      spec = end;
+    }
+    if (*spec == ',')
+      spec++;
+    else if (*spec)
+      return 0;
+  }
+  return 1;
+}
 
 /* ------------------------------------------------------------ shell hal */
 
@@ -409,7 +460,8 @@ static int open_pty(void) {
 
 static void usage(void) {
   fprintf(stderr, "usage: labkit-fw-sim [--pty] [--dialect grbl|labkit-fw] [--trace FILE] "
-                  "[--eeprom FILE] [--panel PATH] [--beam-log PATH] [--stats] [--realtime]\n");
+                  "[--eeprom FILE] [--panel PATH] [--beam-log PATH] [--stats] [--realtime] "
+                  "[--switches SPEC]\n");
   exit(2);
 }
 
@@ -429,7 +481,13 @@ int main(int argc, char **argv) {
       beam_log_path = argv[++i];
     else if (!strcmp(argv[i], "--panel") && i + 1 < argc)
       panel_path = argv[++i];
-    else if (!strcmp(argv[i], "--eeprom") && i + 1 < argc)
+    else if (!strcmp(argv[i], "--switches") && i + 1 < argc) {
+      if (!parse_switches(argv[++i])) {
+        fprintf(stderr, "labkit-fw-sim: --switches: expected AXIS:MM or AXIS:stuck, comma separated "
+                        "(X:+5,Y:+5,Z:stuck), got '%s'\n", argv[i]);
+        return 2;
+      }
+    } else if (!strcmp(argv[i], "--eeprom") && i + 1 < argc)
       eeprom_path = argv[++i];
     else if (!strcmp(argv[i], "--dialect") && i + 1 < argc) {
       i++;

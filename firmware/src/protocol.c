@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "gcode.h"
+#include "homing.h"
 #include "hal.h"
 #include "laser.h"
 #include "limits.h"
@@ -57,6 +58,7 @@ uint8_t protocol_program_paused(void) { return program_pause; }
    within one pass of the touch, and the position reported is where it was
    when the touch was seen. */
 static uint8_t probe_cycle;
+static uint8_t was_held;          /* the last pass saw a hold that had stopped the head */
 static uint8_t probe_hit;
 static double probe_hit_mm[3];
 
@@ -424,6 +426,31 @@ static uint8_t store_startup_line(const char *p) {
   return STATUS_OK;
 }
 
+/* $H: GRBL's homing cycle (homing.c). Done: the start-up lines run, then the ok; a '?' that
+   came during the cycle is answered first, still in Home. A failure or a reset during the
+   cycle: its ALARM, the ok, and the reset GRBL then makes (banner, locked in Alarm). */
+static uint8_t home(void) {
+  state = PROTO_HOME;
+  menu_focus_off();
+  laser_off();
+  uint8_t alarm = homing_cycle();
+  (void)st_take_abort();
+  if (serial_take_flags(RT_STATUS))
+    report_status_report();
+  if (alarm != HOMING_OK) {
+    (void)serial_take_flags(RT_RESET);
+    state = PROTO_ALARM;
+    report_alarm(alarm);
+    report_status_message(STATUS_OK);
+    soft_reset();
+    return REPLY_DONE;
+  }
+  state = PROTO_IDLE;
+  sync_positions();
+  run_startup_lines();
+  return STATUS_OK;
+}
+
 static uint8_t system_command(char *line) {
   char *p = line + 1;           /* after '$' */
   /* GRBL's cycle: moves queued or running (labkit-fw waits for idle before a $ line) */
@@ -481,7 +508,11 @@ static uint8_t system_command(char *line) {
     report_offsets();
     return STATUS_OK;
   case 'H':
-    return STATUS_SETTING_DISABLED;       /* no limit switches here: homing is disabled */
+    if (!(settings.flags & SET_FLAG_HOMING))
+      return STATUS_SETTING_DISABLED;     /* $22=0 */
+    if (p[1] != 0)
+      return STATUS_INVALID_STATEMENT;
+    return home();
   case 'S':
     if (strcmp(p, "SLP"))
       return STATUS_INVALID_STATEMENT;
@@ -697,6 +728,13 @@ static void system_task(void) {
     probe_hit = 1;
     stop_all();                   /* the rest of the probe move is dropped */
   }
+  /* GRBL in laser mode switches the beam's output off once a hold has stopped the head, and
+     setting the spindle output makes its next report show Ov: */
+  uint8_t held = hold_req && (st_state() == ST_HELD || st_is_idle());
+  if (held && !was_held && settings.dialect == GC_DIALECT_GRBL && settings.laser_mode &&
+      gc_state()->laser)
+    report_overrides_next();
+  was_held = held;
   if (sync_ok && st_is_idle() && plan_is_empty() && !hold_req) {
     sync_ok = 0;
     if (probe_cycle)

@@ -39,6 +39,7 @@
 #define PROTO_CHECK 2
 #define PROTO_JOG   3
 #define PROTO_SLEEP 4   /* $SLP: everything off until a reset */
+#define PROTO_HOME  5   /* $H: the homing cycle runs */
 
 /* Wake flags of the four machines (protocol_events). */
 #define EV_SYSTEM 0x01u

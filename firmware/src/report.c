@@ -143,12 +143,15 @@ void report_counters_reset(void) {
   seen_wco_changes = gc_state()->wco_changes;
 }
 
+void report_overrides_next(void) { ovr_count = 0; }
+
 const char *report_state_name(void) {
   switch (protocol_state()) {
   case PROTO_ALARM: return "Alarm";
   case PROTO_CHECK: return "Check";
   case PROTO_JOG: return "Jog";
   case PROTO_SLEEP: return "Sleep";
+  case PROTO_HOME: return "Home";
   default: break;
   }
   if (protocol_program_paused() && st_is_idle() && plan_is_empty())
@@ -228,6 +231,13 @@ void report_status_report(void) {
   double s = spindle ? (double)g->power_s
                      : (double)laser_current_duty() / (double)LK_LASER_PWM_TOP * gc_get_s_max();
   report_float(s, 0);
+  uint8_t pins = limits_pressed();
+  if (grbl && (pins || limits_probe_touching())) {   /* GRBL: the inputs that read active */
+    serial_write("|Pn:");
+    for (int a = 0; a < 3; a++)
+      if (pins & (1u << a)) serial_putc((char)('X' + a));
+    if (limits_probe_touching()) serial_putc('P');
+  }
   uint8_t show_ov = !grbl;
   if (grbl && wco_count > 0) {
     wco_count--;

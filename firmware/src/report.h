@@ -43,6 +43,7 @@ void report_status_message(uint8_t status);   /* ok / er:N / error:N */
 void report_alarm(uint8_t alarm);             /* ALARM:N */
 void report_banner(void);                     /* grbl: GRBL's; labkit-fw: says so */
 void report_counters_reset(void);             /* a reset: WCO: and Ov: in the next reports */
+void report_overrides_next(void);             /* Ov: in the next report (GRBL: the spindle was set) */
 void report_feedback(const char *msg);        /* [MSG:msg] */
 void report_status_report(void);
 const char *report_state_name(void);          /* Idle, Run, Hold:0, Hold:1, Jog, Alarm, Check */

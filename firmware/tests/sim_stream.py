@@ -42,8 +42,9 @@ from labkit.machine.stream import Job, run_job  # noqa: E402
 STEPS_PER_MM = 6400.0 / 3.0   # defaults.h (CBR-40)
 
 
-def start_sim(sim: str, dialect: str = "grbl", realtime: bool = False):
+def start_sim(sim: str, dialect: str = "grbl", realtime: bool = False, extra_args=()):
     extra = ["--trace", os.environ["SIM_TRACE"]] if os.environ.get("SIM_TRACE") else []
+    extra += list(extra_args)
     extra += ["--realtime"] if realtime else []      # moves take their machine time
     proc = subprocess.Popen([sim, "--pty", "--dialect", dialect, "--stats"] + extra,
                             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,

@@ -6,7 +6,7 @@
   The table's reference column is what labkit.gcode.parse (reader.py /
   _kernel.py) answers for the same line in the same dialect; the firmware
   column differs from it only where the firmware does not run a command
-  (GRBL's probing and system lines, error 20) or cannot hold a
+  (GRBL's system lines, error 20) or cannot hold a
   position (error 103); those rows are counted and printed as differences.
 
   usage: test_gcode <repository root> [-v]   (-v lists the differences)
@@ -165,7 +165,7 @@ static const gc_case_t cases[] = {
   {GC_DIALECT_GRBL, "", "G55", 0, 0},
   {GC_DIALECT_GRBL, "", "G1.5 X1", 23, 23},
   {GC_DIALECT_GRBL, "", "G28.5", 20, 20},
-  {GC_DIALECT_GRBL, "", "$H", 20, 0}, /* not run by the firmware (GRBL offsets/probing/system lines) */
+  {GC_DIALECT_GRBL, "", "$H", 20, 0}, /* a $ line is the shell's (protocol.c), not the parser's */
   {GC_DIALECT_GRBL, "", "G2 X1 Y1 I0.5 F10", 33, 33},
 };
 
@@ -451,7 +451,7 @@ int main(int argc, char **argv)
     return 1;
   }
   printf("test_gcode: %zu lines, %d checks: all pass (%d documented differences from labkit.gcode: "
-         "GRBL probing and $ lines are error 20, positions beyond the step counters 103; -v lists them)\n",
+         "$ lines are the shell's (error 20 in the parser), positions beyond the step counters 103; -v lists them)\n",
          n, checks, differences);
   return 0;
 }
