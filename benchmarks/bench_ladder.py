@@ -172,6 +172,10 @@ def ladder_img(tmp, repeat):
             labkit_row(f"img2gcode {mode}", f"{size}² px", ["img2gcode", str(png), "-o", str(tmp / "i.gcode"),
                        "--mode", mode, "--beam", "0.1", "--preview", "none", "--force"],
                        peer, "py row scan", repeat, speedup=True)
+        if size == 4096:                 # issue 29's target holds with the default preview too
+            labkit_row("zigzag + preview", f"{size}² px", ["img2gcode", str(png), "-o", str(tmp / "i.gcode"),
+                       "--mode", "zigzag", "--beam", "0.1", "--force"], peer, "py row scan", repeat,
+                       speedup=True)
 
 
 def svg_targets(tmp, repeat):

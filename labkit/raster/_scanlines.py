@@ -76,7 +76,7 @@ def _put(k, x0, x1, y, s, pixel_mm, last, fill, kind, start, end, power_s):
     return k + 1
 
 
-@jit
+@jit(python_below=150_000)  # pixels: up to ~7 µs each as Python (a photo), ~1 s at 150,000
 def scan_moves(power, bidirectional, skip_px, overscan_px, pixel_mm, fill, kind, start, end, power_s):
     """Moves rows along the image rows, bottom row first (x at pixel edges, y at row centres).
 

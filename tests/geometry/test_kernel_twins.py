@@ -1,6 +1,7 @@
-"""The geometry kernels' Python paths (what a small drawing runs) give the compiled results:
+"""Kernels' Python paths (what a small drawing or image runs) give the compiled results:
 the numpy twins of flattening and of the distance grid, and the greedy fit run on
-memoryviews (``views=True``)."""
+memoryviews (``views=True``), the greedy order, and the gray and dither scans.
+"""
 
 import numpy as np
 import pytest
@@ -106,3 +107,22 @@ def test_greedy_order_on_memoryviews_gives_the_compiled_order():
     np.testing.assert_array_equal(a.order, b.order)
     np.testing.assert_array_equal(a.flipped, b.flipped)
     assert a.examined == b.examined
+
+
+@pytest.mark.parametrize("mode", ["gray", "dither"])
+def test_gray_and_dither_kernels_as_python_give_the_compiled_moves(mode):
+    """The scan-line and error-diffusion kernels run as Python below their python_below (a
+    small photo no longer loads numba): the same moves as compiled, on a real photograph."""
+    from skimage import data
+
+    from labkit.raster.engrave import RasterSettings, image_to_job
+    from labkit.raster.io import RasterImage
+
+    photo = data.camera()[::8, ::8]                      # scikit-image's camera, 64 × 64
+    img = RasterImage(photo, None, "camera", 1.0)
+    settings = RasterSettings(mode=mode, beam_mm=0.1, width_mm=6.4)
+    a, b = _both(image_to_job, img, settings)
+    assert len(a.moves) > 1000
+    for name in a.moves.column_names():
+        x, y = np.asarray(getattr(a.moves, name)), np.asarray(getattr(b.moves, name))
+        assert np.array_equal(x, y, equal_nan=x.dtype.kind == "f"), name
