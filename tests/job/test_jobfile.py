@@ -152,6 +152,7 @@ def test_command_writes_program_and_record(folder, capsys):
     assert "layer 3 image half.png: 1000 mW = S400" in text and "record" in text
     program = out.read_text()
     assert parse(program).laser_on.any() and "material card:cut" in program
+    assert max(len(line) for line in program.splitlines()) <= 79          # GRBL's line buffer, header included
     from labkit.record import read_record
 
     rec = read_record(folder / "out.gcode.record.json")
