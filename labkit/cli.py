@@ -41,6 +41,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "plough": ("plough", "chip and ploughing area of a micro-milling program on a dual-dexel stock"),
     "probe": ("probe", "the rotating-wire probe: effective diameter, calibration, a simulated part scanned"),
     "cutwidth": ("cutwidth", "cut width against power and speed: test grid, measure a scan, fit, settings, window"),
+    "raster-test": ("rastertest", "raster calibration: scan-offset (ghosting) lines and a gray step wedge, their scans fitted"),
     "materials": ("materials", "the material library: list, show, add, from-fit (a cutwidth fit), remove"),
     "plan": ("motion", "plan a G-code job: blocks, speed profiles, look-ahead, job time"),
     "steps": ("motion", "write the Bresenham step sequence of a G-code job"),

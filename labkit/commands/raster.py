@@ -55,6 +55,12 @@ def add_img2gcode_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--min-power", type=fraction, default=0.0, help="gray: power of the lightest pixel, 0…1")
     parser.add_argument("--max-power", type=fraction, default=1.0, help="gray/dither: power of the darkest, 0…1")
     parser.add_argument("--gamma", type=positive, default=1.0, help="gray/dither: gamma")
+    parser.add_argument("--tone", default=None, metavar="CURVE.json",
+                        help="gray: the material's tone curve ('labkit raster-test measure-tone'); "
+                             "grays burn as the material shows them")
+    parser.add_argument("--scan-offset", default=None, metavar="MODEL.json",
+                        help="shift each backward row by the measured offset at its feed "
+                             "('labkit raster-test measure-offset')")
     parser.add_argument("--dither", choices=sorted(DIFFUSION), default="floyd-steinberg",
                         help="dither mode: error diffusion method")
     parser.add_argument("--overscan", type=non_negative, default=2.0, metavar="MM", help="gray/dither: overscan, mm")
@@ -106,6 +112,17 @@ def run_img2gcode(args) -> int:
                          f"expected a power within 0…{args.s_max:g}")
     if args.min_power > args.max_power:
         raise InputError(f"--min-power {args.min_power:g} is above --max-power {args.max_power:g}")
+    tone = scan_offset = None
+    if args.tone is not None:
+        from labkit.laser.tone import load_tone
+
+        if args.mode != "gray":
+            raise InputError(f"--tone applies to --mode gray (a tone curve sets each gray's power), not {args.mode}")
+        tone = load_tone(args.tone)
+    if args.scan_offset is not None:
+        from labkit.laser.scanoffset import load_scan_offset
+
+        scan_offset = load_scan_offset(args.scan_offset)
     img = read_image(args.input)
     rows, cols = img.pixels.shape[:2]
     width_mm, height_mm, size, source = placed_size(img.pixels.shape, width_mm=args.width, height_mm=args.height,
@@ -119,7 +136,7 @@ def run_img2gcode(args) -> int:
                  option="--width/--height/--dpi or raise --beam")
     settings = RasterSettings(
         mode=args.mode, beam_mm=args.beam, **size, resample=args.resample, level=args.threshold,
-        invert=args.invert, blur=args.blur, sharpen=args.sharpen, gamma=args.gamma,
+        invert=args.invert, blur=args.blur, sharpen=args.sharpen, gamma=args.gamma, tone=tone,
         edge_operator=args.edge_operator, edge_threshold=args.edge_threshold, edge_path=args.edge_path,
         feed_mm_min=args.feed, rapid_mm_min=args.rapid, s_max=args.s_max, power_s=args.power,
         order=args.order, axis=args.axis, direction="unidirectional" if args.unidirectional else "bidirectional",
@@ -135,6 +152,14 @@ def run_img2gcode(args) -> int:
         raise BudgetError(f"out of memory converting the {cols:,} × {rows:,} px image "
                           f"({width_mm:.0f} × {height_mm:.0f} mm at a {args.beam:g} mm beam); "
                           f"reduce --width/--height/--dpi or raise --beam") from None
+    if scan_offset is not None:
+        from dataclasses import replace
+
+        from labkit.laser.scanoffset import apply_scan_offset
+
+        job = replace(job, moves=apply_scan_offset(job.moves, scan_offset))
+        print(f"scan offset: backward rows moved {float(scan_offset.offset_mm(args.feed)) * 1e3:.1f} µm "
+              f"at {args.feed:g} mm/min")
     if not len(job.moves):
         from labkit.errors import RasterError
 

@@ -232,7 +232,8 @@ def _crossing_width(u, f, threshold):
 
 def simulate_burn(moves: Moves | Plan, *, w0_mm: float, fth_mj_mm2: float, pixel_mm: float | None = None,
                   machine=None, planner: str = "junction", law: str | None = None,
-                  arc_tol_mm: float = 0.002, margin_mm: float | None = None, max_pixels: int = 40_000_000) -> Burn:
+                  arc_tol_mm: float = 0.002, margin_mm: float | None = None, max_pixels: int = 40_000_000,
+                  beam_delay_s: float = 0.0) -> Burn:
     """Burn a program into the virtual material.
 
     Parameters
@@ -251,6 +252,10 @@ def simulate_burn(moves: Moves | Plan, *, w0_mm: float, fth_mj_mm2: float, pixel
         Paper around the burned path, mm (default 4·w0).
     max_pixels : int
         Refuse grids larger than this.
+    beam_delay_s : float
+        The beam follows its commanded power this late, s (>= 0): the power at each instant
+        is the one commanded ``beam_delay_s`` before (to the nearest earlier sample) — the
+        late switching that misaligns bidirectional scan lines.
 
     Returns
     -------
@@ -272,6 +277,11 @@ def simulate_burn(moves: Moves | Plan, *, w0_mm: float, fth_mj_mm2: float, pixel
         raise InputError(f"the job needs {n:,} time samples at w0 = {w0_mm:g} mm; simulate a smaller part of it")
     s = beam_positions(p, n)
     t = s["time_s"]
+    if not (np.isfinite(beam_delay_s) and beam_delay_s >= 0):
+        raise InputError(f"beam_delay_s must be >= 0, got {beam_delay_s!r}")
+    if beam_delay_s > 0:
+        k = np.searchsorted(t, t - beam_delay_s, side="right") - 1
+        s = dict(s, power_mw=np.where(k >= 0, s["power_mw"][np.maximum(k, 0)], 0.0))
     # trapezoid weights: each instant carries half the interval to either neighbour
     dt = np.diff(t, prepend=t[0]) / 2 + np.diff(t, append=t[-1]) / 2
     energy = s["power_mw"] * dt                       # mJ per instant

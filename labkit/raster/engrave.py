@@ -485,6 +485,9 @@ class RasterSettings:
         [LaserApp]'s filters, applied before resampling.
     gamma : float
         Gamma of the gray modes (> 0).
+    tone : ToneCurve, optional
+        Gray mode: the material's measured darkness against S (:mod:`labkit.laser.tone`); the
+        grays are corrected so the burned tones follow the image.
     edge_operator, edge_threshold, edge_pseudo, edge_path
         Edge detector and how its pixels are pathed (``"spiral"`` or ``"zigzag"``).
     feed_mm_min : float, optional
@@ -517,6 +520,7 @@ class RasterSettings:
     blur: bool = False
     sharpen: bool = False
     gamma: float = 1.0
+    tone: object | None = None
     edge_operator: str = "sobel"
     edge_threshold: float | None = None
     edge_pseudo: bool = False
@@ -738,6 +742,12 @@ def image_to_job(image, settings: RasterSettings | None = None, **changes) -> Ra
     if cfg.gray_mode:
         if cfg.gamma != 1.0:
             img = adjust_gamma(img, cfg.gamma)
+        if cfg.tone is not None:
+            if cfg.mode != "gray":
+                raise RasterError("a tone curve (measured on a wedge of S) sets the power of each gray; dithered "
+                                  "dots all burn at --max-power, so it does not apply: use mode gray")
+            img = cfg.tone.correct_gray(img, s_max=cfg.s_max, min_power=cfg.min_power, max_power=cfg.max_power,
+                                        white_level=cfg.white_level)
         return gray_job(img, **common, **cfg.burn_options(), blank=blank)
     if cfg.mode == "edges":
         if img.shape[0] > arr.shape[0] or img.shape[1] > arr.shape[1]:
