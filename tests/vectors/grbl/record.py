@@ -309,6 +309,44 @@ def _homing_limits():
     ]
 
 
+#: Simulated limit switches per topic (grbl-sim patch 7, README.md): axis:mm from the power-up
+#: position (the sign says on which side), or axis:stuck (always pressed); no entry, no switch.
+SWITCHES = {
+    "homing": "X:+5,Y:+5,Z:+5",
+    "homing_stuck": "X:stuck,Y:+5,Z:+5",
+}
+
+
+def _homing():
+    return "The homing cycle with limit switches 5 mm from power-up on +X +Y +Z: $H, its machine " \
+           "position, homing again, a switch that is not found, a reset during the cycle", [
+        line("$130=20"), line("$131=20"), line("$132=20"), line("$25=200"), line("$24=100"),
+        line("$27=3"), line("$H"), line("$22=1"),
+        line("$H", wait_s=120.0, quiet_s=2.5, note="$23=0: each axis seeks toward +, Z first, then X and Y"),
+        rt("?"), line("$G"),
+        line("G0 X-10 Y-5"), _sync(), rt("?"),
+        line("$H", wait_s=120.0, quiet_s=6.0, note="homing again from X-10 Y-5"), rt("?"),
+        line("$23=3", note="X and Y now home toward -, where there are no switches"),
+        line("$H", wait_s=120.0, quiet_s=6.0, note="no switch within 1.5 x $130"),
+        rt("?"), rt(RESET), rt("?"), line("$X"), rt("?"),
+        line("$23=0"),
+        line("$H", answered=False, note="a reset during the cycle"),
+        rt(RESET, pause_before_s=0.5, quiet_s=6.0),
+        rt("?", timed=("MPos",), note="where the reset stopped the cycle"), line("$X"),
+        rt("?", timed=("MPos",)),
+        line("$22=0"), line("$H"),
+    ]
+
+
+def _homing_stuck():
+    return "The homing cycle with the X limit switch always pressed (the pull-off cannot clear it)", [
+        line("$130=20"), line("$131=20"), line("$132=20"), line("$25=200"), line("$24=100"),
+        line("$27=3"), line("$22=1"),
+        line("$H", wait_s=120.0, quiet_s=6.0, note="X: pressed from the start and after the pull-off"),
+        rt("?"), rt(RESET), rt("?"), line("$X"), rt("?"),
+    ]
+
+
 def _hold_resume():
     return "Feed hold and resume, overrides, jog cancel, while idle and while cutting", [
         line("$32=1"), rt("!", note="feed hold while idle"), rt("?"), rt("~"), rt("?"),
@@ -390,6 +428,8 @@ TOPICS = {
     "check_mode": _check_mode,
     "offsets": _offsets,
     "homing_limits": _homing_limits,
+    "homing": _homing,
+    "homing_stuck": _homing_stuck,
     "hold_resume": _hold_resume,
     "reset": _reset,
     "status_reports": _status_reports,
@@ -402,11 +442,12 @@ TOPICS = {
 class GrblSim:
     """grbl-sim on pipes, in its own empty directory (a blank EEPROM)."""
 
-    def __init__(self, exe):
+    def __init__(self, exe, switches=""):
         self.dir = tempfile.TemporaryDirectory(prefix="grbl-sim-")
+        env = dict(os.environ, GRBL_SIM_SWITCHES=switches)
         self.proc = subprocess.Popen([exe, "-n", "-b", "/dev/null", "-s", "/dev/null"], cwd=self.dir.name,
                                      stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                     stderr=subprocess.DEVNULL, bufsize=0)
+                                     stderr=subprocess.DEVNULL, bufsize=0, env=env)
         self.buf = b""
 
     def send(self, data: bytes):
@@ -497,7 +538,7 @@ def exchange(sim, step):
 
 def record(exe, topic):
     title, steps = TOPICS[topic]()
-    sim = GrblSim(exe)
+    sim = GrblSim(exe, SWITCHES.get(topic, ""))
     try:
         boot = b""
         deadline = time.monotonic() + 5.0
@@ -522,6 +563,7 @@ def record(exe, topic):
             "recorded": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d"),
             "script": "tests/vectors/grbl/record.py",
         },
+        **({"switches": SWITCHES[topic]} if topic in SWITCHES else {}),
         "exchanges": exchanges,
     }
 
