@@ -46,6 +46,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from labkit.errors import InputError, LabkitError, MachineError
+from labkit.gcode.state import line_states
 from labkit.machine.grbl import Grbl, alarm_message, error_message
 from labkit.machine.resume import frame_text, resume_text
 
@@ -84,6 +85,9 @@ class Job:
         Planned time at which each source line's motion ends (for the ETA).
     job_time_s : float
         Planned job time (labkit.motion).
+    syncing : list of bool
+        Per entry of ``send``: the line waits for the planner to empty before it is answered
+        (the interpreter trace's ``syncing``; read once here, not per line sent).
     """
 
     source_lines: list
@@ -94,6 +98,11 @@ class Job:
     job_time_s: float
     filename: str | None = None
     dialect: str = "grbl"
+    syncing: list | None = None
+
+    def __post_init__(self):
+        if self.syncing is None:               # built without from_text: read its lines in order
+            self.syncing = _syncing([t for _, t in self.send], self.dialect)
 
     @classmethod
     def from_text(cls, text: str, *, filename: str | None = None, dialect: str = "grbl",
@@ -157,7 +166,10 @@ class Job:
             job_time = p.job_time_s
         except (LabkitError, ValueError) as exc:
             raise MachineError(f"cannot plan the job for its ETA: {exc}") from exc
-        return cls(source, send, moves, blocks, done_at, job_time, filename, dialect)
+        trace, _ = line_states(text, dialect=dialect)
+        synced = trace["syncing"]
+        syncing = [bool(synced[k - 1]) if k <= len(synced) else False for k, _ in send]
+        return cls(source, send, moves, blocks, done_at, job_time, filename, dialect, syncing)
 
     @classmethod
     def from_file(cls, path, **kw) -> "Job":
@@ -523,8 +535,10 @@ class JobRunner:
         less one; send-response: no limit, one line at a time).
     acked : list of (int, int, int)
         (source line, planner blocks, answer number) of the acknowledged motion lines.
-    sent_lines, sent_texts, line_ends : list
-        Per line sent: its source line, its text, the bytes sent up to its end.
+    line_syncing : list of bool
+        Per entry of ``lines``: it waits for the planner to empty before its answer.
+    sent_lines, sent_texts, sent_syncing, line_ends : list
+        Per line sent: its source line, its text, whether it syncs, the bytes sent up to its end.
     """
 
     def __init__(self, grbl: Grbl, job: Job, report: JobReport, controls: Controls, signals, *,
@@ -535,6 +549,7 @@ class JobRunner:
         self.status_interval_s, self.watchdog_s, self.stall_s = status_interval_s, watchdog_s, stall_s
         self.phase = "ready"
         self.lines: list = list(job.send)
+        self.line_syncing: list = list(job.syncing)
         self.start_accounting()
 
     def start_accounting(self) -> None:
@@ -562,6 +577,7 @@ class JobRunner:
         self.events_taken = 0              # ok/error events taken from the queue
         self.line_ends: list[int] = []     # cumulative bytes at the end of each line sent
         self.sent_texts: list[str] = []
+        self.sent_syncing: list[bool] = []
         self.sent_lines: list[int] = []    # source line of each line sent
         self.sent_bytes = 0
         self.q_marks: deque = deque()      # sent_bytes when each '?' went out
@@ -576,7 +592,7 @@ class JobRunner:
             self.phase = "refused"
             return
         if resume_from is not None:
-            self.lines = _resume_send(self.job, int(resume_from), resume_position)
+            self.lines, self.line_syncing = _resume_send(self.job, int(resume_from), resume_position)
         try:
             if check_first:
                 bad = check_job(self.grbl, self.job, stop=self.stop_requested)
@@ -709,7 +725,7 @@ class JobRunner:
             # must first be named (in acknowledge), not skipped over
             if (self.mode == "counting" and st is not None
                     and st.answers_before - self.answers_start == self.events_taken):
-                lost = _answers_lost(grbl, snap, self.line_ends, self.sent_texts, self.answers_base)
+                lost = _answers_lost(grbl, snap, self.line_ends, self.sent_syncing, self.answers_base)
                 if lost:
                     self.too_many_lost(lost)
                 self.rx_used -= self.drop_lost(lost)
@@ -734,6 +750,7 @@ class JobRunner:
             self.sent_bytes += n
             self.line_ends.append(self.sent_bytes)
             self.sent_texts.append(text)
+            self.sent_syncing.append(self.line_syncing[self.next_index])
             self.sent_lines.append(ln)
             self.rx_used += n
             self.report.max_rx_used = max(self.report.max_rx_used, self.rx_used)
@@ -822,7 +839,7 @@ class JobRunner:
             st = grbl.status
             if (time.monotonic() >= deadline or st is None or st.rx_free is None
                     or st.state == "Alarm"
-                    or not _may_hold(st, self.sent_texts,
+                    or not _may_hold(st, self.sent_syncing,
                                      _lines_read(grbl, st, snap, self.line_ends) - 1, drained=drained)):
                 break
             drained = drained or _drained(grbl, st)
@@ -846,9 +863,9 @@ class JobRunner:
             raise
         if self.mode != "counting":
             return 0
-        _name_a_held_line(grbl, st, snap, self.line_ends, self.sent_texts, self.sent_lines,
+        _name_a_held_line(grbl, st, snap, self.line_ends, self.sent_syncing, self.sent_lines,
                           self.answers_base, report, inflight, ev, drained=drained)
-        return min(_answers_lost(grbl, snap, self.line_ends, self.sent_texts, self.answers_base),
+        return min(_answers_lost(grbl, snap, self.line_ends, self.sent_syncing, self.answers_base),
                    len(inflight) - 1)
 
     def in_doubt(self, last=None) -> tuple[int, int]:
@@ -978,12 +995,18 @@ def _requested_stop(controls: Controls, signals) -> str | None:
 _MAX_LOST_ANSWERS = 3
 
 
-#: Lines GRBL may still be executing, unanswered, after taking them from its RX buffer: it waits for
-#: the planner to empty first (dwell, offsets, homing positions, program end, spindle/coolant sync).
-_SYNCING = re.compile(r"G0*4(?![.\d])|G10|G28|G30|G92|M0*[0-2](?!\d)|M30|M0*[3-9](?!\d)", re.IGNORECASE)
+def _syncing(texts: list, dialect: str = "grbl") -> list:
+    """Whether each line, read in order from power-on, waits for the planner to empty before
+    GRBL answers it (dwell, offsets, homing positions, program end, laser/coolant words): the
+    interpreter trace's ``syncing``. A ``$`` line never does (GRBL runs it idle, or as a jog),
+    nor a line the interpreter rejects (GRBL answers an error before executing anything)."""
+    if not texts:
+        return []
+    trace, _ = line_states("\n".join(texts) + "\n", dialect=dialect)
+    return [bool(v) and not t.startswith("$") for v, t in zip(trace["syncing"], texts)]
 
 
-def _answers_lost(grbl: Grbl, sent_at_query, line_ends: list, sent_texts: list, answers_base: int) -> int:
+def _answers_lost(grbl: Grbl, sent_at_query, line_ends: list, sent_syncing: list, answers_base: int) -> int:
     """How many ok/error answers the link lost, from the status report just received.
 
     ``sent_at_query`` bytes had been sent when the report's ``?`` went out, so they had reached
@@ -999,7 +1022,7 @@ def _answers_lost(grbl: Grbl, sent_at_query, line_ends: list, sent_texts: list, 
     answered = st.answers_before - answers_base
     if whole_lines <= answered:
         return 0
-    busy = _may_hold(st, sent_texts, answered)
+    busy = _may_hold(st, sent_syncing, answered)
     return max(0, whole_lines - answered - (1 if busy else 0))
 
 
@@ -1022,19 +1045,18 @@ def _drained(grbl: Grbl, st) -> bool:
     return st.state == "Idle" and st.planner_free == grbl.info.planner_blocks
 
 
-def _may_hold(st, sent_texts: list, index: int, *, drained: bool = False) -> bool:
+def _may_hold(st, sent_syncing: list, index: int, *, drained: bool = False) -> bool:
     """Whether the controller may have taken line ``index`` (0-based, in sent order) without
     answering it yet: blocked on a full planner (or no planner count to tell), or a line that
-    waits for the planner to empty before its answer (:data:`_SYNCING`) — even in a report that
+    waits for the planner to empty before its answer (``sent_syncing``) — even in a report that
     already says ``Idle``, which can come between the planner emptying and that answer.
     ``drained``: an earlier report showed the planner empty and idle, so no such line waits."""
     if st.planner_free is None or st.planner_free == 0:
         return True
-    return (not drained and 0 <= index < len(sent_texts)
-            and bool(_SYNCING.search(sent_texts[index])))
+    return not drained and 0 <= index < len(sent_syncing) and bool(sent_syncing[index])
 
 
-def _name_a_held_line(grbl: Grbl, st, snap, line_ends: list, sent_texts: list,
+def _name_a_held_line(grbl: Grbl, st, snap, line_ends: list, sent_syncing: list,
                       sent_lines: list, answers_base: int, report: "JobReport", inflight: deque,
                       ev, *, drained: bool = False) -> None:
     """An error whose line the answers cannot settle: raise a fault naming both candidates.
@@ -1047,7 +1069,7 @@ def _name_a_held_line(grbl: Grbl, st, snap, line_ends: list, sent_texts: list,
     read = _lines_read(grbl, st, snap, line_ends)
     answered = st.answers_before - answers_base if st is not None else -1
     if (read == 0 or answered != read or st.state == "Alarm"
-            or not _may_hold(st, sent_texts, read - 1, drained=drained)
+            or not _may_hold(st, sent_syncing, read - 1, drained=drained)
             or report.last_acknowledged_line <= 0):
         return
     first, last = report.last_acknowledged_line, inflight[0][0]
@@ -1451,7 +1473,10 @@ def _job_position(st):
     return st.wpos if st.wpos is not None else st.mpos
 
 
-def _resume_send(job: Job, line: int, position) -> list:
+def _resume_send(job: Job, line: int, position) -> tuple:
+    """The (source line, text) to send to resume at ``line``, and whether each syncs."""
     pre = [(line, strip_line(t)) for t in resume_text(job, line, position)]
     first = line + 1 if position is not None else line
-    return pre + [(ln, s) for ln, s in job.send if ln >= first]
+    rest = [(entry, sync) for entry, sync in zip(job.send, job.syncing) if entry[0] >= first]
+    return (pre + [entry for entry, _ in rest],
+            _syncing([t for _, t in pre], job.dialect) + [sync for _, sync in rest])
