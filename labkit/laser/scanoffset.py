@@ -321,6 +321,10 @@ def apply_scan_offset(moves: Moves, model: ScanOffset, *, tol_mm: float = 1e-6) 
     dx = out.end[:, 0] - out.start[:, 0]
     back = burn & (dx < 0)
     if not back.any():
+        along_y = out.laser_on & (np.abs(dx) <= tol_mm) & (out.end[:, 1] < out.start[:, 1] - tol_mm)
+        if along_y.any():
+            raise InputError("the job scans along Y (columns); the scan offset is measured and applied along X: "
+                             "engrave it in rows (img2gcode --axis rows)")
         return out
     key = lambda y: np.rint(np.asarray(y) / tol_mm).astype(np.int64)      # noqa: E731 - one rounding for both ends
     rows, first = np.unique(key(out.start[back, 1]), return_index=True)

@@ -9,6 +9,7 @@ own formulas.
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -101,6 +102,34 @@ def test_corrected_gray_job_lands_aligned():
     assert before[0::2].mean() - before[1::2].mean() == pytest.approx(0.2, abs=0.02)
     after = left_edges(apply_scan_offset(job.moves, ScanOffset(slope_s=2 * delay, intercept_mm=0.0)))
     assert abs(after[0::2].mean() - after[1::2].mean()) < 0.02
+
+
+def test_apply_scan_offset_refuses_column_scans():
+    m = Moves.from_cuts([[0, 0], [1, 10]], [[0, 10], [1, 0]], feed_mm_min=3000, power_s=500)
+    with pytest.raises(InputError, match="scans along Y"):
+        apply_scan_offset(m, ScanOffset(slope_s=0.004, intercept_mm=0.0))
+
+
+def test_raster_test_scan_offset_commands(tmp_path, capsys):
+    """Pattern from the command line, burned late by the simulator, scanned to PNG, measured and fitted."""
+    from PIL import Image
+
+    from labkit.cli import main
+    from labkit.gcode.reader import parse
+
+    gcode = tmp_path / "so.gcode"
+    assert main(["raster-test", "scan-offset", "--speeds", "1200:4800:4", "--power", "2000", "--line", "6",
+                 "--machine", "grbl-diode", "-o", str(gcode)]) == 0
+    layout = json.loads((tmp_path / "so.json").read_text())
+    assert layout["kind"] == "scan-offset" and len(layout["lines"]) == 4 * 6
+    burn = simulate_burn(parse(gcode.read_text()), machine=DIODE, w0_mm=W0, fth_mj_mm2=FTH, pixel_mm=0.02,
+                         beam_delay_s=0.0015)
+    Image.fromarray(np.rint(burn.scan(dpi=1000) * 255).astype(np.uint8)).save(tmp_path / "scan.png")
+    capsys.readouterr()
+    assert main(["raster-test", "measure-offset", str(tmp_path / "scan.png"), "--layout", str(tmp_path / "so.json"),
+                 "-o", str(tmp_path / "off.json")]) == 0
+    assert re.search(r"beam delay 1\.[45]\d\d ms", capsys.readouterr().out)
+    assert load_scan_offset(tmp_path / "off.json").beam_delay_s == pytest.approx(0.0015, rel=0.05)
 
 
 def test_fit_and_load_errors(tmp_path):
