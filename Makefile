@@ -12,7 +12,7 @@ PYTEST_ARGS ?=
 TEST_JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 XDIST := -n $(TEST_JOBS) --dist loadfile
 
-.PHONY: lab test test-fast bench firmware firmware-all clean browser-deps student sheets
+.PHONY: lab test test-fast bench firmware firmware-all clean browser-deps student sheets book
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; assert sys.version_info >= (3, 11), "labkit needs Python >= 3.11, found " + sys.version.split()[0]'
@@ -46,6 +46,13 @@ student: $(STAMP)
 SHEETS_DIR ?= build/sheets
 sheets: $(STAMP)
 	$(PY) tools/course_sheets.py "$(SHEETS_DIR)"
+
+## make book BOOK_DIR=DIR: the course as a website from the student edition (MkDocs + mkdocs-jupyter,
+## offline); open DIR/site/index.html (default build/book).
+BOOK_DIR ?= build/book
+book: $(STAMP)
+	$(PY) -m pip install --quiet -e '.[book]'
+	$(PY) tools/course_book.py "$(BOOK_DIR)"
 
 ## make firmware-all: what CI adds to make test: the ARM images (sizes printed), the job
 ## streamed to the image in QEMU, and a bounded libFuzzer run (FUZZ_SECONDS per target).

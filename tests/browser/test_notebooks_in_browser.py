@@ -107,8 +107,8 @@ def lab(tmp_path_factory):
     log.close()
 
 
-@pytest.fixture(scope="module")
-def browser(lab, tmp_path_factory):
+def chromium(user_data_dir):
+    """Debian's headless Chromium under Selenium (also the course website's browser test)."""
     from selenium import webdriver
     from selenium.webdriver.chrome.service import Service
 
@@ -116,9 +116,15 @@ def browser(lab, tmp_path_factory):
     options.binary_location = str(CHROMIUM)
     for flag in CHROMIUM_FLAGS:
         options.add_argument(flag)
-    options.add_argument(f"--user-data-dir={tmp_path_factory.mktemp('chromium')}")
+    options.add_argument(f"--user-data-dir={user_data_dir}")
     driver = webdriver.Chrome(service=Service(executable_path=str(CHROMEDRIVER)), options=options)
     driver.set_page_load_timeout(120)
+    return driver
+
+
+@pytest.fixture(scope="module")
+def browser(lab, tmp_path_factory):
+    driver = chromium(tmp_path_factory.mktemp("chromium"))
     yield driver
     driver.quit()
 
