@@ -871,6 +871,11 @@ void protocol_startup(void) {
   report_banner();                           /* readiness: the host waits for it */
   if (!good)
     report_feedback("settings restored");
+  if (settings.dialect == GC_DIALECT_GRBL && (settings.flags & SET_FLAG_HOMING)) {
+    state = PROTO_ALARM;                     /* GRBL (HOMING_INIT_LOCK): at power-up with homing on, */
+    report_feedback("'$H'|'$X' to unlock");  /* the position is unknown until $H (or $X) */
+    return;
+  }
   run_startup_lines();
 }
 
