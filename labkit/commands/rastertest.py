@@ -32,8 +32,8 @@ def add_raster_test_arguments(parser) -> None:
 
     w = sub.add_parser("wedge", help="a gray step wedge: patches of lines at rising S, with their layout JSON")
     w.add_argument("--steps", type=integer(2, 64), default=16, metavar="N", help="patches (default 16)")
-    w.add_argument("--feed", type=number(1, 1e6), default=3000.0, metavar="MM_MIN",
-                   help="scanning feed, mm/min (default 3000: use the engraving's)")
+    w.add_argument("--feed", type=number(1, 1e6), default=None, metavar="MM_MIN",
+                   help="scanning feed, mm/min: the engraving's (default 3000 or the machine's X rate if lower)")
     w.add_argument("--interval", type=number(0.01, 10), default=0.1, metavar="MM",
                    help="line interval = the engraving's pixel, mm (default 0.1)")
     w.add_argument("--patch", type=number(1, 100), default=8.0, metavar="MM", help="patch width, mm (default 8)")
@@ -93,10 +93,11 @@ def _wedge(args) -> int:
     from labkit.laser.tone import wedge_pattern
 
     m = _machine(args)
-    g = wedge_pattern(args.steps, s_max=args.s_max, max_power_mw=m.laser_max_power_mw, speed_mm_min=args.feed,
+    g = wedge_pattern(args.steps, s_max=args.s_max, machine=m, speed_mm_min=args.feed,
                       line_interval_mm=args.interval, patch_mm=args.patch, patch_lines=args.lines,
                       overscan_mm=args.overscan)
-    _write(args, g, f"{args.steps} steps of S up to {args.s_max:g} at {args.feed:g} mm/min")
+    feed = g.layout["speeds_mm_min"][0]
+    _write(args, g, f"{args.steps} steps of S up to {args.s_max:g} at {feed:g} mm/min")
     return 0
 
 

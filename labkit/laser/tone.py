@@ -39,8 +39,8 @@ TONE_FORMAT = "labkit-tone-curve"
 _VERSION = 1
 
 
-def wedge_pattern(steps: int = 16, *, s_max: float = 1000.0, max_power_mw: float | None = None,
-                  speed_mm_min: float = 3000.0, line_interval_mm: float = 0.1, patch_mm: float = 8.0,
+def wedge_pattern(steps: int = 16, *, s_max: float = 1000.0, machine=None,
+                  speed_mm_min: float | None = None, line_interval_mm: float = 0.1, patch_mm: float = 8.0,
                   patch_lines: int = 30, overscan_mm: float = 3.0, label_mm: float = 2.0) -> GridPattern:
     """A gray step wedge: ``steps`` patches of parallel lines, S rising evenly to ``s_max``.
 
@@ -50,10 +50,11 @@ def wedge_pattern(steps: int = 16, *, s_max: float = 1000.0, max_power_mw: float
         Number of patches (>= 2); patch k (1-based) burns at S = s_max · k / steps.
     s_max : float
         S meaning full power.
-    max_power_mw : float, optional
-        Optical power at full S, mW (default the CBR40 machine's).
-    speed_mm_min : float
-        Scanning feed, mm/min (the feed the engravings will use).
+    machine : MachineSpec, optional
+        Its power at full S and X rate (default CBR40).
+    speed_mm_min : float, optional
+        Scanning feed, mm/min (the feed the engravings will use; default 3000 or the
+        machine's X rate if lower). A feed above the machine's rate is refused.
     line_interval_mm : float
         Distance between the lines of a patch, mm (the engraving's pixel pitch).
     patch_mm : float
@@ -74,10 +75,15 @@ def wedge_pattern(steps: int = 16, *, s_max: float = 1000.0, max_power_mw: float
         raise InputError(f"steps must be a whole number >= 2, got {steps!r}")
     if int(patch_lines) != patch_lines or patch_lines < 3:
         raise InputError(f"patch_lines must be a whole number >= 3, got {patch_lines!r}")
-    if max_power_mw is None:
-        from labkit.motion.machine import CBR40
+    from labkit.motion.machine import CBR40
 
-        max_power_mw = CBR40.laser_max_power_mw
+    m = CBR40 if machine is None else machine
+    max_power_mw = m.laser_max_power_mw
+    rate = float(m.max_rate_mm_min[0])
+    speed_mm_min = min(3000.0, rate) if speed_mm_min is None else float(speed_mm_min)
+    if speed_mm_min > rate:
+        raise InputError(f"feed {speed_mm_min:g} mm/min is above the machine's X rate ({rate:g} mm/min): "
+                         "the wedge would burn slower than the engraving")
     powers = max_power_mw * np.arange(1, int(steps) + 1) / int(steps)
     g = grid_pattern(powers, [speed_mm_min], line_mm=patch_mm, pitch_mm=line_interval_mm,
                      overscan_mm=overscan_mm, gap_mm=2 * overscan_mm, repeats=int(patch_lines),

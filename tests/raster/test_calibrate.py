@@ -184,6 +184,13 @@ def test_wedge_measured_and_fitted_to_the_known_curve(wedge_scan):
     assert curve.s_for(_known_darkness(wanted, pitch)) == pytest.approx(wanted, abs=50)
 
 
+def test_wedge_feed_within_the_machine():
+    assert wedge_pattern(4).layout["speeds_mm_min"] == [pytest.approx(1546.0875)]     # the CBR40's X rate
+    assert wedge_pattern(4, machine=DIODE).layout["speeds_mm_min"] == [3000.0]
+    with pytest.raises(InputError, match="above the machine's X rate"):
+        wedge_pattern(4, speed_mm_min=3000.0)
+
+
 def test_isotonic_pools_violators():
     assert isotonic([3.0, 1.0, 2.0]).tolist() == pytest.approx([2.0, 2.0, 2.0])
     assert isotonic([1.0, 0.0], weights=[3, 1]).tolist() == pytest.approx([0.75, 0.75])
