@@ -50,7 +50,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "console": ("machine", "talk to a machine line by line"),
     "safety-check": ("safety", "check that the beam is off on every stop, reset, alarm and end"),
     "record": ("record", "provenance records of programs and streams: show one, diff two"),
-    "course": ("course", "course material: the student edition of the chapters (no answers, no appendices)"),
+    "course": ("course", "course material: the student edition (no answers), grading answers on the virtual machine"),
 }
 
 
