@@ -88,6 +88,8 @@ class Job:
     syncing : list of bool
         Per entry of ``send``: the line waits for the planner to empty before it is answered
         (the interpreter trace's ``syncing``; read once here, not per line sent).
+    axis_words : list of bool
+        Per entry of ``send``: an accepted G-code line with X, Y or Z (the trace's ``axis_words``).
     """
 
     source_lines: list
@@ -99,10 +101,13 @@ class Job:
     filename: str | None = None
     dialect: str = "grbl"
     syncing: list | None = None
+    axis_words: list | None = None
 
     def __post_init__(self):
-        if self.syncing is None:               # built without from_text: read its lines in order
-            self.syncing = _syncing([t for _, t in self.send], self.dialect)
+        if self.syncing is None or self.axis_words is None:   # not from from_text: read the lines
+            trace = _send_trace([t for _, t in self.send], self.dialect)
+            self.syncing = _syncing([t for _, t in self.send], trace)
+            self.axis_words = [bool(v) for v in trace["axis_words"]]
 
     @classmethod
     def from_text(cls, text: str, *, filename: str | None = None, dialect: str = "grbl",
@@ -167,9 +172,9 @@ class Job:
         except (LabkitError, ValueError) as exc:
             raise MachineError(f"cannot plan the job for its ETA: {exc}") from exc
         trace, _ = line_states(text, dialect=dialect)
-        synced = trace["syncing"]
-        syncing = [bool(synced[k - 1]) if k <= len(synced) else False for k, _ in send]
-        return cls(source, send, moves, blocks, done_at, job_time, filename, dialect, syncing)
+        rows = trace[[k - 1 for k, _ in send]]      # the interpreter numbers lines as split here
+        return cls(source, send, moves, blocks, done_at, job_time, filename, dialect,
+                   _syncing([t for _, t in send], rows), [bool(v) for v in rows["axis_words"]])
 
     @classmethod
     def from_file(cls, path, **kw) -> "Job":
@@ -995,14 +1000,17 @@ def _requested_stop(controls: Controls, signals) -> str | None:
 _MAX_LOST_ANSWERS = 3
 
 
-def _syncing(texts: list, dialect: str = "grbl") -> list:
-    """Whether each line, read in order from power-on, waits for the planner to empty before
-    GRBL answers it (dwell, offsets, homing positions, program end, laser/coolant words): the
-    interpreter trace's ``syncing``. A ``$`` line never does (GRBL runs it idle, or as a jog),
-    nor a line the interpreter rejects (GRBL answers an error before executing anything)."""
-    if not texts:
-        return []
+def _send_trace(texts: list, dialect: str):
+    """The interpreter trace of lines to send, read in order from power-on (one row a line)."""
     trace, _ = line_states("\n".join(texts) + "\n", dialect=dialect)
+    return trace[:len(texts)]
+
+
+def _syncing(texts: list, trace) -> list:
+    """Whether each line waits for the planner to empty before GRBL answers it (dwell,
+    offsets, homing positions, program end, laser/coolant words): the trace's ``syncing``
+    (``trace``: one row per line of ``texts``). A ``$`` line never does (GRBL runs it idle,
+    or as a jog), nor a line the interpreter rejects (GRBL answers its error at once)."""
     return [bool(v) and not t.startswith("$") for v, t in zip(trace["syncing"], texts)]
 
 
@@ -1256,18 +1264,17 @@ def check_job(grbl: Grbl, job: Job, *, stop=None) -> list:
 # -- pre-flight ---------------------------------------------------------------------------------
 
 _G_WORD = re.compile(r"G0*(\d+(?:\.\d+)?)")
-_MOTION = re.compile(r"[XYZ][-+.\d]")
 _OWN_OFFSETS = re.compile(r"G10|G92|G0*53(?![.\d])|G0*28(?![.\d])|G0*30(?![.\d])")
 
 
 def _modes_before_motion(job: Job) -> set:
     """G numbers the job states before (or on) its first line with coordinates."""
     seen = set()
-    for _, text in job.send:
+    for (_, text), moves in zip(job.send, job.axis_words):
         if text.startswith("$"):
             continue
         seen.update(float(g) for g in _G_WORD.findall(text))
-        if _MOTION.search(text):
+        if moves:
             break
     return seen
 
@@ -1402,8 +1409,7 @@ def preflight_check(grbl: Grbl, job: Job, *, machine=None, status=None) -> tuple
         notes.append(f"note: the parser state ($G) could not be read ({exc}): units and "
                      f"distance mode not checked")
     modes = _modes_before_motion(job)
-    first_move = next((ln for ln, t in job.send if not t.startswith("$") and _MOTION.search(t)),
-                      None)
+    first_move = next((ln for (ln, _), moves in zip(job.send, job.axis_words) if moves), None)
     if "G20" in parser and not modes & {20.0, 21.0}:
         problems.append(f"the controller is in inches (G20) and the job does not say its units "
                         f"before its first move (line {first_move}): every coordinate would be "
@@ -1479,4 +1485,5 @@ def _resume_send(job: Job, line: int, position) -> tuple:
     first = line + 1 if position is not None else line
     rest = [(entry, sync) for entry, sync in zip(job.send, job.syncing) if entry[0] >= first]
     return (pre + [entry for entry, _ in rest],
-            _syncing([t for _, t in pre], job.dialect) + [sync for _, sync in rest])
+            _syncing([t for _, t in pre], _send_trace([t for _, t in pre], job.dialect))
+            + [sync for _, sync in rest])

@@ -53,11 +53,18 @@ def test_job_reads_each_lines_syncing_once():
     assert len(job.syncing) == len(job.send)
 
 
+def test_job_reads_which_lines_carry_coordinates_once():
+    # the pre-flight's "first move": an accepted G-code line with X, Y or Z, offsets included
+    job = Job.from_text(HAND_JOB)
+    with_axes = [ln for (ln, _), axes in zip(job.send, job.axis_words) if axes]
+    assert with_axes == [3, 6, 9, 13]
+
+
 def test_a_rejected_line_is_answered_at_once():
     # G4 without P is refused (error 28): answered at once, though the regex the trace
     # replaced said it synced. A Job built without from_text reads its lines in order.
     job = Job(["G4", "G4 P1"], [(1, "G4"), (2, "G4P1")], None, {}, {}, 0.0)
-    assert job.syncing == [False, True]
+    assert job.syncing == [False, True] and job.axis_words == [False, False]
 
 
 def test_resume_lines_and_flags_stay_aligned():
