@@ -28,3 +28,11 @@ def test_binder_installs_the_lab_extra_and_what_chapter_13_needs():
     python = (binder / "runtime.txt").read_text().strip()
     required = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["requires-python"]
     assert re.fullmatch(r"python-3\.\d+", python) and int(python.split(".")[1]) >= int(required.split(".")[1])
+
+
+def test_further_reading_has_a_row_for_every_chapter():
+    page = (ROOT / "notebooks" / "FURTHER-READING.md").read_text(encoding="utf-8")
+    rows = re.findall(r"^\| (\d\d) [^|]+\| (.+) \|$", page, re.M)
+    chapters = tomllib.loads((ROOT / "notebooks" / "chapters.toml").read_text(encoding="utf-8"))["chapter"]
+    assert [n for n, _ in rows] == [c["file"][:2] for c in chapters]
+    assert all(len(reading.strip()) > 10 for _, reading in rows)

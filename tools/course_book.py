@@ -31,7 +31,7 @@ NOTEBOOKS = ROOT / "notebooks"
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from course_navigation import load_chapters  # noqa: E402
 
-PAGES_MD = ("PREREQUISITES.md",)
+PAGES_MD = ("PREREQUISITES.md", "FURTHER-READING.md")
 #: the configuration jupyter-server-mathjax ships (TeX input, HTML-CSS output)
 MATHJAX_CONFIG = "?config=TeX-AMS-MML_HTMLorMML-full,Safe"
 _LINK = re.compile(r"(!?)\[([^\]]*)\]\(([^)\s]+)\)")
@@ -88,6 +88,7 @@ def prepare(out: Path) -> Path:
     nav = ["nav:", "  - Home: index.ipynb", "  - Before you start: PREREQUISITES.md"]
     for name, items in groups.items():
         nav += [f'  - "{name}":'] + items
+    nav += ["  - Further reading: FURTHER-READING.md"]
     yml = out / "mkdocs.yml"
     yml.write_text("\n".join([
         "site_name: labkit — a laser CNC course",
