@@ -184,6 +184,28 @@ def test_wedge_measured_and_fitted_to_the_known_curve(wedge_scan):
     assert curve.s_for(_known_darkness(wanted, pitch)) == pytest.approx(wanted, abs=50)
 
 
+def test_wedge_burned_by_the_dose_simulator_follows_the_dose_model():
+    """A wedge burned in the virtual material: each patch as dark as the dose model's closed-form
+    line width over the line interval (:func:`labkit.laser.models.dose_width`), and the fitted curve too."""
+    from labkit.laser.models import dose_width, peak_fluence
+
+    g = wedge_pattern(8, line_interval_mm=0.2, patch_mm=4, patch_lines=10, label_mm=1.5)
+    v, w0 = g.layout["speeds_mm_min"][0], 0.05
+    fth = float(peak_fluence(2500, v, w0)) / 15          # burns from S 67 on; 0.12 mm wide at full power
+    burn = simulate_burn(g.moves, w0_mm=w0, fth_mj_mm2=fth, pixel_mm=0.0125)
+    df = measure_wedge(burn.scan(dpi=1200, noise=0.01), g.layout)
+
+    def model(s):
+        # the scan: paper 0.9, burn 0.1; lines far enough apart (0.2 mm = 4 w0) not to add up
+        return 0.8 / 0.9 * dose_width(2500 * np.asarray(s) / 1000, v, w0, fth) / 0.2
+
+    # within 0.025 (5 % of the darkest patch): the scan's pixels average the simulated edges
+    assert df.darkness.to_numpy() == pytest.approx(model(df.power_s), abs=0.025)
+    curve = fit_tone(df.power_s, df.darkness, weights=df.pixels)
+    s = np.linspace(125, 1000, 200)
+    assert curve.darkness_at(s) == pytest.approx(model(s), abs=0.025)
+
+
 def test_wedge_feed_within_the_machine():
     assert wedge_pattern(4).layout["speeds_mm_min"] == [pytest.approx(1546.0875)]     # the CBR40's X rate
     assert wedge_pattern(4, machine=DIODE).layout["speeds_mm_min"] == [3000.0]
