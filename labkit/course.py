@@ -46,6 +46,8 @@ CHECK_TAG = "autograde"
 APPENDIX_HEADING = "## Appendix — for researchers"
 #: folders beside the chapters that their links and pictures need
 SUPPORT_FOLDERS = ("figures", "handouts")
+#: pages for students beside the chapters (the teacher's guide stays out)
+SUPPORT_PAGES = ("PREREQUISITES.md", "FURTHER-READING.md")
 
 _SOLUTION_FIRST_LINE = re.compile(r"#\s*Solution\s+(\d+)\b\s*[:.]?\s*(.*)")
 #: a solution cell that hands a program to a check cell: ``answer_N = ...`` on a line of its own
@@ -183,7 +185,8 @@ def write_student_edition(source_dir, out_dir) -> list[Path]:
         The folder of chapters (``*.ipynb``), e.g. the repository's ``notebooks/``.
     out_dir : str or os.PathLike
         Where the edition goes; created if missing; must not be ``source_dir`` itself.
-        The chapters' ``figures/`` and ``handouts/`` folders are copied beside them.
+        The chapters' ``figures/`` and ``handouts/`` folders and the students' pages
+        (prerequisites, further reading) are copied beside them.
 
     Returns
     -------
@@ -226,4 +229,7 @@ def write_student_edition(source_dir, out_dir) -> list[Path]:
     for name in SUPPORT_FOLDERS:
         if (source / name).is_dir():
             shutil.copytree(source / name, out / name, dirs_exist_ok=True)
+    for name in SUPPORT_PAGES:
+        if (source / name).is_file():
+            shutil.copy(source / name, out / name)
     return written

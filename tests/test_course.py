@@ -93,6 +93,7 @@ def test_student_edition_has_every_chapter_valid_and_no_answer(edition):
     written = sorted(edition.glob("*.ipynb"))
     assert [p.name for p in written] == [p.name for p in sorted(NOTEBOOKS.glob("*.ipynb"))]
     assert (edition / "handouts" / "laser-lab-checklist.md").is_file()
+    assert (edition / "PREREQUISITES.md").is_file() and not (edition / "TEACHING.md").exists()
     for path in written:
         source, student = _read(NOTEBOOKS / path.name), _read(path)
         nbformat.validate(student)
