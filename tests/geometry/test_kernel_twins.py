@@ -126,3 +126,26 @@ def test_gray_and_dither_kernels_as_python_give_the_compiled_moves(mode):
     for name in a.moves.column_names():
         x, y = np.asarray(getattr(a.moves, name)), np.asarray(getattr(b.moves, name))
         assert np.array_equal(x, y, equal_nan=x.dtype.kind == "f"), name
+
+
+def test_views_hand_contiguous_arrays_to_python_as_memoryviews():
+    """``views=True``: C-contiguous arrays arrive as memoryviews (Python floats and ints on
+    indexing, writes land in the caller's array); a strided one stays an array; compiled,
+    the same results."""
+    @_jit.jit(views=True, cache=False)
+    def scale_rows(p, out):
+        for i in range(p.shape[0]):
+            out[i] = 2.0 * p[i, 0] + p[i, 1]
+        return out
+
+    p = np.arange(12.0).reshape(6, 2)
+    converted = [_jit._as_view(a) for a in (p, np.zeros(6), p[::2], np.zeros(0))]
+    assert [type(a).__name__ for a in converted] == ["memoryview", "memoryview", "ndarray", "ndarray"]
+    assert type(converted[0][1, 1]) is float
+    out_py, out_nb = np.zeros(6), np.zeros(6)
+    with _jit.forced("python"):
+        scale_rows(p, out_py)
+    with _jit.forced("compiled"):
+        scale_rows(p, out_nb)
+    np.testing.assert_array_equal(out_py, 2.0 * p[:, 0] + p[:, 1])    # written through the view
+    np.testing.assert_array_equal(out_py, out_nb)
