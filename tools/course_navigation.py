@@ -34,6 +34,9 @@ LIST = NOTEBOOKS / "chapters.toml"
 INDEX = "00-index.ipynb"
 NAV_START = "[← index]"
 CHAPTERS_HEADING = "## Chapters"
+#: the students' pages, named above the chapter list
+STUDENT_PAGES = ("Before you start: [what you need to know first](PREREQUISITES.md) · after a chapter: "
+                 "[further reading](FURTHER-READING.md).")
 
 
 def load_chapters(path: Path = LIST) -> list[dict]:
@@ -109,7 +112,8 @@ def with_index(nb, chapters: list[dict]) -> bool:
     (cell,) = [c for c in nb.cells if c.cell_type == "markdown" and c.source.startswith(CHAPTERS_HEADING)]
     first_group = re.search(r"^\*\*[^*\n]+\*\*\s*$", cell.source, re.M)
     intro = cell.source[:first_group.start()] if first_group else cell.source.rstrip() + "\n\n"
-    new = intro + chapter_list(chapters)
+    intro = intro.replace(STUDENT_PAGES + "\n\n", "")
+    new = intro + STUDENT_PAGES + "\n\n" + chapter_list(chapters)
     if new == cell.source:
         return False
     cell.source = new
