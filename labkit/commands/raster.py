@@ -119,6 +119,11 @@ def run_img2gcode(args) -> int:
         if args.mode != "gray":
             raise InputError(f"--tone applies to --mode gray (a tone curve sets each gray's power), not {args.mode}")
         tone = load_tone(args.tone)
+        import sys
+
+        if abs(tone.feed_mm_min - args.feed) > 0.01 * args.feed:      # NaN (not known) says nothing
+            print(f"warning: {args.tone} was measured at {tone.feed_mm_min:g} mm/min, the job runs at "
+                  f"{args.feed:g}: the material darkens differently at another feed", file=sys.stderr)
     if args.scan_offset is not None:
         from labkit.laser.scanoffset import load_scan_offset
 

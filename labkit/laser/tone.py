@@ -208,6 +208,9 @@ class ToneCurve:
         The patches' measured mean darkness and spread (without the S = 0 knot).
     s_max : float
         S meaning full power.
+    feed_mm_min, line_interval_mm : float
+        The wedge's scanning feed (mm/min) and line interval (mm): the curve holds for
+        engravings at these (NaN: not known).
     """
 
     power_s: np.ndarray
@@ -215,6 +218,8 @@ class ToneCurve:
     measured: np.ndarray
     spread: np.ndarray
     s_max: float
+    feed_mm_min: float = math.nan
+    line_interval_mm: float = math.nan
 
     @property
     def _curve(self):
@@ -277,9 +282,13 @@ class ToneCurve:
         return out
 
     def to_dict(self) -> dict:
+        def known(x):          # JSON has no NaN: unknown is null
+            return None if not math.isfinite(x) else float(x)
+
         return dict(format=TONE_FORMAT, version=_VERSION, s_max=self.s_max,
+                    feed_mm_min=known(self.feed_mm_min), line_interval_mm=known(self.line_interval_mm),
                     power_s=self.power_s.tolist(), darkness=self.darkness.tolist(),
-                    measured=self.measured.tolist(), spread=self.spread.tolist(),
+                    measured=self.measured.tolist(), spread=[known(x) for x in self.spread],
                     fit="isotonic (pool adjacent violators) then PCHIP")
 
     def save(self, path) -> None:
@@ -287,7 +296,8 @@ class ToneCurve:
         save_document(path, self.to_dict())
 
 
-def fit_tone(power_s, darkness, *, spread=None, weights=None, s_max: float = 1000.0) -> ToneCurve:
+def fit_tone(power_s, darkness, *, spread=None, weights=None, s_max: float = 1000.0,
+             feed_mm_min: float = math.nan, line_interval_mm: float = math.nan) -> ToneCurve:
     """Fit a monotone tone curve to measured patches.
 
     Parameters
@@ -302,6 +312,8 @@ def fit_tone(power_s, darkness, *, spread=None, weights=None, s_max: float = 100
         Weight of each patch in the isotonic step (e.g. pixels measured).
     s_max : float
         S meaning full power.
+    feed_mm_min, line_interval_mm : float, optional
+        The wedge's feed (mm/min) and line interval (mm), kept with the curve.
 
     Returns
     -------
@@ -329,7 +341,8 @@ def fit_tone(power_s, darkness, *, spread=None, weights=None, s_max: float = 100
     sd = np.full_like(d, np.nan) if spread is None else np.asarray(spread, float)[order]
     w = None if weights is None else np.asarray(weights, float)[order]
     knots_d = np.concatenate([[0.0], isotonic(np.maximum(d, 0.0), w)])
-    return ToneCurve(np.concatenate([[0.0], s]), knots_d, d, sd, float(s_max))
+    return ToneCurve(np.concatenate([[0.0], s]), knots_d, d, sd, float(s_max), float(feed_mm_min),
+                     float(line_interval_mm))
 
 
 def load_tone(path) -> ToneCurve:
@@ -341,7 +354,8 @@ def load_tone(path) -> ToneCurve:
         d = np.asarray(doc["darkness"], float)
         s_max = float(doc["s_max"])
         measured = np.asarray(doc.get("measured", d[1:]), float)
-        spread = np.asarray(doc.get("spread", np.full(len(d) - 1, np.nan)), float)
+        spread = np.array([math.nan if x is None else x for x in doc.get("spread") or [None] * (len(d) - 1)], float)
+        feed, interval = (math.nan if doc.get(k) is None else float(doc[k]) for k in ("feed_mm_min", "line_interval_mm"))
     except (KeyError, TypeError, ValueError) as exc:
         raise InputError(f"{path}: power_s, darkness and s_max must be numbers ({exc})") from None
     if s.ndim != 1 or d.shape != s.shape or len(s) < 2:
@@ -352,4 +366,4 @@ def load_tone(path) -> ToneCurve:
                          "all finite")
     if not (math.isfinite(s_max) and s_max > 0):
         raise InputError(f"{path}: s_max must be > 0, got {s_max!r}")
-    return ToneCurve(s, d, measured, spread, s_max)
+    return ToneCurve(s, d, measured, spread, s_max, feed, interval)

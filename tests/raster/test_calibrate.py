@@ -233,14 +233,14 @@ def test_correct_gray_inverts_a_square_root_material():
     assert lin.correct_gray(g[:5], s_max=1000) == pytest.approx(g[:5], abs=0.5)
 
 
-def test_img2gcode_tone_and_scan_offset(tmp_path):
+def test_img2gcode_tone_and_scan_offset(tmp_path, capsys):
     from PIL import Image
 
     from labkit.cli import main
     from labkit.gcode.reader import parse
 
     s = np.linspace(1000 / 32, 1000, 32)
-    fit_tone(s, np.sqrt(s / 1000)).save(tmp_path / "tone.json")
+    fit_tone(s, np.sqrt(s / 1000), feed_mm_min=3000).save(tmp_path / "tone.json")
     fit_scan_offset([1200, 2400], [0.08, 0.16]).save(tmp_path / "off.json")
     ramp = np.repeat(np.array([[0, 128, 192]], np.uint8).repeat(4, axis=1), 4, axis=0)
     Image.fromarray(ramp).save(tmp_path / "ramp.png")
@@ -258,6 +258,10 @@ def test_img2gcode_tone_and_scan_offset(tmp_path):
     back = tone.laser_on & (tone.end[:, 0] < tone.start[:, 0])
     back_plain = plain.laser_on & (plain.end[:, 0] < plain.start[:, 0])
     assert tone.end[back, 0] - plain.end[back_plain, 0] == pytest.approx(np.full(back.sum(), 0.2), abs=1e-3)
+    assert "warning" not in capsys.readouterr().err
+    slower = [a if a != "3000" else "1500" for a in common]
+    assert main(slower + ["-o", str(tmp_path / "slow.gcode"), "--tone", str(tmp_path / "tone.json")]) == 0
+    assert "was measured at 3000 mm/min, the job runs at 1500" in capsys.readouterr().err
 
 
 def test_tone_bad_inputs(tmp_path, capsys):
@@ -289,6 +293,8 @@ def test_raster_test_command_round_trip(tmp_path, wedge_scan, capsys):
     assert main(["raster-test", "measure-tone", str(tmp_path / "scan.png"), "--layout", str(tmp_path / "w.json"),
                  "-o", str(tmp_path / "curve.json")]) == 0
     curve = load_tone(tmp_path / "curve.json")
+    assert (curve.feed_mm_min, curve.line_interval_mm) == (layout["speeds_mm_min"][0], layout["pitch_mm"])
+    assert json.loads((tmp_path / "curve.json").read_text())["feed_mm_min"] == layout["speeds_mm_min"][0]
     assert curve.darkness_at(500.0) == pytest.approx(_known_darkness(500.0, layout["pitch_mm"]), abs=0.02)
     assert main(["raster-test", "measure-offset", str(tmp_path / "scan.png"), "--layout", str(tmp_path / "w.json"),
                  "-o", str(tmp_path / "off.json")]) == 1
