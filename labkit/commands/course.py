@@ -41,7 +41,7 @@ def run_course(args) -> int:
         out = Path(args.out) if args.out else Path(args.folder) / "grades"
         rows = grade_folder(args.folder, out)
         students = sorted({r["student"] for r in rows})
-        width = max(len(s) for s in students)
+        width = max(len("student"), *(len(s) for s in students))
         print(f"{'student':<{width}}  " + "  ".join(sorted(EXERCISES)) + "  passed")
         for s in students:
             mine = {r["exercise"]: r for r in rows if r["student"] == s}
