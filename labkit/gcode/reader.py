@@ -66,7 +66,7 @@ from labkit.gcode.dialects import Dialect, get_dialect
 from labkit.toolpath.moves import LaserMode, MoveKind, Moves, Record
 
 __all__ = ["parse", "parse_file", "check", "modal_trace", "ParseOptions", "grbl_system_verdict",
-           "Interpreter"]
+           "Interpreter", "strip_comments"]
 
 _COMMON_LETTERS = "FGIJKMNPRSXYZ"
 
@@ -318,6 +318,29 @@ class Interpreter:
 _GRBL_SETTINGS = frozenset((0, 1, 2, 3, 4, 5, 6, 10, 11, 12, 13, 20, 21, 22, 23, 24, 25, 26, 27,
                             30, 31, 32))
 _GRBL_FLOAT = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)")     # read_float: no exponent
+_COMMENT = re.compile(r"\([^)]*\)?|;.*")
+
+
+def strip_comments(line: str) -> str:
+    """One line without its comments, as GRBL's serial reader drops them: from ``(`` to the
+    next ``)`` or, when none closes it, to the line's end; from ``;`` to the line's end.
+
+    Parameters
+    ----------
+    line : str
+        One line of G-code or a ``$`` command, without its line end.
+
+    Returns
+    -------
+    str
+        The line with the comments cut out; spaces and case as they were.
+
+    Examples
+    --------
+    >>> strip_comments("G1 X10 (cut) Y5 ; to the corner"), strip_comments("$$ (unclosed")
+    ('G1 X10  Y5 ', '$$ ')
+    """
+    return _COMMENT.sub("", line)
 
 
 def grbl_system_verdict(line: str, dialect: str | Dialect = "grbl") -> tuple[str, str] | None:
@@ -336,7 +359,7 @@ def grbl_system_verdict(line: str, dialect: str | Dialect = "grbl") -> tuple[str
     (None, 'setting_disabled')
     """
     d = get_dialect(dialect)
-    s = re.sub(r"\([^)]*\)?|;.*", "", line)
+    s = strip_comments(line)
     s = "".join(ch for ch in s if ch > " " and not (d.grbl_verdicts and ch in "?~!")).upper()
     cmd = s[1:2]
     if cmd == "" or s in ("$$", "$G", "$C", "$X", "$#", "$I", "$N", "$SLP"):

@@ -46,6 +46,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from labkit.errors import InputError, LabkitError, MachineError
+from labkit.gcode.reader import strip_comments
 from labkit.gcode.state import line_states
 from labkit.machine.grbl import Grbl, alarm_message, error_message
 from labkit.machine.resume import frame_text, resume_text
@@ -53,18 +54,17 @@ from labkit.machine.resume import frame_text, resume_text
 __all__ = ["Job", "JobReport", "run_job", "JobRunner", "resume_text", "frame_text", "strip_line", "Controls",
            "StopSignals", "preflight_check", "check_job"]
 
-_COMMENT = re.compile(r"\([^)]*\)|;.*$")
-
 
 def strip_line(text: str) -> str:
-    """A line as it goes to the machine: comments, spaces and the line end removed.
+    """A line as it goes to the machine: comments (:func:`~labkit.gcode.reader.strip_comments`),
+    spaces and the line end removed.
 
     >>> strip_line("G1 X10 Y5 (cut) ; to the corner")
     'G1X10Y5'
     >>> strip_line("  ; only a comment")
     ''
     """
-    return _COMMENT.sub("", text).replace(" ", "").replace("\t", "").strip().upper()
+    return strip_comments(text).replace(" ", "").replace("\t", "").strip().upper()
 
 
 @dataclass
