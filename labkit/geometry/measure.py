@@ -63,6 +63,10 @@ def _seg_dist_numpy(qx, qy, ax, ay, bx, by, cx, cy, r, a0, sw):
     return np.where(sw == 0.0, line, arc)
 
 
+#: Point–segment pairs the numpy twin of _grid_dist measures at once (~100 MB of temporaries).
+_PAIRS_AT_ONCE = 1 << 20
+
+
 def _grid_dist_numpy(px, py, ax, ay, bx, by, cx, cy, r, a0, sw, mx, my, cell, x0, y0, nx, ny):
     """:func:`_grid_dist` as numpy, for when it runs as Python: every query against the
     segments filed in the 3 × 3 cells around it at once. Where the nearest of those lies
@@ -87,14 +91,19 @@ def _grid_dist_numpy(px, py, ax, ay, bx, by, cx, cy, r, a0, sw, mx, my, cell, x0
             q, c = queries[ok], (yy * nx + xx)[ok]
             n = start[c + 1] - start[c]
             q, c, n = q[n > 0], c[n > 0], n[n > 0]
-            if not len(q):
-                continue
-            first = np.cumsum(n) - n
-            qi = np.repeat(q, n)
-            k = order[np.repeat(start[c] - first, n) + np.arange(int(n.sum()))]
-            d = _seg_dist_numpy(px[qi], py[qi], ax[k], ay[k], bx[k], by[k], cx[k], cy[k],
-                                r[k], a0[k], sw[k])
-            best[q] = np.minimum(best[q], np.minimum.reduceat(d, first))
+            # queries in chunks of about _PAIRS_AT_ONCE pairs: memory stays bounded where
+            # many segments share a cell (a dense detail in a wide drawing)
+            ends = np.searchsorted(np.cumsum(n), np.arange(1, 1 + n.sum() // _PAIRS_AT_ONCE) * _PAIRS_AT_ONCE)
+            for lo, hi in zip(np.r_[0, ends + 1], np.r_[ends + 1, len(q)]):
+                if lo >= hi:
+                    continue
+                qq, cc, nn = q[lo:hi], c[lo:hi], n[lo:hi]
+                first = np.cumsum(nn) - nn
+                qi = np.repeat(qq, nn)
+                k = order[np.repeat(start[cc] - first, nn) + np.arange(int(nn.sum()))]
+                d = _seg_dist_numpy(px[qi], py[qi], ax[k], ay[k], bx[k], by[k], cx[k], cy[k],
+                                    r[k], a0[k], sw[k])
+                best[qq] = np.minimum(best[qq], np.minimum.reduceat(d, first))
     rest = np.flatnonzero(~(inside & (best <= 0.5 * cell)))
     if len(rest):
         view = lambda v: memoryview(np.ascontiguousarray(v))   # noqa: E731  Python floats

@@ -149,3 +149,23 @@ def test_views_hand_contiguous_arrays_to_python_as_memoryviews():
         scale_rows(p, out_nb)
     np.testing.assert_array_equal(out_py, 2.0 * p[:, 0] + p[:, 1])    # written through the view
     np.testing.assert_array_equal(out_py, out_nb)
+
+
+def test_distance_twin_in_chunks_gives_the_same_distances(monkeypatch):
+    """Many segments in few cells (a dense detail far from the rest): the twin measures its
+    pairs in chunks, with the distances it gives in one go and the compiled kernel's."""
+    rng = np.random.default_rng(3)
+    dense = Path(np.cumsum(rng.normal(0, 0.01, (3000, 2)), axis=0))
+    paths = [dense, Path([(1000, 1000), (1001, 1000)])]
+    q = np.vstack([dense.sample(0.001) + 0.003, rng.uniform(-1, 1, (2000, 2))])
+    got = {}
+    for pairs in (1000, 1 << 20):
+        monkeypatch.setattr(measure, "_PAIRS_AT_ONCE", pairs)
+        measure._grid_dist.__dict__.pop("_twin", None)     # the twin reads the module's names
+        with _jit.forced("python"):
+            got[pairs] = path_distance(paths, q)
+    measure._grid_dist.__dict__.pop("_twin", None)
+    with _jit.forced("compiled"):
+        compiled = path_distance(paths, q)
+    np.testing.assert_array_equal(got[1000], got[1 << 20])
+    np.testing.assert_allclose(got[1000], compiled, rtol=0, atol=1e-12)
