@@ -136,6 +136,10 @@ def _flatness(x0, y0, x1, y1, x2, y2, x3, y3, segment):
                _point_distance(x2, y2, x0, y0, x3, y3, segment))
 
 
+#: Curves the numpy twin of _flatten_kernel halves at once (a few tens of MB at fine tolerances).
+_CURVES_AT_ONCE = 4096
+
+
 def _flatten_numpy(ctrl, tol, frac, max_depth, segment):
     """:func:`_flatten_kernel` as numpy, for when it runs as Python: every piece of one depth
     is tested and halved at once, then the accepted pieces are put back in the kernel's order
@@ -144,6 +148,10 @@ def _flatten_numpy(ctrl, tol, frac, max_depth, segment):
     m = ctrl.shape[0]
     if m == 0:
         return np.empty((0, 2)), np.zeros(0, np.int64)
+    if m > _CURVES_AT_ONCE:              # bounded memory: curves are independent, in order
+        parts = [_flatten_numpy(ctrl[k:k + _CURVES_AT_ONCE], tol, frac, max_depth, segment)
+                 for k in range(0, m, _CURVES_AT_ONCE)]
+        return np.concatenate([p for p, _ in parts]), np.concatenate([n for _, n in parts])
     cid = np.arange(m)
     t0 = np.zeros(m)                        # where a piece starts on its curve
     depth = 0

@@ -169,3 +169,17 @@ def test_distance_twin_in_chunks_gives_the_same_distances(monkeypatch):
         compiled = path_distance(paths, q)
     np.testing.assert_array_equal(got[1000], got[1 << 20])
     np.testing.assert_allclose(got[1000], compiled, rtol=0, atol=1e-12)
+
+
+def test_flattening_twin_in_chunks_gives_the_same_points(monkeypatch):
+    from labkit.geometry import bezier
+
+    ctrls = np.random.default_rng(4).normal(0, 20, (100, 4, 2))
+    monkeypatch.setattr(bezier, "_CURVES_AT_ONCE", 7)
+    bezier._flatten_kernel.__dict__.pop("_twin", None)     # the twin reads the module's names
+    try:
+        (pts_py, n_py), (pts_nb, n_nb) = _both(flatten_cubics, ctrls, 0.01)
+    finally:
+        bezier._flatten_kernel.__dict__.pop("_twin", None)
+    np.testing.assert_array_equal(n_py, n_nb)
+    np.testing.assert_array_equal(pts_py, pts_nb)
