@@ -400,7 +400,11 @@ static double slope_down(const plan_block_t *b)
 static void junction(const plan_block_t *p, const plan_block_t *n, double *jcap, double *jrest)
 {
   double cp = block_cap(p), cn = block_cap(n);
-  double rest = dmin(dmax(p->rest_mm_s, n->rest_mm_s), dmin(cp, cn));
+  /* a stop is passed at the larger rest speed, but across a dwell the machine stands
+     still and each side ramps from or to its own rest (labkit.motion.planner.lookahead) */
+  double pair = n->stop_before == PLAN_STOP_DWELL ? dmin(p->rest_mm_s, n->rest_mm_s)
+                                                  : dmax(p->rest_mm_s, n->rest_mm_s);
+  double rest = dmin(pair, dmin(cp, cn));
   int stop = n->stop_before != PLAN_STOP_NONE;
   double cap;
   if (pl.mode == PLAN_MODE_JUNCTION) {
@@ -510,7 +514,9 @@ plan_block_t *plan_get_current_block(void)
   } else {
     entry = pl.prev_exit;
     double cp = pl.prev_cap, cn = block_cap(b);
-    entry_rest = dmin(dmax(pl.prev_rest, b->rest_mm_s), dmin(cp, cn));
+    double pair = b->stop_before == PLAN_STOP_DWELL ? dmin(pl.prev_rest, b->rest_mm_s)
+                                                    : dmax(pl.prev_rest, b->rest_mm_s);
+    entry_rest = dmin(pair, dmin(cp, cn));
   }
   double vb = jrest[e];
   if (e < cnt)   /* the block past the window may have to stop within itself */

@@ -224,6 +224,7 @@ def lookahead(blocks: Blocks, *, planner: str = "junction", law: str = "accel",
         return Lookahead(planner, law, int(buffer_blocks), np.zeros(1), e, np.zeros(1), np.zeros(1),
                          np.zeros(1), np.zeros(0, np.int64))
     stops[[0, -1]] = True
+    dwell_stop = stops.copy()          # the stops asked for (dwells), before super-block breaks
     cap = blocks.cap_mm_s.astype(float)
     rest = blocks.rest_mm_s
     safe = np.empty(n + 1)
@@ -255,7 +256,12 @@ def lookahead(blocks: Blocks, *, planner: str = "junction", law: str = "accel",
     jrest = np.empty(n + 1)
     jrest[0] = rest[0]
     jrest[-1] = rest[-1]
-    jrest[1:-1] = np.minimum(np.maximum(rest[:-1], rest[1:]), np.minimum(cap[:-1], cap[1:]))
+    # a stop without a dwell is passed at the larger rest speed (both blocks may start and
+    # stop there); across a dwell the machine stands still, so each side ramps from and to
+    # its own rest speed, as from the start of a job (GRBL waits for the moves to end at G4)
+    pair = np.where(dwell_stop[1:-1], np.minimum(rest[:-1], rest[1:]),
+                    np.maximum(rest[:-1], rest[1:]))
+    jrest[1:-1] = np.minimum(pair, np.minimum(cap[:-1], cap[1:]))
     jcap = np.where(stops, jrest, np.maximum(jcap, jrest))
     v = K.windowed_passes(blocks.length_mm.astype(float), np.ascontiguousarray(up),
                           np.ascontiguousarray(down), jcap, jrest, rest.astype(float),

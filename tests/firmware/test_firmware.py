@@ -103,11 +103,17 @@ def test_stream_job(sim, short_job, native, capsys):
     assert native or (sent and sent.group(1) == sent.group(2) and int(sent.group(1)) > 250), out
 
 
-def test_trace_equals_labkit_steps(sim, tmp_path, capsys):
-    """(c) the simulator's --trace equals ``labkit steps`` tick for tick (lines and arcs)."""
-    job = tmp_path / "lines-arcs.gcode"
-    job.write_text("G21 G90\nM4 S600\nG1 X5 Y0 F1200\nG2 X10 Y5 I0 J5\nG1 X10 Y8 S300\n"
-                   "G3 X6 Y8 I-2 J0 F900\nG0 X0 Y0\nG1 X2 Y1 F3000\nM5\n", "utf-8")
+@pytest.mark.parametrize("text", [
+    "G21 G90\nM4 S600\nG1 X5 Y0 F1200\nG2 X10 Y5 I0 J5\nG1 X10 Y8 S300\n"
+    "G3 X6 Y8 I-2 J0 F900\nG0 X0 Y0\nG1 X2 Y1 F3000\nM5\n",
+    # a dwell between moves of other directions (jsdc-laser's 'M3 S80, G4 P0.5' between
+    # paths): the machine stands still, each side ramps from and to its own rest speed
+    "G21 G90\nG1 X3 Y-2 F1500\nM3 S80\nG4 P0.5\nG1 X2.9 Y-2.01 F100\nG1 X2 Y-2.1\n"
+    "G4 P0.2\nG1 X2 Y1 F600\nM5\n"], ids=["lines-arcs", "dwells"])
+def test_trace_equals_labkit_steps(sim, tmp_path, capsys, text):
+    """(c) the simulator's --trace equals ``labkit steps`` tick for tick (lines, arcs, dwells)."""
+    job = tmp_path / "job.gcode"
+    job.write_text(text, "utf-8")
     rc = _load("sim_trace").main(["sim_trace", sim, str(job)])
     out = capsys.readouterr().out
     assert rc == 0, out

@@ -8,7 +8,7 @@ from motion_jobs import random_polyline_moves, zigzag_moves
 
 from labkit.errors import MotionError
 from labkit.motion import CBR40
-from labkit.motion.blocks import BlockFifo, build_blocks
+from labkit.motion.blocks import BlockFifo, BlockKind, build_blocks
 from labkit.motion.planner import PLANNERS, junction_speed_caps, lookahead
 from labkit.motion.pipeline import plan
 from labkit.toolpath import LaserMode, MovesBuilder
@@ -23,8 +23,17 @@ def _reach(v, d, slope, law):
 def _check_invariants(p):
     la, prof = p.lookahead, p.profiles
     v = la.speed_mm_s
-    # entry of block k+1 is the exit of block k (same number, by construction of the profiles)
-    assert np.array_equal(prof.entry_mm_s[1:], prof.exit_mm_s[:-1])
+    # entry of block k+1 is the exit of block k (same number, by construction of the profiles),
+    # except across a dwell: the machine stands still there, and each side ramps from or to
+    # its own floor (its rest speed, or its cap when that is lower), as at the job's ends
+    b_all = p.blocks
+    dwell_between = np.array([np.any(b_all.kind[a + 1:c] == BlockKind.DWELL)
+                              for a, c in zip(p.motion[:-1], p.motion[1:])], bool)
+    flowing = ~dwell_between
+    assert np.array_equal(prof.entry_mm_s[1:][flowing], prof.exit_mm_s[:-1][flowing])
+    floor = np.minimum(p.blocks[p.motion].rest_mm_s, la.cap_mm_s)
+    assert np.array_equal(prof.exit_mm_s[:-1][dwell_between], floor[:-1][dwell_between])
+    assert np.array_equal(prof.entry_mm_s[1:][dwell_between], floor[1:][dwell_between])
     # speeds never exceed the block caps, junction caps, or the machine's axis limits
     b = p.blocks[p.motion]
     assert np.all(prof.peak_mm_s <= la.cap_mm_s * (1 + 1e-12))
