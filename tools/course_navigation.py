@@ -81,10 +81,12 @@ def with_navigation(nb, line: str) -> bool:
         first.source = "\n".join(new_lines)
         changed = True
     last = nb.cells[-1]
-    if last.cell_type == "markdown" and last.source.lstrip("-\n ").startswith(NAV_START):
-        rule = last.source[:last.source.index(NAV_START)]      # a "---" above it stays
-        if last.source != rule + line:
-            last.source = rule + line
+    tail = last.source.split("\n")
+    at = [i for i, text in enumerate(tail) if text.startswith(NAV_START)] if last is not first else []
+    if last.cell_type == "markdown" and at:      # the last cell ends the chapter with a navigation line
+        tail[at[-1]] = line
+        if "\n".join(tail) != last.source:
+            last.source = "\n".join(tail)
             changed = True
     else:
         nb.cells.append(nbformat.v4.new_markdown_cell(line))
