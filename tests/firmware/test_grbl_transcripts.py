@@ -301,7 +301,10 @@ def _cases():
         for topic, tr in _TRANSCRIPTS.items():
             for i in range(len(tr["exchanges"])):
                 why = KNOWN_DIFFERENCES.get((target, topic, i))
-                marks = [pytest.mark.xfail(strict=True, reason=f"issue 26: {why}")] if why else []
+                # a difference that depends on the host's timing (said '(timing: …)') may come
+                # out equal on a lighter or heavier load: not strict; every other one is
+                strict = why is not None and "(timing" not in why
+                marks = [pytest.mark.xfail(strict=strict, reason=f"issue 26: {why}")] if why else []
                 yield pytest.param(target, topic, i, marks=marks, id=f"{target}-{topic}-{i:03d}")
 
 
@@ -424,14 +427,15 @@ def main(argv):
 
 # ---------------------------------------------------------------------------------------------
 # Exchanges that differ from GRBL today: (target, topic, exchange index) -> the first difference
-# seen. Each runs as a strict xfail. After a fix, delete the entries that now XPASS, or print the
+# seen. Each runs as a strict xfail (those that depend on the host's timing, said '(timing: …)',
+# as plain xfails). After a fix, delete the entries that now XPASS, or print the
 # whole table afresh with `python tests/firmware/test_grbl_transcripts.py --table`.
 KNOWN_DIFFERENCES: dict[tuple[str, str, int], str] = {
     ('firmware', 'hold_resume', 10): "?: line 1: fields ['MPos', 'FS', 'Ov'], GRBL ['MPos', 'FS'] (timing: the "
                                      "machine's 500 mm/s2 ends the hold before this report, GRBL's 10 mm/s2 after "
                                      "it; Ov: follows the beam going off at the hold's end)",
-    ('firmware', 'hold_resume', 11): "?: line 1: fields ['MPos', 'FS'], GRBL ['MPos', 'FS', 'Ov'] (the same Ov:, "
-                                     "one report earlier)",
+    ('firmware', 'hold_resume', 11): "?: line 1: fields ['MPos', 'FS'], GRBL ['MPos', 'FS', 'Ov'] (timing: the "
+                                     "same Ov:, one report earlier)",
     ('firmware', 'program_flow', 4): "?: line 1: state 'Run', GRBL 'Hold:0' (timing: the recorder asked after "
                                      "GRBL's move had ended, the replay asks 0.3 s after M0)",
     ('firmware', 'settings', 71): "$200=1: line 1: 'error:38', GRBL 'error:3' (labkit's own $200+, intended)",
@@ -739,6 +743,9 @@ KNOWN_DIFFERENCES: dict[tuple[str, str, int], str] = {
     ('virtual', 'homing', 7): "$H: line 1: 'ok', GRBL 'error:5'",
     ('virtual', 'homing', 10): "?: line 1: fields ['MPos', 'Bf', 'FS', 'WCO'], GRBL ['MPos', 'FS', 'WCO']",
     ('virtual', 'homing', 14): "?: line 1: state 'Run', GRBL 'Idle'",
+    ('virtual', 'homing', 15): "$H: line 1: 'error:8', GRBL 'ok' (timing: the virtual machine answers G4 "
+                               "when its dwell is queued, GRBL when it has ended; on a loaded host the $H "
+                               "that follows finds the dwell still running)",
     ('virtual', 'homing', 16): "?: line 1: fields ['MPos', 'Bf', 'FS'], GRBL ['MPos', 'FS']",
     ('virtual', 'homing', 18): "$H: line 1: 'ok', GRBL 'ALARM:9'",
     ('virtual', 'homing', 19): "?: line 1: state 'Idle', GRBL 'Alarm'",

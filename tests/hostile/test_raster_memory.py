@@ -86,7 +86,8 @@ def test_image_size_is_checked_by_the_pixels_budget_before_decoding(tmp_path, mo
 #: Measured 163-166 B on the 500 × 450 photo with its preview (156-158 B without): Moves
 #: 123 B allocated, the G-code text, one block of the emitter's integer copies and output
 #: buffer, the summary's block temporaries and scikit-image's resampling (both commands load
-#: numba, and scipy with it: ~225 MB for the tiny image). Before issue 29's previews it was 239-243 B (matplotlib's import and
+#: numba, and scipy with it: ~225 MB for the tiny image; LABKIT_JIT=compiled makes the tiny
+#: one load them too, since the size rule runs it as Python). Before issue 29's previews it was 239-243 B (matplotlib's import and
 #: 2.8-megapixel burn image, the emitter's full-length copies), before issue 27 about 425 B.
 GRAY_BYTES_PER_MOVE = 200
 
@@ -103,7 +104,9 @@ def _peak_rss_mb(args, tmp_path):
 
     from tests.hostile.conftest import ROOT
 
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    # both runs load the compiled kernels (and numba, scipy with them) as the photo's job
+    # does by the size rule: the difference is the job's own memory, not an import
+    env = dict(os.environ, PYTHONPATH=str(ROOT), LABKIT_JIT="compiled")
     done = subprocess.run([sys.executable, "-c", _PEAK_RSS, sys.executable, "-m", "labkit", *map(str, args)],
                           capture_output=True, text=True, env=env, cwd=tmp_path, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]

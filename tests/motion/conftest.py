@@ -1,7 +1,7 @@
 """Fixtures of the motion tests."""
 
 import pytest
-from motion_jobs import random_polyline_moves, zigzag_moves
+from .motion_jobs import random_polyline_moves, zigzag_moves
 
 
 @pytest.fixture

@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 import pytest
-from motion_jobs import random_polyline_moves, zigzag_moves
+from .motion_jobs import random_polyline_moves, zigzag_moves
 
 from labkit.errors import MotionError
 from labkit.motion import CBR40, arc_lattice_points, lines_points

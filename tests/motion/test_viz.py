@@ -7,7 +7,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
-from motion_jobs import zigzag_moves  # noqa: E402
+from .motion_jobs import zigzag_moves  # noqa: E402
 
 from labkit.motion import block_profiles, line_points, plan, step_trace  # noqa: E402
 from labkit.toolpath import LaserMode, MovesBuilder  # noqa: E402
