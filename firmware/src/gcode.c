@@ -457,8 +457,8 @@ uint8_t gc_execute_line(char *line)
     if (!present[L_P] && !present[L_L]) return STATUS_MISSING_VALUE_WORD;
     double p = present[L_P] ? trunc(val[L_P]) : 0.0;
     if (p < 0 || p > SET_N_COORD) return STATUS_UNSUPPORTED_COORD_SYS;
-    int l = (int)trunc(val[L_L]);
-    if (l != 2 && l != 20) return STATUS_UNSUPPORTED_COMMAND;
+    double l = trunc(val[L_L]);       /* compared as a double: a huge L is no int */
+    if (l != 2.0 && l != 20.0) return STATUS_UNSUPPORTED_COMMAND;
     if (l == 2 && present[L_R]) return STATUS_UNSUPPORTED_COMMAND;
     coord_store = p > 0 ? (int)p - 1 : coord_new;
     for (int a = 0; a < 3; a++) {

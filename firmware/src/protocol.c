@@ -413,9 +413,11 @@ static uint8_t store_startup_line(const char *p) {
     if (st != STATUS_OK)
       return st;
   }
-  uint32_t n = (uint32_t)trunc(index);
-  if (n < SET_N_STARTUP) {            /* GRBL accepts (and loses) a higher index */
-    strcpy(settings.startup[n], text);
+  /* GRBL accepts (and loses) a higher or a negative index; compared as a double, since a
+     cast of a negative or huge one to an unsigned integer is undefined */
+  double n = trunc(index);
+  if (n >= 0.0 && n < SET_N_STARTUP) {
+    strcpy(settings.startup[(unsigned)n], text);
     settings_store();
   } else if (n == SET_N_STARTUP && settings.dialect == GC_DIALECT_GRBL) {
     /* GRBL 1.1h writes a third start-up line over its $I= text, which then fails its
