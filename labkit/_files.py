@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import math
 import os
 import stat
 import secrets
@@ -333,3 +334,18 @@ def read_toml(path, *, what: str, format: str, version: int) -> tuple[Path, dict
     if data.get("version") != version:
         raise InputError(f"{p}: version = {data.get('version')!r}; this labkit reads version {version}")
     return p, data
+
+
+def toml_number(where, key, value, *, lo=None, lo_open=False, whole=False):
+    """``value`` read from a TOML document as a number (``whole``: an integer) at least ``lo``
+    (above it with ``lo_open``); an InputError naming ``where`` and ``key`` otherwise."""
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    if ok and whole:
+        ok = float(value) == int(value)
+    if ok and lo is not None:
+        ok = value > lo if lo_open else value >= lo
+    if not ok:
+        kind = "a whole number" if whole else "a finite number"
+        bound = "" if lo is None else f" {'>' if lo_open else '>='} {lo:g}"
+        raise InputError(f"{where}: {key} = {value!r}; expected {kind}{bound}")
+    return int(value) if whole else float(value)

@@ -55,6 +55,7 @@ import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from labkit._files import toml_number
 from labkit.errors import InputError
 
 __all__ = ["FORMAT", "VERSION", "ORDER", "JobLayer", "JobFile", "read_job", "compose_job", "ComposedJob",
@@ -105,10 +106,7 @@ class JobFile:
     offset_mm: tuple = (0.0, 0.0)
 
 
-def _num(where, key, v, *, lo=None, lo_open=False, whole=False):
-    from labkit.materials import _number      # one checker for TOML numbers
-
-    return _number(where, key, v, lo=lo, lo_open=lo_open, whole=whole)
+_num = toml_number        # one checker for TOML numbers (labkit._files)
 
 
 def _pair(where, key, v):

@@ -53,6 +53,7 @@ import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from labkit._files import toml_number
 from labkit.errors import InputError
 
 __all__ = ["FORMAT", "VERSION", "OPERATIONS", "ORIGINS", "Setting", "Material", "Library",
@@ -186,19 +187,6 @@ def default_library_path(machine: str) -> Path:
 
 # --- reading -----------------------------------------------------------------------------------
 
-def _number(where, key, value, *, lo=None, lo_open=False, whole=False):
-    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-    if ok and whole:
-        ok = float(value) == int(value)
-    if ok and lo is not None:
-        ok = value > lo if lo_open else value >= lo
-    if not ok:
-        kind = "a whole number" if whole else "a finite number"
-        bound = "" if lo is None else f" {'>' if lo_open else '>='} {lo:g}"
-        raise InputError(f"{where}: {key} = {value!r}; expected {kind}{bound}")
-    return int(value) if whole else float(value)
-
-
 def _text(where, key, value):
     if not isinstance(value, str):
         raise InputError(f"{where}: {key} = {value!r}; expected a quoted string")
@@ -227,18 +215,18 @@ def _setting(where: str, d) -> Setting:
     origin = _text(where, "origin", d["origin"])
     if origin not in ORIGINS:
         raise InputError(f"{where}: origin = {origin!r}; expected one of {', '.join(ORIGINS)}")
-    s = Setting(origin=origin, power_mw=_number(where, "power_mw", d["power_mw"], lo=0),
-                speed_mm_min=_number(where, "speed_mm_min", d["speed_mm_min"], lo=0, lo_open=True),
-                passes=_number(where, "passes", d.get("passes", 1), lo=1, whole=True),
+    s = Setting(origin=origin, power_mw=toml_number(where, "power_mw", d["power_mw"], lo=0),
+                speed_mm_min=toml_number(where, "speed_mm_min", d["speed_mm_min"], lo=0, lo_open=True),
+                passes=toml_number(where, "passes", d.get("passes", 1), lo=1, whole=True),
                 note=_text(where, "note", d.get("note", "")))
     for key in ("line_interval_mm", "kerf_mm"):
         if key in d:
-            setattr(s, key, _number(where, key, d[key], lo=0, lo_open=True))
+            setattr(s, key, toml_number(where, key, d[key], lo=0, lo_open=True))
     if "kerf_ci_mm" in d:
         ci = d["kerf_ci_mm"]
         if not (isinstance(ci, list) and len(ci) == 2):
             raise InputError(f"{where}: kerf_ci_mm = {ci!r}; expected [low, high] in mm")
-        s.kerf_ci_mm = tuple(_number(where, "kerf_ci_mm", c, lo=0) for c in ci)
+        s.kerf_ci_mm = tuple(toml_number(where, "kerf_ci_mm", c, lo=0) for c in ci)
     for key in ("air", "dynamic"):
         if key in d:
             setattr(s, key, _flag(where, key, d[key]))
@@ -287,7 +275,7 @@ def read_library(path) -> Library:
         _unknown(where, table, _MATERIAL_KEYS)
         m = Material(name=name, note=_text(where, "note", table.get("note", "")))
         if "thickness_mm" in table:
-            m.thickness_mm = _number(where, "thickness_mm", table["thickness_mm"], lo=0, lo_open=True)
+            m.thickness_mm = toml_number(where, "thickness_mm", table["thickness_mm"], lo=0, lo_open=True)
         for op in OPERATIONS:
             if op in table:
                 m.operations[op] = _setting(f"{where}, {op}", table[op])
