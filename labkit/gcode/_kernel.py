@@ -303,8 +303,10 @@ RECORD_ROW = np.dtype((np.record, [("line", np.int64), ("kind", np.int64), ("spa
 #: (mm, machine); coolant (bit 0 M7, bit 1 M8). Then what the line itself did: ``syncing``
 #: (it waits for the planner to empty before it runs, on GRBL: a dwell, G10, G28, G30, G92,
 #: a program stop or end, a laser or coolant M word), ``axis_words`` (X, Y or Z in a G-code
-#: line), ``motion_word`` (a motion-group G word: G0-G3, G38.x, G80) and ``sets_offsets``
-#: (G10, G28, G30, G92, G92.1, G43.1, G49, M2, M30). A rejected line did nothing.
+#: line), ``motion_word`` (a motion-group G word: G0-G3, G38.x, G80), ``sets_offsets``
+#: (G10, G28, G30, G92, G92.1, G43.1, G49, M2, M30), ``states_units`` (G20 or G21),
+#: ``states_distance`` (G90 or G91), ``states_coord_system`` (one of G54…G59) and
+#: ``machine_coords`` (G53: its axis words are machine positions). A rejected line did nothing.
 TRACE_ROW = np.dtype((np.record, [("motion", np.float64), ("plane", np.float64), ("units", np.float64),
                       ("distance", np.float64), ("arc_distance", np.float64),
                       ("feed_mm_min", np.float64), ("power_s", np.float64),
@@ -314,7 +316,9 @@ TRACE_ROW = np.dtype((np.record, [("motion", np.float64), ("plane", np.float64),
                       ("feed_mode", np.float64), ("coolant", np.int64),
                       ("home28", np.float64, (3,)), ("home30", np.float64, (3,)),
                       ("syncing", np.bool_), ("axis_words", np.bool_), ("motion_word", np.bool_),
-                      ("sets_offsets", np.bool_)]))
+                      ("sets_offsets", np.bool_), ("states_units", np.bool_),
+                      ("states_distance", np.bool_), ("states_coord_system", np.bool_),
+                      ("machine_coords", np.bool_)]))
 
 
 def initial_state() -> np.ndarray:
@@ -358,6 +362,20 @@ def _put_state(t, motion, plane, inches, absolute, arc_absolute, feed, power, la
     t.tool_offset = tlo
     t.feed_mode = 93 if inverse else 94
     t.coolant = cool
+
+
+@jit
+def _put_flags(t, syncing, axis_words, motion_word, sets_offsets, states_units, states_distance,
+               states_coord_system, machine_coords):
+    """Write what the line itself did into trace record ``t`` (see :data:`TRACE_ROW`)."""
+    t.syncing = syncing
+    t.axis_words = axis_words
+    t.motion_word = motion_word
+    t.sets_offsets = sets_offsets
+    t.states_units = states_units
+    t.states_distance = states_distance
+    t.states_coord_system = states_coord_system
+    t.machine_coords = machine_coords
 
 
 @jit(python_below=150_000)  # bytes of text: ~3 µs each as Python vs ~0.6 s to load compiled
@@ -450,6 +468,10 @@ def interpret(buf, options, lenient, max_errors, trace):
         line_axes = False
         line_motion = False
         line_offsets = False
+        line_units = False
+        line_distance = False
+        line_coords = False
+        line_machine = False
 
         err = OK
         detail = D_NONE
@@ -1181,22 +1203,22 @@ def interpret(buf, options, lenient, max_errors, trace):
         line_offsets = did and (nonmodal == 100 or nonmodal == 280 or nonmodal == 300
                                 or nonmodal == 920 or nonmodal == 921 or tlo_cmd != 0
                                 or stop == 2 or stop == 30)
+        line_units = did and (groups & (1 << G_UNITS)) != 0
+        line_distance = did and (groups & (1 << G_DISTANCE)) != 0
+        line_coords = did and (groups & (1 << G_COORD)) != 0
+        line_machine = did and machine_coords
         if trace:
             t = states[lineno - 1]
             _put_state(t, motion, plane, inches, absolute, arc_absolute, feed, power, laser, pos,
                        coord, wcs, g92, tlo, inverse, cool, home28, home30)
-            t.syncing = line_syncs
-            t.axis_words = line_axes
-            t.motion_word = line_motion
-            t.sets_offsets = line_offsets
+            _put_flags(t, line_syncs, line_axes, line_motion, line_offsets, line_units,
+                       line_distance, line_coords, line_machine)
         ls = le + 1
 
     end_state = np.zeros(1, TRACE_ROW)
     _put_state(end_state[0], motion, plane, inches, absolute, arc_absolute, feed, power, laser, pos,
                coord, wcs, g92, tlo, inverse, cool, home28, home30)
-    end_state[0].syncing = line_syncs
-    end_state[0].axis_words = line_axes
-    end_state[0].motion_word = line_motion
-    end_state[0].sets_offsets = line_offsets
+    _put_flags(end_state[0], line_syncs, line_axes, line_motion, line_offsets, line_units,
+               line_distance, line_coords, line_machine)
     return Interpretation(rows[:nrows], errs[:nerr], nerr_total, recs[:nrec],
                           states[:lineno] if trace else states, end_state)

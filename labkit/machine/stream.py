@@ -37,7 +37,6 @@ from __future__ import annotations
 import atexit
 import bisect
 import math
-import re
 import threading
 import time
 from collections import deque
@@ -90,6 +89,9 @@ class Job:
         (the interpreter trace's ``syncing``; read once here, not per line sent).
     axis_words : list of bool
         Per entry of ``send``: an accepted G-code line with X, Y or Z (the trace's ``axis_words``).
+    trace : ndarray
+        Per entry of ``send``: the interpreter's trace row (:func:`labkit.gcode.state.line_states`),
+        whose flags say what each line states (units, distance mode, coordinate system, offsets).
     """
 
     source_lines: list
@@ -102,12 +104,15 @@ class Job:
     dialect: str = "grbl"
     syncing: list | None = None
     axis_words: list | None = None
+    trace: np.ndarray | None = None
 
     def __post_init__(self):
-        if self.syncing is None or self.axis_words is None:   # not from from_text: read the lines
-            trace = _send_trace([t for _, t in self.send], self.dialect)
-            self.syncing = _syncing([t for _, t in self.send], trace)
-            self.axis_words = [bool(v) for v in trace["axis_words"]]
+        if self.trace is None:              # not from from_text: read the lines
+            self.trace = _send_trace([t for _, t in self.send], self.dialect)
+        if self.syncing is None:
+            self.syncing = _syncing([t for _, t in self.send], self.trace)
+        if self.axis_words is None:
+            self.axis_words = [bool(v) for v in self.trace["axis_words"]]
 
     @classmethod
     def from_text(cls, text: str, *, filename: str | None = None, dialect: str = "grbl",
@@ -174,7 +179,7 @@ class Job:
         trace, _ = line_states(text, dialect=dialect)
         rows = trace[[k - 1 for k, _ in send]]      # the interpreter numbers lines as split here
         return cls(source, send, moves, blocks, done_at, job_time, filename, dialect,
-                   _syncing([t for _, t in send], rows), [bool(v) for v in rows["axis_words"]])
+                   _syncing([t for _, t in send], rows), [bool(v) for v in rows["axis_words"]], rows)
 
     @classmethod
     def from_file(cls, path, **kw) -> "Job":
@@ -1263,20 +1268,15 @@ def check_job(grbl: Grbl, job: Job, *, stop=None) -> list:
 
 # -- pre-flight ---------------------------------------------------------------------------------
 
-_G_WORD = re.compile(r"G0*(\d+(?:\.\d+)?)")
-_OWN_OFFSETS = re.compile(r"G10|G92|G0*53(?![.\d])|G0*28(?![.\d])|G0*30(?![.\d])")
-
-
-def _modes_before_motion(job: Job) -> set:
-    """G numbers the job states before (or on) its first line with coordinates."""
-    seen = set()
-    for (_, text), moves in zip(job.send, job.axis_words):
-        if text.startswith("$"):
-            continue
-        seen.update(float(g) for g in _G_WORD.findall(text))
+def _states_before_motion(job: Job, flag: str) -> bool:
+    """Whether a line before (or on) the job's first line with coordinates states what the
+    trace's ``flag`` names (``states_units``, ``states_distance``)."""
+    for stated, moves in zip(job.trace[flag], job.axis_words):
+        if stated:
+            return True
         if moves:
-            break
-    return seen
+            return False
+    return False
 
 
 def _virtual_machine(link):
@@ -1309,10 +1309,13 @@ def _job_extents(moves) -> tuple:
 def _work_offset(grbl: Grbl, job: Job, parser: list, status) -> tuple:
     """The offset the controller will add to the job's coordinates (mm), and how it was found;
     None when the job sets or selects offsets of its own (then the travel is not checked)."""
-    if any(_OWN_OFFSETS.search(t) for _, t in job.send if not t.startswith("$")):
-        return None, "the job sets its own offsets (G10, G92, G53, G28/G30)"
-    chosen = {f"G{int(g)}" for _, t in job.send for g in map(float, _G_WORD.findall(t))
-              if 54 <= g <= 59 and g == int(g)}
+    t = job.trace
+    motion = np.asarray(job.moves.line)[np.asarray(job.moves.is_motion, bool)]
+    last = int(motion.max()) if len(motion) else 0      # offsets set after it move nothing
+    before = np.array([ln <= last for ln, _ in job.send], bool)
+    if np.any((t["sets_offsets"] | t["machine_coords"]) & before):
+        return None, "the job sets its own offsets (G10, G92, G53, G28/G30, G43.1/G49)"
+    chosen = {f"G{int(c)}" for c in t["coord_system"][t["states_coord_system"]]}
     active = next((w for w in parser if w in ("G54", "G55", "G56", "G57", "G58", "G59")), None)
     if len(chosen) > 1:
         return None, f"the job uses several coordinate systems ({', '.join(sorted(chosen))})"
@@ -1408,13 +1411,12 @@ def preflight_check(grbl: Grbl, job: Job, *, machine=None, status=None) -> tuple
         parser = []
         notes.append(f"note: the parser state ($G) could not be read ({exc}): units and "
                      f"distance mode not checked")
-    modes = _modes_before_motion(job)
     first_move = next((ln for (ln, _), moves in zip(job.send, job.axis_words) if moves), None)
-    if "G20" in parser and not modes & {20.0, 21.0}:
+    if "G20" in parser and not _states_before_motion(job, "states_units"):
         problems.append(f"the controller is in inches (G20) and the job does not say its units "
                         f"before its first move (line {first_move}): every coordinate would be "
                         f"read in inches, 25.4 times too far; add G21 at the top of the job")
-    if "G91" in parser and not modes & {90.0, 91.0}:
+    if "G91" in parser and not _states_before_motion(job, "states_distance"):
         problems.append(f"the controller is in relative mode (G91) and the job does not say its "
                         f"distance mode before its first move (line {first_move}): add G90 at "
                         f"the top of the job")

@@ -64,6 +64,25 @@ def test_syncing_names_the_lines_grbl_runs_only_on_an_empty_planner():
                                          False, False, False, False, False]
 
 
+def test_flags_name_what_each_line_states():
+    # worked by hand from GRBL's modal groups: group 6 (G20 G21) the units, group 3 (G90 G91)
+    # the distance mode, group 12 (G54…G59) the coordinate system; G53 is non-modal (its axis
+    # words are machine positions). A state kept from an earlier line is not stated again,
+    # G90.1 is the arc-centre group, and a rejected or $ line states nothing.
+    lines = ["G21", "G91 G1 X1 F100", "G55", "G53 G0 X0", "G90.1", "G20 G20", "$G", "X2",
+             "G0 G54 G90 G20 Y1"]
+    trace, _ = line_states("\n".join(lines))
+    assert trace["states_units"].tolist() == [True, False, False, False, False, False, False,
+                                              False, True]
+    assert trace["states_distance"].tolist() == [False, True, False, False, False, False, False,
+                                                 False, True]
+    assert trace["states_coord_system"].tolist() == [False, False, True, False, False, False,
+                                                     False, False, True]
+    assert trace["machine_coords"].tolist() == [False, False, False, True, False, False, False,
+                                                False, False]
+    assert trace["coord_system"][[2, 8]].tolist() == [55, 54]
+
+
 def _same(a: ModalState, b: ModalState, *, motion=True):
     assert np.allclose(a.position, b.position, atol=1e-9, rtol=0)
     assert np.allclose(a.work_offset, b.work_offset, atol=1e-9, rtol=0)
@@ -162,3 +181,19 @@ def test_interpreter_keeps_the_state_of_a_rejected_line_and_says_why():
     assert error is None and moves.end[0].tolist() == [25.4, 0.0, 0.0]
     with pytest.raises(ValueError, match="one line"):
         it.feed("G0 X1\nG0 X2")
+
+
+def test_trace_as_python_equals_compiled():
+    """The trace's per-line flags and state, both ways the interpreter runs (a twin of
+    tests/test_jit.py's parse check, for what only the trace carries)."""
+    from labkit import _jit
+
+    text = (DATA / "jsdc-laser.gcode").read_text()[:20_000] + (
+        "G20 G91 G55\nG53 G0 X1\nG10 L2 P1 X3\nG43.1 Z1\nG1 X1 X2\nM2\n")
+    with _jit.forced("python"):
+        a, _ = line_states(text)
+    with _jit.forced("compiled"):
+        b, _ = line_states(text)
+    for name in a.dtype.names:
+        assert np.array_equal(a[name], b[name], equal_nan=a[name].dtype.kind == "f"), name
+    assert a["states_units"].any() and a["machine_coords"].any() and a["sets_offsets"].any()

@@ -103,6 +103,40 @@ def test_the_controllers_own_alarm_is_what_the_check_foresees():
     g.close()
 
 
+@pytest.mark.parametrize("own", ["G92 X0 Y0", "G10 L2 P1 X5", "G53 G0 X1", "G43.1 Z1", "G28"])
+def test_a_job_setting_its_own_offsets_before_it_ends_is_not_travel_checked(own):
+    # the offsets read from $# no longer hold once the job sets or escapes them: a note,
+    # never a refusal computed with the wrong offset
+    vm, g = machine()
+    soft_limits_on(g)
+    problems, notes = preflight_check(g, burn(f"G21 G90\n{own}\nM4 S300 F1200\nG1 X10 Y-5\nM5\n"))
+    assert problems == [] and any("sets its own offsets" in n for n in notes), notes
+    g.close()
+
+
+def test_a_program_end_after_the_last_move_keeps_the_travel_checked():
+    # M2 and M30 reset the coordinate system (the trace's sets_offsets), but after the last
+    # move: the job's extent is still where the controller's offsets put it
+    vm, g = machine()
+    soft_limits_on(g)
+    for end in ("M2", "M30"):
+        problems, _ = preflight_check(g, burn(f"G21 G90\nM4 S300 F1200\nG1 X10 Y-5\nM5\n{end}\n"))
+        assert len(problems) == 1 and problems[0].startswith("line 3 "), problems
+    g.close()
+
+
+def test_the_coordinate_system_the_job_selects_is_the_one_checked():
+    vm, g = machine()
+    soft_limits_on(g)
+    g.command("G10 L2 P2 X0 Y50")                     # G55's origin 50 mm up: Y-5 is inside
+    job = "G21 G90 {}\nM4 S300 F1200\nG1 X10 Y-5\nM5\n"
+    assert preflight_check(g, burn(job.format("G55")))[0] == []
+    assert preflight_check(g, burn(job.format("G54")))[0][0].startswith("line 3 ")
+    _, notes = preflight_check(g, burn(job.format("G55") + "G54\nG1 X1\n"))
+    assert any("several coordinate systems (G54, G55)" in n for n in notes), notes
+    g.close()
+
+
 def test_a_job_larger_than_the_machine_is_refused():
     vm, g = machine()
     text = "G21 G90\nG0 X0 Y0\nM4 S300 F3000\nG1 X350\nG1 Y10\nM5\n"
