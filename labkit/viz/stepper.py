@@ -3,21 +3,32 @@
 The controller's view of a program is its modal state after each line. This widget
 shows exactly that, one line at a time: the listing with the current line
 highlighted, the state after it (motion mode, units, distance mode, feed, power,
-laser) and the tool's position on the path drawn so far — driven by
-:func:`labkit.gcode.modal_trace` and the parsed Moves, so it shows what labkit's
-parser (and a GRBL controller) does, not a separate model.
+laser) and the tool's position on the path drawn so far. The lines go one by one
+through :class:`labkit.gcode.Interpreter`, as a controller reads them, so it shows
+what labkit's parser (and a GRBL controller) does, not a separate model.
 """
 
 from __future__ import annotations
 
 import html
+import math
 
 __all__ = ["gcode_stepper", "listing_html", "state_html"]
 
-#: Columns of the modal trace shown under the listing, with their labels for students.
-STATE_COLUMNS = {"motion": "motion", "units": "units", "distance": "distance", "plane": "plane",
-                 "feed_mm_min": "feed (mm/min)", "S": "power S", "laser": "laser",
-                 "x": "X (mm)", "y": "Y (mm)", "z": "Z (mm)"}
+#: What the table under the listing shows of a :class:`~labkit.gcode.ModalState`, labelled
+#: for students: each entry is (label, the words for a state).
+STATE_ROWS = (
+    ("motion", lambda s: f"G{s.motion:g}" if s.motion < 100 else f"G{s.motion / 10:g}"),
+    ("units", lambda s: f"G{s.units}"),
+    ("distance", lambda s: f"G{s.distance}"),
+    ("plane", lambda s: f"G{s.plane}"),
+    ("feed (mm/min)", lambda s: "not set" if math.isnan(s.feed_mm_min) else f"{s.feed_mm_min:g}"),
+    ("power S", lambda s: f"{s.s_word:g}"),
+    ("laser", lambda s: f"M{s.laser}"),
+    ("X (mm)", lambda s: f"{s.position[0]:g}"),
+    ("Y (mm)", lambda s: f"{s.position[1]:g}"),
+    ("Z (mm)", lambda s: f"{s.position[2]:g}"),
+)
 
 
 def listing_html(lines, current: int) -> str:
@@ -40,16 +51,17 @@ def listing_html(lines, current: int) -> str:
     return '<pre style="line-height:1.35;margin:0">' + "\n".join(rows) + "</pre>"
 
 
-def state_html(row) -> str:
-    """The modal state of one trace row (a mapping of :data:`STATE_COLUMNS`) as a small HTML table."""
-    cells = []
-    for key, label in STATE_COLUMNS.items():
-        value = row[key]
-        if isinstance(value, float):
-            text = "not set" if value != value else f"{value:g}"      # NaN: no F word seen yet
-        else:
-            text = str(value)
-        cells.append(f"<tr><td style='padding-right:1em'>{label}</td><td><b>{html.escape(text)}</b></td></tr>")
+def state_html(state) -> str:
+    """A :class:`~labkit.gcode.ModalState` as a small HTML table (:data:`STATE_ROWS`).
+
+    Examples
+    --------
+    >>> from labkit.gcode import ModalState
+    >>> "<td style='padding-right:1em'>feed (mm/min)</td><td><b>not set</b>" in state_html(ModalState())
+    True
+    """
+    cells = [f"<tr><td style='padding-right:1em'>{label}</td><td><b>{html.escape(words(state))}</b></td></tr>"
+             for label, words in STATE_ROWS]
     return "<table>" + "".join(cells) + "</table>"
 
 
@@ -73,15 +85,23 @@ def gcode_stepper(text: str, *, dialect: str = "grbl", interval_ms: int = 900):
     """
     import ipywidgets as w
     import matplotlib.pyplot as plt
+    import numpy as np
 
-    from labkit.gcode import modal_trace, parse
+    from labkit.gcode import Interpreter
+    from labkit.toolpath import Moves
     from labkit.viz._widgets import show
     from labkit.viz.gcode import plot_moves
 
     lines = text.rstrip("\n").split("\n")
-    trace = modal_trace(text, dialect=dialect)
-    moves = parse(text, dialect=dialect, lenient=True)
-    import numpy as np
+    reader = Interpreter(dialect)
+    parts, states, errors = [], [], []
+    for k, source in enumerate(lines, start=1):
+        moves, error = reader.feed(source)
+        moves.line[:] = k                  # fed one at a time, each line reads as line 1
+        parts.append(moves)
+        states.append(reader.state)        # a rejected line keeps the state before it
+        errors.append(error)
+    moves = Moves.concat(parts)
 
     ends = np.vstack([moves.start[:, :2], moves.end[:, :2], [[0.0, 0.0]]])
     lo, hi = ends.min(axis=0), ends.max(axis=0)
@@ -97,15 +117,9 @@ def gcode_stepper(text: str, *, dialect: str = "grbl", interval_ms: int = 900):
     def redraw(*_):
         k = line.value
         listing.value = listing_html(lines, k)
-        rows = trace[trace["line"] <= k]
-        if len(rows):
-            row = rows.iloc[-1]
-            error = int(row["error"])
-            state.value = state_html(row) + (f"<p style='color:#b00'>error {error} on this line</p>"
-                                             if error and int(row["line"]) == k else "")
-            x, y = float(row["x"]), float(row["y"])
-        else:
-            state.value, x, y = "", 0.0, 0.0
+        state.value = state_html(states[k - 1]) + (
+            f"<p style='color:#b00'>error {errors[k - 1].code} on this line</p>" if errors[k - 1] else "")
+        x, y = states[k - 1].position[:2]
         fig, ax = plt.subplots(figsize=(4.6, 4.0))
         done = moves[moves.line <= k] if len(moves) else moves
         if len(done):
