@@ -1,161 +1,549 @@
-"""Predict a program's burn, then check a scan of the real burn against it (issue 31 §4, a first part).
+"""Predict a program's burn, then check a scan of the real burn against it (issue 31 §4).
 
 The prediction is :func:`labkit.laser.simulate.simulate_burn`'s: the planned motion's dose through
-the material's fitted dose model (``w0_mm``, ``fth_mj_mm2``), M3 or M4 as the program says. A scan is
-compared as a burned/not-burned mask on the prediction's pixel grid (threshold a grey scan first, and
-resample it to that grid: :mod:`labkit.laser.measure` registers and scales real scans):
+the material's fitted dose model (``w0_mm``, ``fth_mj_mm2``), M3 or M4 as the program says. Its
+*predicted darkness* is the burned share of each pixel (:attr:`~labkit.laser.simulate.Burn.coverage`),
+averaged over the scan's pixel when a scan is compared: 0 is paper, 1 a solid burn.
+
+A scan's darkness is ``1 − grey / paper`` (as :mod:`labkit.laser.tone` measures a wedge), divided by
+the darkness of a solid burn — the material's, given, or the scan's own median where the prediction
+says solid (so a uniformly pale burn is found only when the solid darkness is given). Then:
 
 1. **registration** — the scan's shift against the prediction by phase correlation (scikit-image's
-   ``phase_cross_correlation``, to a tenth of a pixel), reported in mm and undone;
-2. **differences** — *missing* burn (predicted, not in the scan) and *extra* burn (in the scan, not
-   predicted), each as connected regions larger than one beam spot, with their area and bounding box;
-3. **per layer** — the program's layers are told apart by the S of their moves: each region is
-   credited to the layer whose predicted burn lies nearest.
+   ``phase_cross_correlation``, to a tenth of a pixel), undone; for a scan file the prediction is
+   found in the scan first (zero-padded correlation, so the piece may lie anywhere on it);
+2. **each layer's own shift** — the program's layers are told apart by their power (S); each
+   layer's zone (the pixels nearer its burn than any other's, within ``2·w0`` of it) is registered
+   again, so a layer that landed 0.1 mm off the others (lost steps, a re-homed head) is measured,
+   reported and undone before the areas are compared;
+3. **differences** — *missing* burn (predicted, not in the scan) and *extra* burn (in the scan, not
+   predicted), a pixel counting as burned at half the solid darkness; and, where both burned,
+   regions *lighter* or *darker* than predicted by more than ``tolerance`` (a share of the solid
+   darkness) — each as connected regions of at least one beam spot (π·w0²) with area, bounding box,
+   layer and mean darkness difference;
+4. **numbers per layer and over the part** — burned areas predicted and scanned, missing and extra
+   area, the area difference per millimetre of burning path (a line's width change), and the mean
+   darkness over the predicted burn, predicted and scanned.
 
-What it does not do yet: darkness (a grey scan's level against the dose), a width per line, a
-picture written by a command, and real scans (they go through ``labkit.laser.measure`` first).
+Not handled: a scan turned on the scanner (a turn of 0.1° moves the far end of a 50 mm part by
+0.09 mm: square the piece, or register it with :mod:`labkit.laser.measure` first), a scan whose
+scale is not its stated dpi, and materials whose darkness is not proportional to the burned share
+(a grey engraving's tone curve, :mod:`labkit.laser.tone`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
 from labkit.errors import InputError
 
-__all__ = ["BurnDefect", "BurnCheck", "predict_burn", "check_burn", "overlay"]
+__all__ = ["BurnDefect", "LayerCheck", "BurnCheck", "predict_burn", "predicted_scan", "scan_darkness",
+           "check_burn", "check_scan", "overlay"]
+
+_MM_PER_INCH = 25.4
+# Burn.scan draws paper at 0.9 and a solid burn at 0.1: the predicted scan's darkness is read back
+# through these two levels (tests/job/test_burncheck.py checks them against Burn.scan)
+_PAPER, _SOLID = 0.9, 0.1
+# the colours of the overlay picture
+_COLOURS = {"missing": (220, 30, 30), "extra": (30, 60, 220), "light": (240, 150, 0), "dark": (150, 0, 170)}
 
 
 @dataclass
 class BurnDefect:
-    """One region where the scan differs from the prediction."""
+    """One region where the scan differs from the prediction.
 
-    kind: str                      #: "missing" or "extra"
+    Attributes
+    ----------
+    kind : str
+        "missing", "extra", "light" or "dark".
+    area_mm2 : float
+        The region's area, mm².
+    bbox_mm : tuple
+        (x0, y0, x1, y1) of its pixel centres, mm.
+    layer_s : float or None
+        S of the layer whose predicted burn lies nearest (None: no layer near, or layers unknown).
+    darkness : float or None
+        Mean darkness difference over the region, scan − prediction (1 = a solid burn).
+    """
+
+    kind: str
     area_mm2: float
-    bbox_mm: tuple                 #: (x0, y0, x1, y1)
-    layer_s: float | None = None   #: S of the nearest predicted layer
+    bbox_mm: tuple
+    layer_s: float | None = None
+    darkness: float | None = None
+
+
+@dataclass
+class LayerCheck:
+    """Numbers for one layer (``power_s`` its S) or, with ``power_s`` None, for the whole part.
+
+    Areas in mm², ``length_mm`` the burning path's length, ``width_change_mm`` the burned-area
+    difference (scanned − predicted) per mm of that path, darkness means over the predicted
+    burn (1 = a solid burn) and ``shift_mm`` the layer's shift against the rest of the part.
+    """
+
+    power_s: float | None
+    length_mm: float
+    predicted_mm2: float
+    scanned_mm2: float
+    missing_mm2: float
+    extra_mm2: float
+    width_change_mm: float
+    predicted_darkness: float
+    scanned_darkness: float
+    shift_mm: tuple = (0.0, 0.0)
+
+    @property
+    def darkness_change(self) -> float:
+        """Scanned − predicted mean darkness over the predicted burn."""
+        return self.scanned_darkness - self.predicted_darkness
 
 
 @dataclass
 class BurnCheck:
-    """The comparison: the registration shift and the defects, largest first."""
+    """The comparison: where the scan lay, the defects (largest first), per-layer and part numbers.
 
-    shift_mm: tuple                #: (dx, dy) of the scan against the prediction, mm
+    ``shift_mm`` is the scan's shift against the prediction: on the prediction's own grid
+    (:func:`check_burn`) a shift of the whole burn; in a scan file (:func:`check_scan`) where the
+    piece lies on the scanner, which says nothing about the burn.
+    """
+
+    shift_mm: tuple
     predicted_mm2: float
     scanned_mm2: float
     defects: list = field(default_factory=list)
+    layers: list = field(default_factory=list)
+    part: LayerCheck | None = None
+    solid_darkness: float = 1.0
+    solid_darkness_given: bool = False
+    pixel_mm: float = 0.0
+    in_scan: bool = False
+    predicted: np.ndarray | None = field(default=None, repr=False)    #: predicted darkness, row 0 = low y
+    scanned: np.ndarray | None = field(default=None, repr=False)      #: registered scan darkness, same grid
+    extent_mm: tuple = field(default=(0.0, 0.0, 0.0, 0.0), repr=False)  #: (left, right, bottom, top)
+    _regions: dict = field(default_factory=dict, repr=False)
 
     def summary(self) -> str:
         """The comparison in words."""
-        lines = [f"scan shifted by ({self.shift_mm[0]:+.3f}, {self.shift_mm[1]:+.3f}) mm; burned "
-                 f"{self.scanned_mm2:.2f} mm² against {self.predicted_mm2:.2f} mm² predicted"]
+        where = "scan found at" if self.in_scan else "scan shifted by"
+        solid = "given" if self.solid_darkness_given else "the scan's, where the prediction is solid"
+        lines = [f"{where} ({self.shift_mm[0]:+.3f}, {self.shift_mm[1]:+.3f}) mm; burned "
+                 f"{self.scanned_mm2:.2f} mm² against {self.predicted_mm2:.2f} mm² predicted; "
+                 f"solid darkness {self.solid_darkness:.3f} ({solid})"]
+        if self.layers:
+            lines.append("  layer    path mm  pred mm²  scan mm²  missing  extra  width Δ mm  dark pred  scan"
+                         "     shift mm")
+            for L in self.layers + [self.part]:
+                name = "part" if L.power_s is None else f"S{L.power_s:g}"
+                lines.append(f"  {name:<7}{L.length_mm:9.1f}{L.predicted_mm2:10.2f}{L.scanned_mm2:10.2f}"
+                             f"{L.missing_mm2:9.2f}{L.extra_mm2:7.2f}{L.width_change_mm:+11.3f}"
+                             f"{L.predicted_darkness:11.2f}{L.scanned_darkness:6.2f}"
+                             + ("" if L.power_s is None else f"  ({L.shift_mm[0]:+.3f}, {L.shift_mm[1]:+.3f})"))
         for d in self.defects:
             x0, y0, x1, y1 = d.bbox_mm
             lines.append(f"  {d.kind:<7} {d.area_mm2:7.3f} mm² at x {x0:.2f}…{x1:.2f}, y {y0:.2f}…{y1:.2f} mm"
+                         + (f", darkness {d.darkness:+.2f}" if d.darkness is not None else "")
                          + (f" (layer S{d.layer_s:g})" if d.layer_s is not None else ""))
         if not self.defects:
             lines.append("  no region differs by more than one beam spot")
         return "\n".join(lines)
 
+    def to_dict(self) -> dict:
+        """The numbers as plain JSON-ready values (no pictures)."""
+        return {"shift_mm": list(self.shift_mm), "in_scan": self.in_scan, "pixel_mm": self.pixel_mm,
+                "predicted_mm2": self.predicted_mm2, "scanned_mm2": self.scanned_mm2,
+                "solid_darkness": self.solid_darkness, "solid_darkness_given": self.solid_darkness_given,
+                "layers": [asdict(L) | {"shift_mm": list(L.shift_mm)} for L in self.layers],
+                "part": asdict(self.part) if self.part is not None else None,
+                "defects": [asdict(d) | {"bbox_mm": list(d.bbox_mm)} for d in self.defects]}
+
+    def overlay(self) -> np.ndarray:
+        """An RGB picture (uint8, rows top = high y): the registered scan in grey, missing burn red,
+        extra blue, lighter than predicted orange, darker purple."""
+        if self.scanned is None:
+            raise InputError("this comparison kept no pictures")
+        grey = np.clip(255 * (1 - 0.85 * np.clip(self.scanned, 0, 1)), 0, 255).astype(np.uint8)
+        img = np.repeat(grey[..., None], 3, axis=2)
+        for kind, mask in self._regions.items():
+            img[mask] = _COLOURS[kind]
+        return img[::-1]
+
 
 def predict_burn(moves, *, w0_mm: float, fth_mj_mm2: float, pixel_mm: float | None = None, machine=None):
-    """The burned mask a program leaves in a material of the given dose model.
+    """The burn a program leaves in a material of the given dose model.
+
+    Parameters
+    ----------
+    moves : Moves
+        The program.
+    w0_mm, fth_mj_mm2 : float
+        The dose model: 1/e² beam radius (mm) and threshold fluence (mJ/mm²).
+    pixel_mm : float, optional
+        Grid spacing, mm (default w0 / 8).
+    machine : str or MachineSpec, optional
+        The machine whose planner moves the head (default: labkit's default machine).
 
     Returns
     -------
     burn : labkit.laser.simulate.Burn
-        ``burn.burned`` is the mask (row 0 at ``burn.y_mm[0]``), ``burn.x_mm``/``y_mm`` its pixel centres.
+        ``burn.burned`` is the mask (row 0 at ``burn.y_mm[0]``), ``burn.coverage`` the burned share.
     """
     from labkit.laser.simulate import simulate_burn
 
     return simulate_burn(moves, w0_mm=w0_mm, fth_mj_mm2=fth_mj_mm2, pixel_mm=pixel_mm, machine=machine)
 
 
-def _layer_map(burn, moves):
-    """For each pixel, the S of the nearest predicted burned pixel's layer (NaN far from any)."""
+def predicted_scan(burn, *, dpi: float = 600.0, margin_mm: float = 0.0) -> np.ndarray:
+    """The scan a burn should give: grey 0…1 (paper 0.9, solid burn 0.1), rows down, y up, at ``dpi``.
+
+    It is the prediction a scan is compared with, and written as a PNG by ``labkit burncheck
+    predict``; ``margin_mm`` of paper surrounds it.
+    """
+    return burn.scan(dpi=dpi, margin_mm=margin_mm)
+
+
+def scan_darkness(image, *, paper: float | None = None) -> np.ndarray:
+    """A grey scan's darkness, ``1 − grey / paper`` (0 paper, about 0.9 a charred burn).
+
+    Parameters
+    ----------
+    image : ndarray, 2-D
+        Grey 0…1, paper light and burn dark.
+    paper : float, optional
+        The paper's grey level (default: the median of the light pixels, Otsu's threshold between
+        light and dark).
+
+    Examples
+    --------
+    >>> img = np.full((4, 4), 0.8); img[1:3, 1:3] = 0.2
+    >>> scan_darkness(img)[1, :2].round(3).tolist()      # paper, then the burn
+    [0.0, 0.75]
+    """
+    img = np.asarray(image, float)
+    if img.ndim != 2 or img.size < 4 or not np.isfinite(img).all():
+        raise InputError(f"the scan must be a 2-D grey image of finite values; got shape {img.shape}")
+    if paper is None:
+        from skimage.filters import threshold_otsu
+
+        light = img > threshold_otsu(img) if np.ptp(img) > 0 else np.ones(img.shape, bool)
+        paper = float(np.median(img[light]))
+    if not paper > 0:
+        raise InputError(f"the scan's paper level must be > 0, got {paper!r} (is the scan black?)")
+    return 1.0 - img / paper
+
+
+def _register(reference, moving, *, pad: bool = False):
+    """(row, col) shift that lands ``moving`` on ``reference``, to a tenth of a pixel."""
+    from skimage.registration import phase_cross_correlation
+
+    if not (np.ptp(reference) > 0 and np.ptp(moving) > 0):
+        return np.zeros(2)
+    if pad:       # linear, not circular, correlation: the piece may lie anywhere on a larger scan
+        shape = tuple(a + b for a, b in zip(reference.shape, moving.shape))
+        ref = np.zeros(shape)
+        ref[:reference.shape[0], :reference.shape[1]] = reference
+        mov = np.zeros(shape)
+        mov[:moving.shape[0], :moving.shape[1]] = moving
+        reference, moving = ref, mov
+    shift, _, _ = phase_cross_correlation(reference, moving, upsample_factor=10, normalization=None)
+    return np.asarray(shift, float)
+
+
+class _Grid:
+    """Pixel centres of a comparison grid (row 0 at low y) and the program's layers on it."""
+
+    def __init__(self, x_mm, y_mm, burn, moves):
+        from scipy import ndimage
+
+        self.x_mm, self.y_mm = np.asarray(x_mm, float), np.asarray(y_mm, float)
+        self.px = float(self.x_mm[1] - self.x_mm[0])
+        shape = (len(self.y_mm), len(self.x_mm))
+        b = burn.plan.blocks
+        s = burn.samples
+        on = s["power_mw"] > 0
+        blk = s["block"][on]
+        # a layer is a programmed power; it is named by its S when the program is known
+        key = np.round(b.power_mw[blk], 6)
+        self.keys = np.unique(key)
+        if moves is not None and len(moves) and b.move.max() < len(moves):
+            s_of = {float(k): float(moves.power_s[b.move[blk][key == k][0]]) for k in self.keys}
+        else:
+            s_of = {float(k): None for k in self.keys}
+        self.label = [s_of[float(k)] for k in self.keys]
+        motion_on = b.laser_on & ~b.rapid
+        self.length_mm = [float(b.length_mm[motion_on & (np.round(b.power_mw, 6) == k)].sum()) for k in self.keys]
+        seeds = np.full(shape, -1, np.int64)
+        c = np.clip(np.rint((s["x_mm"][on] - self.x_mm[0]) / self.px).astype(np.int64), 0, shape[1] - 1)
+        r = np.clip(np.rint((s["y_mm"][on] - self.y_mm[0]) / self.px).astype(np.int64), 0, shape[0] - 1)
+        seeds[r, c] = np.searchsorted(self.keys, key)
+        if (seeds >= 0).any():
+            dist, (ri, ci) = ndimage.distance_transform_edt(seeds < 0, return_indices=True)
+            self.nearest = seeds[ri, ci]
+            self.seed_dist_mm = dist * self.px
+        else:
+            self.nearest = np.full(shape, -1)
+            self.seed_dist_mm = np.full(shape, np.inf)
+
+    def bbox(self, sl):
+        r0, r1, c0, c1 = sl[0].start, sl[0].stop - 1, sl[1].start, sl[1].stop - 1
+        return (float(self.x_mm[c0]), float(self.y_mm[r0]), float(self.x_mm[c1]), float(self.y_mm[r1]))
+
+
+def _solid(scan_dark, predicted, given):
+    """The scan's darkness of a solid burn: given, or the median where the prediction is solid."""
+    if given is not None:
+        if not (np.isfinite(given) and given > 0):
+            raise InputError(f"solid_darkness must be > 0, got {given!r}")
+        return float(given)
+    solid = predicted >= 0.9
+    if solid.sum() >= 20:
+        value = float(np.median(scan_dark[solid]))
+    else:                            # hairlines only: the burned share scales the darkness
+        part = predicted >= 0.5
+        value = float(np.median(scan_dark[part] / predicted[part])) if part.any() else 0.0
+    if not value > 0.05:
+        raise InputError(f"the scan is not darker where the prediction burns (solid darkness {value:.3f}); "
+                         "expected a scan of this program's burn (paper light, burn dark), or give the "
+                         "solid darkness")
+    return value
+
+
+def _compare(grid: _Grid, predicted, scan_raw, *, w0_mm, solid_darkness, tolerance, min_area_mm2,
+             shift_tol_mm) -> tuple:
+    """Per-layer shifts undone, then defects, layers and part numbers on one grid."""
     from scipy import ndimage
 
-    s_grid = np.full(burn.burned.shape, np.nan)
-    on = moves.laser_on
-    for s in np.unique(moves.power_s[on]):
-        sub = moves[on & (moves.power_s == s)]
-        for a, b in zip(sub.start[:, :2], sub.end[:, :2]):
-            n = int(np.ceil(np.hypot(*(b - a)) / burn.pixel_mm)) + 1
-            pts = a + (b - a) * np.linspace(0, 1, n)[:, None]
-            c = np.clip(np.round((pts[:, 0] - burn.x_mm[0]) / burn.pixel_mm).astype(int), 0, len(burn.x_mm) - 1)
-            r = np.clip(np.round((pts[:, 1] - burn.y_mm[0]) / burn.pixel_mm).astype(int), 0, len(burn.y_mm) - 1)
-            s_grid[r, c] = s
-    known = ~np.isnan(s_grid)
-    if not known.any():
-        return s_grid
-    _, (ri, ci) = ndimage.distance_transform_edt(~known, return_indices=True)
-    return s_grid[ri, ci]
+    px = grid.px
+    solid = _solid(scan_raw, predicted, solid_darkness)
+    scan = scan_raw / solid
+    pred_on = predicted >= 0.5
+    reach = 2.0 * w0_mm
+    near = ndimage.distance_transform_edt(~pred_on) * px <= reach if pred_on.any() else np.zeros_like(pred_on)
+    zone_all = near | (grid.seed_dist_mm <= reach)
+    zones = [zone_all & (grid.nearest == i) for i in range(len(grid.keys))]
+    shifts = [np.zeros(2)] * len(zones)
+    if len(zones) > 1:
+        # each layer against the prediction again: one that landed off the rest is measured and undone
+        for i, zone in enumerate(zones):
+            if zone.any():
+                sl = ndimage.find_objects(zone.astype(int))[0]
+                ref = np.where(zone[sl], predicted[sl], 0.0)
+                rc = np.zeros(2)
+                for _ in range(3):        # masking both biases a shift towards zero: iterate on the rest
+                    moved = ndimage.shift(scan, rc, order=1, mode="constant")[sl]
+                    step = _register(ref, np.where(zone[sl], moved, 0.0))
+                    rc = rc + step
+                    if np.hypot(*step) < 0.05:
+                        break
+                shifts[i] = rc
+        # the shifts are against the layers holding most of the burn (the area-weighted median)
+        area = np.array([float((pred_on & z).sum()) for z in zones])
+        order = [np.argsort(np.array([s[k] for s in shifts])) for k in (0, 1)]
+        ref_rc = np.array([shifts[o[np.searchsorted(np.cumsum(area[o]), area.sum() / 2)]][k]
+                           for k, o in enumerate(order)])
+        aligned = ndimage.shift(scan, ref_rc, order=1, mode="constant")
+        for i, zone in enumerate(zones):
+            if np.hypot(*(shifts[i] - ref_rc)) * px >= shift_tol_mm:
+                aligned[zone] = ndimage.shift(scan, shifts[i], order=1, mode="constant")[zone]
+        scan = aligned
+        shifts = [(float(-(s[1] - ref_rc[1]) * px) + 0.0, float(-(s[0] - ref_rc[0]) * px) + 0.0) for s in shifts]
+        ref_shift = ref_rc
+    else:
+        shifts = [(0.0, 0.0)] * len(zones)
+        ref_shift = np.zeros(2)
+    scan_on = scan >= 0.5
+    min_area = np.pi * w0_mm ** 2 if min_area_mm2 is None else float(min_area_mm2)
+    layer_of = np.where(zone_all, grid.nearest, -1)
+    # darkness is compared over a patch, not a pixel: a hatch's lines narrowed by a weak beam leave
+    # each line's centre as dark as before, and only the patch's mean lighter
+    sigma = max(2.0 * w0_mm / px, 2.0)
+    pred_mean = ndimage.gaussian_filter(predicted, sigma)
+    diff = ndimage.gaussian_filter(scan, sigma) - pred_mean
+    envelope = pred_mean >= 0.2
+    masks = {"missing": pred_on & ~scan_on, "extra": scan_on & ~pred_on,
+             "light": envelope & (diff < -tolerance), "dark": envelope & (diff > tolerance)}
+    defects, regions = [], {}
+    for kind, mask in masks.items():
+        # one pixel of disagreement along an edge is the registration's rounding, not a defect
+        mask = ndimage.binary_opening(mask)
+        if kind in ("light", "dark"):
+            # a missing or extra stroke shifts the patch's mean too: it is reported once, as itself
+            stroke = ndimage.binary_dilation(regions["missing"] | regions["extra"], iterations=int(3 * sigma))
+            labels, _ = ndimage.label(mask)
+            touched = np.unique(labels[stroke & mask])
+            mask &= ~np.isin(labels, touched[touched > 0])
+        labels, _ = ndimage.label(mask)
+        kept = np.zeros_like(mask)
+        for k, sl in enumerate(ndimage.find_objects(labels), 1):
+            region = labels[sl] == k
+            area = float(region.sum()) * px * px
+            if area < min_area:
+                continue
+            kept[sl] |= region
+            idx = layer_of[sl][region]
+            idx = idx[idx >= 0]
+            layer = grid.label[int(np.bincount(idx).argmax())] if len(idx) else None
+            local = diff if kind in ("light", "dark") else scan - predicted
+            defects.append(BurnDefect(kind, area, grid.bbox(sl), layer, float(np.mean(local[sl][region]))))
+        regions[kind] = kept
+    defects.sort(key=lambda d: -d.area_mm2)
+
+    def numbers(sel, label, length, shift):
+        pa, sa = float((pred_on & sel).sum()) * px * px, float((scan_on & sel).sum()) * px * px
+        where = pred_on & sel
+        return LayerCheck(label, length, pa, sa, float((masks["missing"] & sel).sum()) * px * px,
+                          float((masks["extra"] & sel).sum()) * px * px,
+                          (sa - pa) / length if length > 0 else 0.0,
+                          float(predicted[where].mean()) if where.any() else 0.0,
+                          float(scan[where].mean()) if where.any() else 0.0, shift)
+
+    layers = [numbers(z, grid.label[i], grid.length_mm[i], shifts[i]) for i, z in enumerate(zones)]
+    part = numbers(np.ones_like(pred_on), None, float(sum(grid.length_mm)), (0.0, 0.0))
+    return defects, layers, part, scan, regions, solid, pred_on, scan_on, ref_shift
 
 
-def check_burn(burn, scan_mask, *, moves=None, min_area_mm2: float | None = None) -> BurnCheck:
-    """Register a scanned burn mask to the prediction and list where they differ.
+def _check_args(tolerance, min_area_mm2, shift_tol_mm):
+    if not (np.isfinite(tolerance) and 0 < tolerance < 1):
+        raise InputError(f"tolerance must be > 0 and < 1 (a share of the solid darkness), got {tolerance!r}")
+    if min_area_mm2 is not None and not (np.isfinite(min_area_mm2) and min_area_mm2 >= 0):
+        raise InputError(f"min_area_mm2 must be >= 0, got {min_area_mm2!r}")
+    if not (np.isfinite(shift_tol_mm) and shift_tol_mm > 0):
+        raise InputError(f"shift_tol_mm must be > 0, got {shift_tol_mm!r}")
+
+
+def check_burn(burn, scan, *, moves=None, min_area_mm2: float | None = None, solid_darkness: float | None = None,
+               tolerance: float = 0.15, shift_tol_mm: float = 0.025) -> BurnCheck:
+    """Register a scanned burn, already on the prediction's grid, to the prediction and list where they differ.
 
     Parameters
     ----------
     burn : Burn
         From :func:`predict_burn`.
-    scan_mask : ndarray of bool, same shape as ``burn.burned``
-        The real burn on the prediction's grid (row 0 at ``burn.y_mm[0]``).
+    scan : ndarray, same shape as ``burn.burned``
+        The real burn on the prediction's grid (row 0 at ``burn.y_mm[0]``): a burned mask (bool),
+        or grey darkness (float, ``1 − grey / paper``: :func:`scan_darkness`).
     moves : Moves, optional
-        The program, to credit each defect to a layer (by S).
+        The program, to name each layer by its S (otherwise layers are told apart by power, unnamed).
     min_area_mm2 : float, optional
-        Smallest region reported (default: one beam spot, π·w0²).
+        Smallest region reported, mm² (default: one beam spot, π·w0²).
+    solid_darkness : float, optional
+        The scan's darkness of a solid burn (default: the scan's median where the prediction is solid;
+        1 for a mask).
+    tolerance : float
+        A darkness difference, as a share of the solid darkness, that makes a region lighter or
+        darker than predicted.
+    shift_tol_mm : float
+        A layer's shift against the rest at least this large is reported and undone, mm.
 
     Returns
     -------
     BurnCheck
     """
     from scipy import ndimage
-    from skimage.registration import phase_cross_correlation
 
-    predicted = np.asarray(burn.burned, bool)
-    scan = np.asarray(scan_mask, bool)
-    if scan.shape != predicted.shape:
-        raise InputError(f"scan mask {scan.shape} and prediction {predicted.shape} differ; expected the scan "
-                         "resampled to the prediction's grid")
-    px = burn.pixel_mm
-    shift_rc, _, _ = phase_cross_correlation(predicted.astype(float), scan.astype(float), upsample_factor=10)
-    aligned = ndimage.shift(scan.astype(float), shift_rc, order=1, mode="constant") >= 0.5
-    min_area = np.pi * burn.w0_mm ** 2 if min_area_mm2 is None else float(min_area_mm2)
-    layers = _layer_map(burn, moves) if moves is not None else None
-    defects = []
-    for kind, diff in (("missing", predicted & ~aligned), ("extra", aligned & ~predicted)):
-        # one pixel of disagreement along every edge is the registration's rounding, not a defect
-        diff = ndimage.binary_opening(diff)
-        labels, n = ndimage.label(diff)
-        for k, sl in enumerate(ndimage.find_objects(labels), 1):
-            region = labels[sl] == k
-            area = float(region.sum()) * px * px
-            if area < min_area:
-                continue
-            r0, r1, c0, c1 = sl[0].start, sl[0].stop - 1, sl[1].start, sl[1].stop - 1
-            layer = None
-            if layers is not None:
-                vals = layers[sl][region]
-                vals = vals[~np.isnan(vals)]
-                layer = float(np.median(vals)) if len(vals) else None
-            defects.append(BurnDefect(kind, area, (float(burn.x_mm[c0]), float(burn.y_mm[r0]),
-                                                   float(burn.x_mm[c1]), float(burn.y_mm[r1])), layer))
-    defects.sort(key=lambda d: -d.area_mm2)
+    _check_args(tolerance, min_area_mm2, shift_tol_mm)
+    predicted = np.clip(burn.coverage, 0.0, 1.0)
+    raw = np.asarray(scan)
+    if raw.shape != predicted.shape:
+        raise InputError(f"scan {raw.shape} and prediction {predicted.shape} differ; expected the scan "
+                         "resampled to the prediction's grid (or a scan file: check_scan)")
+    mask_given = raw.dtype == bool
+    raw = raw.astype(float)
+    if not np.isfinite(raw).all():
+        raise InputError("the scan holds values that are not finite numbers")
+    rc = _register(predicted, raw)
+    aligned = ndimage.shift(raw, rc, order=1, mode="constant")
+    grid = _Grid(burn.x_mm, burn.y_mm, burn, moves)
+    solid = 1.0 if mask_given and solid_darkness is None else solid_darkness
+    defects, layers, part, scan_n, regions, solid, pred_on, scan_on, ref_rc = _compare(
+        grid, predicted, aligned, w0_mm=burn.w0_mm, solid_darkness=solid, tolerance=tolerance,
+        min_area_mm2=min_area_mm2, shift_tol_mm=shift_tol_mm)
+    px = grid.px
     # the scan moved by −shift to land on the prediction: its own shift is the opposite, (x, y) = (col, row)
-    return BurnCheck(shift_mm=(float(-shift_rc[1] * px) + 0.0, float(-shift_rc[0] * px) + 0.0),   # no −0
-                     predicted_mm2=float(predicted.sum()) * px * px, scanned_mm2=float(scan.sum()) * px * px,
-                     defects=defects)
+    rc = rc + ref_rc
+    return BurnCheck(shift_mm=(float(-rc[1] * px) + 0.0, float(-rc[0] * px) + 0.0),   # + 0.0: no −0
+                     predicted_mm2=float(pred_on.sum()) * px * px, scanned_mm2=float(scan_on.sum()) * px * px,
+                     defects=defects, layers=layers if moves is not None or len(layers) > 1 else [], part=part,
+                     solid_darkness=solid, solid_darkness_given=solid_darkness is not None or mask_given,
+                     pixel_mm=px, predicted=predicted, scanned=scan_n, extent_mm=tuple(burn.extent),
+                     _regions=regions)
+
+
+def check_scan(burn, image, *, dpi: float, moves=None, paper: float | None = None,
+               solid_darkness: float | None = None, tolerance: float = 0.15, min_area_mm2: float | None = None,
+               shift_tol_mm: float = 0.025) -> BurnCheck:
+    """Find a program's predicted burn in a grey scan and list where the real burn differs.
+
+    The prediction is drawn at the scan's pixel (:func:`predicted_scan`), found in the scan by
+    zero-padded phase correlation (the piece may lie anywhere on it, square to its edges), and the
+    scan is resampled onto it; then as :func:`check_burn`.
+
+    Parameters
+    ----------
+    burn : Burn
+        From :func:`predict_burn`, with a pixel no larger than the scan's.
+    image : ndarray, 2-D
+        The scan, grey 0…1 (paper light, burn dark), rows down, y up, as the scanner saw the piece.
+    dpi : float
+        The scan's resolution, dots per inch.
+    moves, solid_darkness, tolerance, min_area_mm2, shift_tol_mm
+        As :func:`check_burn`.
+    paper : float, optional
+        The paper's grey level (default: :func:`scan_darkness`'s estimate).
+
+    Returns
+    -------
+    BurnCheck
+        ``shift_mm`` is where the prediction's lower-left corner lies in the scan (mm from its lower left).
+    """
+    from scipy import ndimage
+
+    _check_args(tolerance, min_area_mm2, shift_tol_mm)
+    if not (np.isfinite(dpi) and dpi > 0):
+        raise InputError(f"dpi must be > 0, got {dpi!r}")
+    px = _MM_PER_INCH / dpi
+    dark = scan_darkness(image, paper=paper)[::-1]                        # row 0 at low y
+    expect = predicted_scan(burn, dpi=dpi)[::-1]
+    predicted = np.clip((_PAPER - expect) / (_PAPER - _SOLID), 0.0, 1.0)
+    if dark.shape[0] < predicted.shape[0] or dark.shape[1] < predicted.shape[1]:
+        raise InputError(f"the scan ({dark.shape[1]} × {dark.shape[0]} px at {dpi:g} dpi) is smaller than the "
+                         f"predicted burn ({predicted.shape[1]} × {predicted.shape[0]} px); expected a scan of "
+                         "the whole part, or the wrong dpi")
+    from labkit.budget import check_budget
+
+    check_budget("pixels", 2.0 * (dark.shape[0] + predicted.shape[0]) * (dark.shape[1] + predicted.shape[1]),
+                 cause="registering the scan to the prediction", option="the scan (crop it to the part)")
+    rc = _register(predicted, dark, pad=True)
+    # the prediction's pixel (r, c) lies at the scan's (r − shift_r, c − shift_c)
+    rr, cc = np.mgrid[0:predicted.shape[0], 0:predicted.shape[1]].astype(float)
+    aligned = ndimage.map_coordinates(dark, [rr - rc[0], cc - rc[1]], order=1, mode="constant", cval=0.0)
+    x_lo, x_hi, y_lo, y_hi = burn.extent
+    # Burn.scan's pixel centres (margin 0): from the extent's left and top edges inwards
+    x_mm = x_lo + px / 2 + px * np.arange(predicted.shape[1])
+    y_mm = (y_hi - px / 2 - px * np.arange(predicted.shape[0]))[::-1]
+    grid = _Grid(x_mm, y_mm, burn, moves)
+    defects, layers, part, scan_n, regions, solid, pred_on, scan_on, ref_rc = _compare(
+        grid, predicted, aligned, w0_mm=burn.w0_mm, solid_darkness=solid_darkness, tolerance=tolerance,
+        min_area_mm2=min_area_mm2, shift_tol_mm=shift_tol_mm)
+    rc = rc + ref_rc
+    return BurnCheck(shift_mm=(float(-rc[1] * px) + 0.0, float(-rc[0] * px) + 0.0),
+                     predicted_mm2=float(pred_on.sum()) * px * px, scanned_mm2=float(scan_on.sum()) * px * px,
+                     defects=defects, layers=layers, part=part, solid_darkness=solid,
+                     solid_darkness_given=solid_darkness is not None, pixel_mm=px, in_scan=True,
+                     predicted=predicted, scanned=scan_n,
+                     extent_mm=(x_mm[0] - px / 2, x_mm[-1] + px / 2, y_mm[0] - px / 2, y_mm[-1] + px / 2),
+                     _regions=regions)
 
 
 def overlay(burn, scan_mask) -> np.ndarray:
-    """An RGB picture (uint8, rows top = high y) of prediction and scan: both black, missing red,
-    extra blue, neither white."""
+    """An RGB picture (uint8, rows top = high y) of a prediction and a scanned mask on its grid:
+    both black, missing red, extra blue, neither white (:meth:`BurnCheck.overlay` draws a check's)."""
     p = np.asarray(burn.burned, bool)
     s = np.asarray(scan_mask, bool)
     img = np.full(p.shape + (3,), 255, np.uint8)
     img[p & s] = (0, 0, 0)
-    img[p & ~s] = (220, 30, 30)
-    img[~p & s] = (30, 60, 220)
+    img[p & ~s] = _COLOURS["missing"]
+    img[~p & s] = _COLOURS["extra"]
     return img[::-1]

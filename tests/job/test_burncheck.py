@@ -94,3 +94,167 @@ def test_overlay_colours(prediction):
     img = overlay(burn, scan)
     assert img.dtype == np.uint8 and img.shape == burn.burned.shape + (3,)
     assert ((img == (220, 30, 30)).all(axis=2)).sum() == (burn.burned & ~scan).sum()
+
+
+# ---- grey darkness and scan files (issue 31 §4, second part) -------------------------------------
+# A label written by hand: three score lines (S300), a hatched patch (S250, 0.3 mm apart, 1200 mm/min,
+# partly covered: each line narrower than the interval) and a 6 mm square cut (S800). The "real" burns
+# are the same program with a defect put into the program itself, burned in the same virtual material
+# and scanned at 600 dpi with 3 mm of paper, noise, and the grey levels of another scanner.
+
+from labkit.burncheck import check_scan, predicted_scan, scan_darkness  # noqa: E402
+from labkit.errors import InputError  # noqa: E402
+from labkit.laser.models import dose_width  # noqa: E402
+
+INTERVAL, DPI, PAPER, SOLID = 0.3, 600.0, 0.85, 0.25
+MW_PER_S = 2.5                                       # the default machine: S1000 = 2500 mW
+
+
+def label(score_ys=(2, 4, 6), fill=((250, 1200), (250, 1200)), cut_dx=0.0):
+    lines = ["G21 G90", "M3 S300 F600"]
+    for y in score_ys:
+        lines += [f"G0 X2 Y{y}", "G1 X12"]
+    lines += ["M5", "M3"]
+    for i, y in enumerate(np.arange(9, 12.001, INTERVAL)):
+        halves = ((2, 7), (7, 12)) if i % 2 == 0 else ((12, 7), (7, 2))
+        lines.append(f"G0 X{halves[0][0]} Y{y:.3f}")
+        for x0, x1 in halves:
+            s, f = fill[0] if min(x0, x1) < 7 else fill[1]      # left half, right half
+            lines.append(f"G1 X{x1} S{s} F{f}")
+    lines += ["M5", f"G0 X{16 + cut_dx:g} Y1", "M3 S800 F300", f"G1 X{22 + cut_dx:g}", "G1 Y7",
+              f"G1 X{16 + cut_dx:g}", "G1 Y1", "M5"]
+    return "\n".join(lines) + "\n"
+
+
+def scanned(program):
+    """The burn of ``program`` as another scanner sees it: paper 0.85, solid burn 0.25, noise 0.02."""
+    real = predict_burn(parse(program), w0_mm=W0, fth_mj_mm2=FTH, pixel_mm=0.02)
+    img = real.scan(dpi=DPI, margin_mm=3.0, noise=0.02, seed=3)
+    return SOLID + (img - 0.1) / 0.8 * (PAPER - SOLID)
+
+
+@pytest.fixture(scope="module")
+def label_prediction():
+    moves = parse(label())
+    return moves, predict_burn(moves, w0_mm=W0, fth_mj_mm2=FTH, pixel_mm=0.02)
+
+
+def test_the_predicted_scan_levels_are_the_ones_burncheck_reads_back(label_prediction):
+    # burncheck turns a predicted scan back into darkness through Burn.scan's paper 0.9 and burn 0.1
+    _, burn = label_prediction
+    img = predicted_scan(burn, dpi=DPI, margin_mm=1.0)
+    assert img.max() == pytest.approx(0.9) and img.min() == pytest.approx(0.1)
+
+
+def test_scan_darkness_is_one_minus_grey_over_paper():
+    img = np.full((10, 10), 0.8)
+    img[2:5, 2:8] = 0.3
+    d = scan_darkness(img)
+    assert d[0, 0] == 0 and d[3, 3] == pytest.approx(1 - 0.3 / 0.8)
+    assert scan_darkness(img, paper=0.6)[0, 0] == pytest.approx(1 - 0.8 / 0.6)
+    with pytest.raises(InputError, match="2-D grey image"):
+        scan_darkness(np.zeros(5))
+
+
+def test_a_clean_scan_is_found_and_shows_nothing(label_prediction):
+    moves, burn = label_prediction
+    res = check_scan(burn, scanned(label()), dpi=DPI, moves=moves)
+    assert res.defects == []
+    assert res.solid_darkness == pytest.approx(1 - SOLID / PAPER, abs=0.01)
+    px = 25.4 / DPI                                   # the prediction lies on the 3 mm of paper, to a pixel
+    assert res.shift_mm[0] == pytest.approx(3.0, abs=px) and res.shift_mm[1] == pytest.approx(3.0, abs=px)
+    assert [L.power_s for L in res.layers] == [250, 300, 800]
+    for L in res.layers:
+        assert L.scanned_mm2 == pytest.approx(L.predicted_mm2, rel=0.03)
+        assert abs(L.darkness_change) < 0.03 and np.hypot(*L.shift_mm) < 0.025
+    # the hatched patch is as dark as the dose model's width over the line interval (closed form)
+    fill = res.layers[0]
+    w = float(dose_width(250 * MW_PER_S, 1200, W0, FTH))
+    assert 0.4 < w / INTERVAL < 0.9
+    patch = res.predicted[(np.arange(res.predicted.shape[0]) * px + res.extent_mm[2] > 9.5)
+                          & (np.arange(res.predicted.shape[0]) * px + res.extent_mm[2] < 11.5)]
+    assert patch.mean() == pytest.approx(w / INTERVAL * (10 / (res.extent_mm[1] - res.extent_mm[0])), rel=0.1)
+    assert fill.length_mm == pytest.approx(11 * 10, abs=1)
+
+
+def test_a_missing_score_line_is_found_with_its_numbers(label_prediction):
+    moves, burn = label_prediction
+    res = check_scan(burn, scanned(label(score_ys=(2, 6))), dpi=DPI, moves=moves)
+    assert len(res.defects) == 1
+    d = res.defects[0]
+    assert d.kind == "missing" and d.layer_s == 300 and d.darkness < -0.8
+    x0, y0, x1, y1 = d.bbox_mm
+    assert x0 == pytest.approx(2, abs=0.2) and x1 == pytest.approx(12, abs=0.2) and 3.8 < y0 <= y1 < 4.2
+    score = next(L for L in res.layers if L.power_s == 300)
+    # one line of three: a third of the layer's burn is missing, and its darkness falls by a third
+    assert score.missing_mm2 == pytest.approx(score.predicted_mm2 / 3, rel=0.1)
+    assert score.scanned_darkness == pytest.approx(score.predicted_darkness * 2 / 3, rel=0.1)
+    # the missing area per mm of the layer's path is the line's width, as the dose model gives it
+    assert -score.width_change_mm * score.length_mm / 10 == pytest.approx(
+        float(dose_width(300 * MW_PER_S, 600, W0, FTH)), rel=0.15)
+
+
+@pytest.mark.parametrize("kind, right_half", [("light", (100, 1200)), ("dark", (250, 300))])
+def test_a_region_too_light_or_over_burned_is_found_by_its_darkness(label_prediction, kind, right_half):
+    # the right half of the patch burned weaker (S100) or four times slower (300 mm/min)
+    moves, burn = label_prediction
+    res = check_scan(burn, scanned(label(fill=((250, 1200), right_half))), dpi=DPI, moves=moves)
+    assert [d.kind for d in res.defects] == [kind]
+    d = res.defects[0]
+    assert d.layer_s == 250
+    x0, y0, x1, y1 = d.bbox_mm
+    assert 6.5 < x0 < 7.6 and 11.5 < x1 < 12.3 and 8.7 < y0 < 9.3 and 11.7 < y1 < 12.3
+    # by how much: the dose model's widths over the interval (closed form), as a share of a solid burn
+    expected = (min(float(dose_width(right_half[0] * MW_PER_S, right_half[1], W0, FTH)), INTERVAL)
+                - float(dose_width(250 * MW_PER_S, 1200, W0, FTH))) / INTERVAL
+    assert d.darkness == pytest.approx(expected, abs=0.05)
+    assert (d.darkness < 0) == (kind == "light")
+
+
+def test_one_layer_a_tenth_of_a_millimetre_off_the_rest_is_measured(label_prediction):
+    moves, burn = label_prediction
+    res = check_scan(burn, scanned(label(cut_dx=0.1)), dpi=DPI, moves=moves)
+    cut = next(L for L in res.layers if L.power_s == 800)
+    assert cut.shift_mm == pytest.approx((0.1, 0.0), abs=0.01)
+    assert all(np.hypot(*L.shift_mm) < 0.025 for L in res.layers if L.power_s != 800)
+    assert res.defects == []                           # the shift is undone before the areas compare
+    row = next(r for r in res.summary().splitlines() if r.strip().startswith("S800"))
+    assert row.endswith(f"({cut.shift_mm[0]:+.3f}, {cut.shift_mm[1]:+.3f})") and ("+0.09" in row or "+0.10" in row)
+
+
+def test_the_check_draws_its_overlay_and_writes_its_numbers(label_prediction):
+    moves, burn = label_prediction
+    res = check_scan(burn, scanned(label(score_ys=(2, 6))), dpi=DPI, moves=moves)
+    img = res.overlay()
+    assert img.dtype == np.uint8 and img.shape == res.predicted.shape + (3,)
+    red = (img == (220, 30, 30)).all(axis=2)
+    assert red.sum() * res.pixel_mm ** 2 == pytest.approx(res.defects[0].area_mm2)
+    import json
+
+    doc = json.loads(json.dumps(res.to_dict()))
+    assert doc["defects"][0]["kind"] == "missing" and len(doc["layers"]) == 3
+
+
+def test_grey_darkness_on_the_prediction_grid(label_prediction):
+    # check_burn with a grey scan: the prediction's own burned share at darkness 0.7, the right half
+    # of the patch at 60 % of it
+    moves, burn = label_prediction
+    dark = 0.7 * np.clip(burn.coverage, 0, 1)
+    right = (burn.x_mm[None, :] > 7) & (burn.y_mm[:, None] > 8.5) & (burn.y_mm[:, None] < 12.5)
+    dark = np.where(right, 0.6 * dark, dark)
+    res = check_burn(burn, dark, moves=moves)
+    kinds = {d.kind for d in res.defects}
+    assert "light" in kinds and "extra" not in kinds and "dark" not in kinds
+    assert res.solid_darkness == pytest.approx(0.7, abs=0.01)
+
+
+def test_bad_scans_are_refused(label_prediction):
+    moves, burn = label_prediction
+    with pytest.raises(InputError, match="smaller than the predicted burn"):
+        check_scan(burn, np.full((20, 20), 0.8), dpi=DPI)
+    with pytest.raises(InputError, match="not darker where the prediction burns"):
+        check_scan(burn, np.full((400, 700), 0.8), dpi=DPI)
+    with pytest.raises(InputError, match="tolerance must be > 0 and < 1"):
+        check_scan(burn, np.full((400, 700), 0.8), dpi=DPI, tolerance=2)
+    with pytest.raises(InputError, match="dpi must be > 0"):
+        check_scan(burn, np.full((400, 700), 0.8), dpi=0)
