@@ -270,10 +270,17 @@ class _ConsoleInterrupted(Exception):
 def run_console(args) -> int:
     """Every end of the console — quit, end of input, Ctrl-C, SIGTERM, a lost link, an
     error — stops the machine (feed hold, soft reset, M5 S0) before the port closes, and
-    prints what was sent and what was confirmed."""
+    prints what was sent and what was confirmed.
+
+    Each typed line is read first by :class:`labkit.gcode.Interpreter` (the modal state
+    kept from line to line, as the controller keeps it): a line it rejects is explained
+    (column, what was expected) and sent all the same, so the controller's own answer is
+    the one that counts."""
     import time
 
     from labkit.errors import LabkitError, MachineError
+    from labkit.gcode import Interpreter
+    from labkit.machine.labkitfw import LabkitFirmware
     from labkit.machine.stream import StopSignals
 
     def interrupted(name):
@@ -285,6 +292,8 @@ def run_console(args) -> int:
           f"{machine.info.planner_blocks} blocks). '?' status, '!' hold, '~' resume, 'ctrl-x' "
           f"reset, 'quit' to leave (the machine is stopped and the laser switched off first).")
     machine.add_listener(lambda text: print(f"< {text}"))
+    reader = Interpreter("labkit-fw" if isinstance(machine, LabkitFirmware) else "grbl")
+    typed = 0
     code = 0
     with StopSignals(interrupted) as signals:
         try:
@@ -297,6 +306,11 @@ def run_console(args) -> int:
                 if line in _REALTIME_WORDS:
                     machine.realtime(_REALTIME_WORDS[line])
                 else:
+                    typed += 1
+                    _, error = reader.feed(line)
+                    if error is not None:
+                        error.filename, error.line = "<console>", typed
+                        print(f"labkit reads it as {error.format()}; sent all the same")
                     machine.send_line(line)
                 time.sleep(0.15)
                 machine.drain_events()

@@ -72,6 +72,17 @@ def test_console(monkeypatch, capsys):
     assert "connected: Grbl 1.1h" in out and "< [OPT:VL,16,128]" in out and "< <" in out
 
 
+def test_console_explains_a_line_the_interpreter_rejects(monkeypatch, capsys):
+    # typed line 2 repeats X (GRBL's error 25 at the second X, column 7); it is still sent,
+    # and the virtual GRBL answers error:25 itself; the state is kept from line to line
+    # (line 3's G1 takes its feed from line 1)
+    monkeypatch.setattr("sys.stdin", io.StringIO("G1 X1 F100\nG1 X1 X2\nX3\nquit\n"))
+    assert main(["console"]) == 0
+    out = capsys.readouterr().out
+    assert "labkit reads it as <console>:2:7: error 25: a word is repeated" in out
+    assert "< error:25" in out and out.count("labkit reads it") == 1
+
+
 def test_stream_progress_is_a_tqdm_bar():
     from labkit.commands.machine import _Progress
 
