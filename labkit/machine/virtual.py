@@ -3,7 +3,7 @@
 :class:`VirtualMachine` behaves like a pyserial port (``write``, ``read``,
 ``in_waiting``, ``timeout``, ``close``) with GRBL behind it: a 128-byte RX
 buffer (bytes that do not fit are lost, as on the real controller), a
-16-block planner buffer (a line is read from the RX buffer only when the
+planner of the machine's depth (a line is read from the RX buffer only when the
 planner has room, so ``ok`` comes late when it is full), ``ok`` /
 ``error:N`` for every line, real-time bytes, status reports with ``MPos``,
 ``FS``, ``Bf`` and ``WCO``, work offsets (G10 L2/L20 origins of G54–G59 kept
@@ -13,15 +13,14 @@ resume and soft reset (a reset while moving raises ALARM:3, as GRBL does).
 
 Lines are interpreted one at a time by :class:`labkit.gcode.Interpreter`, which
 keeps the modal state (:class:`labkit.gcode.ModalState`, its one home) between them;
-arcs are cut into GRBL's ``$12`` chord segments
-(:func:`labkit.geometry.circle.grbl_segments`). When a block starts it is timed
-by a trapezoidal profile with the machine description's acceleration and
-maximum rates: from the current speed, to the speed the next queued block
-allows through the junction (the cosine of the turn: collinear blocks keep
-full speed, 90° or more stops), never faster than the machine can still stop
-within the blocks queued behind it — so a starved planner (send-response over
-a slow link) slows the machine down as it does a real GRBL. The job ETA
-of the runner comes from :func:`labkit.motion.plan`, not from here.
+arcs are cut into GRBL's ``$12`` chord segments and every move becomes a block as
+:func:`labkit.motion.build_blocks` makes it (a move of no step makes none, as in GRBL). The
+blocks are planned by :mod:`labkit.motion`'s junction-deviation planner
+(:func:`labkit.motion.lookahead`), the one ``labkit plan --planner junction`` uses: when a block
+starts, its exit speed is planned over the blocks queued behind it (the queue must be able to
+stop at its end) and then fixed while it runs. A stream that keeps the planner full therefore
+takes the time :func:`labkit.motion.plan` gives the whole job, and a starved planner (send-response
+over a slow link) slows the machine down as it does a real GRBL.
 
 Time is simulated: ``time_scale`` simulated seconds pass per wall-clock
 second (1 = real time, 10 = ten times faster), or with ``time_scale=0`` each
@@ -45,15 +44,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dataclasses import replace
+from dataclasses import fields, replace
 
-from labkit.errors import AlarmCode, ErrorCode, Feedback
+from labkit.errors import AlarmCode, ErrorCode, Feedback, MotionError
 from labkit.gcode.reader import Interpreter
 from labkit.gcode.state import ModalState
-from labkit.geometry.circle import arc_points, grbl_segments, sweep_angle
 from labkit.machine.grbl import grbl_reply
-# The one place labkit.machine imports the motion machine description (a rename is a one-line fix).
-from labkit.motion import load_machine
+# The one place labkit.machine imports the motion machine description (a rename is a one-line fix);
+# the virtual machine plans with labkit.motion's junction-deviation planner, never its own.
+from labkit.motion import (Blocks, block_profiles, build_blocks, expand_arcs, load_machine,
+                           lookahead, reach_speed)
 
 __all__ = ["VirtualMachine", "Piece", "burn_coverage"]
 
@@ -126,6 +126,13 @@ class _Block:
     started: bool = False
     exit_mm_s: float = 0.0
     done_s: float = 0.0    # time already spent on it
+    row: Blocks | None = None   # the block as labkit.motion plans it (one row; None for a dwell)
+    length_mm: float = 0.0      # what is left of it to run (all of it until a hold re-arms it)
+
+
+def _stack(rows: list) -> Blocks:
+    """One :class:`~labkit.motion.Blocks` of the queued blocks' rows, in order."""
+    return Blocks(**{f.name: np.concatenate([getattr(r, f.name) for r in rows]) for f in fields(Blocks)})
 
 
 class VirtualMachine:
@@ -516,6 +523,7 @@ class VirtualMachine:
         """The head block continues from where the head is, timed afresh from ``speed``."""
         b = self._blocks[0]
         b.start = self.pos.copy()
+        b.length_mm = float(np.linalg.norm(b.end - b.start))
         b.done_s, b.started = 0.0, False
         self._speed = speed
 
@@ -586,8 +594,10 @@ class VirtualMachine:
                 self.pos = b.end.copy()
                 self._speed = b.exit_mm_s
                 self._blocks.popleft()
+                self._take_lines()              # a line waiting in RX refills the planner now
                 if not self._blocks:
                     self.state = "Idle"
+                    self._speed = 0.0
                     self._note_stop("buffer empty")
                 self._log_beam()
 
@@ -750,34 +760,8 @@ class VirtualMachine:
         if head.startswith("N"):
             digits = "".join(c for c in head[1:].split(" ")[0] if c.isdigit())
             n_word = int(digits) if digits else -1
-        kind, start, end, centre, plane = moves.kind, moves.start, moves.end, moves.centre, moves.plane
-        feed_col, power, laser, dwell = moves.feed_mm_min, moves.power_s, moves.laser, moves.dwell_s
-        cursor = np.array(base, float)
         queued = len(self._blocks)
-        for i in range(len(moves)):
-            k = int(kind[i])
-            if k == 4:                                   # dwell: standing still at the beam's level
-                self._queue(cursor, cursor, 0.0, float(dwell[i]), self._rest_level, False, text,
-                            n_word, constant=True)
-                continue
-            rapid = k == 0
-            beam = 0.0 if rapid else self._beam_fraction(int(laser[i]), float(power[i]))
-            constant = int(laser[i]) == 3 and not rapid
-            f = float(feed_col[i])
-            if k in (2, 3) and int(plane[i]) == 17:
-                s2, e2, c2 = start[i, :2], end[i, :2], centre[i, :2]
-                cw = k == 2
-                r = float(np.hypot(*(s2 - c2)))
-                sweep = sweep_angle(s2, e2, c2, cw)
-                nseg = int(grbl_segments(r, sweep, float(self.settings[12])))
-                pts2 = arc_points(s2, e2, c2, cw, n=nseg)
-                zs = np.linspace(start[i, 2], end[i, 2], len(pts2))
-                pts = np.column_stack([pts2, zs])
-            else:
-                pts = np.array([start[i], end[i]])
-            for a, b in zip(pts[:-1], pts[1:]):
-                self._queue(a, b, f, 0.0, beam, rapid, text, n_word, jog=jog, constant=constant)
-            cursor = end[i].copy()
+        self._blocks.extend(self._blocks_of(moves, base, text, n_word, jog))
         if not jog:
             if len(self._blocks) > queued:               # the level the last block leaves
                 last = self._blocks[-1]
@@ -789,64 +773,78 @@ class VirtualMachine:
             self.state = "Jog" if jog else "Run"
         return None
 
-    def _queue(self, a, b, feed_mm_min, dwell_s, beam, rapid, text, n_word, *, jog=False,
-               constant=False):
-        a = np.asarray(a, float)
-        b = np.asarray(b, float)
-        length = float(np.linalg.norm(b - a))
-        if length < 1e-9 and dwell_s <= 0:
-            return                                     # GRBL plans no block for a null move
-        if length > 0:
-            unit = np.abs(b - a) / length
-            rates = np.asarray(self.machine.max_rate_mm_min, float) / 60.0
-            accels = np.asarray(self.machine.accel_mm_s2, float)
-            with np.errstate(divide="ignore"):
-                vmax = float(np.min(np.where(unit > 0, rates / np.maximum(unit, 1e-12), np.inf)))
-                amax = float(np.min(np.where(unit > 0, accels / np.maximum(unit, 1e-12), np.inf)))
-            v = vmax if rapid or not math.isfinite(feed_mm_min) else min(vmax, feed_mm_min / 60.0)
-        else:
-            v, amax = 0.0, math.inf
-        self._blocks.append(_Block(self.lines_accepted, n_word, text, a, b, v, dwell_s, beam, rapid,
-                                   accel_mm_s2=amax, is_dwell=length <= 0, constant=constant))
-
-    @staticmethod
-    def _carry(first: "_Block", second: "_Block") -> float:
-        """Fraction of speed kept through a junction: cos of the turn (0 for 90° or more)."""
-        if first.is_dwell or second.is_dwell or first.rapid != second.rapid:
-            return 0.0
-        d0, d1 = first.end - first.start, second.end - second.start
-        n0, n1 = float(np.linalg.norm(d0)), float(np.linalg.norm(d1))
-        return max(0.0, float(np.dot(d0, d1) / (n0 * n1))) if n0 > 0 and n1 > 0 else 0.0
+    def _blocks_of(self, moves, base, text: str, n_word: int, jog: bool) -> list:
+        """A line's moves as the blocks GRBL plans: arcs cut into ``$12`` chords, a move of no
+        step dropped (GRBL plans no block for it), a dwell as a block of its own."""
+        chords = expand_arcs(moves, float(self.settings[12]))
+        rows = build_blocks(chords, self.machine)
+        out = []
+        for r in range(len(rows)):
+            i = int(rows.move[r])
+            a, b = chords.start[i].astype(float), chords.end[i].astype(float)
+            if int(rows.kind[r]) == 4:                 # dwell: standing still at the beam's level
+                out.append(_Block(self.lines_accepted, n_word, text, a, a, 0.0,
+                                  float(rows.dwell_s[r]), self._rest_level, False, is_dwell=True,
+                                  constant=True))
+                continue
+            rapid = bool(rows.rapid[r])
+            beam = 0.0 if rapid else self._beam_fraction(int(chords.laser[i]), float(chords.power_s[i]))
+            out.append(_Block(self.lines_accepted, n_word, text, a, b, float(rows.cap_mm_s[r]), 0.0,
+                              beam, rapid, accel_mm_s2=float(rows.accel_mm_s2[r]),
+                              constant=int(chords.laser[i]) == 3 and not rapid, row=rows[r],
+                              length_mm=float(rows.length_mm[r])))
+        # the parser's end: a last move too short for a step still moves the position GRBL's
+        # parser holds (the next block's steps are counted from it)
+        end = np.array(moves.end[-1], float) if len(moves) else np.asarray(base, float)
+        if out and not out[-1].is_dwell:
+            out[-1].end = end
+        elif not out and len(moves) and not np.array_equal(end, base):
+            if self._blocks:
+                self._blocks[-1].end = end
+            else:
+                self.pos = end.copy()
+        return out
 
     def _start_block(self, b: "_Block") -> None:
-        """Time the head block when it starts: from the current speed, to the speed the
-        next block allows, never faster than it can still stop within the queued blocks."""
+        """Time the head block as it starts, with labkit.motion's junction-deviation planner
+        (:func:`labkit.motion.lookahead`, as ``labkit plan --planner junction``) over the
+        blocks queued now: its exit is the highest speed from which the queue behind it can
+        still stop at its end and its entry (the current speed) can reach, then fixed while it
+        runs. Planning the head again at every push would give the same head: only the
+        running block's exit is ever executed from a plan, so a streamed job that keeps the
+        planner full runs in the time :func:`labkit.motion.plan` gives the whole job."""
         b.started = True
         if b.is_dwell:
             self._speed = 0.0
             return
         feed_ov, rapid_ov, power_ov = self.overrides
-        b.speed_mm_s *= (rapid_ov if b.rapid else feed_ov) / 100.0
         if not b.rapid:
             b.power = min(1.0, b.power * power_ov / 100.0)
-        length = float(np.linalg.norm(b.end - b.start))
-        acc = b.accel_mm_s2
-        ahead = sum(float(np.linalg.norm(q.end - q.start)) for q in list(self._blocks)[1:])
-        if len(self._blocks) > 1:
-            nxt = self._blocks[1]
-            cap = nxt.speed_mm_s * self._carry(b, nxt)
-        else:
-            cap = 0.0
-        cap = min(cap, math.sqrt(2.0 * acc * ahead), b.speed_mm_s)
-        v_in = min(self._speed, b.speed_mm_s)
-        v_out = min(cap, math.sqrt(v_in * v_in + 2.0 * acc * length))
-        peak = min(b.speed_mm_s, math.sqrt((2.0 * acc * length + v_in ** 2 + v_out ** 2) / 2.0))
-        d_up = (peak ** 2 - v_in ** 2) / (2.0 * acc)
-        d_down = (peak ** 2 - v_out ** 2) / (2.0 * acc)
-        cruise = max(0.0, length - d_up - d_down)
-        b.duration_s = (peak - v_in) / acc + (peak - v_out) / acc + (cruise / peak if peak > 0 else 0)
+        run = []
+        for q in self._blocks:                      # the motion up to a dwell (a full stop)
+            if q.is_dwell:
+                break
+            run.append(q)
+        rows = _stack([q.row for q in run])
+        # overrides scale the programmed rates (GRBL re-plans its queue with them)
+        cap = np.where(rows.rapid, rows.limit_mm_s * rapid_ov / 100.0,
+                       np.minimum(rows.feed_mm_s * feed_ov / 100.0, rows.limit_mm_s))
+        rows = replace(rows, cap_mm_s=cap, rest_mm_s=np.minimum(rows.rest_mm_s, cap))
+        up = rows.accel_mm_s2.copy()
+        up[0] = 1e30        # the head ramps from its real entry below; the plan gives the limit behind
+        la = lookahead(rows, planner="junction", law="accel", buffer_blocks=self.planner_blocks,
+                       junction_deviation_mm=float(self.settings[11]),
+                       axis_accel_mm_s2=self.machine.accel_mm_s2, up=up, down=rows.accel_mm_s2)
+        acc, top, length = float(rows.accel_mm_s2[0]), float(cap[0]), b.length_mm
+        floor = min(float(rows.rest_mm_s[0]), top)
+        entry = min(max(self._speed, floor), top)
+        v_out = min(float(la.speed_mm_s[1]), float(reach_speed(entry, length, acc, "accel")))
+        # an override lowered since the entry was planned: brake as hard as the block allows
+        v_out = max(v_out, math.sqrt(max(0.0, entry * entry - 2.0 * acc * length)))
+        b.speed_mm_s = top
         b.exit_mm_s = v_out
-
+        b.duration_s = float(block_profiles(length, entry, top, max(v_out, floor), acc, acc,
+                                            "accel").time_s[0]) if length > 0 else 0.0
 
 
 def burn_coverage(moves, vm: VirtualMachine, *, tol_mm: float = 1e-3, origin_mm=(0.0, 0.0)):
