@@ -38,10 +38,13 @@ EmitRows = namedtuple("EmitRows", ["kind", "end", "centre", "plane", "feed", "po
 
 #: How numbers and lines are written: coordinate ``decimals``, ``value_decimals`` (F S P),
 #: ``inline_power`` (S on the motion line), ``rapid_laser_off`` (the controller switches the
-#: beam off on G0 itself), ``numbered`` (N words), ``checksums`` (``*`` checksums) and
-#: ``modal_motion`` (False: the G0-G3 word on every motion line, as stock Marlin needs).
+#: beam off on G0 itself), ``numbered`` (N words), ``checksums`` (``*`` checksums),
+#: ``modal_motion`` (False: the G0-G3 word on every motion line, as stock Marlin needs) and
+#: ``compact`` (words without spaces, no ``0`` before a decimal point, and each line move
+#: written absolute (G90) or relative (G91), whichever makes the program shorter).
 EmitFormat = namedtuple("EmitFormat", ["decimals", "value_decimals", "inline_power",
-                                       "rapid_laser_off", "numbered", "checksums", "modal_motion"])
+                                       "rapid_laser_off", "numbered", "checksums", "modal_motion",
+                                       "compact"])
 
 #: Lines kept from the source (system lines, pauses, program ends): ``row[j]`` the row before
 #: which line j goes (n = after the last), its text ``text[span[j, 0]:span[j, 1]]``,
@@ -50,8 +53,9 @@ EmitRecords = namedtuple("EmitRecords", ["row", "text", "span", "reset"])
 
 #: The writer's modal state between blocks of rows, as :func:`write_moves` reads and leaves it
 #: (int64): the written position (3, scaled like ``end``), motion word, plane, F, S, laser
-#: mode, beam parked for a rapid (0/1), and the next record to write.
-STATE_SIZE = 10
+#: mode, beam parked for a rapid (0/1), the next record to write, and the distance mode
+#: (0 G90, 1 G91).
+STATE_SIZE = 11
 _PLANE_AXES = np.array([[0, 1, 2], [2, 0, 1], [1, 2, 0]], dtype=np.int64)
 _AXIS_LETTER = np.array([88, 89, 90], dtype=np.uint8)      # X Y Z
 _OFFSET_LETTER = np.array([73, 74, 75], dtype=np.uint8)    # I J K
@@ -72,6 +76,16 @@ def _put(out, used, c):
     return used + 1
 
 
+@jit
+def _parts(value, decimals):
+    """Whole and fractional parts of value / 10**decimals (value >= 0), as integers."""
+    scale = 1
+    for _ in range(decimals):
+        scale *= 10
+    whole = value // scale
+    return whole, value - whole * scale
+
+
 @jit(python_below=4096)  # format_number: one number at a time, as Python
 def _put_scaled(out, used, value, decimals):
     """Write value / 10**decimals without trailing zeros (``-0`` written as ``0``)."""
@@ -79,11 +93,7 @@ def _put_scaled(out, used, value, decimals):
         out[used] = 45
         used += 1
         value = -value
-    scale = 1
-    for _ in range(decimals):
-        scale *= 10
-    whole = value // scale
-    frac = value - whole * scale
+    whole, frac = _parts(value, decimals)
     # Integer part.
     digits = np.empty(20, np.uint8)
     nd = 0
@@ -114,10 +124,99 @@ def _put_scaled(out, used, value, decimals):
 
 
 @jit
-def _put_word(out, used, letter, value, decimals):
-    out[used] = 32
-    out[used + 1] = letter
-    return _put_scaled(out, used + 2, value, decimals)
+def _put_word(out, used, letter, value, decimals, compact=False):
+    """`` X12.5``; compact: ``X12.5`` and ``X.5`` (GRBL reads a number from its point on)."""
+    if not compact:
+        out[used] = 32
+        used += 1
+    out[used] = letter
+    first = used + 1
+    used = _put_scaled(out, first, value, decimals)
+    if compact:
+        lead = first + 1 if out[first] == 45 else first    # after a minus sign
+        if used - lead > 1 and out[lead] == 48 and out[lead + 1] == 46:
+            for k in range(lead, used - 1):
+                out[k] = out[k + 1]
+            used -= 1
+    return used
+
+
+@jit
+def _number_chars(value, decimals, compact):
+    """Characters :func:`_put_word` writes for ``value`` after the letter."""
+    n = 1 if value < 0 else 0
+    whole, frac = _parts(abs(value), decimals)
+    if whole == 0:
+        n += 0 if (compact and frac > 0) else 1
+    while whole > 0:
+        n += 1
+        whole //= 10
+    if frac > 0:
+        nf = decimals
+        while frac % 10 == 0:
+            frac //= 10
+            nf -= 1
+        n += 1 + nf
+    return n
+
+
+@jit
+def choose_relative(kind, end_i, cur0, relative0, decimals, last):
+    """Per row, 1 where the move is best written relative (G91), 0 absolute (G90).
+
+    The shortest text over the whole block: a two-state dynamic programme over the
+    motion lines, each line costing the characters of its axis words in either mode and
+    a change of mode the three of its ``G90``/``G91`` word. Arcs stay absolute; rows that
+    do not move keep the mode they find. ``cur0`` is the written position before the
+    block (scaled like ``end_i``), ``relative0`` the mode in effect.
+    """
+    n = kind.shape[0]
+    big = 1 << 40
+    cost = np.zeros((n + 1, 2), np.int64)
+    came = np.zeros((n + 1, 2), np.int8)       # the mode of the row before, for each mode
+    cost[0, 0] = 0 if relative0 == 0 else 3
+    cost[0, 1] = 0 if relative0 == 1 else 3
+    # cost[i + 1, m]: the cheapest text of rows 0..i ending in mode m
+    cur = np.empty(3, np.int64)
+    for a in range(3):
+        cur[a] = cur0[a]
+    for i in range(n):
+        k = kind[i]
+        if k != RAPID and k != LINE:
+            line_abs = 0
+            line_rel = 0 if k == DWELL else big
+        else:
+            line_abs = 0
+            line_rel = 0
+            wrote = False
+            for a in range(3):
+                v = end_i[i, a]
+                if v != cur[a]:
+                    line_abs += 1 + _number_chars(v, decimals, True)
+                    line_rel += 1 + _number_chars(v - cur[a], decimals, True)
+                    wrote = True
+            if not wrote:
+                line_abs += 1 + _number_chars(end_i[i, 0], decimals, True)
+                line_rel += 2
+        if k != DWELL:
+            for a in range(3):
+                cur[a] = end_i[i, a]
+        for m in range(2):
+            stay = cost[i, m]
+            switch = cost[i, 1 - m] + (3 if k != DWELL else big)
+            if stay <= switch:
+                cost[i + 1, m] = stay
+                came[i + 1, m] = m
+            else:
+                cost[i + 1, m] = switch
+                came[i + 1, m] = 1 - m
+            cost[i + 1, m] += line_rel if m == 1 else line_abs
+    rel = np.zeros(n, np.int8)
+    m = 0 if cost[n, 0] <= cost[n, 1] + (4 if last else 0) else 1
+    for i in range(n, 0, -1):
+        rel[i - 1] = m
+        m = came[i, m]
+    return rel
 
 
 @jit
@@ -152,12 +251,13 @@ def _end_line(out, used, line_start, numbered, checksums, number):
 
 
 @jit(python_below=150_000)  # column elements (~15 a move): ~10,000 moves as Python
-def write_moves(rows, state, fmt, first_number, records, row0):
+def write_moves(rows, state, fmt, first_number, records, row0, relative):
     """Write a block of the program body: ``rows`` an :data:`EmitRows` (program rows ``row0``
     on), ``state`` the writer's modal state before them (see :data:`STATE_SIZE`; updated in
     place to the state after them, so the next block goes on from it), ``fmt`` an
-    :data:`EmitFormat`, ``records`` the whole program's :data:`EmitRecords`. Returns (bytes,
-    next line number).
+    :data:`EmitFormat`, ``records`` the whole program's :data:`EmitRecords`, ``relative``
+    per row 1 to write it relative (G91), 0 absolute (:func:`choose_relative`; all 0 unless
+    ``fmt.compact``). Returns (bytes, next line number).
     """
     kind, end_i, centre, plane = rows.kind, rows.end, rows.centre, rows.plane
     feed_i, power_i, laser, dwell_i, r_mode_rows = (rows.feed, rows.power, rows.laser,
@@ -183,6 +283,8 @@ def write_moves(rows, state, fmt, first_number, records, row0):
     cur_laser = state[7]
     beam_parked = state[8] != 0     # laser switched off for a rapid on a dialect that needs it
     j = state[9]
+    cur_rel = state[10]
+    compact = fmt.compact
     nrec = rec_row.shape[0]
     for i in range(n + 1):
         # Records (system lines, pauses, program ends …) that stand before this row (at
@@ -202,6 +304,7 @@ def write_moves(rows, state, fmt, first_number, records, row0):
                 cur_plane = 17
                 cur_laser = LASER_OFF
                 beam_parked = False
+                cur_rel = 0
             j += 1
         if i == n:
             break
@@ -224,7 +327,7 @@ def write_moves(rows, state, fmt, first_number, records, row0):
                 used = _put(out, used, 77)
                 used = _put(out, used, _M_DIGIT[want_laser])
                 if want_laser != LASER_OFF:
-                    used = _put_word(out, used, 83, power_i[i], value_decimals)
+                    used = _put_word(out, used, 83, power_i[i], value_decimals, compact)
                     cur_power = power_i[i]
                 used = _end_line(out, used, ls, numbered, checksums, number)
                 number += 1
@@ -235,7 +338,7 @@ def write_moves(rows, state, fmt, first_number, records, row0):
                 ls = used
                 used = _put(out, used, 77)
                 used = _put(out, used, _M_DIGIT[want_laser])
-                used = _put_word(out, used, 83, power_i[i], value_decimals)
+                used = _put_word(out, used, 83, power_i[i], value_decimals, compact)
                 cur_power = power_i[i]
                 used = _end_line(out, used, ls, numbered, checksums, number)
                 number += 1
@@ -243,7 +346,7 @@ def write_moves(rows, state, fmt, first_number, records, row0):
             ls = used
             used = _put(out, used, 71)
             used = _put(out, used, _G_DIGIT[DWELL])
-            used = _put_word(out, used, 80, dwell_i[i], value_decimals)
+            used = _put_word(out, used, 80, dwell_i[i], value_decimals, compact)
             used = _end_line(out, used, ls, numbered, checksums, number)
             number += 1
             continue
@@ -258,6 +361,12 @@ def write_moves(rows, state, fmt, first_number, records, row0):
             number += 1
             cur_plane = pl
         ls = used
+        rel = relative[i] != 0
+        if rel != (cur_rel != 0):
+            used = _put(out, used, 71)
+            used = _put(out, used, 57)
+            used = _put(out, used, 49 if rel else 48)       # G91 / G90
+            cur_rel = 1 if rel else 0
         if k != cur_motion or not fmt.modal_motion:
             used = _put(out, used, 71)
             used = _put(out, used, _G_DIGIT[k])
@@ -269,28 +378,28 @@ def write_moves(rows, state, fmt, first_number, records, row0):
             v = end_i[i, a]
             must = arc and (a == a0 or a == a1)
             if must or v != cur[a]:
-                used = _put_word(out, used, _AXIS_LETTER[a], v, decimals)
+                used = _put_word(out, used, _AXIS_LETTER[a], v - cur[a] if rel else v, decimals, compact)
                 wrote_axis = True
         if not wrote_axis:
             # A zero-length move still states an axis, so it stays a move when read back.
-            used = _put_word(out, used, _AXIS_LETTER[0], end_i[i, 0], decimals)
+            used = _put_word(out, used, _AXIS_LETTER[0], 0 if rel else end_i[i, 0], decimals, compact)
         if arc:
             if r_mode_rows[i] != 0:
                 # Signed radius from the written start: negative for sweeps over 180°.
                 r = math.hypot(cur[a0] / scale - centre[i, a0], cur[a1] / scale - centre[i, a1])
                 ri = np.int64(round(r * scale))
-                used = _put_word(out, used, 82, ri * r_mode_rows[i], decimals)
+                used = _put_word(out, used, 82, ri * r_mode_rows[i], decimals, compact)
             else:
                 for a in (a0, a1):
                     off = np.int64(round((centre[i, a] - cur[a] / scale) * scale))
-                    used = _put_word(out, used, _OFFSET_LETTER[a], off, decimals)
+                    used = _put_word(out, used, _OFFSET_LETTER[a], off, decimals, compact)
         for a in range(3):
             cur[a] = end_i[i, a]
         if feed_row and feed_i[i] != cur_feed:
-            used = _put_word(out, used, 70, feed_i[i], value_decimals)
+            used = _put_word(out, used, 70, feed_i[i], value_decimals, compact)
             cur_feed = feed_i[i]
         if feed_row and fmt.inline_power and power_i[i] != cur_power:
-            used = _put_word(out, used, 83, power_i[i], value_decimals)
+            used = _put_word(out, used, 83, power_i[i], value_decimals, compact)
             cur_power = power_i[i]
         used = _end_line(out, used, ls, numbered, checksums, number)
         number += 1
@@ -303,4 +412,5 @@ def write_moves(rows, state, fmt, first_number, records, row0):
     state[7] = cur_laser
     state[8] = 1 if beam_parked else 0
     state[9] = j
+    state[10] = cur_rel
     return out[:used], number

@@ -116,7 +116,8 @@ def _record_line(rec, dialect: Dialect) -> str | None:
 
 def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001,
          arcs: str = "ijk", header: bool = True, footer: bool = True,
-         comment: str | None = None, travel_beam_off: bool | None = None) -> str:
+         comment: str | None = None, travel_beam_off: bool | None = None,
+         compact: bool = False) -> str:
     """Write a program as G-code text.
 
     Parameters
@@ -146,6 +147,13 @@ def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001
         whatever the controller's settings. False: rely on the controller
         (GRBL's laser mode, ``$32=1``, keeps the beam off on G0; the header
         says so). Default: the dialect's choice (False for grbl, True for marlin).
+    compact : bool
+        The fewest bytes for the same program, for long raster jobs on a serial link
+        (issue 30): words without spaces (``G1X.1S868``), no ``0`` before a decimal
+        point, and every straight move written absolute (G90) or relative (G91),
+        whichever makes the whole text shorter (arcs stay absolute); a program left
+        relative gets ``G90`` before the footer. GRBL and the labkit firmware read it;
+        stock Marlin wants spaces, so it is refused there. Comments stay in the header.
 
     Returns
     -------
@@ -174,6 +182,15 @@ def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001
     G0 X20
     M3 S500
     G1 X30
+    >>> b = MovesBuilder(feed_mm_min=600, power_s=500, laser=LaserMode.DYNAMIC)
+    >>> b.rapid(x=100.5, y=0.05); b.line(x=100.6); b.line(x=100.9, power_s=200); b.line(x=100.5, power_s=0)
+    >>> print(emit(b.build(), header=False, footer=False, compact=True))
+    M4S500
+    G91G0X100.5Y.05
+    G1X.1F600
+    X.3S200
+    X-.4S0
+    G90
     >>> b = MovesBuilder(feed_mm_min=600); b.rapid(x=1e17)
     >>> emit(b.build())
     Traceback (most recent call last):
@@ -185,6 +202,9 @@ def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001
     d = get_dialect(dialect)
     if arcs not in ("ijk", "r"):
         raise ValueError(f"arcs must be 'ijk' or 'r', got {arcs!r}")
+    if compact and not d.modal_motion:
+        raise ValueError(f"compact G-code is for controllers that read words without spaces and "
+                         f"modal motion (grbl, labkit-fw), not {d.name}")
     n = len(moves)
     is_arc = moves.is_arc
     decimals = decimals_for(tol_mm)
@@ -219,12 +239,12 @@ def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001
                         inline_power=bool(d.inline_power),
                         rapid_laser_off=bool(beam_off_by_controller),
                         numbered=bool(d.line_numbers), checksums=bool(d.checksums),
-                        modal_motion=bool(d.modal_motion))
+                        modal_motion=bool(d.modal_motion), compact=bool(compact))
     records = EK.EmitRecords(row=np.asarray(rec_rows, np.int64), text=rec_text, span=rec_span,
                              reset=np.asarray(rec_reset, np.bool_))
     # The body in blocks of rows: each block's integer columns and output buffer (~130 bytes a
     # row) live only while it is written; the writer's modal state carries across blocks.
-    state = np.array([*start_i, -1, 17, -2, -1, EK.LASER_OFF, 0, 0], np.int64)
+    state = np.array([*start_i, -1, 17, -2, -1, EK.LASER_OFF, 0, 0, 0], np.int64)
     text = bytearray(_number_lines(pre, d, 1).encode("ascii"))
     centre = np.nan_to_num(moves.centre) if is_arc.any() else moves.centre   # only arcs read it
     rows = EMIT_ROWS if n > EMIT_ROWS else max(n, 1)
@@ -239,10 +259,13 @@ def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001
                             laser=moves.laser[part].astype(np.int64),
                             dwell=_scaled(d.dwell_from_s(moves.dwell_s[part]), VALUE_DECIMALS),
                             r_mode=r_mode[part].astype(np.int64))
-        body, number = EK.write_moves(block, state, fmt, number, records, lo)
+        relative = (EK.choose_relative(block.kind, block.end, state[:3], state[10], decimals,
+                                        lo + rows >= n) if compact
+                    else np.zeros(len(block.kind), np.int8))
+        body, number = EK.write_moves(block, state, fmt, number, records, lo, relative)
         text += memoryview(body)                 # (numpy would read += as its own addition)
         del block, body
-    post = ["M5", "M2"] if footer else []
+    post = (["G90"] if state[10] else []) + (["M5", "M2"] if footer else [])
     text += _number_lines(post, d, number).encode("ascii")
     return text.decode("ascii")
 

@@ -173,9 +173,10 @@ def jobs(draw):
 
 
 @given(jobs(), st.sampled_from(["grbl", "labkit-fw", "marlin"]), st.sampled_from(["ijk", "r"]),
-       st.sampled_from([0.01, 0.001]))
-def test_parse_of_emit_reproduces_the_moves(m, dialect, arcs, tol):
-    text = emit(m, dialect=dialect, arcs=arcs, tol_mm=tol)
+       st.sampled_from([0.01, 0.001]), st.booleans())
+def test_parse_of_emit_reproduces_the_moves(m, dialect, arcs, tol, compact):
+    compact = compact and dialect != "marlin"        # refused there (tests/gcode/test_emit_compact.py)
+    text = emit(m, dialect=dialect, arcs=arcs, tol_mm=tol, compact=compact)
     back = parse(text, dialect=dialect)
     assert back.diagnostics == ()
     np.testing.assert_array_equal(back.kind, m.kind)

@@ -1,0 +1,98 @@
+"""Compact G-code (issue 30 §3): fewer bytes, the same program.
+
+The checks are independent of the writer's own choice: every assignment of G90/G91 to the lines
+of small programs is written and measured (the chosen one must be the shortest), and the text is
+read back by the parser and compared with the spaced, absolute text of the same Moves.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from labkit.gcode import _emit_kernel as EK, emit, parse, writer
+from labkit.toolpath import LaserMode, MovesBuilder
+
+
+def _scan(xs, ss, y=0.05, feed=1000):
+    """A raster row: a rapid to its start, then lines at power S (hand-made, like a gray row)."""
+    b = MovesBuilder(feed_mm_min=feed, power_s=0, laser=LaserMode.DYNAMIC)
+    b.rapid(x=xs[0], y=y)
+    for x, s in zip(xs[1:], ss):
+        b.line(x=x, power_s=s)
+    return b.build()
+
+
+def test_hand_worked_row():
+    m = _scan([10.0, 10.1, 10.3, 10.2, 9.9, 10.0, 10.1, 10.2], [868, 5, 0, 1000, 1, 2, 3])
+    text = emit(m, header=False, footer=False, compact=True)
+    # By hand: absolute X words X10.1 … X10.2 take 32 characters, relative ones 23, plus 3 for
+    # G91 and 4 for the closing G90 line: 30. From the origin a relative rapid reads the same
+    # as an absolute one, so the switch goes on the first line.
+    assert text == ("M4S0\nG91G0X10Y.05\nG1X.1F1000S868\nX.2S5\nX-.1S0\nX-.3S1000\nX.1S1\nX.1S2\n"
+                    "X.1S3\nG90\n")
+    assert len(emit(m, header=False, footer=False, compact=True)) < len(
+        emit(m, header=False, footer=False).replace(" ", ""))     # spaces alone are not the gain
+    back = parse(text)
+    np.testing.assert_allclose(back.end, m.end, atol=1e-9)
+    np.testing.assert_array_equal(back.power_s, m.power_s)
+
+
+def test_marlin_is_refused():
+    with pytest.raises(ValueError, match="not marlin"):
+        emit(_scan([0.0, 1.0], [5]), dialect="marlin", compact=True)
+
+
+def _lines_program(data):
+    b = MovesBuilder(feed_mm_min=600, power_s=0, laser=LaserMode.CONSTANT)
+    for kind, x, y in data:
+        (b.rapid if kind == 0 else b.line)(x=x / 20, y=y / 20)
+    return b.build()
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 1), st.integers(-4000, 4000), st.integers(-40, 40)),
+                min_size=1, max_size=7))
+def test_the_chosen_distance_modes_give_the_shortest_text(data):
+    m = _lines_program(data)
+    chosen = emit(m, header=False, compact=True)
+    lengths = []
+    real = EK.choose_relative
+    try:
+        for modes in itertools.product((0, 1), repeat=len(m)):
+            EK.choose_relative = lambda *args, modes=modes: np.array(modes, np.int8)
+            lengths.append(len(emit(m, header=False, compact=True)))
+    finally:
+        EK.choose_relative = real
+    assert len(chosen) == min(lengths)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 1), st.integers(-4000, 4000), st.integers(-40, 40)),
+                min_size=1, max_size=40), st.sampled_from(["grbl", "labkit-fw"]))
+def test_compact_reads_back_as_the_spaced_text_and_is_never_longer(data, dialect):
+    m = _lines_program(data)
+    spaced = emit(m, dialect=dialect)
+    compact = emit(m, dialect=dialect, compact=True)
+    assert len(compact) <= len(spaced)
+    a, b = parse(spaced, dialect=dialect), parse(compact, dialect=dialect)
+    assert a.diagnostics == () and b.diagnostics == ()
+    np.testing.assert_array_equal(a.kind, b.kind)
+    np.testing.assert_allclose(a.end, b.end, atol=1e-9)
+    np.testing.assert_array_equal(a.power_s, b.power_s)
+    np.testing.assert_array_equal(a.feed_mm_min, b.feed_mm_min)
+
+
+def test_blocks_of_any_size_write_the_same_program(monkeypatch):
+    rng = np.random.default_rng(3)
+    xs = np.round(np.cumsum(rng.choice([-0.3, -0.1, 0.1, 0.2, 5.0], 300)), 1) + 50
+    m = _scan(list(xs), list(rng.integers(0, 1000, 299)))
+    whole = parse(emit(m, compact=True))
+    for rows in (1, 2, 7):
+        monkeypatch.setattr(writer, "EMIT_ROWS", rows)
+        back = parse(emit(m, compact=True))
+        np.testing.assert_allclose(back.end, whole.end, atol=1e-9)
+        np.testing.assert_array_equal(back.power_s, whole.power_s)
