@@ -48,6 +48,7 @@ __all__ = [
     "arc_lattice_points",
     "circle_points",
     "steps_from_points",
+    "arc_octants",
     "ARC_SCALE",
     "MIN_ARC_RADIUS_STEPS",
 ]
@@ -239,6 +240,36 @@ def _fixed(value: float, scale: int) -> int:
     """Round half away from zero (C's llround) after scaling."""
     v = value * scale
     return int(math.floor(v + 0.5)) if v >= 0 else -int(math.floor(-v + 0.5))
+
+
+def arc_octants(points, centre, scale: int = ARC_SCALE) -> np.ndarray:
+    """The counter-clockwise octant of each lattice point about an arc's centre, as the
+    octant walk of :func:`arc_lattice_points` classifies it.
+
+    Parameters
+    ----------
+    points : array_like of int, shape (n, 2)
+        Lattice points, steps.
+    centre : sequence of 2 float
+        The arc's centre, steps (rounded to ``scale`` sub-steps, as the walk rounds it).
+    scale : int
+        Fixed-point sub-steps per step.
+
+    Returns
+    -------
+    ndarray of int, shape (n,)
+        0…7: octant ``k`` holds the angles in [45k°, 45(k+1)°); in octants 0, 3, 4 and 7
+        the walk steps Y every tick (Y drives), in the others X.
+
+    Examples
+    --------
+    >>> arc_octants([[3, 1], [1, 3], [-3, 1], [0, -3]], (0.0, 0.0)).tolist()
+    [0, 1, 3, 6]
+    """
+    pts = np.asarray(points, np.int64).reshape(-1, 2)
+    q = int(scale)
+    cxq, cyq = _fixed(float(centre[0]), q), _fixed(float(centre[1]), q)
+    return np.array([K.octant_ccw(q * int(x) - cxq, q * int(y) - cyq) for x, y in pts], np.int64)
 
 
 def arc_lattice_points(start, end, centre, *, clockwise: bool, radius: float | None = None,

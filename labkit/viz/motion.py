@@ -253,7 +253,7 @@ def bresenham_explorer():
     import matplotlib.pyplot as plt
 
     from labkit.motion import arc_lattice_points, line_points
-    from labkit.motion._bresenham import octant_ccw
+    from labkit.motion.bresenham import arc_octants
 
     def show(x_end, y_end, radius, centre_dx, sweep_deg):
         fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 5.2))
@@ -267,8 +267,7 @@ def bresenham_explorer():
         s = np.floor(c + [radius, 0] + 0.5).astype(int)
         e = np.floor(end + 0.5).astype(int)
         arc = arc_lattice_points(s, e, c, clockwise=False, radius=float(radius), sweep_rad=np.radians(sweep_deg - a0))
-        q = 256
-        oct_ = [octant_ccw(int(q * x - round(c[0] * q)), int(q * y - round(c[1] * q))) for x, y in arc]
+        oct_ = arc_octants(arc, c).tolist()
         plot_lattice_path(arc, a2, circle=(c, radius), colour_by=oct_,
                           labels={k: f"octant {k + 1}: driver {'Y' if k in (0, 3, 4, 7) else 'X'}"
                                   for k in range(8)},
