@@ -43,6 +43,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "cutwidth": ("cutwidth", "cut width against power and speed: test grid, measure a scan, fit, settings, window"),
     "raster-test": ("rastertest", "raster calibration: scan-offset (ghosting) lines and a gray step wedge, their scans fitted"),
     "materials": ("materials", "the material library: list, show, add, from-fit (a cutwidth fit), remove"),
+    "burncheck": ("burncheck", "predict a program's burn from the dose model; check a scan of the real burn against it"),
     "plan": ("motion", "plan a G-code job: blocks, speed profiles, look-ahead, job time"),
     "steps": ("motion", "write the Bresenham step sequence of a G-code job"),
     "ports": ("machine", "list serial ports and what each looks like (CH340, FTDI, CP210x, …)"),
