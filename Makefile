@@ -24,8 +24,8 @@ $(STAMP): pyproject.toml
 ## make lab: set up (first time) and open JupyterLab on the index notebook.
 ROOT_ARGS := $(if $(filter 0,$(shell id -u 2>/dev/null)),--allow-root,)
 lab: $(STAMP)
-	@echo "labkit: compiling the kernels once for this version (a minute the first time; the chapters then run in seconds)"
-	@$(PY) tests/_warm_kernels.py --once >/dev/null || echo "note: some kernels will compile when first used"
+	@echo "labkit: compiling every kernel the chapters and commands use, once for this install (minutes the first time, then seconds)"
+	@$(PY) -m labkit._jit warm || echo "note: some kernels will compile when first used"
 	$(VENV)/bin/jupyter lab --ServerApp.root_dir="$(CURDIR)" \
 		--LabApp.default_url=/lab/tree/notebooks/00-index.ipynb $(ROOT_ARGS) $(LAB_ARGS)
 

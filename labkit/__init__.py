@@ -16,7 +16,6 @@ viz       matplotlib plots and ipywidgets (imported lazily)
 import importlib
 import os
 import re
-import sys
 from pathlib import Path
 
 __version__ = "0.1.0"
@@ -145,16 +144,3 @@ def _numba_cache_dir(root: Path | None = None, base: Path | None = None) -> Path
         shutil.rmtree(old, ignore_errors=True)
     return here
 
-
-def _configure_numba_cache() -> None:
-    """Point numba's cache at :func:`_numba_cache_dir` (called by :mod:`labkit._jit` just
-    before a kernel first compiles, so that importing labkit reads no source files)."""
-    if os.environ.get("NUMBA_CACHE_DIR"):
-        return                                   # the user (or an earlier call) chose a folder
-    try:
-        folder = str(_numba_cache_dir())
-    except OSError:
-        return                                   # no writable cache folder: numba's default
-    os.environ["NUMBA_CACHE_DIR"] = folder
-    if "numba" in sys.modules:                   # numba read its settings already
-        sys.modules["numba"].config.CACHE_DIR = folder

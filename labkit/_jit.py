@@ -37,6 +37,16 @@ Every kernel is written once, as plain Python over numpy arrays, and decorated w
   :class:`Kernel` it meets in compiled code is its dispatcher, so callees compile (or
   come with the caller's cached code) exactly as with ``numba.njit``.
 
+**Where compiled kernels are kept** (:func:`cache_folders`): in the environment labkit is
+installed in (``<sys.prefix>/var/cache/labkit/numba``) when this process may write there, so
+that one ``make lab`` (:func:`warm`) compiles them for every user of the install; otherwise in
+the user's cache (``~/.cache/labkit/numba``), which then starts as links to the kernels the
+environment holds: numba refuses a cache folder it cannot write to, so a read-only shared
+cache is read through these links, and a kernel missing from it is compiled and saved in the
+user's folder (a save replaces the link, never writes through it). Both are keyed by the
+state of the kernels' sources (:func:`labkit._numba_cache_dir`). ``NUMBA_CACHE_DIR``, when
+set, is numba's own and wins; ``LABKIT_SHARED_KERNELS`` names another shared folder.
+
 ``LABKIT_JIT=python`` runs every kernel as Python (stepping through with a debugger),
 ``LABKIT_JIT=compiled`` compiles every kernel on first use (what the tests of the
 compiled path set), ``NUMBA_DISABLE_JIT=1`` is honoured as numba defines it.
@@ -51,8 +61,10 @@ import sys
 import threading
 import time
 import types
+from pathlib import Path
 
-__all__ = ["Kernel", "jit", "compile_all", "mode", "forced", "job_units", "LOAD_COST_S"]
+__all__ = ["Kernel", "jit", "compile_all", "mode", "forced", "job_units", "LOAD_COST_S",
+           "cache_folders", "warm"]
 
 # Depth of kernels running as Python. Shared by threads on purpose (a plain list is the
 # cheapest check on the hot path of nested calls): a thread that starts a kernel while
@@ -156,6 +168,11 @@ class Kernel:
         self.spent_since_load = 0.0     # CPU s run as Python after numba was loaded
         functools.update_wrapper(self, func)
 
+    @property
+    def name(self) -> str:
+        """``module.qualname`` of the kernel's function."""
+        return f"{self.py_func.__module__}.{self.py_func.__qualname__}"
+
     def __repr__(self):
         state = "compiled" if self.dispatcher is not None else "not compiled"
         return f"<labkit kernel {self.py_func.__module__}.{self.py_func.__qualname__} ({state})>"
@@ -218,9 +235,7 @@ class Kernel:
                 if self.dispatcher is None:
                     global _hooks_installed
                     if not _hooks_installed:
-                        from labkit import _configure_numba_cache
-
-                        _configure_numba_cache()     # before numba reads its settings
+                        _install_cache_locator()
                         _install_numba_hooks()
                         _hooks_installed = True
                     import numba
@@ -345,6 +360,179 @@ def jit(func=None, *, python_below: int = 0, python=None, views: bool = False, *
     return wrap if func is None else wrap(func)
 
 
+def _shared_base() -> Path:
+    """The folder under which an environment keeps the kernels its users share."""
+    chosen = os.environ.get("LABKIT_SHARED_KERNELS")
+    return Path(chosen) if chosen else Path(sys.prefix) / "var" / "cache" / "labkit" / "numba"
+
+
+def _writable(folder) -> bool:
+    # A file made and removed, not os.access: root passes os.access on any mode bits.
+    import tempfile
+
+    try:
+        tempfile.TemporaryFile(dir=folder).close()
+        return True
+    except OSError:
+        return False
+
+
+_folders: list = []                 # (shared folder or None, it is writable, user folder or None)
+
+
+def cache_folders(refresh: bool = False) -> tuple:
+    """Where this process keeps compiled kernels (see the module docstring).
+
+    Returns
+    -------
+    tuple
+        ``(shared, shared_writable, user)``: the environment's folder for this state of the
+        kernels' sources (``None`` when it does not exist and cannot be made), whether this
+        process may write there, and the user's folder (``None`` when the shared one is
+        writable, the only one then used, or when no user folder can be made).
+    """
+    if _folders and not refresh:
+        return _folders[0]
+    import hashlib
+
+    from labkit import _numba_cache_dir
+
+    root = Path(__file__).resolve().parent
+    checkout = hashlib.sha1(str(root).encode()).hexdigest()[:8]
+    try:
+        shared = _numba_cache_dir(root, _shared_base() / checkout)
+    except OSError:
+        shared = None
+    writable = shared is not None and _writable(shared)
+    user = None
+    if not writable:
+        try:
+            user = _numba_cache_dir(root)
+        except OSError:
+            user = None
+    _folders[:] = [(shared, writable, user)]
+    return _folders[0]
+
+
+def _link_shared(shared_sub: Path, user_sub: Path) -> None:
+    """Link every file of a shared cache folder into the user's, where the user has none."""
+    try:
+        names = os.listdir(shared_sub)
+    except OSError:
+        return
+    user_sub.mkdir(parents=True, exist_ok=True)
+    for name in names:
+        target = user_sub / name
+        if not os.path.lexists(target) and ".tmp." not in name:
+            with contextlib.suppress(OSError):   # another process linked it first
+                os.symlink(shared_sub / name, target)
+
+
+_locator: list = []
+
+
+def _locator_class():
+    """numba's cache locator for labkit's kernels (made once: it subclasses numba's classes)."""
+    if _locator:
+        return _locator[0]
+    from numba.core import caching
+
+    here = os.path.dirname(os.path.abspath(__file__)) + os.sep
+    linked: set = set()
+
+    class LabkitCacheLocator(caching._SourceFileBackedLocatorMixin, caching._CacheLocator):
+        """The environment's folder when writable, else the user's seeded with links to it."""
+
+        def __init__(self, py_func, py_file, folder):
+            self._py_file = py_file
+            self._lineno = py_func.__code__.co_firstlineno
+            self._cache_path = os.path.join(str(folder), self.get_suitable_cache_subpath(py_file))
+
+        def get_cache_path(self):
+            return self._cache_path
+
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            from numba.core import config
+
+            if config.CACHE_DIR or not os.path.abspath(py_file).startswith(here):
+                return None                  # numba's own choice, or not one of labkit's kernels
+            shared, writable, user = cache_folders()
+            folder = shared if writable else user
+            if folder is None:
+                return None                  # numba's default locators decide
+            self = cls(py_func, py_file, folder)
+            if not writable and shared is not None and self._cache_path not in linked:
+                sub = self.get_suitable_cache_subpath(py_file)
+                _link_shared(Path(shared) / sub, Path(self._cache_path))
+                linked.add(self._cache_path)
+            try:
+                self.ensure_cache_path()
+            except OSError:
+                return None
+            return self
+
+    _locator.append(LabkitCacheLocator)
+    return LabkitCacheLocator
+
+
+def _install_cache_locator() -> None:
+    """Put labkit's locator first in numba's list (for labkit's files only; others pass on)."""
+    from numba.core import caching
+
+    impl = caching.CompileResultCacheImpl
+    cls = _locator_class()
+    if cls not in impl._locator_classes:
+        impl._locator_classes = [cls, *impl._locator_classes]
+
+
+def warm(table_path=None, report=None) -> list[str]:
+    """Compile every kernel any chapter or command uses, for the argument types each uses, into
+    the cache (the environment's when writable: ``make lab`` compiles once for every user).
+
+    Parameters
+    ----------
+    table_path : path-like, optional
+        The kernels and signatures to compile (default ``labkit/_warm_kernels.json``, written
+        by ``tests/_chapter_kernels.py`` from running every chapter and command).
+    report : callable, optional
+        Called with one line per kernel as it is done.
+
+    Returns
+    -------
+    list of str
+        The signatures that could not be compiled, one line each (empty when all were).
+    """
+    import base64
+    import importlib
+    import json
+    import pickle
+
+    path = Path(table_path) if table_path else Path(__file__).with_name("_warm_kernels.json")
+    try:
+        table = json.loads(path.read_text(encoding="utf-8"))["signatures"]
+    except (OSError, ValueError, KeyError) as exc:
+        return [f"{path}: no list of kernels to compile ({type(exc).__name__}: {exc})"]
+    problems = []
+    with forced("compiled"):
+        for name, signatures in table.items():
+            module, _, func = name.rpartition(".")
+            try:
+                kernel = getattr(importlib.import_module(module), func)
+                dispatcher = kernel.compiled()
+            except Exception as exc:              # noqa: BLE001 (listed, the rest still warm)
+                problems.append(f"{name}: {type(exc).__name__}: {exc}")
+                continue
+            for text, blob in signatures.items():
+                try:
+                    dispatcher.compile(pickle.loads(base64.b64decode(blob)))
+                except Exception as exc:          # noqa: BLE001
+                    problems.append(f"{name}{text[:80]}: {type(exc).__name__}: {str(exc)[:200]}")
+            if report is not None:
+                report(f"{name}: {len(signatures)} signature(s)")
+    return problems
+
+
 def _install_numba_hooks() -> None:
     """Teach numba that a :class:`Kernel` named in compiled code is its dispatcher."""
     from numba.core import types
@@ -368,3 +556,40 @@ def compile_all(module: str | None = None) -> int:
                 k.compiled()
                 count += 1
     return count
+
+
+def compiled_signatures() -> dict[str, dict[str, str]]:
+    """The kernels this process holds machine code for (compiled or loaded from the cache).
+
+    Returns
+    -------
+    dict
+        ``module.name`` of each kernel → its numba signatures: the argument types' ``repr``
+        → the same types pickled (base64), which :func:`warm` compiles again.
+    """
+    import base64
+    import pickle
+
+    found = {}
+    for kernels in _registry.values():
+        for k in kernels:
+            if k.dispatcher is not None and k.dispatcher.signatures:
+                found[k.name] = {repr(tuple(s)): base64.b64encode(pickle.dumps(tuple(s))).decode()
+                                 for s in k.dispatcher.signatures}
+    return found
+
+
+if __name__ == "__main__":
+    # ``python -m labkit._jit warm``: what ``make lab`` runs. The module's own names are taken
+    # from the imported module, not this __main__ copy, whose registry is empty.
+    from labkit._jit import cache_folders as _folders_of, warm as _warm
+
+    if sys.argv[1:] != ["warm"]:
+        sys.exit("usage: python -m labkit._jit warm")
+    failed = _warm()
+    shared, writable, user = _folders_of()
+    print(f"labkit: kernels cached in {shared if writable else user}"
+          + ("" if writable else f" (the environment's {shared or 'folder'} is not writable here)"))
+    for line in failed:
+        print(f"note: not compiled now, will compile when first used: {line}", file=sys.stderr)
+    sys.exit(1 if failed else 0)
