@@ -18,6 +18,13 @@
   laser PWM TIM3 CH1 (PA6, AF2, LK_LASER_PWM_TOP steps), e-stop input PC13
   (polled in hal_poll; the Nucleo's blue button). Step pulses are lowered
   by TIM2's compare channel 1 after step_pulse_us.
+  Limit switches X Y Z on PB12 PB13 PB14 and the probe on PA7, the pins
+  grblHAL's generic STM32F4xx map gives them (limits three adjacent pins of
+  one port, read with one shift; PA7 is the Nucleo's D11 on the Arduino
+  header). Inputs with pull-ups, GRBL's wiring: a normally open switch to
+  ground reads low when pressed ($5 / $6 invert in limits.c). Limits are read
+  by homing in the main loop, the probe also in the step interrupt while a
+  G38.x runs. The QEMU build reads them as nothing pressed (below).
 
   Trace port (netduinoplus2 only): one byte per step tick on USART2,
   bits 0-2 steps X Y Z, bits 3-5 directions, bit 6 laser on. QEMU's
@@ -51,6 +58,7 @@
 #define GPIOB 0x40020400u
 #define GPIOC 0x40020800u
 #define GPIO_MODER(p) REG((p) + 0x00)
+#define GPIO_PUPDR(p) REG((p) + 0x0C)
 #define GPIO_IDR(p) REG((p) + 0x10)
 #define GPIO_BSRR(p) REG((p) + 0x18)
 #define GPIO_AFRL(p) REG((p) + 0x20)
@@ -154,6 +162,11 @@ static void gpio_init(void) {
                       (2u << 12) | (2u << 4) | (2u << 6);
   GPIO_AFRL(GPIOA) = (GPIO_AFRL(GPIOA) & ~((0xFu << 24) | (0xFFu << 8))) | (2u << 24) | (0x77u << 8);
   /* PC13 input (reset state) */
+  /* limits PB12..PB14 and probe PA7: inputs (MODER 00), pull-up (PUPDR 01) */
+  GPIO_MODER(GPIOB) &= ~(0x3Fu << 24);
+  GPIO_PUPDR(GPIOB) = (GPIO_PUPDR(GPIOB) & ~(0x3Fu << 24)) | (0x15u << 24);
+  GPIO_MODER(GPIOA) &= ~(3u << 14);
+  GPIO_PUPDR(GPIOA) = (GPIO_PUPDR(GPIOA) & ~(3u << 14)) | (1u << 14);
 }
 
 static void uart_init(uint32_t u, uint32_t clk_hz, int rx_irq) {
@@ -341,6 +354,17 @@ void hal_irq_enable(void) {
   if (irq_depth && --irq_depth == 0)
     __asm volatile("cpsie i\n isb" ::: "memory");
 }
+
+/* A low pin is a pressed switch (pull-up, switch to ground). QEMU models no
+   GPIO: its input registers read 0, which would be every switch and the probe
+   pressed (Pn:XYZP in every report), so the QEMU build reads nothing pressed. */
+#ifdef QEMU_SYSTICK_STEPPER
+uint8_t hal_limits_read(void) { return 0; }
+uint8_t hal_probe_read(void) { return 0; }
+#else
+uint8_t hal_limits_read(void) { return (uint8_t)(~(GPIO_IDR(GPIOB) >> 12) & 7u); }
+uint8_t hal_probe_read(void) { return (GPIO_IDR(GPIOA) & (1u << 7)) ? 0u : 1u; }
+#endif
 
 /* ---------------------------------------------------------------- shell hal */
 

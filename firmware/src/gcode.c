@@ -185,6 +185,19 @@ static int wait_for_slot(void)
   return 1;
 }
 
+/* Wait until every move before this line has ended (GRBL's buffer synchronisation before a
+   probe cycle), preparing ticks meanwhile. 0 when a reset cut the wait short. */
+static int wait_for_idle(void)
+{
+  plan_flush();
+  while (!plan_is_empty() || !st_is_idle()) {
+    st_prep_buffer();
+    if (gc_wait_hook) gc_wait_hook();
+    if (st_take_abort()) return 0;
+  }
+  return 1;
+}
+
 /* The commands of one line, as its G and M words set them. */
 typedef struct {
   uint32_t groups;           /* modal groups seen */
@@ -677,6 +690,14 @@ uint8_t gc_execute_line(char *line)
   /* ---- phase 3: commit ---- */
   gc.stop_now = 0;
   gc.probe_now = moving && motion_mode >= GC_MOTION_PROBE ? (uint8_t)(motion_mode - GC_MOTION_PROBE) : 0;
+  /* A probe starts from rest, as GRBL's probe cycle does: the line has been checked whole
+     (a wrong one is answered at once, whatever is queued), a good one waits here for the
+     moves before it. A reset meanwhile drops it. */
+  if (gc.probe_now && !wait_for_idle()) {
+    gc.probe_now = 0;
+    gc.sync_now = 0;
+    return STATUS_OK;
+  }
   gc.sync_now = gc_dialect == GC_DIALECT_GRBL &&
                 (dwell || gc.probe_now || stop == 2 || stop == 30 || nonmodal == 100 || nonmodal == 281 ||
                  nonmodal == 301 || nonmodal == 920 || nonmodal == 921 || tool_new >= 0 ||

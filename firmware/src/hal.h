@@ -69,10 +69,12 @@ void hal_air_set(uint8_t bits);
 
 /* Inputs, read as the switch's state with GRBL's wiring (a normally open
    switch to ground, pull-up on: a low pin is a pressed switch); the core
-   applies $5 / $6. (main) limits.c gives defaults for a hal without them:
-   nothing pressed. */
-uint8_t hal_limits_read(void);   /* bit i: limit switch of axis i pressed */
-uint8_t hal_probe_read(void);    /* 1: the probe touches */
+   applies $5 / $6. limits.c gives defaults for a hal without them: nothing
+   pressed. */
+uint8_t hal_limits_read(void);   /* (main) bit i: limit switch of axis i pressed */
+uint8_t hal_probe_read(void);    /* 1: the probe touches. Also called from st_tick() while a
+                                    probe cycle runs (GRBL reads it in its step interrupt):
+                                    one pin read, nothing more */
 
 /* Keep the step interrupt out while the main loop changes data it shares with
    it (st_reset, feed hold). Must nest at least one level. */

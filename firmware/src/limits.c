@@ -22,8 +22,13 @@ uint8_t limits_pressed(void)
 
 uint8_t limits_probe_touching(void)
 {
-  uint8_t pin = hal_probe_read() ? 1u : 0u;
-  return (settings.flags & SET_FLAG_PROBE_INVERT) ? (uint8_t)(pin ^ 1u) : pin;
+  return (hal_probe_read() ? 1u : 0u) == limits_probe_pin_at(1);
+}
+
+uint8_t limits_probe_pin_at(uint8_t touching)
+{
+  uint8_t invert = (settings.flags & SET_FLAG_PROBE_INVERT) ? 1u : 0u;
+  return (uint8_t)((touching ? 1u : 0u) ^ invert);
 }
 
 void limits_set_probe_result(const double mm[3], uint8_t touched)

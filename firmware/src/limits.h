@@ -19,6 +19,10 @@ uint8_t limits_pressed(void);
 /* 1 when the probe touches ($6 inverts the pin). */
 uint8_t limits_probe_touching(void);
 
+/* The level hal_probe_read() has when the probe is touching (1) or not (0), $6 applied:
+   what the step interrupt compares the pin with (st_probe_arm). */
+uint8_t limits_probe_pin_at(uint8_t touching);
+
 /* The last probe cycle: machine position (mm) where it touched, or where a
    G38.3 / G38.5 ended without touching; touched = 1 when the probe switched. */
 void limits_set_probe_result(const double mm[3], uint8_t touched);

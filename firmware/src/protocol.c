@@ -53,10 +53,9 @@ static uint8_t sync_ok;
 uint8_t protocol_program_paused(void) { return program_pause; }
 
 /* A G38.x probe move (grbl dialect): 2..5 while it runs (its ok waits with
-   sync_ok), and whether and where the probe switched. The input is read on
-   every pass of the main loop (not in the step interrupt): the head stops
-   within one pass of the touch, and the position reported is where it was
-   when the touch was seen. */
+   sync_ok), and whether and where the probe switched. The step interrupt reads
+   the input after every tick (st_probe_arm) and keeps the position of the
+   touch; the main loop then stops the head within one pass. */
 static uint8_t probe_cycle;
 static uint8_t was_held;          /* the last pass saw a hold that had stopped the head */
 static uint8_t probe_hit;
@@ -73,7 +72,7 @@ static uint8_t critical;
 static void soft_limit_alarm(void) {
   protocol_alarm(ALARM_SOFT_LIMIT);
   if (settings.dialect == GC_DIALECT_GRBL) {
-    report_feedback("Reset to continue");
+    report_feedback(MSG_RESET_TO_CONTINUE);
     critical = 1;
   }
 }
@@ -264,6 +263,7 @@ static void soft_reset(void) {
     report_status_message(STATUS_OK);
   sync_ok = 0;   /* GRBL: the line held (M0, a soft limit) is answered now */
   probe_cycle = 0;
+  st_probe_disarm();
   critical = 0;
   stop_all();
   serial_rx_flush();
@@ -290,7 +290,7 @@ static void soft_reset(void) {
   flushed = 1;
   report_banner();
   if (state == PROTO_ALARM)
-    report_feedback("'$H'|'$X' to unlock");
+    report_feedback(MSG_ALARM_LOCK);
   else
     run_startup_lines();
 }
@@ -376,7 +376,7 @@ static uint8_t jog(const char *p) {
 
 uint8_t protocol_jog(const char *words) {
   if (state == PROTO_ALARM)
-    return REPLY_LOCKED;
+    return STATUS_GCODE_LOCKED;
   if (state == PROTO_CHECK || !plan_is_empty() || (state != PROTO_JOG && !st_is_idle()))
     return STATUS_UNSUPPORTED_COMMAND;   /* the panel jogs an idle machine only */
   return jog(words);
@@ -464,32 +464,32 @@ static uint8_t system_command(char *line) {
     return STATUS_OK;
   case 'J':
     if (state == PROTO_ALARM)
-      return REPLY_LOCKED;
+      return STATUS_GCODE_LOCKED;
     if (p[1] != '=')
       return STATUS_INVALID_STATEMENT;
     if (state == PROTO_CHECK)
       return STATUS_OK;
     if (state != PROTO_JOG && (!plan_is_empty() || !st_is_idle()))
-      return REPLY_NOT_IDLE;
+      return STATUS_NOT_IDLE;
     return jog(p + 2);
   case '$': case 'G': case 'C': case 'X':
     if (p[1] != 0)
       return STATUS_INVALID_STATEMENT;
     if (p[0] == '$') {
       if (cycle)
-        return REPLY_NOT_IDLE;          /* GRBL: too long to print during a cycle */
+        return STATUS_NOT_IDLE;          /* GRBL: too long to print during a cycle */
       settings_report();
     } else if (p[0] == 'G') {
       report_gcode_modes();
     } else if (p[0] == 'C') {
       if (state == PROTO_CHECK)
-        return answer_then_reset("Disabled");   /* GRBL: leaving check mode resets */
+        return answer_then_reset(MSG_DISABLED);   /* GRBL: leaving check mode resets */
       if (state != PROTO_IDLE || cycle)
-        return REPLY_NOT_IDLE;
+        return STATUS_NOT_IDLE;
       state = PROTO_CHECK;
-      report_feedback("Enabled");
+      report_feedback(MSG_ENABLED);
     } else if (state == PROTO_ALARM) {
-      report_feedback("Caution: Unlocked");
+      report_feedback(MSG_ALARM_UNLOCK);
       state = PROTO_IDLE;
     }
     return STATUS_OK;
@@ -502,7 +502,7 @@ static uint8_t system_command(char *line) {
   }
   /* the rest need an idle machine or an alarm (GRBL: EEPROM and homing) */
   if ((state != PROTO_IDLE && state != PROTO_ALARM) || cycle)
-    return REPLY_NOT_IDLE;
+    return STATUS_NOT_IDLE;
   switch (p[0]) {
   case '#':
     if (p[1] != 0)
@@ -521,7 +521,7 @@ static uint8_t system_command(char *line) {
     stop_all();
     state = PROTO_SLEEP;
     report_status_message(STATUS_OK);
-    report_feedback("Sleeping");
+    report_feedback(MSG_SLEEPING);
     return REPLY_DONE;
   case 'I':
     if (p[1] == 0) {
@@ -542,7 +542,7 @@ static uint8_t system_command(char *line) {
     if (st != STATUS_OK)
       return st;
     gc_load_offsets();
-    return answer_then_reset("Restoring defaults");
+    return answer_then_reset(MSG_RESTORING_DEFAULTS);
   }
   case 'N':
     if (p[1] == 0) {
@@ -556,7 +556,7 @@ static uint8_t system_command(char *line) {
       return STATUS_OK;
     }
     if (state != PROTO_IDLE || cycle)
-      return REPLY_NOT_IDLE;
+      return STATUS_NOT_IDLE;
     return store_startup_line(p + 1);
   default: {
     uint8_t st = settings_store_setting(p);
@@ -566,11 +566,15 @@ static uint8_t system_command(char *line) {
   }
 }
 
+static void steps_to_mm(const int32_t steps[3], double mm[3]) {
+  for (int a = 0; a < 3; a++)
+    mm[a] = (double)steps[a] / plan_machine()->steps_per_mm[a];
+}
+
 static void machine_position_mm(double mm[3]) {
   int32_t steps[3];
   st_get_position(steps);
-  for (int a = 0; a < 3; a++)
-    mm[a] = (double)steps[a] / plan_machine()->steps_per_mm[a];
+  steps_to_mm(steps, mm);
 }
 
 /* GRBL's probe cycle: a probe already where the move should take it is
@@ -586,6 +590,7 @@ static void start_probe(uint8_t kind) {
   }
   probe_cycle = kind;
   probe_hit = 0;
+  st_probe_arm(limits_probe_pin_at(kind < 4));   /* G38.4 / G38.5 wait for the touch to end */
   plan_flush();
   sync_ok = 1;
 }
@@ -606,6 +611,7 @@ static void finish_probe(void) {
     state = PROTO_ALARM;
     report_alarm(ALARM_PROBE_FAIL_CONTACT);
   }
+  st_probe_disarm();
   probe_cycle = 0;                /* the parser's position: where the head stopped after a touch
                                      (stop_all), else the move's target, as GRBL keeps it */
   report_probe();
@@ -613,8 +619,9 @@ static void finish_probe(void) {
 
 /* Does the line need an idle machine (empty planner, stopped stepper)? */
 static uint8_t needs_idle(const char *line) {
-  if (line[0] != '$')            /* G-code waits for a jog to end; GRBL probes from rest */
-    return state == PROTO_JOG || (settings.dialect == GC_DIALECT_GRBL && strstr(line, "G38"));
+  if (line[0] != '$')            /* G-code waits for a jog to end (a probe line is checked at
+                                     once and waits for rest in gc_execute_line, as GRBL's) */
+    return state == PROTO_JOG;
   if (settings.dialect == GC_DIALECT_GRBL)
     return 0;                     /* GRBL answers at once: error:8 when not idle */
   const char *p = line + 1;
@@ -636,13 +643,13 @@ void protocol_execute_line(char *line) {
     if (st == REPLY_DONE)
       return;
   } else if (state == PROTO_ALARM) {
-    st = REPLY_LOCKED;
+    st = STATUS_GCODE_LOCKED;
   } else if (state == PROTO_CHECK) {
     st = gc_execute_line(line);
     plan_reset();                 /* checked, never run */
     (void)st_take_abort();
     if (st == STATUS_OK && gc_state()->stop_now == GC_FLOW_END)
-      report_feedback("Pgm End");
+      report_feedback(MSG_PROGRAM_END);
   } else {
     st = gc_execute_line(line);
     if (st == STATUS_OK) {
@@ -662,7 +669,7 @@ void protocol_execute_line(char *line) {
         if (settings.dialect == GC_DIALECT_GRBL) {
           plan_set_overrides(100, 100);  /* GRBL: a program end restores the overrides */
           laser_set_override(100);
-          report_feedback("Pgm End");
+          report_feedback(MSG_PROGRAM_END);
         }
       }
       protocol_events |= EV_RUNNER;
@@ -725,8 +732,9 @@ static void system_task(void) {
       hold_req = 1;              /* GRBL holds at rest too: Hold:0 until '~' */
     }
   }
-  if (probe_cycle && !probe_hit && probe_reached(probe_cycle)) {
-    machine_position_mm(probe_hit_mm);
+  int32_t touch_steps[3];
+  if (probe_cycle && !probe_hit && st_probe_tripped(touch_steps)) {
+    steps_to_mm(touch_steps, probe_hit_mm);
     probe_hit = 1;
     stop_all();                   /* the rest of the probe move is dropped */
   }
@@ -751,7 +759,7 @@ static void system_task(void) {
   if (f & RT_RESUME) {
     uint8_t s = st_state();
     if (hold_req && settings.dialect == GC_DIALECT_GRBL && gc_state()->laser)
-      report_feedback("Restoring spindle");
+      report_feedback(MSG_RESTORING_SPINDLE);
     hold_req = 0;
     if (s == ST_HELD || s == ST_HOLDING)
       st_resume();
@@ -875,7 +883,7 @@ void protocol_startup(void) {
     report_feedback("settings restored");
   if (settings.dialect == GC_DIALECT_GRBL && (settings.flags & SET_FLAG_HOMING)) {
     state = PROTO_ALARM;                     /* GRBL (HOMING_INIT_LOCK): at power-up with homing on, */
-    report_feedback("'$H'|'$X' to unlock");  /* the position is unknown until $H (or $X) */
+    report_feedback(MSG_ALARM_LOCK);  /* the position is unknown until $H (or $X) */
     return;
   }
   run_startup_lines();

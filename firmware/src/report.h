@@ -8,8 +8,8 @@
     GRBL dialect        ok | error:N
     both                ALARM:N, <status>, [MSG:..], [OPT:..], $N=V
 
-  Alarm numbers are GRBL's (labkit/machine/grbl_codes.csv), which the host
-  reads in both dialects.
+  Alarm numbers are GRBL's (labkit/status_codes.csv, kind alarm), which the
+  host reads in both dialects.
 */
 #ifndef LK_REPORT_H
 #define LK_REPORT_H
@@ -20,24 +20,10 @@
 
 #define LK_FW_VERSION "0.1"
 
-/* Alarms (GRBL numbering). */
-#define ALARM_HARD_LIMIT  1
-#define ALARM_SOFT_LIMIT  2   /* a move would leave / left the machine envelope */
-#define ALARM_ABORT_CYCLE 3   /* reset or emergency stop while moving */
-#define ALARM_PROBE_FAIL_INITIAL 4   /* G38.x: the probe was already where the cycle should take it */
-#define ALARM_PROBE_FAIL_CONTACT 5   /* G38.2 / G38.4: the move ended and the probe never switched */
-#define ALARM_HOMING_FAIL_RESET   6  /* a reset during the homing cycle */
-#define ALARM_HOMING_FAIL_PULLOFF 8  /* the pull-off did not clear the switch */
-#define ALARM_HOMING_FAIL_APPROACH 9 /* no switch within the search distance */
-
-/* GRBL's error 9 (G-code locked out during an alarm) is not a status of the
-   shared table (labkit/status_codes.csv): the table lists what a line can
-   be wrong about, the lock is a machine state. It is answered with GRBL's
-   own number, which labkit.machine.grbl (grbl_codes.csv) names. */
-#define REPLY_LOCKED 9
-/* GRBL's error 8 ('$' command only allowed while idle): a jog asked for
-   while a job runs is refused, never queued behind the job. */
-#define REPLY_NOT_IDLE 8
+/* The alarms (ALARM_*, GRBL's numbers), the feedback texts (MSG_*, sent as
+   [MSG:...]) and the line statuses (STATUS_*, among them GRBL's 8 "not idle"
+   and 9 "locked in an alarm") all come from labkit/status_codes.csv through
+   the generated status_codes.h: one table for the firmware and the host. */
 
 void report_status_message(uint8_t status);   /* ok / er:N / error:N */
 void report_alarm(uint8_t alarm);             /* ALARM:N */

@@ -79,6 +79,12 @@ static struct {
   volatile uint32_t done_cycles;   /* clock cycles of the ticks loaded (mod 2^32) */
   volatile int32_t pos[3];
   volatile uint32_t rate;
+  /* G38.x: while armed, the probe pin is read after every tick's steps (GRBL's
+     probe_state_monitor in its step interrupt); the first read at probe_level keeps the
+     position, so the touch is where the steps were, not where the main loop saw it */
+  volatile uint8_t probe_armed, probe_tripped;
+  uint8_t probe_level;
+  int32_t probe_pos[3];
 } sti;
 
 static uint32_t block_seq;
@@ -141,6 +147,13 @@ void st_tick(void)
     if (bits & 2u) sti.pos[1] += (neg & 2u) ? -1 : 1;
     if (bits & 4u) sti.pos[2] += (neg & 4u) ? -1 : 1;
     sti.pending = 0;
+  }
+  if (sti.probe_armed && hal_probe_read() == sti.probe_level) {
+    sti.probe_pos[0] = sti.pos[0];
+    sti.probe_pos[1] = sti.pos[1];
+    sti.probe_pos[2] = sti.pos[2];
+    sti.probe_armed = 0;
+    sti.probe_tripped = 1;
   }
   if (!load_tick()) {
     hal_timer_stop();
@@ -431,11 +444,35 @@ void st_reset(void)
   sti.rate = 0;
   sti.state = ST_IDLE;
   sti.abort = 1;
+  sti.probe_armed = 0;     /* a trip already seen stays for st_probe_tripped() */
   block_seq = 0;
   plan_reset();
   int32_t p[3] = {sti.pos[0], sti.pos[1], sti.pos[2]};
   plan_sync_position(p);
   hal_irq_enable();
+}
+
+void st_probe_arm(uint8_t pin_level)
+{
+  hal_irq_disable();
+  sti.probe_level = pin_level ? 1u : 0u;
+  sti.probe_tripped = 0;
+  sti.probe_armed = 1;
+  hal_irq_enable();
+}
+
+void st_probe_disarm(void)
+{
+  sti.probe_armed = 0;
+  sti.probe_tripped = 0;
+}
+
+uint8_t st_probe_tripped(int32_t steps[3])
+{
+  if (!sti.probe_tripped) return 0;
+  for (int a = 0; a < 3; a++) steps[a] = sti.probe_pos[a];
+  sti.probe_tripped = 0;
+  return 1;
 }
 
 uint8_t st_take_abort(void)

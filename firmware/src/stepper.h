@@ -9,7 +9,8 @@
   Interrupt: st_tick() (see hal.h for when it is called) pulses the steps of
   the tick that ended, counts them into the position, and loads the next
   prepared tick: its directions, duty and period. No arithmetic there beyond
-  that, no floating point, no loops over blocks.
+  that, no floating point, no loops over blocks; while a probe cycle runs it
+  also reads the probe input (st_probe_arm).
 
   Feed hold decelerates at the block's slope down to its floor rate, keeps
   the rest of the job and resumes with a ramp; reset drops everything at
@@ -49,6 +50,14 @@ void st_feed_hold(void);
 void st_resume(void);
 void st_reset(void);
 uint8_t st_take_abort(void);       /* 1 once after st_reset (ends the parser's waits) */
+
+/* G38.x probing, read in the step interrupt as GRBL reads it: st_probe_arm() (main, before
+   the probe move starts) has st_tick() read hal_probe_read() after each tick's steps; the
+   first read equal to pin_level keeps the position and disarms. st_probe_tripped() gives
+   that position (steps) once; st_probe_disarm() forgets both. */
+void st_probe_arm(uint8_t pin_level);
+void st_probe_disarm(void);
+uint8_t st_probe_tripped(int32_t steps[3]);
 
 uint8_t st_state(void);
 uint8_t st_is_idle(void);

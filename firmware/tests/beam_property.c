@@ -35,8 +35,23 @@ static uint32_t input_ticks;       /* ticks of the current input */
 static uint8_t focus_fired;        /* the output went to the focus duty after turn, OK, OK */
 static uint8_t panel_last[3];      /* the last three panel events, newest last */
 
-void hal_set_dir(uint8_t bits) { (void)bits; }
-void hal_step_pulse(uint8_t bits) { (void)bits; }
+/* The head as the motors move it, counted from the pulses (homing rewrites the core's
+   counters, not the head), and a limit switch per axis BEAM_SWITCH_MM on its + side. */
+static uint8_t dir_now;
+static int32_t head_steps[3];
+void hal_set_dir(uint8_t bits) { dir_now = bits; }
+void hal_step_pulse(uint8_t bits) {
+  for (int a = 0; a < 3; a++)
+    if (bits & (1u << a))
+      head_steps[a] += (dir_now & (1u << a)) ? -1 : 1;
+}
+uint8_t hal_limits_read(void) {
+  uint8_t pressed = 0;
+  for (int a = 0; a < 3; a++)
+    if (head_steps[a] >= (int32_t)(BEAM_SWITCH_MM * plan_machine()->steps_per_mm[a]))
+      pressed |= (uint8_t)(1u << a);
+  return pressed;
+}
 void hal_timer_set_period(uint32_t p) { (void)p; }
 void hal_timer_start(void) { timer_on = 1; }
 void hal_timer_stop(void) { timer_on = 0; }
@@ -76,6 +91,8 @@ static void tick_work(void) {
     }
     input_ticks++;
     stats.ticks++;
+    if (protocol_state() == PROTO_HOME)
+      stats.ticks_homing++;
     st_tick();
     if (out_duty)
       stats.ticks_burning++;
@@ -264,6 +281,7 @@ void beam_check(const char *where) {
   case PROTO_ALARM: failf(where, "beam on in alarm"); return;
   case PROTO_CHECK: failf(where, "beam on in check mode"); return;
   case PROTO_JOG: failf(where, "beam on in a jog"); return;
+  case PROTO_HOME: failf(where, "beam on while homing"); return;
   default: break;
   }
   uint8_t s = st_state();
@@ -307,6 +325,8 @@ void beam_power_on(void) {
   timer_on = 0;
   input_ticks = 0;
   focus_fired = 0;
+  dir_now = 0;
+  memset(head_steps, 0, sizeof head_steps);
   memset(panel_last, 0, sizeof panel_last);
   fuzz_set_poll(tick_work);
   fuzz_power_on();

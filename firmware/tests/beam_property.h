@@ -22,6 +22,9 @@
 
   The hal here ticks like the simulator's (host/sim.c): up to 32 ticks per
   main-loop pass, the clock 1 ms per pass; storage is RAM, output is dropped.
+  Each axis has a limit switch BEAM_SWITCH_MM on the + side of where the head
+  was at power-on (the head counted from the step pulses), so that $H runs
+  GRBL's homing cycle to the end (with $22=1); the beam is off while homing.
   Programs linking this file are built with
     -Wl,--wrap=gc_execute_line -Wl,--wrap=gc_init
   so that the property sees every line the shell hands the parser.
@@ -65,9 +68,12 @@ void beam_end(void);
 /* Check the property now (also called by the hal and beam_run). */
 void beam_check(const char *where);
 
+#define BEAM_SWITCH_MM 5.0
+
 /* What the runs exercised, so a test can show it was not vacuous. */
 typedef struct {
   uint64_t ticks, ticks_burning;     /* step ticks; ticks with the beam on */
+  uint64_t ticks_homing;             /* step ticks of homing cycles ($H) */
   uint32_t lines_ok, lines_burning;  /* accepted lines; of them, lines that command burning */
   uint32_t focus_fires, resets, estops, holds_burning;   /* hold taken while burning */
 } beam_stats_t;

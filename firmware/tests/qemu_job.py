@@ -32,8 +32,7 @@ sys.path.insert(0, str(HERE.parents[1]))
 from labkit.machine.grbl import Grbl  # noqa: E402
 from labkit.machine.link import open_link  # noqa: E402
 from labkit.machine.stream import Job, run_job  # noqa: E402
-
-STEPS_PER_MM = 6400.0 / 3.0
+from sim_stream import STEPS_PER_MM, end_state_failures  # noqa: E402  (this folder, beside it)
 
 JOB = """G21 G90
 G0 X5 Y5
@@ -98,20 +97,7 @@ def main(argv):
               f"{report.max_rx_used} bytes, {dt:.2f} s (planned {job.job_time_s:.2f} s)")
         if not report.ok or report.fault or report.lines_acknowledged != len(job.send):
             failures.append(f"job: {report.fault} {report.errors}")
-        st = g.get_status()
-        print(f"final status: {st.raw}")
-        end = [float(v) for v in job.moves.end[-1]]
-        for axis, (got, want) in enumerate(zip(st.mpos, end)):
-            if abs(got - want) > 1.5 / STEPS_PER_MM:
-                failures.append(f"{'XYZ'[axis]} ended at {got}, expected {want}")
-        if st.state != "Idle":
-            failures.append(f"state {st.state}")
-        if st.spindle not in (0, 0.0):
-            failures.append(f"laser power {st.spindle} at the end")
-        modes = g.parser_state()
-        print(f"$G: {modes}")
-        if "M5" not in modes.split():
-            failures.append("not M5 at the end")
+        failures += end_state_failures(g, job)      # to one step, as on the simulator
         g.close()
     finally:
         qemu.terminate()

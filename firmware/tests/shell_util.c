@@ -1,6 +1,6 @@
 /*
   shell_util.c - the shell's hal for tests (serial output captured into a
-  buffer, storage in RAM, a fake millisecond clock, hal_poll empty).
+  buffer, storage in RAM (storage_util.c), a fake millisecond clock, hal_poll empty).
 */
 #include "shell_util.h"
 
@@ -10,6 +10,7 @@
 #include "serial.h"
 #include "settings.h"
 #include "stepper.h"
+#include "storage_util.h"
 #if defined(__has_include)
 #if __has_include("hal_record.h")
 #include "hal_record.h"
@@ -19,8 +20,6 @@
 
 static char out[1 << 16];
 static uint32_t out_len;
-static uint8_t storage[4096];
-static uint32_t storage_len;
 static uint32_t now_ms;
 
 void hal_serial_tx_kick(void) {
@@ -35,21 +34,8 @@ void hal_serial_tx_wait(void) { hal_serial_tx_kick(); }
 const char *shell_out(void) { return out; }
 void shell_out_clear(void) { out_len = 0; out[0] = 0; }
 
-uint8_t hal_storage_read(void *buf, uint32_t len) {
-  if (len > storage_len)
-    return 0;
-  memcpy(buf, storage, len);
-  return 1;
-}
-uint8_t hal_storage_write(const void *buf, uint32_t len) {
-  if (len > sizeof storage)
-    return 0;
-  memcpy(storage, buf, len);
-  storage_len = len;
-  return 1;
-}
-uint8_t *shell_storage(uint32_t *len) { *len = storage_len; return storage; }
-void shell_storage_clear(void) { storage_len = 0; memset(storage, 0, sizeof storage); }
+uint8_t *shell_storage(uint32_t *len) { return storage_area(len); }
+void shell_storage_clear(void) { storage_erase(); }
 
 uint32_t hal_millis(void) { return now_ms; }
 void shell_advance_ms(uint32_t ms) { now_ms += ms; }

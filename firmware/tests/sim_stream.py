@@ -56,6 +56,31 @@ def start_sim(sim: str, dialect: str = "grbl", realtime: bool = False, extra_arg
     return proc, line.split("pty ", 1)[1].strip()
 
 
+def end_state_failures(g, job) -> list[str]:
+    """After a job (here and tests/qemu_job.py): what is wrong with where and how the machine ended.
+
+    The position from ``?`` must be the job's last end point to one step, the state ``Idle``,
+    the laser off (``FS`` power 0 and ``$G`` in M5).
+    """
+    failures = []
+    st = g.get_status()
+    end = [float(v) for v in job.moves.end[-1]]
+    print(f"final status {st.raw}; job ends at {end}")
+    for axis, (got, want) in enumerate(zip(st.mpos, end)):
+        want_steps = round(want * STEPS_PER_MM)
+        if abs(got * STEPS_PER_MM - want_steps) > 1.01:
+            failures.append(f"axis {'XYZ'[axis]} ended at {got}, expected {want}")
+    if st.state != "Idle":
+        failures.append(f"state {st.state} at the end")
+    if st.spindle not in (0, 0.0):
+        failures.append(f"laser power {st.spindle} at the end")
+    modes = g.parser_state()
+    print(f"$G: {modes}")
+    if "M5" not in modes.split():
+        failures.append("laser mode not M5 at the end")
+    return failures
+
+
 def main(argv):
     native = "--labkit-fw" in argv
     argv = [a for a in argv if a != "--labkit-fw"]
@@ -91,21 +116,7 @@ def main(argv):
             failures.append(f"{report.lines_acknowledged} answers for {len(job.send)} lines")
         if report.max_rx_used > 127:
             failures.append(f"RX budget exceeded: {report.max_rx_used}")
-        st = g.get_status()
-        end = [float(v) for v in job.moves.end[-1]]
-        print(f"final status {st.raw}; job ends at {end}")
-        for axis, (got, want) in enumerate(zip(st.mpos, end)):
-            want_steps = round(want * STEPS_PER_MM)
-            if abs(got * STEPS_PER_MM - want_steps) > 1.01:
-                failures.append(f"axis {'XYZ'[axis]} ended at {got}, expected {want}")
-        if st.state != "Idle":
-            failures.append(f"state {st.state} at the end")
-        if st.spindle not in (0, 0.0):
-            failures.append(f"laser power {st.spindle} at the end")
-        modes = g.parser_state()
-        print(f"$G: {modes}")
-        if "M5" not in modes.split():
-            failures.append("laser mode not M5 at the end")
+        failures += end_state_failures(g, job)
         g.close()
     finally:
         proc.terminate()

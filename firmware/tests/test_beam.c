@@ -6,6 +6,7 @@
 */
 #define _DEFAULT_SOURCE
 #include <dirent.h>
+#include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -18,6 +19,7 @@
 #include "planner.h"
 #include "protocol.h"
 #include "serial.h"
+#include "settings.h"
 #include "shell_test.h"
 #include "status_codes.h"
 #include "stepper.h"
@@ -94,7 +96,7 @@ static size_t random_stream(uint8_t *buf, size_t cap) {
   static const char *const words[] = {"G0", "G1", "G1", "G1", "G2", "G3", "G80", "M3", "M3", "M4",
                                       "M5", "M2", "M30", "G4P1", "G91", "G90", "G20", "G21", "M8"};
   static const char *const system[] = {"$C\n", "$X\n", "$H\n", "$J=G91X1F600\n", "$$\n", "$G\n",
-                                       "$20=1\n", "$I\n", "$LCD\n"};
+                                       "$20=1\n", "$I\n", "$LCD\n", "$22=1\n"};
   static const char *const realtime[] = {"!", "~", "?", "\x18", "\x84", "\x85", "\x90", "\x91",
                                          "\x99", "\x9A", "\x9B", "\x95"};
   static const char *const text[] = {"(mm\xc2\xb2)", "\xc2\xb2", "\xb2\xb2", "\xb0\xb2\xb2",
@@ -240,6 +242,30 @@ int main(int argc, char **argv) {
   beam_end();
   CHECK(violations == 0);
 
+  /* a homing cycle between two cuts (GRBL's $H on the hal's switches, BEAM_SWITCH_MM out):
+     the beam is off in every tick of the cycle (beam_check: PROTO_HOME), the machine ends
+     homed, one pull-off inside its switches, and the cut after it burns again */
+  {
+    beam_power_on();
+    beam_stats_t before = *beam_stats();
+    feed_text("$22=1\nG1 X2 F600 S500 M3\n");
+    CHECK(beam_stats()->ticks_burning > before.ticks_burning);
+    feed_text("$H\n");
+    CHECK(protocol_state() == PROTO_IDLE);
+    CHECK(beam_stats()->ticks_homing > before.ticks_homing + 1000);
+    int32_t at[3];
+    st_get_position(at);
+    for (int a = 0; a < 3; a++)
+      CHECK(at[a] == -(int32_t)lround(settings.homing_pulloff * plan_machine()->steps_per_mm[a]));
+    uint64_t burned = beam_stats()->ticks_burning;
+    feed_text("G1 X-4\n");                  /* M3 S500 still in effect */
+    CHECK(beam_stats()->ticks_burning > burned);
+    beam_end();
+    CHECK(violations == 0);
+    printf("test_beam: homing between two cuts, %llu ticks homing, beam dark throughout\n",
+           (unsigned long long)(beam_stats()->ticks_homing - before.ticks_homing));
+  }
+
   /* every corpus and regression file */
   const beam_stats_t *st = beam_stats();
   beam_stats_t zero = *st;
@@ -273,16 +299,18 @@ int main(int argc, char **argv) {
   }
   CHECK(violations == 0);
   printf("test_beam: %d random streams, %llu ticks (%llu burning), %u of %u lines burn, "
-         "%u focus fires, %u holds while burning, %u resets, %u e-stops\n", streams,
-         (unsigned long long)(st->ticks - zero.ticks),
+         "%u focus fires, %u holds while burning, %u resets, %u e-stops, %llu ticks homing\n",
+         streams, (unsigned long long)(st->ticks - zero.ticks),
          (unsigned long long)(st->ticks_burning - zero.ticks_burning),
          st->lines_burning - zero.lines_burning, st->lines_ok - zero.lines_ok,
          st->focus_fires - zero.focus_fires, st->holds_burning - zero.holds_burning,
-         st->resets - zero.resets, st->estops - zero.estops);
+         st->resets - zero.resets, st->estops - zero.estops,
+         (unsigned long long)(st->ticks_homing - zero.ticks_homing));
   /* not vacuous: the streams burned, held burning cuts, fired the focus beam, reset, e-stopped */
   CHECK(st->ticks_burning - zero.ticks_burning > 10000);
   CHECK(st->holds_burning > zero.holds_burning);
   CHECK(st->focus_fires > zero.focus_fires);
   CHECK(st->estops > zero.estops);
+  CHECK(st->ticks_homing > zero.ticks_homing);
   TEST_DONE("test_beam");
 }

@@ -2,11 +2,13 @@
   test_protocol.c - line assembly, replies in both dialects, real-time
   bytes, $ commands, check mode, alarms, reset.
 */
+#include <math.h>
 #include <stdint.h>
 #include <string.h>
 
 #include "gcode.h"
 #include "laser.h"
+#include "planner.h"
 #include "stepper.h"
 #include "protocol.h"
 #include "report.h"
@@ -78,6 +80,68 @@ static void run_sampled(const char *line, double *max_feed, uint16_t *max_duty) 
     if (f > *max_feed) *max_feed = f;
     if (laser_current_duty() > *max_duty) *max_duty = laser_current_duty();
   }
+}
+
+/* The probe input of these tests: touching once X is at or below probe_touch_x steps. */
+static int32_t probe_touch_x = INT32_MIN;
+uint8_t hal_probe_read(void) {
+  int32_t p[3];
+  st_get_position(p);
+  return p[0] <= probe_touch_x;
+}
+
+/* Poll until the moves queued have run out. */
+static void finish_moves(void) {
+  for (long i = 0; i < 5000000 && !(st_is_idle() && plan_is_empty()); i++) {
+    protocol_poll();
+    if ((i & 255) == 255) shell_advance_ms(50);   /* quiet host: the look-ahead is flushed */
+  }
+  for (int i = 0; i < 20; i++) protocol_poll();
+}
+
+/* G38.2 in the grbl dialect, from X = 5 mm. */
+static void test_probe(void) {
+  /* a wrong probe line is answered at once, while the move before it still runs: GRBL checks
+     the whole line before its probe cycle waits for rest */
+  const char *lines = "G90 G1 X0 F600\nG38.2 F100\n";
+  shell_out_clear();
+  for (const char *p = lines; *p; p++)
+    serial_rx_isr((uint8_t)*p);
+  for (int i = 0; i < 40; i++) protocol_poll();
+  CHECK(!strcmp(shell_out(), "ok\r\nerror:26\r\n"));
+  CHECK(!plan_is_empty() || !st_is_idle());
+  run("G1 X10\n");
+  finish_moves();
+  int32_t at[3];
+  st_get_position(at);
+  CHECK(at[0] == (int32_t)lround(10.0 * plan_machine()->steps_per_mm[0]));
+
+  /* a good one waits for the moves before it, then runs; the step interrupt keeps the
+     position of the touch (the main loop, 128 ticks later here, would see the head past it) */
+  const double steps_per_mm = plan_machine()->steps_per_mm[0];
+  probe_touch_x = (int32_t)(7.0 * steps_per_mm);
+  char want[64] = "[PRB:";
+  uint16_t n = fmt_float(want + 5, 20, (double)probe_touch_x / steps_per_mm, 3);
+  strcpy(want + 5 + n, ",0.000,0.000:1]\r\nok\r\n");
+  shell_out_clear();
+  shell_send("G1 X12\nG38.2 X0 F100\n");
+  finish_moves();
+  const char *o = shell_out();
+  CHECK_HAS(o, want);
+  st_get_position(at);
+  CHECK(at[0] < probe_touch_x);             /* the head went on a little before it stopped */
+  /* the probe already touching: ALARM:4, nothing moves */
+  shell_out_clear();
+  shell_send("G38.2 X0 F100\n");
+  finish_moves();
+  o = shell_out();
+  CHECK_HAS(o, "ALARM:4\r\nok\r\n");
+  int32_t after[3];
+  st_get_position(after);
+  CHECK(after[0] == at[0]);
+  probe_touch_x = INT32_MIN;
+  o = run("$X\n");
+  CHECK_HAS(o, "ok");
 }
 
 /* GRBL sends Ov: in at least one report of ten at rest: ask until it comes. */
@@ -292,6 +356,8 @@ int main(int argc, char **argv) {
     o = run("?");
     CHECK_HAS(o, "<Idle|MPos:5.000,");
   }
+
+  test_probe();
 
   test_overrides();
 

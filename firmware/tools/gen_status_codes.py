@@ -3,12 +3,15 @@
 
     gen_status_codes.py CSV OUT.h            write the header
     gen_status_codes.py CSV --check FILE...  fail when a C file uses a STATUS_*, ALARM_* or
-                                             MSG_* name that the CSV does not define
+                                             MSG_* name that the CSV does not define, defines
+                                             one itself, or spells out a [MSG:] text of the CSV
+                                             as a string literal instead of its MSG_* name
 
 The CSV's rows have a kind: "error" rows become the STATUS_* enum and status_message(),
 "alarm" rows ALARM_* and alarm_message(), "reply" rows (GRBL's [MSG:...] feedback) MSG_*
-string macros with the controller's exact text. ALARM_* are macros, so that an identical
-hand-written #define elsewhere is no conflict.
+string macros with the controller's exact text. The header is the one place they are
+defined: --check refuses a hand-written #define of one of them, and a literal that repeats
+a feedback text.
 
 One table for firmware and host (STYLE.md: grbl report.h + error_codes_en_US.csv).
 Plain python3, standard library only.
@@ -18,6 +21,8 @@ import re
 import sys
 
 USE = re.compile(r"\b(STATUS|ALARM|MSG)_([A-Z0-9_]+)\b")
+DEFINE = re.compile(r"^\s*#\s*define\s+((?:STATUS|ALARM|MSG)_[A-Z0-9_]+)\b")
+LITERAL = re.compile(r'"((?:[^"\\\n]|\\.)*)"')
 # Names the generated header defines besides the codes themselves, per prefix.
 HELPERS = {"STATUS": {"COUNT", "MESSAGE", "CODES_H"}, "ALARM": {"COUNT", "MESSAGE"}, "MSG": set()}
 # The CSV's kinds and the C prefix of each.
@@ -73,6 +78,7 @@ def header(table, src):
 
 def check(table, files):
     known = {PREFIX[kind]: {n for _, n, _ in codes} | HELPERS[PREFIX[kind]] for kind, codes in table.items()}
+    texts = {m: n for _, n, m in table["reply"]}
     bad = []
     for path in files:
         with open(path, encoding="utf-8", errors="replace") as f:
@@ -80,6 +86,14 @@ def check(table, files):
                 for m in USE.finditer(line):
                     if m.group(2) not in known[m.group(1)]:
                         bad.append(f"{path}:{i}: {m.group(0)} is not in the status table")
+                d = DEFINE.match(line)
+                if d:
+                    bad.append(f"{path}:{i}: {d.group(1)} is defined by hand; it belongs to the "
+                               "generated status_codes.h (a row of the CSV)")
+                for lit in LITERAL.finditer(line):
+                    if lit.group(1) in texts:
+                        bad.append(f"{path}:{i}: the literal {lit.group(0)} repeats a feedback text of "
+                                   f"the table: use MSG_{texts[lit.group(1)]}")
     for b in bad:
         print(b, file=sys.stderr)
     return 1 if bad else 0

@@ -1,6 +1,6 @@
 /*
   fuzz_util.c - the shell's hal for the fuzzers and the beam property:
-  output discarded, storage in RAM, a clock that moves 1 ms per poll. With
+  output discarded, storage in RAM (../storage_util.c), a clock that moves 1 ms per poll. With
   hal_null.c the step timer never ticks, so when the planner is nearly full
   the machine is reset (st_reset + plan_reset) and no input can make the
   loop wait for motion that never finishes; beam_property.c ticks the timer
@@ -22,9 +22,8 @@
 #include "settings.h"
 #include "status_codes.h"
 #include "stepper.h"
+#include "storage_util.h"
 
-static uint8_t storage[4096];
-static uint32_t storage_len;
 static uint32_t now_ms;
 
 void hal_serial_tx_kick(void) {
@@ -32,20 +31,6 @@ void hal_serial_tx_kick(void) {
   }
 }
 void hal_serial_tx_wait(void) { hal_serial_tx_kick(); }
-
-uint8_t hal_storage_read(void *buf, uint32_t len) {
-  if (len > storage_len)
-    return 0;
-  memcpy(buf, storage, len);
-  return 1;
-}
-uint8_t hal_storage_write(const void *buf, uint32_t len) {
-  if (len > sizeof storage)
-    return 0;
-  memcpy(storage, buf, len);
-  storage_len = len;
-  return 1;
-}
 
 uint32_t hal_millis(void) { return now_ms; }
 
@@ -71,8 +56,7 @@ void fuzz_fail(const char *what) {
 }
 
 void fuzz_power_on(void) {
-  memset(storage, 0, sizeof storage);
-  storage_len = 0;
+  storage_erase();
   now_ms = 0;
   protocol_startup();
   if (protocol_state() != PROTO_IDLE || !st_is_idle() || !plan_is_empty() ||
