@@ -11,7 +11,12 @@ from __future__ import annotations
 import argparse
 import math
 
-__all__ = ["number", "integer"]
+__all__ = ["number", "integer", "tolerance_option", "TOL_MIN_MM", "TOL_MAX_MM"]
+
+#: The range of every tolerance option (``--tol``, ``--arc-tol``), mm. Below 0.1 µm no
+#: laser machine can tell the difference and flattening explodes; above 10 mm a circle
+#: is no longer a circle.
+TOL_MIN_MM, TOL_MAX_MM = 1e-4, 10.0
 
 
 def _range_text(lo, hi, lo_open, hi_open) -> str:
@@ -53,6 +58,18 @@ def number(lo: float | None = None, hi: float | None = None, *,
 
     parse.__name__ = "number"          # argparse names the type in some messages
     return parse
+
+
+def tolerance_option(what: str, default: float | None) -> dict:
+    """The ``add_argument`` keywords of a tolerance option in mm: the one range
+    (:data:`TOL_MIN_MM` … :data:`TOL_MAX_MM`), said in its help after ``what``.
+
+    >>> tolerance_option("largest deviation from the drawing", 0.01)["help"]
+    'largest deviation from the drawing, 0.0001…10 mm (default 0.01)'
+    """
+    shown = f" (default {default:g})" if default is not None else ""
+    return dict(type=number(TOL_MIN_MM, TOL_MAX_MM), default=default, metavar="MM",
+                help=f"{what}, {TOL_MIN_MM:g}…{TOL_MAX_MM:g} mm{shown}")
 
 
 def integer(lo: int | None = None, hi: int | None = None):

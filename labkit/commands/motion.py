@@ -16,7 +16,7 @@ from labkit.gcode.dialects import DIALECTS
 
 
 def _add_common(parser):
-    from labkit.commands._args import integer, number
+    from labkit.commands._args import integer, number, tolerance_option
     from labkit.motion.planner import PLANNERS
 
     parser.add_argument("file", help="G-code file")
@@ -30,9 +30,9 @@ def _add_common(parser):
     parser.add_argument("--law", choices=("linear", "accel"), default=None,
                         help="ramp law: [CBR40] Hz/step (linear) or constant acceleration "
                              "(default: linear for MBLA, accel for junction)")
-    parser.add_argument("--arc-tol", type=number(0.0001, 10), default=None, metavar="MM",
-                        help="cut arcs into chords at this tolerance, 0.0001…10 mm (GRBL $12) instead of "
-                             "walking them as octant Bresenham arcs")
+    parser.add_argument("--arc-tol", **tolerance_option(
+        "cut arcs into chords at this tolerance (GRBL $12) instead of walking them as octant "
+        "Bresenham arcs", None))
     parser.add_argument("--dialect", choices=list(DIALECTS), default="grbl",
                         help="how F, G4 P and S are read (default: grbl)")
     parser.add_argument("--lenient", action="store_true",

@@ -49,10 +49,9 @@ def _size(help_text, default):
 
 
 def add_pattern_arguments(parser):
-    from labkit.commands._args import integer, number
+    from labkit.commands._args import integer, number, tolerance_option
 
-    tol = dict(type=number(0.0001, 10), default=0.005, metavar="MM",
-               help="largest distance between the arcs and the curve, 0.0001…10 mm (default 0.005)")
+    tol = tolerance_option("largest distance between the arcs and the curve", 0.005)
     sub = parser.add_subparsers(dest="pattern", required=True, metavar="PATTERN")
     h = _sub(sub, "helix", "helical G2/G3 descent for a hole, then a full circle")
     h.add_argument("--radius", **_size("helix radius (beam centre)", 1.0))

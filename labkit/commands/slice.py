@@ -12,7 +12,7 @@ from labkit.gcode.dialects import DIALECTS
 
 
 def add_slice_arguments(parser):
-    from labkit.commands._args import FEED, number
+    from labkit.commands._args import FEED, number, tolerance_option
 
     parser.add_argument("model", metavar="MODEL.stl", help="closed triangle mesh (STL, OBJ, PLY, OFF), mm")
     parser.add_argument("-o", "--output", required=True, metavar="OUT.gcode", help="G-code file to write")
@@ -23,8 +23,7 @@ def add_slice_arguments(parser):
     parser.add_argument("--bottom-up", action="store_true", help="levels from the bottom up (default top-down)")
     parser.add_argument("--max-deg", type=number(0, 180), default=5.0, metavar="DEG",
                         help="drop contour vertices turning less than this, 0…180° (default 5)")
-    parser.add_argument("--tol", type=number(0.0001, 10), default=0.005, metavar="MM",
-                        help="tolerance of simplification and offsets, 0.0001…10 mm (default 0.005)")
+    parser.add_argument("--tol", **tolerance_option("tolerance of simplification and offsets", 0.005))
     parser.add_argument("--z-top", type=number(-10_000, 10_000), default=None, metavar="MM",
                         help="machine Z of the model's top (default: the model's own Z)")
     parser.add_argument("--feed", type=FEED, default=600.0, metavar="MM_MIN",

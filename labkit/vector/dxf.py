@@ -52,7 +52,7 @@ from labkit._jit import job_units
 from labkit.budget import check_budget
 from labkit.errors import GeometryError, LabkitError
 from labkit.geometry import transform as tf
-from labkit.geometry.arcfit import FLATTEN_SHARE, coordinate_limit_mm, fit_arcs, tolerance_budget
+from labkit.geometry.arcfit import coordinate_limit_mm, fit_arcs, sampling_share, tolerance_budget
 from labkit.geometry.ellipse import ellipse_arc_to_arcs
 from labkit.geometry.path import Path
 from labkit.vector.svg import Drawing
@@ -234,12 +234,12 @@ def _bspline(e, p, ctrl, knots, weights, closed, k, tol_mm, meta) -> list[Path]:
         raise GeometryError(f"{_where(e)}: the knot vector decreases or has an empty valid range")
     if len(weights) not in (0, n) or (len(weights) and not np.all(np.asarray(weights) > 0)):
         raise GeometryError(f"{_where(e)}: weights must be {n} positive numbers")
-    flat = FLATTEN_SHARE * tol_mm
+    flat, fit = sampling_share(tol_mm)
     pts = spline_points(p, np.asarray(ctrl, float)[:, :2] * k, knots, weights, tol_mm=flat)
     if len(pts) < 2 or not np.any(pts != pts[0]):
         return []
     closed = closed or (len(pts) > 2 and np.allclose(pts[0], pts[-1], atol=1e-9))
-    return [fit_arcs(pts, tol_mm - flat, closed=closed, base_deviation_mm=flat, **meta)]
+    return [fit_arcs(pts, fit, closed=closed, base_deviation_mm=flat, **meta)]
 
 
 class _Unusable(Exception):
