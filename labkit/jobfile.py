@@ -19,7 +19,7 @@ composes them. Its format (version 1, TOML)::
 
     [[layer]]
     source = "card.svg"            # relative to the job file: .svg, .dxf, or an image; an SVG's
-                                   # <text> is drawn in its font (svg_text_paths), its colour its layer;
+                                   # <text> is drawn in its font (labkit.vector.text), its colour its layer;
                                    # operation "image" on an SVG engraves the bitmaps it embeds where
                                    # it places them (svg_images; select by id)
     operation = "cut"              # cut, score, fill (vector: the hatch, then the outline, as
@@ -57,6 +57,8 @@ from pathlib import Path
 
 from labkit._files import toml_number
 from labkit.errors import InputError
+from labkit.vector.images import PlacedImage, svg_images      # re-exported: the job's bitmaps and text
+from labkit.vector.text import svg_text_paths                 # are read where SVG is read
 
 __all__ = ["FORMAT", "VERSION", "ORDER", "JobLayer", "JobFile", "read_job", "compose_job", "ComposedJob",
            "tab_gaps", "perforation_gaps", "split_at_gaps", "svg_text_paths", "svg_images", "PlacedImage"]
@@ -292,9 +294,7 @@ def _vector_moves(job: JobFile, layer: JobLayer, s: dict, power_s: float):
             from labkit.vector.dxf import read_dxf
 
             drawing = read_dxf(layer.source, tol_mm=job.tol_mm)
-    paths = list(drawing.paths)
-    if any(name.startswith("text") for name in getattr(drawing, "skipped", [])):
-        paths += svg_text_paths(layer.source, tol_mm=job.tol_mm)      # the reader skips text; drawn here
+    paths = list(drawing.paths)             # an SVG's text among them, drawn by the reader
     if layer.select:
         paths = [q for q in paths if q.layer in layer.select or q.source in layer.select
                  or q.source.lstrip("#") in layer.select]
@@ -573,195 +573,4 @@ def split_at_gaps(points, gaps, *, closed: bool):
             out.append(piece(a - total, b - total))
         else:
             out.append(piece(a, b))
-    return out
-
-
-# --- SVG text, drawn as a renderer draws it -------------------------------------------------------
-
-def _svg_page(source, flip_y: bool):
-    """The SVG parsed as labkit.vector.read_svg parses it, and its user-units-to-mm page matrix."""
-    import svgelements as se
-
-    from labkit.geometry import transform as tf
-    from labkit.vector.svg import MM_PER_PX, PX_PER_INCH
-
-    doc = se.SVG.parse(str(source), reify=False, ppi=PX_PER_INCH)
-    h = float(doc.height) if doc.height is not None else 0.0
-    return doc, (tf.matrix(MM_PER_PX, 0, 0, -MM_PER_PX, 0, h * MM_PER_PX) if flip_y else tf.scale(MM_PER_PX))
-
-
-def svg_text_paths(source, *, tol_mm: float = 0.01, flip_y: bool = True) -> list:
-    """The outlines of an SVG's ``<text>`` elements, in mm, as closed Paths.
-
-    Each glyph comes from the named font through matplotlib's ``TextPath`` (its font manager finds
-    the family), is placed at the element's ``x``, ``y`` (``text-anchor`` start, middle or end) and
-    transform, and its quadratic and cubic curves are flattened within ``tol_mm`` after placing.
-    Page and units as :func:`labkit.vector.read_svg` takes them (96 px to the inch, y flipped).
-
-    Parameters
-    ----------
-    source : str or os.PathLike
-        The SVG file.
-    tol_mm : float
-        Largest distance of a flattened curve from the glyph's, mm.
-    flip_y : bool
-        As ``read_svg``'s.
-
-    Returns
-    -------
-    list of Path
-        Closed, layer and fill = the text's fill colour, source ``text#ID``, fill rule nonzero.
-
-    Raises
-    ------
-    InputError
-        A font family that is not installed (the message names it and the text).
-    """
-    import numpy as np
-    import svgelements as se
-    from matplotlib.font_manager import FontProperties, findfont
-    from matplotlib.path import Path as MplPath
-    from matplotlib.textpath import TextPath
-
-    from labkit.geometry import transform as tf
-    from labkit.geometry.bezier import flatten_cubic, quad_to_cubic
-    from labkit.geometry.path import Path as GeoPath
-
-    doc, page = _svg_page(source, flip_y)
-    out = []
-    for k, e in enumerate(doc.elements()):
-        if not isinstance(e, se.Text) or not (e.text or "").strip():
-            continue
-        name = f"text#{e.id}" if e.id else f"text[{k}]"
-        families = [f.strip().strip("'\"") for f in (e.font_family or "sans-serif").split(",") if f.strip()]
-        prop = FontProperties(family=families)
-        try:
-            findfont(prop, fallback_to_default=False)
-        except ValueError:
-            raise InputError(f"{source}: {name} ({e.text!r}): font {', '.join(families)!r} is not installed; "
-                             "expected an installed family (matplotlib.font_manager.get_font_names() lists them)"
-                             ", or the text converted to paths in the drawing program") from None
-        glyphs = TextPath((0, 0), e.text, size=float(e.font_size), prop=prop)
-        shift = 0.0
-        if getattr(e, "anchor", "start") in ("middle", "end"):     # the pen's advance, not the ink
-            from matplotlib.font_manager import get_font
-            from matplotlib import ft2font
-
-            # LoadFlags from matplotlib 3.10 (the module constant before it, deprecated after)
-            no_hinting = ft2font.LoadFlags.NO_HINTING if hasattr(ft2font, "LoadFlags") else ft2font.LOAD_NO_HINTING
-
-            font = get_font(findfont(prop))
-            font.set_size(float(e.font_size), 72)                  # 1 pt = 1 user unit
-            advance = sum(font.load_char(ord(ch), flags=no_hinting).linearHoriAdvance / 65536
-                          for ch in e.text)
-            shift = advance / 2 if e.anchor == "middle" else advance
-        m = e.transform
-        place = page @ tf.matrix(m.a, m.b, m.c, m.d, m.e, m.f) @ tf.matrix(1, 0, 0, -1, e.x - shift, e.y)
-        colour = e.fill.hexrgb if e.fill is not None and e.fill.value is not None else "#000000"
-        verts = tf.apply(place, glyphs.vertices)
-        ring, rings = [], []
-        i, codes = 0, glyphs.codes
-        while i < len(codes):
-            c = codes[i]
-            if c == MplPath.MOVETO:
-                if len(ring) > 1:
-                    rings.append(np.array(ring))
-                ring, i = [verts[i]], i + 1
-            elif c == MplPath.LINETO:
-                ring.append(verts[i])
-                i += 1
-            elif c == MplPath.CURVE3:
-                ctrl = quad_to_cubic(ring[-1], verts[i], verts[i + 1])
-                ring.extend(flatten_cubic(ctrl, tol_mm)[1:])
-                i += 2
-            elif c == MplPath.CURVE4:
-                ctrl = np.array([ring[-1], verts[i], verts[i + 1], verts[i + 2]])
-                ring.extend(flatten_cubic(ctrl, tol_mm)[1:])
-                i += 3
-            else:                                          # CLOSEPOLY
-                i += 1
-        if len(ring) > 1:
-            rings.append(np.array(ring))
-        out += [GeoPath.polyline(r, closed=True, layer=colour, fill=colour, stroke=None, fill_rule="nonzero",
-                                 source=name) for r in rings if len(r) >= 3]
-    return out
-
-
-# --- bitmaps embedded in an SVG -----------------------------------------------------------------
-
-@dataclass
-class PlacedImage:
-    """An SVG ``<image>`` read and placed: its pixels and where they go, mm (lower-left corner)."""
-
-    image: object
-    name: str
-    x_mm: float
-    y_mm: float
-    width_mm: float
-    height_mm: float
-
-
-def svg_images(source, *, flip_y: bool = True) -> list:
-    """The bitmaps an SVG embeds (``<image>`` with a ``data:`` URI or a file beside the SVG), placed.
-
-    The drawn rectangle follows ``preserveAspectRatio``: ``none`` fills the element's box, anything
-    else (the default ``xMidYMid meet``) fits the bitmap inside it, centred, at its own aspect. Each
-    bitmap is read by :func:`labkit.raster.io.read_image` (its budget, orientation and transparency).
-
-    Raises
-    ------
-    InputError
-        A rotated or skewed image, ``slice``, a missing file, or data that is not an image.
-    """
-    import base64
-    import tempfile
-    import urllib.parse
-
-    import numpy as np
-    import svgelements as se
-
-    from labkit.errors import LabkitError
-    from labkit.geometry import transform as tf
-    from labkit.raster.io import read_image
-
-    src = Path(source)
-    doc, page = _svg_page(src, flip_y)
-    out = []
-    for k, e in enumerate(doc.elements()):
-        if not isinstance(e, se.Image):
-            continue
-        name = f"image#{e.id}" if e.id else f"image[{k}]"
-        m = e.transform
-        if abs(m.b) > 1e-12 or abs(m.c) > 1e-12:
-            raise InputError(f"{src}: {name} is rotated or skewed; expected an image drawn upright (engrave it "
-                             "with img2gcode after turning it)")
-        url = e.url or ""
-        with tempfile.TemporaryDirectory() as tmp:
-            if url.startswith("data:"):
-                head, _, payload = url.partition(",")
-                data = base64.b64decode(payload) if head.endswith(";base64") else \
-                    urllib.parse.unquote_to_bytes(payload)
-                file = Path(tmp) / "embedded"
-                file.write_bytes(data)
-            else:
-                file = src.parent / urllib.parse.unquote(url.removeprefix("file://"))
-                if not file.is_file():
-                    raise InputError(f"{src}: {name} links {url!r}, which is not a file beside the SVG ({file})")
-            try:
-                img = read_image(file)
-            except LabkitError as exc:
-                raise InputError(f"{src}: {name}: {exc}") from None
-        rows, cols = img.pixels.shape[:2]
-        w, hh = float(e.width), float(e.height)
-        x, y = float(e.x), float(e.y)
-        aspect = str(e.values.get("preserveAspectRatio") or "xMidYMid meet")
-        if "slice" in aspect:
-            raise InputError(f"{src}: {name}: preserveAspectRatio {aspect!r} crops the bitmap; expected meet or none")
-        if aspect.strip() != "none":                       # fit inside the box, centred
-            scale = min(w / cols, hh / (rows * img.pixel_aspect))
-            dw, dh = cols * scale, rows * img.pixel_aspect * scale
-            x, y, w, hh = x + (w - dw) / 2, y + (hh - dh) / 2, dw, dh
-        corners = tf.apply(page @ tf.matrix(m.a, m.b, m.c, m.d, m.e, m.f), np.array([[x, y], [x + w, y + hh]]))
-        lo, hi = corners.min(axis=0), corners.max(axis=0)
-        out.append(PlacedImage(img, name, float(lo[0]), float(lo[1]), float(hi[0] - lo[0]), float(hi[1] - lo[1])))
     return out

@@ -13,8 +13,6 @@ import numpy as np
 __all__ = ["add_svg2gcode_arguments", "run_svg2gcode", "add_dxf2gcode_arguments", "run_dxf2gcode",
            "parse_layer_option"]
 
-#: The range of --tol, mm.
-TOL_MIN_MM, TOL_MAX_MM = 1e-4, 10.0
 
 def parse_layer_option(text: str):
     """``NAME:FEED:POWER[:PASSES[:ZSTEP]]`` → (name, LayerSettings).
@@ -57,17 +55,14 @@ def parse_layer_option(text: str):
 
 
 def _common_arguments(parser: argparse.ArgumentParser, kind: str) -> None:
-    from labkit.commands._args import FEED, add_machine_options, integer, number
+    from labkit.commands._args import FEED, add_machine_options, integer, number, tolerance_option
 
     positive = number(0, lo_open=True)
     non_negative = number(0)
     parser.add_argument("input", help=f"{kind} file")
     parser.add_argument("-o", "--output", required=True, help="G-code file to write")
-    # Below 0.1 µm no laser machine can tell the difference and flattening explodes;
-    # above 10 mm a circle is no longer a circle.
-    parser.add_argument("--tol", type=number(TOL_MIN_MM, TOL_MAX_MM), default=0.01, metavar="MM",
-                        help="largest deviation of the toolpath from the drawing, mm "
-                             f"({TOL_MIN_MM:g}…{TOL_MAX_MM:g}, default 0.01)")
+    parser.add_argument("--tol", **tolerance_option("largest deviation of the toolpath from the "
+                                                    "drawing", 0.01))
     parser.add_argument("--feed", type=FEED, default=1000.0, metavar="MM_MIN",
                         help="cutting feed, mm/min (default 1000)")
     parser.add_argument("--power", type=non_negative, default=1000.0, metavar="S",
@@ -209,8 +204,9 @@ def _refuse_empty(drawing, kind: str) -> None:
     if drawing.skipped:
         kinds = sorted({s.split("#")[0].split("[")[0] for s in drawing.skipped})
         raise InputError(f"{drawing.source}: nothing to cut: the {kind} holds only "
-                         f"{', '.join(kinds)} ({len(drawing.skipped)} element(s)); convert text to "
-                         f"paths in the drawing program, and engrave bitmaps with labkit img2gcode")
+                         f"{', '.join(kinds)} ({len(drawing.skipped)} element(s)); engrave bitmaps with "
+                         f"labkit job (a layer with operation \"image\" on this file) or img2gcode, and "
+                         f"convert flowed text and text on a path to paths in the drawing program")
     hidden = getattr(drawing, "clipped", [])
     raise InputError(f"{drawing.source}: nothing to cut: the {kind} has no visible shapes"
                      + (f" ({len(hidden)} clipped away entirely: {', '.join(hidden[:5])})" if hidden else ""))

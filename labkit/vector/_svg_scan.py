@@ -49,7 +49,7 @@ class SvgScan:
     max_depth: int
     uses: int
     unrendered: int = 0        # elements render_only rewrites (containers never drawn directly,
-                               # switch, transform-origin, a rect's percentage radius)
+                               # switch, text, transform-origin, a rect's percentage radius)
     clip_transforms: dict = None   # clipPath id → its own transform attribute ("" when none):
                                    # svgelements folds the context where it is defined in too
 
@@ -145,7 +145,7 @@ def scan_svg(data: bytes, name: str) -> SvgScan:
                             f"draws nothing), so labkit will not cut it")
         if local == "clipPath" and ident is not None:
             clips[ident] = attrs.get("transform", "")
-        if (local in _UNRENDERED or local == "switch" or "transform-origin" in attrs
+        if (local in _UNRENDERED or local in ("switch", "text") or "transform-origin" in attrs
                 or (local == "rect" and "%" in attrs.get("rx", "") + attrs.get("ry", ""))):
             state["unrendered"] += 1
         stack.append([ident, Counter()])
@@ -236,12 +236,14 @@ def render_only(data: bytes) -> tuple[bytes, list[str]]:
     into the ``transform`` as translate(o) · T · translate(−o), and a rect's ``rx``/``ry``
     given in percent resolved against the nearest viewport (rx of its width, ry of its
     height, as renderers do; svgelements takes them of the rect's own size); a mask of
-    opaque white shapes becomes the clip-path it is equivalent to (:func:`_masks_as_clips`).
+    opaque white shapes becomes the clip-path it is equivalent to (:func:`_masks_as_clips`);
+    each ``<text>``'s runs are numbered and its tails wrapped (:func:`labkit.vector.text.mark_runs`).
 
     Returns
     -------
     (bytes, list of str)
-        The rewritten document and the labels of removed text frames (``flowRoot#id``).
+        The rewritten document and the labels of what is not drawn: removed text frames
+        (``flowRoot#id``) and text on a path (``textPath in text#id``).
 
     Examples
     --------
@@ -256,6 +258,8 @@ def render_only(data: bytes) -> tuple[bytes, list[str]]:
     svg_ns = "http://www.w3.org/2000/svg"
     ET.register_namespace("", svg_ns)
     ET.register_namespace("xlink", _XLINK)
+    from labkit.vector.text import mark_runs
+
     root = ET.fromstring(data)
     dropped: list[str] = []
     todo = [(root, _viewport(root, None))]
@@ -287,6 +291,10 @@ def render_only(data: bytes) -> tuple[bytes, list[str]]:
                     _resolve_radii(child, viewport)
                 todo.append((child, _viewport(child, viewport) if tag == "svg" else viewport))
     _masks_as_clips(root)
+    texts = [el for el in root.iter() if isinstance(el.tag, str) and _local(el.tag) == "text"]
+    for k, text in enumerate(texts):                   # document order, symbols' and masks' too
+        if mark_runs(text, k):
+            dropped.append(f"textPath in text#{text.get('id')}" if text.get("id") else "textPath")
     return ET.tostring(root, encoding="unicode").encode("utf-8"), dropped
 
 

@@ -25,15 +25,16 @@ Inkscape's ``flowRoot`` text frames; ``display:none`` and ``visibility:hidden``
 (with CSS and inheritance, as svgelements resolves them); shapes with neither fill
 nor stroke, or opacity 0; every ``switch`` child but the first. ``clip-path`` is applied
 (:mod:`labkit.geometry.clip`): a shape is cut only inside its clip region, built from
-the clipPath's shapes in the referencing element's user space or bounding box; a
-clipPath holding text is not applied (labkit has no text geometry), and the shapes it clips
-are named in a warning. A ``mask`` of opaque white shapes shows exactly their union and is
+the clipPath's shapes (and the outlines of the text it holds) in the referencing element's
+user space or bounding box. A ``mask`` of opaque white shapes shows exactly their union and is
 applied as that clip region; any other mask (black or grey content, strokes, opacity, its
 own region) is not: every shape under one (its own or a group's) is named in a warning,
 cut whole.
 
-Text and images cannot be cut as vectors; they are skipped with a warning
-naming each one once (convert text to paths in the drawing program first).
+Text is cut as its glyph outlines, as a renderer draws it (:mod:`labkit.vector.text`: runs,
+tspans, positions, anchors and the font named), each run on the layer of its own colour.
+Bitmaps (``<image>``), flowed text frames and text on a path are not cut; they are named
+once in a warning (``labkit job`` engraves the bitmaps: :mod:`labkit.vector.images`).
 """
 
 from __future__ import annotations
@@ -50,7 +51,7 @@ from labkit._jit import job_units
 from labkit.errors import GeometryError
 from labkit.geometry import transform as tf
 from labkit.budget import check_budget
-from labkit.geometry.arcfit import FLATTEN_SHARE, coordinate_limit_mm, cubics_to_arcs, tolerance_budget
+from labkit.geometry.arcfit import coordinate_limit_mm, cubics_to_arcs, sampling_share, tolerance_budget
 from labkit.geometry.bezier import cubic_samples, flatten_cubics, quad_to_cubic
 from labkit.geometry.clip import clip_paths
 from labkit.geometry.measure import path_distance
@@ -76,7 +77,7 @@ class Drawing:
     width_mm, height_mm : float
         Page size (NaN when the file gives none).
     skipped : list of str
-        Elements that could not be converted (text, images, …), named.
+        Elements that are not cut (bitmaps, flowed text frames, text on a path), named.
     invisible : list of str
         Shapes a renderer paints nothing for (no fill and no stroke, opacity 0, a fill
         of zero area), named; never cut.
@@ -277,7 +278,7 @@ class _Builder:
             # a true ellipse joins the chain as samples whose chords stay within the
             # flattening share (a chord of the unit circle over dt/n misses it by
             # 1 − cos(dt/2n); the map stretches that by at most its largest singular value)
-            flat = FLATTEN_SHARE * self.tol
+            flat, _ = sampling_share(self.tol)
             step = 2.0 * math.acos(max(1.0 - flat / sv[0], -1.0))
             n = max(2, math.ceil(abs(dt) / step)) if step > 0 else math.inf
             check_budget("segments", n, cause=f"an elliptical arc {sv[0]:.3g} mm across at "
@@ -379,6 +380,55 @@ def _shape_paths(el, m, tol_mm, arcs, fit, meta) -> list[Path]:
     return out
 
 
+def _glyph_paths(verts, codes, tol_mm, arcs, fit, meta) -> list[Path]:
+    """Closed Paths of placed glyph outlines (matplotlib path vertices and codes, mm), through
+    the builder every SVG curve goes through (lines, arcs fitted to the glyphs' Beziers)."""
+    from matplotlib.path import Path as MplPath
+
+    lim = coordinate_limit_mm(tol_mm)
+    if not (np.isfinite(verts).all() and np.abs(verts).max() < lim):
+        raise GeometryError(f"{meta['source']}: text placed beyond {lim:.3g} mm, where double precision "
+                            f"no longer resolves the tolerance of {tol_mm:g} mm")
+    out: list[Path] = []
+    b, i = None, 0
+    while i < len(codes):
+        c = codes[i]
+        if c == MplPath.MOVETO:
+            if b is not None:
+                p = b.finish(True)
+                if p is not None:
+                    out.append(p)
+            b, i = _Builder(verts[i], tol_mm, arcs, fit, meta), i + 1
+        elif c == MplPath.LINETO:
+            b.line(verts[i])
+            i += 1
+        elif c == MplPath.CURVE3:
+            b.cubic(quad_to_cubic(b.here, verts[i], verts[i + 1]))
+            i += 2
+        elif c == MplPath.CURVE4:
+            b.cubic(np.array([b.here, verts[i], verts[i + 1], verts[i + 2]]))
+            i += 3
+        else:                                  # CLOSEPOLY (its vertex is ignored)
+            if b is not None:
+                p = b.finish(True)
+                if p is not None:
+                    out.append(p)
+            b, i = None, i + 1
+    if b is not None:
+        p = b.finish(True)
+        if p is not None:
+            out.append(p)
+    return out
+
+
+def _text_paths(runs, matrix_of, tol_mm, arcs, fit, source, label, meta_of) -> list[tuple[object, list[Path]]]:
+    """Per run of one ``<text>``: its glyphs as closed Paths (see :mod:`labkit.vector.text`)."""
+    from labkit.vector.text import glyph_outlines
+
+    return [(run, _glyph_paths(v, c, tol_mm, arcs, fit, meta_of(run)))
+            for run, v, c in glyph_outlines(runs, matrix_of, source=source, label=label)]
+
+
 def _clip_id(el) -> str | None:
     """The id a ``clip-path="url(#id)"`` names (clip-path is not inherited), else None."""
     value = el.values.get("clip-path")
@@ -401,10 +451,11 @@ class _Clips:
     back out. Nested clips (a clipped shape in a clipped group) intersect.
     """
 
-    def __init__(self, doc, scan, page, tol_mm, fit):
+    def __init__(self, doc, scan, page, tol_mm, fit, name="<string>"):
         import svgelements as se
 
         self.doc, self.own, self.page, self.fit = doc, scan.clip_transforms or {}, page, fit
+        self.doc_name = name
         self.sample_tol = 0.2 * tol_mm
         self.chains: dict[int, tuple] = {}
         self.cache: dict[tuple, object] = {}
@@ -466,6 +517,7 @@ class _Clips:
             user = (_element_matrix(ref, self.page) @ tf.matrix(x1 - x0, 0, 0, y1 - y0, x0, y0)
                     @ self._matrix(self.own.get(ident, "")) @ np.linalg.inv(acc))
         parts = []
+        texts: dict[str, list] = {}
         stack = [iter(clip)]
         while stack:
             child = next(stack[-1], None)
@@ -478,7 +530,21 @@ class _Clips:
             if (child.values.get("display") == "none"
                     or child.values.get("visibility") in ("hidden", "collapse")):
                 continue
-            if not isinstance(child, se.Shape) or isinstance(child, (se.SVGText, se.Text)):
+            if isinstance(child, (se.SVGText, se.Text)):        # a text's runs, its own last
+                from labkit.vector.text import run_key
+
+                key, _, is_text = run_key(child)
+                texts.setdefault(key, []).append(child)
+                if is_text:
+                    meta = dict(layer="clip", fill_rule="nonzero", source=f"clipPath#{ident}")
+                    runs = _text_paths(texts.pop(key), lambda r: user @ _element_matrix(r, np.eye(3)),
+                                       self.sample_tol, False, self.fit, self.doc_name, f"text in clipPath#{ident}",
+                                       lambda r: meta)
+                    rings = [p for _, ps in runs for p in ps if len(p.vertices) > 2]
+                    if rings:
+                        parts.append(region(rings, tol_mm=self.sample_tol, fill_rule="nonzero"))
+                continue
+            if not isinstance(child, se.Shape):
                 self.unsupported.append(f"{label} (clip-path #{ident} holds {type(child).__name__.lower()})")
                 continue
             rule = "evenodd" if str(child.values.get("clip-rule", "nonzero")).strip() == "evenodd" \
@@ -547,7 +613,7 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
     flip_y : bool
         Mirror y so the drawing's top is at +y (SVG's y points down).
     warn : bool
-        Issue a :class:`UserWarning` naming skipped text and images, shapes a
+        Issue a :class:`UserWarning` naming skipped bitmaps and text frames, shapes a
         clip-path could not be applied to, and shapes that reach outside the page.
     clip_to_page : bool
         Cut only what lies on the page (the document's width × height), as a
@@ -576,35 +642,23 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
         raise GeometryError(f"tol_mm must be > 0 mm, got {tol_mm!r}")
     doc, name, dropped, scan = _load(source)
     page = _page_matrix(doc, flip_y)
-    clips = _Clips(doc, scan, page, tol_mm, fit)
+    clips = _Clips(doc, scan, page, tol_mm, fit, name)
     paths: list[Path] = []
     skipped: list[str] = list(dropped)
     invisible: list[str] = []
     clipped: list[str] = []
     masked: list[str] = []
-    for index, el, kind in job_units(list(_iter_shapes(doc))):   # Python or compiled: _jit's rule
-        label = _name(el, index)
-        if kind != "shape":
-            skipped.append(label)
-            continue
+    texts: dict[str, list] = {}            # a text's runs until the text itself (the last) arrives
+
+    def meta_of(el, label):
         stroke, fill = _colour(el.stroke), _colour(el.fill)
-        if (stroke is None and fill is None) or _opacity(el) == 0:
-            invisible.append(label)               # a renderer paints nothing here
-            continue
         rule = str(el.values.get("fill-rule", "nonzero")).strip().lower()
-        meta = dict(layer=stroke or fill or "none", stroke=stroke, fill=fill,
+        return dict(layer=stroke or fill or "none", stroke=stroke, fill=fill,
                     fill_rule="evenodd" if rule == "evenodd" else "nonzero", source=label)
-        m = _element_matrix(el, page)
-        try:
-            new = _shape_paths(el, m, tol_mm, arcs, fit, meta)
-        except GeometryError:
-            raise
-        except ValueError as exc:                  # svgelements resolves some units lazily
-            raise GeometryError(f"{name}: cannot read this SVG ({exc}) at {label}") from None
-        except ArithmeticError as exc:
-            raise GeometryError(f"{name}: {label} has degenerate numbers "
-                                f"({type(exc).__name__}: {exc})") from None
-        if stroke is None:              # fill only: a zero-area subpath paints nothing, and
+
+    def add(el, label, new):
+        """A shape's (or a text run's) paths as a renderer paints them: visible, clipped."""
+        if _colour(el.stroke) is None:  # fill only: a zero-area subpath paints nothing, and
             kept = [p for p in new if _paints_area(p, tol_mm)]   # the outline of what it paints
             if len(kept) < len(new):                              # is closed (SVG fills an open
                 invisible.append(label)                           # subpath as if closed)
@@ -618,21 +672,66 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
         reg = clips.region(el, label)
         if reg is not None and new:
             cut = clip_paths(new, reg, tol_mm=tol_mm, arcs=arcs)
-            if cut.clipped:
+            if cut.clipped and label not in clipped:
                 clipped.append(label)
             new = cut.paths
-        paths += new
+        paths.extend(new)
+
+    def visible(el, label) -> bool:
+        if (_colour(el.stroke) is None and _colour(el.fill) is None) or _opacity(el) == 0:
+            if label not in invisible:
+                invisible.append(label)               # a renderer paints nothing here
+            return False
+        return True
+
+    for index, el, kind in job_units(list(_iter_shapes(doc))):   # Python or compiled: _jit's rule
+        label = _name(el, index)
+        if kind == "image":
+            skipped.append(label)
+            continue
+        if kind == "text":
+            from labkit.vector.text import run_key
+
+            key, _, is_text = run_key(el)
+            texts.setdefault(key, []).append(el)
+            if not is_text:
+                continue
+            runs = texts.pop(key)
+            try:
+                drawn = _text_paths(runs, lambda r: _element_matrix(r, page), tol_mm, arcs, fit, name, label,
+                                    lambda r: meta_of(r, label))
+            except ArithmeticError as exc:
+                raise GeometryError(f"{name}: {label} has degenerate numbers "
+                                    f"({type(exc).__name__}: {exc})") from None
+            for run, new in drawn:             # a hidden run still takes its place on the line
+                if run.values.get("visibility") not in ("hidden", "collapse") and visible(run, label):
+                    add(run, label, new)
+            continue
+        if not visible(el, label):
+            continue
+        m = _element_matrix(el, page)
+        try:
+            new = _shape_paths(el, m, tol_mm, arcs, fit, meta_of(el, label))
+        except GeometryError:
+            raise
+        except ValueError as exc:                  # svgelements resolves some units lazily
+            raise GeometryError(f"{name}: cannot read this SVG ({exc}) at {label}") from None
+        except ArithmeticError as exc:
+            raise GeometryError(f"{name}: {label} has degenerate numbers "
+                                f"({type(exc).__name__}: {exc})") from None
+        add(el, label, new)
     if skipped and warn:
-        warnings.warn(f"{name}: skipped {len(skipped)} element(s) that are not vector shapes "
-                      f"(convert text to paths first; engrave bitmaps with img2gcode): "
-                      f"{', '.join(skipped)}", stacklevel=2)
+        warnings.warn(f"{name}: not cut: {len(skipped)} element(s) that are not vector shapes: "
+                      f"{', '.join(skipped)} — engrave bitmaps with labkit job (a layer with operation "
+                      f"\"image\" on this SVG) or img2gcode; convert flowed text and text on a path to "
+                      f"paths in the drawing program (Inkscape: Path › Object to Path)", stacklevel=2)
     if invisible and warn:
         warnings.warn(f"{name}: skipped {len(invisible)} shape(s) a renderer paints nothing for "
                       f"(no fill and no stroke, opacity 0, or a fill of zero area): {', '.join(invisible[:10])}"
                       f"{' …' if len(invisible) > 10 else ''}", stacklevel=2)
     if clips.unsupported and warn:
-        warnings.warn(f"{name}: clip-path is not applied where its clipPath holds text or is "
-                      f"missing; {len(clips.unsupported)} shape(s) are cut whole where a renderer "
+        warnings.warn(f"{name}: clip-path is not applied where its clipPath holds what is neither a shape "
+                      f"nor text, or is missing; {len(clips.unsupported)} shape(s) are cut whole where a renderer "
                       f"shows only their clipped part: {', '.join(clips.unsupported[:10])}"
                       f"{' …' if len(clips.unsupported) > 10 else ''} — clip them in the drawing "
                       f"program (Inkscape: Path › Intersection)", stacklevel=2)

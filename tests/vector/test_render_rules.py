@@ -81,6 +81,18 @@ RULES = {
     "rect rx in percent of a nested viewport": f'<svg x="0" y="0" width="40" height="40" viewBox="0 0 20 20">'
                                                f'<rect id="rn" x="2" y="5" width="16" height="8" rx="20%" '
                                                f'stroke="#000" stroke-width="0.25" fill="none"/></svg>',
+    # a clipPath holding text clips by the glyphs' outlines (the text's own fill is never drawn)
+    "clip-path holding text on a filled shape": '<clipPath id="t1"><text x="4" y="26" font-family="DejaVu Sans" '
+                                                'font-size="18">Ag</text></clipPath>'
+                                                '<rect id="tf" x="3" y="3" width="34" height="30" fill="#000" '
+                                                'clip-path="url(#t1)"/>',
+    "clip-path holding text on a stroke": f'<clipPath id="t2"><text x="4" y="26" font-family="DejaVu Sans" '
+                                          f'font-size="18" font-weight="bold">Ag</text></clipPath>'
+                                          f'<path id="ts" d="M2 20 H38" clip-path="url(#t2)" {STROKE}/>',
+    "text in a clipPath with a line of tspans": '<clipPath id="t3"><text x="4" y="16" font-family="DejaVu Sans" '
+                                               'font-size="10"><tspan>O</tspan><tspan dx="2">H</tspan></text>'
+                                               '</clipPath><circle id="tt" cx="14" cy="12" r="10" fill="#000" '
+                                               'clip-path="url(#t3)"/>',
     "switch draws its first child": f'<switch><rect id="sw1" {HIDDEN}/>'
                                     f'<rect id="sw2" x="25" y="5" width="5" height="5" {STROKE}/></switch>',
 }
@@ -127,11 +139,21 @@ def test_hidden_content_is_really_in_the_files():
     assert [p.source for p in read_svg(text).paths] == ["rect#shown", "rect#keep"]
 
 
-def test_clip_path_that_holds_text_is_named_when_not_applied():
-    text = DOC.format(f'<clipPath id="c"><text x="10" y="20">A</text></clipPath>'
-                      f'<rect id="clipped" clip-path="url(#c)" {HIDDEN}/>')
-    with pytest.warns(UserWarning, match=r"clip-path is not applied .* 1 shape\(s\) .*rect#clipped"):
-        read_svg(text)
+def test_clip_path_that_holds_text_is_applied():
+    """Issue 27: a clipPath holding text clips by the glyphs (no warning, the shape named as
+    clipped); the render rules above hold the result to resvg's drawing."""
+    text = DOC.format('<clipPath id="c"><text x="10" y="20" font-family="DejaVu Sans" font-size="12">A</text>'
+                      f'</clipPath><rect id="clipped" x="8" y="14" width="14" height="3" clip-path="url(#c)" '
+                      f'{STROKE}/>')                  # its long sides cross the A's legs
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        d = read_svg(text, flip_y=False)
+    assert d.clipped == ["rect#clipped"]
+    pieces = [p for p in d.paths if p.source == "rect#clipped"]
+    # y = 14 crosses the two legs (two short pieces), y = 17 the crossbar (one piece, inside the A)
+    unit = 10 * MM_PER_PX
+    assert sorted(round(p.length_mm / unit) for p in pieces) == [1, 1, 6]
+    assert all(10 < p.bounds()[0][0] / unit and p.bounds()[1][0] / unit < 18 for p in pieces)
 
 
 def test_clip_path_keeps_arcs_and_reports_the_clipped_shapes():
@@ -149,15 +171,26 @@ def test_clip_path_keeps_arcs_and_reports_the_clipped_shapes():
     assert d.paths[1].source == "rect#r" and d.paths[1].n_segments == 4
 
 
-def test_text_and_bitmap_only_file_is_an_error_not_an_empty_job(tmp_path, run_labkit_cli):
-    path = tmp_path / "text.svg"
+def test_bitmap_only_file_is_an_error_not_an_empty_job(tmp_path, run_labkit_cli):
+    path = tmp_path / "bitmap.svg"
     path.write_text('<svg xmlns="http://www.w3.org/2000/svg" width="40mm" height="40mm">'
-                    '<text id="t" x="5" y="5">Hello</text><image id="i" width="5" height="5" '
-                    'href="data:image/png;base64,iVBORw0KGgo="/></svg>')
+                    '<image id="i" width="5" height="5" href="data:image/png;base64,iVBORw0KGgo="/></svg>')
     code, err = run_labkit_cli(["svg2gcode", str(path), "-o", str(tmp_path / "o.gcode")])
     assert code == 1
-    assert "nothing to cut: the SVG holds only image, text (2 element(s)); convert text to paths" in err
+    assert "nothing to cut: the SVG holds only image (1 element(s)); engrave bitmaps with labkit job" in err
     assert not (tmp_path / "o.gcode").exists()
+
+
+def test_text_is_cut_and_the_bitmap_beside_it_named(tmp_path, run_labkit_cli):
+    """Text was skipped before issue 31; now it is cut and only the bitmap is named."""
+    path = tmp_path / "text.svg"
+    path.write_text('<svg xmlns="http://www.w3.org/2000/svg" width="40mm" height="40mm">'
+                    '<text id="t" x="5" y="15">Hello</text><image id="i" width="5" height="5" '
+                    'href="data:image/png;base64,iVBORw0KGgo="/></svg>')
+    code, err = run_labkit_cli(["svg2gcode", str(path), "-o", str(tmp_path / "o.gcode")])
+    assert code == 0
+    assert "not cut: 1 element(s) that are not vector shapes: image#i — engrave bitmaps with labkit job" in err
+    assert "text#t" not in err and (tmp_path / "o.gcode").exists()
 
 
 def test_skipped_elements_are_reported_once():
@@ -165,8 +198,9 @@ def test_skipped_elements_are_reported_once():
                       '</flowRegion></flowRoot>')
     with pytest.warns(UserWarning) as caught:
         d = read_svg(text)
-    assert sorted(d.skipped) == ["flowRoot#f", "text#t1"]
-    assert sum("text#t1" in str(w.message) for w in caught) == 1
+    assert d.skipped == ["flowRoot#f"]                      # the text is drawn, the frame is not
+    assert "text#t1" in {p.source for p in d.paths}
+    assert sum("flowRoot#f" in str(w.message) for w in caught) == 1
 
 
 @pytest.fixture
@@ -194,7 +228,9 @@ def test_corpus_cuts_lie_on_what_resvg_draws(path):
     from labkit.errors import LabkitError
 
     zoom = 4
-    png = resvg_py.svg_to_bytes(svg_path=str(path), dpi=96.0, zoom=zoom)
+    # text without a font-family: SVG leaves the initial family to the renderer (resvg takes
+    # Times New Roman, Inkscape and labkit sans-serif); resvg is given labkit's, DejaVu Sans
+    png = resvg_py.svg_to_bytes(svg_path=str(path), dpi=96.0, zoom=zoom, font_family="DejaVu Sans")
     drawn = np.asarray(Image.open(io.BytesIO(bytes(png))))[:, :, 3] > 0
     try:
         with warnings.catch_warnings():
