@@ -5,6 +5,7 @@
     labkit-fw-sim [--pty] [--dialect grbl|labkit-fw] [--trace FILE]
                   [--eeprom FILE] [--panel PATH] [--beam-log PATH] [--stats]
                   [--realtime] [--switches SPEC]
+                  [--baud N [--parse-us US] [--starvation-log FILE]]
 
   Serial: stdin/stdout by default; --pty creates a pseudo-terminal and
   prints its path on stderr ("labkit-fw-sim: pty /dev/pts/N"); open it with
@@ -50,6 +51,29 @@
   a switch that is always pressed; an axis not named has none. The same
   spec is what grbl-sim was given for the homing transcripts
   (tests/vectors/grbl/README.md). Without the option no switch is wired.
+
+  Paced link (--baud N): the bytes the host writes reach the controller as
+  over a UART at N baud, 8N1: one byte every 10/N s of SIMULATED time, each
+  byte no earlier than the simulated moment the host wrote it (so a pty
+  shows where a real link would leave the planner dry). The host is taken
+  to answer at once: after an "ok"/"error" the simulated clock waits (up to
+  0.25 s of wall time) for the host's next line whenever the host still has
+  room for one by GRBL's character counting (128-byte buffer) and nothing
+  is on the wire. While the motors stand, the clock jumps to the next byte's
+  arrival; with nothing on the wire it follows the wall clock. The
+  firmware's millisecond clock (hal_millis: the quiet-input flush) is the
+  simulated clock. --parse-us US charges each received line US microseconds
+  of parsing before it reaches the parser (lines are parsed one after the
+  other); default 0.
+
+  Starvation log (--starvation-log FILE, with --baud): a CSV with the header
+    time_s,line,duration_s
+  and one row, flushed at once, every time the motors stood still between
+  two blocks while line bytes arrived over the link (the job had lines
+  left): time_s when they stopped, line the source line of the block they
+  resumed with, duration_s how long they stood. The wait for the first
+  block and the final quiet-input flush (no line arriving) are not
+  starvations. labkit.motion.stall reads it (Starvation records).
 
   At the end of stdin (stdin mode) the look-ahead is flushed, the job runs
   out and the simulator exits; SIGINT/SIGTERM end it at once. --stats
@@ -108,6 +132,34 @@ static uint8_t tick_dwell;
 static uint8_t switch_wired, switch_stuck;
 static double switch_mm[3];
 
+/* paced link (--baud) */
+static uint32_t baud;             /* 0: bytes reach the core as soon as they are read */
+static uint64_t byte_cycles;      /* timer cycles per byte on the wire (10 bits) */
+static uint64_t parse_cycles;     /* --parse-us per line, in timer cycles */
+#define WIRE_SIZE 8192u           /* bytes read from the host and still on the wire */
+static uint8_t wire[WIRE_SIZE];
+static uint64_t wire_due[WIRE_SIZE];
+static size_t wire_head, wire_tail;   /* ever-increasing; index % WIRE_SIZE */
+static uint64_t wire_last_due;        /* arrival of the last byte put on the wire */
+static uint64_t parse_done;
+static int wire_after_cr;             /* the last line byte on the wire was '\r' */           /* the end of the last line's parsing (--parse-us) */
+static uint64_t line_bytes_delivered; /* non-real-time bytes that reached the core */
+/* GRBL's character counting as the simulator sees it: lines received and not yet answered */
+#define OWED_SIZE 1024u
+static uint16_t owed_len[OWED_SIZE];
+static size_t owed_head, owed_tail;
+static uint32_t owed_bytes, rx_line_len, last_line_len;
+static int host_turn;                 /* an answer went out; the host may send a line */
+static double host_turn_since;
+#define HOST_ANSWER_S 0.25
+static char tx_line[8];               /* the start of the line being written to the host */
+static size_t tx_line_len;
+static double idle_wall_s;            /* wall time when the idle clock last advanced */
+/* starvations (--starvation-log) */
+static FILE *starve_log;
+static int motors_stopped;            /* stopped after having run */
+static uint64_t stop_cycles, stop_line_bytes;
+
 /* storage */
 static const char *eeprom_path;
 static uint8_t eeprom[4096];
@@ -147,6 +199,16 @@ void hal_timer_set_period(uint32_t p) {
 }
 static double host_seconds(void);
 void hal_timer_start(void) {
+  if (!timer_on && motors_stopped) {
+    /* a starvation when line bytes arrived while the motors stood (the job had lines left) */
+    if (starve_log && line_bytes_delivered != stop_line_bytes) {
+      double hz = (double)plan_machine()->timer_clock_hz;
+      fprintf(starve_log, "%.9f,%u,%.9f\n", (double)stop_cycles / hz, (unsigned)tick_line,
+              (double)(cycles - stop_cycles) / hz);
+      fflush(starve_log);
+    }
+    motors_stopped = 0;
+  }
   if (!timer_on && realtime) {
     rt_host_s = host_seconds();
     rt_cycles = cycles;
@@ -161,7 +223,14 @@ static int ahead_of_wall_clock(void) {
   double allowed = (host_seconds() - rt_host_s) * (double)plan_machine()->timer_clock_hz;
   return (double)(cycles - rt_cycles) >= allowed;
 }
-void hal_timer_stop(void) { timer_on = 0; }
+void hal_timer_stop(void) {
+  if (timer_on && baud) {
+    motors_stopped = 1;
+    stop_cycles = cycles;
+    stop_line_bytes = line_bytes_delivered;
+  }
+  timer_on = 0;
+}
 static void log_beam(uint16_t duty) {
   char state[16];
   const char *name = report_state_name();
@@ -228,6 +297,8 @@ static int parse_switches(const char *spec) {
 /* ------------------------------------------------------------ shell hal */
 
 uint32_t hal_millis(void) {
+  if (baud)   /* the paced link runs on simulated time: so does the firmware's clock */
+    return (uint32_t)(cycles * 1000u / plan_machine()->timer_clock_hz);
   struct timespec ts;
   clock_gettime(CLOCK_MONOTONIC, &ts);
   return (uint32_t)((uint64_t)ts.tv_sec * 1000u + (uint64_t)ts.tv_nsec / 1000000u);
@@ -242,6 +313,25 @@ static double host_seconds(void) {
 static uint8_t txbuf[4096];
 static size_t txlen;
 
+/* The answers ("ok", "error:N") in what goes to the host: each settles the
+   oldest line received, as a counting sender counts. */
+static void tx_watch(const uint8_t *p, size_t n) {
+  for (size_t i = 0; i < n; i++) {
+    if (p[i] == '\n') {
+      if ((tx_line_len >= 2 && !memcmp(tx_line, "ok", 2)) ||
+          (tx_line_len >= 5 && !memcmp(tx_line, "error", 5))) {
+        if (owed_tail < owed_head)
+          owed_bytes -= owed_len[owed_tail++ % OWED_SIZE];
+        host_turn = 1;
+        host_turn_since = host_seconds();
+      }
+      tx_line_len = 0;
+    } else if (tx_line_len < sizeof tx_line) {
+      tx_line[tx_line_len++] = (char)p[i];
+    }
+  }
+}
+
 static void tx_flush(int block) {
   int c;
   while (txlen < sizeof txbuf && (c = serial_tx_pop()) >= 0)
@@ -249,6 +339,8 @@ static void tx_flush(int block) {
   while (txlen) {
     ssize_t n = write(fd_out, txbuf, txlen);
     if (n > 0) {
+      if (baud)
+        tx_watch(txbuf, (size_t)n);
       memmove(txbuf, txbuf + n, txlen - (size_t)n);
       txlen -= (size_t)n;
       while (txlen < sizeof txbuf && (c = serial_tx_pop()) >= 0)
@@ -381,7 +473,108 @@ static void poll_panel(void) {
   }
 }
 
+/* ---- paced link (--baud) */
+
+/* Put bytes the host wrote on the wire at the simulated time now. */
+static void wire_put(const uint8_t *p, size_t n) {
+  for (size_t i = 0; i < n; i++) {
+    uint8_t b = p[i];
+    uint64_t due = (wire_last_due > cycles ? wire_last_due : cycles) + byte_cycles;
+    wire_last_due = due;
+    if (!is_rt(b)) {
+      /* line ends as the core's line assembler counts them: '\r' and '\n' each end a
+         line, but in the labkit-fw dialect the '\n' of an empty "\r\n" does not */
+      int crlf_tail = b == '\n' && wire_after_cr && rx_line_len == 0 &&
+                      settings.dialect != GC_DIALECT_GRBL;
+      wire_after_cr = b == '\r';
+      if (!crlf_tail)
+        rx_line_len++;
+      if ((b == '\n' || b == '\r') && !crlf_tail) {
+        if (parse_cycles) {   /* the line reaches the parser once the one before is parsed */
+          due = (due > parse_done ? due : parse_done) + parse_cycles;
+          parse_done = due;
+        }
+        if (owed_head - owed_tail < OWED_SIZE) {
+          owed_len[owed_head++ % OWED_SIZE] = (uint16_t)(rx_line_len > 65535 ? 65535 : rx_line_len);
+          owed_bytes += rx_line_len;
+        }
+        last_line_len = rx_line_len;
+        rx_line_len = 0;
+      }
+    }
+    wire[wire_head % WIRE_SIZE] = b;
+    wire_due[wire_head % WIRE_SIZE] = due;
+    wire_head++;
+  }
+}
+
+/* Hand the core every byte that has arrived by now, in order. */
+static void wire_deliver(void) {
+  while (wire_tail < wire_head && wire_due[wire_tail % WIRE_SIZE] <= cycles) {
+    uint8_t b = wire[wire_tail % WIRE_SIZE];
+    if (!is_rt(b) && serial_rx_count() >= SERIAL_RX_SIZE)
+      return;                    /* ring full (a sender that does not count): wait */
+    serial_rx_isr(b);
+    if (!is_rt(b))
+      line_bytes_delivered++;
+    wire_tail++;
+  }
+}
+
+/* The host owes a line: it has been answered since it last fell silent, it has
+   room for a line like its last by GRBL's character counting, and nothing it
+   sent is still on the wire. Silence for HOST_ANSWER_S of wall time ends the
+   wait until the next answer (the job has ended, or its next line is longer). */
+static int waiting_for_host(void) {
+  if (!host_turn || wire_tail < wire_head || input_eof || owed_bytes + last_line_len >= 127u)
+    return 0;
+  if (host_seconds() - host_turn_since > HOST_ANSWER_S) {
+    host_turn = 0;
+    return 0;
+  }
+  return 1;
+}
+
+static void poll_paced(int wait_ms) {
+  wire_deliver();
+  size_t room = WIRE_SIZE - (wire_head - wire_tail);
+  int owed = waiting_for_host();
+  fd_set r;
+  FD_ZERO(&r);
+  FD_SET(fd_in, &r);
+  struct timeval tv = {0, (owed ? 1000 : wait_ms * 1000)};
+  if (!input_eof && room > 0 && select(fd_in + 1, &r, 0, 0, &tv) > 0) {
+    uint8_t buf[512];
+    ssize_t n = read(fd_in, buf, room < sizeof buf ? room : sizeof buf);
+    if (n > 0) {
+      host_turn_since = host_seconds();   /* the host is active: keep waiting for it */
+      wire_put(buf, (size_t)n);
+      wire_deliver();
+    } else if (n == 0 || (errno != EAGAIN && errno != EINTR && errno != EIO)) {
+      if (fd_in == 0)
+        input_eof = 1;
+    }
+  }
+  /* the motors stand: the clock goes on to the next arrival, or with the wall clock */
+  double now = host_seconds();
+  if (!timer_on && !waiting_for_host()) {
+    if (wire_tail < wire_head) {
+      uint64_t due = wire_due[wire_tail % WIRE_SIZE];
+      if (due > cycles && serial_rx_count() == 0)
+        cycles = due;
+    } else if (serial_rx_count() == 0 && idle_wall_s > 0) {
+      cycles += (uint64_t)((now - idle_wall_s) * (double)plan_machine()->timer_clock_hz);
+    }
+  }
+  idle_wall_s = now;
+  wire_deliver();
+}
+
 static void poll_input(int wait_ms) {
+  if (baud) {
+    poll_paced(wait_ms);
+    return;
+  }
   if (in_len || input_eof) {
     deliver();
     if (!(input_eof && wait_ms > 0))
@@ -417,7 +610,11 @@ void hal_poll(void) {
   poll_panel();
   int waiting = timer_on && ahead_of_wall_clock();
   poll_input(panel_pos == panel_len ? (idle ? 2 : waiting ? 1 : 0) : 0);
-  for (int i = 0; i < TICKS_PER_POLL && timer_on && !ahead_of_wall_clock(); i++) {
+  /* paced: no tick while the host owes a line; none past the next byte's arrival */
+  int hold_clock = baud && waiting_for_host();
+  uint64_t next_due = baud && wire_tail < wire_head ? wire_due[wire_tail % WIRE_SIZE] : UINT64_MAX;
+  for (int i = 0; i < TICKS_PER_POLL && timer_on && !hold_clock && !ahead_of_wall_clock() &&
+                  cycles < next_due; i++) {
     cycles += ((uint64_t)period_reg + 1u) * ((uint64_t)m->prescaler + 1u);
     ticks++;
     st_tick();
@@ -461,13 +658,14 @@ static int open_pty(void) {
 static void usage(void) {
   fprintf(stderr, "usage: labkit-fw-sim [--pty] [--dialect grbl|labkit-fw] [--trace FILE] "
                   "[--eeprom FILE] [--panel PATH] [--beam-log PATH] [--stats] [--realtime] "
-                  "[--switches SPEC]\n");
+                  "[--switches SPEC] [--baud N [--parse-us US] [--starvation-log FILE]]\n");
   exit(2);
 }
 
 int main(int argc, char **argv) {
   int use_pty = 0, stats = 0, dialect = -1;
-  const char *trace_path = 0, *beam_log_path = 0, *panel_path = 0;
+  const char *trace_path = 0, *beam_log_path = 0, *panel_path = 0, *starve_path = 0;
+  double parse_us = 0.0;
   for (int i = 1; i < argc; i++) {
     if (!strcmp(argv[i], "--pty"))
       use_pty = 1;
@@ -477,6 +675,25 @@ int main(int argc, char **argv) {
       realtime = 1;
     else if (!strcmp(argv[i], "--trace") && i + 1 < argc)
       trace_path = argv[++i];
+    else if (!strcmp(argv[i], "--baud") && i + 1 < argc) {
+      char *end;
+      long v = strtol(argv[++i], &end, 10);
+      if (*end || v < 300 || v > 10000000) {
+        fprintf(stderr, "labkit-fw-sim: --baud: expected a whole number of baud, 300 to 10000000, "
+                        "got '%s'\n", argv[i]);
+        return 2;
+      }
+      baud = (uint32_t)v;
+    } else if (!strcmp(argv[i], "--parse-us") && i + 1 < argc) {
+      char *end;
+      parse_us = strtod(argv[++i], &end);
+      if (*end || !(parse_us >= 0.0 && parse_us <= 1e6)) {
+        fprintf(stderr, "labkit-fw-sim: --parse-us: expected microseconds per line, 0 to 1000000, "
+                        "got '%s'\n", argv[i]);
+        return 2;
+      }
+    } else if (!strcmp(argv[i], "--starvation-log") && i + 1 < argc)
+      starve_path = argv[++i];
     else if (!strcmp(argv[i], "--beam-log") && i + 1 < argc)
       beam_log_path = argv[++i];
     else if (!strcmp(argv[i], "--panel") && i + 1 < argc)
@@ -531,6 +748,23 @@ int main(int argc, char **argv) {
   }
   if (panel_path)
     open_panel(panel_path);
+  if ((starve_path || parse_us > 0) && !baud) {
+    fprintf(stderr, "labkit-fw-sim: --starvation-log and --parse-us need --baud\n");
+    return 2;
+  }
+  if (baud && realtime) {
+    fprintf(stderr, "labkit-fw-sim: --baud runs on simulated time; leave out --realtime\n");
+    return 2;
+  }
+  if (starve_path) {
+    starve_log = fopen(starve_path, "w");
+    if (!starve_log) {
+      perror(starve_path);
+      return 1;
+    }
+    fprintf(starve_log, "time_s,line,duration_s\n");
+    fflush(starve_log);
+  }
   double t0 = host_seconds();
   if (dialect >= 0) {
     /* choose the dialect before the banner: as if $208 had been stored */
@@ -543,9 +777,15 @@ int main(int argc, char **argv) {
     hal_storage_write(&s, sizeof s);
   }
   protocol_startup();
+  if (baud) {
+    double hz = (double)plan_machine()->timer_clock_hz;
+    byte_cycles = (uint64_t)(hz * 10.0 / baud + 0.5);
+    parse_cycles = (uint64_t)(hz * parse_us * 1e-6 + 0.5);
+  }
   while (!stop_now) {
     protocol_poll();
-    if (input_eof && in_len == 0 && serial_rx_count() == 0 && panel_done()) {
+    if (input_eof && in_len == 0 && wire_tail == wire_head && serial_rx_count() == 0 &&
+        panel_done()) {
       /* end of the stream: run out the look-ahead, then stop */
       plan_flush();
       while (!stop_now && (!st_is_idle() || !plan_is_empty())) {
@@ -562,6 +802,8 @@ int main(int argc, char **argv) {
     fclose(trace);
   if (beam_log)
     fclose(beam_log);
+  if (starve_log)
+    fclose(starve_log);
   if (stats) {
     double host = host_seconds() - t0;
     double sim = (double)cycles / (double)plan_machine()->timer_clock_hz;

@@ -124,6 +124,30 @@ class MachineSpec:
         differ from GRBL 1.1's defaults, other than those the fields above give
         (``$11``, ``$12``, ``$100``–``$132``): e.g. ``{32: 1}``, laser mode. The
         virtual machine starts with them. Kept as sorted ``(N, value)`` pairs.
+    link_baud : int
+        Serial link speed, bits per second (115200 for GRBL and the labkit
+        firmware).
+    link_bits_per_byte : int
+        Bits on the wire per byte: 10 for 8N1 (a start bit, 8 data bits, a stop
+        bit), so 115200 baud carries 11,520 bytes/s.
+    rx_buffer_bytes : int
+        The controller's serial receive buffer, bytes: the window a
+        character-counting sender fills (GRBL 1.1: 128, ``$I``'s
+        ``[OPT:V,15,128]``; the labkit firmware: ``SERIAL_RX_SIZE``, 128).
+    planner_blocks : int
+        Blocks the controller's planner holds, the running one included (GRBL 1.1
+        on a 328P: 15 usable, ``$I``'s ``[OPT:V,15,128]``; the labkit firmware:
+        ``PLAN_BUFFER_SIZE`` in ``firmware/src/config.h``, 36).
+    block_parse_s : float
+        Time the controller takes to parse and plan one line, s (≥ 0). The
+        labkit firmware's default is the host simulator's, measured
+        (``labkit/motion/machines/README.md``); GRBL's is a 328P estimate whose
+        source that README gives.
+    waits_for_lookahead : bool
+        True when the controller starts a block only once its whole look-ahead
+        window (``buffer_blocks`` more blocks) has arrived or the stream has
+        gone quiet (the labkit firmware); False when it runs whatever its
+        planner holds (GRBL). Decides where a slow link makes it stop.
     description : str
         One line for people.
 
@@ -135,6 +159,8 @@ class MachineSpec:
     (54972, 54972, 54972)
     >>> CBR40.replace(prescaler=3).tick_hz
     12000000.0
+    >>> CBR40.link_bytes_per_s          # 115200 baud, 8N1
+    11520.0
     """
 
     name: str = "cbr40-laser"
@@ -154,6 +180,12 @@ class MachineSpec:
     timer_bits: int = 16
     step_pulse_us: float = 5.0
     grbl_settings: tuple = ()
+    link_baud: int = 115_200
+    link_bits_per_byte: int = 10
+    rx_buffer_bytes: int = 128
+    planner_blocks: int = 36
+    block_parse_s: float = 0.0
+    waits_for_lookahead: bool = True
     description: str = dataclasses.field(default="", compare=False)
 
     def __post_init__(self):
@@ -165,7 +197,8 @@ class MachineSpec:
                                   f"for every axis, got {vals}")
             set_(self, name, vals)
         for name in ("accel_hz_per_step", "decel_hz_per_step", "start_rate_hz",
-                     "buffer_blocks", "timer_clock_hz", "prescaler", "timer_bits"):
+                     "buffer_blocks", "timer_clock_hz", "prescaler", "timer_bits",
+                     "link_baud", "link_bits_per_byte", "rx_buffer_bytes", "planner_blocks"):
             v = getattr(self, name)
             if isinstance(v, float) and v.is_integer():
                 v = int(v)
@@ -184,7 +217,19 @@ class MachineSpec:
             ("prescaler", 0 <= self.prescaler < 2 ** 16, "in 0…65535"),
             ("timer_bits", self.timer_bits in (16, 32), "16 or 32"),
             ("step_pulse_us", self.step_pulse_us > 0, "> 0 µs"),
+            ("link_baud", self.link_baud >= 1, ">= 1 baud"),
+            ("link_bits_per_byte", 7 <= self.link_bits_per_byte <= 12, "7…12 bits (8N1: 10)"),
+            ("rx_buffer_bytes", self.rx_buffer_bytes >= 82,
+             ">= 82 bytes (an 80-character line, its newline and one free slot)"),
+            ("planner_blocks", self.planner_blocks >= 1, ">= 1 block"),
+            ("block_parse_s", isinstance(self.block_parse_s, (int, float))
+             and not isinstance(self.block_parse_s, bool)
+             and math.isfinite(self.block_parse_s) and self.block_parse_s >= 0, ">= 0 s and finite"),
         ]
+        if not isinstance(self.waits_for_lookahead, (bool, np.bool_)):
+            raise MotionError(f"machine {self.name!r}: waits_for_lookahead must be true or false, "
+                              f"got {self.waits_for_lookahead!r}")
+        set_(self, "waits_for_lookahead", bool(self.waits_for_lookahead))
         set_(self, "grbl_settings", _grbl_settings(self.name, self.grbl_settings))
         for name, ok, allowed in checks:
             if not ok:
@@ -230,6 +275,11 @@ class MachineSpec:
     def tick_hz(self) -> float:
         """Counting rate of the step timer, Hz: clock / (prescaler + 1)."""
         return self.timer_clock_hz / (self.prescaler + 1)
+
+    @property
+    def link_bytes_per_s(self) -> float:
+        """Bytes the serial link carries per second: baud / bits per byte (115200 8N1: 11,520)."""
+        return self.link_baud / self.link_bits_per_byte
 
     def replace(self, **changes) -> "MachineSpec":
         """A copy with some fields changed (validated again)."""

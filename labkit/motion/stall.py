@@ -7,28 +7,60 @@ has lines left: the machine stops and restarts (a *starvation*, seen on a raster
 job as stutter and burned dots). This module holds the record every simulated
 machine reports a starvation with — the firmware's paced host simulator, the
 virtual machine and the stall predictor report the same thing, so they can be
-compared one to one.
+compared one to one — and the predictor itself.
+
+The predictor (:func:`predict_stalls`) follows each line through the link as a
+character-counting sender streams it (GRBL's rule: a line goes out while the
+characters in flight, itself included, stay below the receive buffer less one),
+over the wire at the machine's bytes per second, through the parser
+(``block_parse_s`` a line, one line after the other, only while the planner has
+a free slot) into the planner; the motion of each block takes the time the
+motion reference (:func:`labkit.motion.plan`) gives it. A block starts when the
+one before has ended and it is ready: on GRBL when it is in the planner; on the
+labkit firmware (``waits_for_lookahead``) when its whole look-ahead window has
+arrived, or the input has gone quiet for 30 ms (``FLUSH_QUIET_MS`` in
+``firmware/src/protocol.c``). The sender answers at once (no USB latency). On the
+labkit firmware a block's speed profile does not depend on when it arrives (the
+window is always complete), so the prediction is exact up to the step timer's
+ticks; on GRBL a shallow buffer also slows the motion down, which the
+prediction leaves out (it sees only where the buffer empties).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+import re
+from dataclasses import dataclass, field
 
-__all__ = ["Starvation"]
+import numpy as np
+
+from labkit.errors import MotionError
+
+__all__ = ["Starvation", "LinkPrediction", "StallFreeFeed", "predict_stalls", "stall_free_feed",
+           "sent_line_bytes", "with_feed", "read_starvation_log", "FLUSH_QUIET_S"]
+
+#: Quiet input after which the labkit firmware runs what its look-ahead holds back, s
+#: (``FLUSH_QUIET_MS`` in ``firmware/src/protocol.c``).
+FLUSH_QUIET_S = 0.030
+
+#: Stops shorter than this are timer granularity, not starvations, s.
+_MIN_STALL_S = 1e-6
 
 
 @dataclass(frozen=True)
 class Starvation:
-    """The planner stood empty while the job had lines left.
+    """The motors stood still while the job had lines left.
 
     Parameters
     ----------
     time_s : float
-        When the buffer ran dry, in seconds of machine time from the job's
+        When the motors stopped, in seconds of machine time from the job's
         first byte.
     line : int
-        The source line (1-based, as ``labkit check`` numbers them) whose
-        block the machine was waiting for.
+        The source line (1-based, as ``labkit check`` numbers them) of the
+        block the machine resumed with (on GRBL: the block it was waiting for;
+        on the labkit firmware, which waits for its look-ahead window, the
+        block that then runs).
     duration_s : float
         How long the machine stood without a block, s (> 0).
     """
@@ -36,3 +68,437 @@ class Starvation:
     time_s: float
     line: int
     duration_s: float
+
+
+def read_starvation_log(path) -> list[Starvation]:
+    """The starvations the firmware's host simulator logged (``--starvation-log``).
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV (``time_s,line,duration_s``).
+
+    Returns
+    -------
+    list of Starvation
+
+    Raises
+    ------
+    MotionError
+        The file does not start with that header, or a row is not three numbers.
+    """
+    from pathlib import Path
+
+    rows = Path(path).read_text("ascii").splitlines()
+    if not rows or rows[0].strip() != "time_s,line,duration_s":
+        raise MotionError(f"{path}: line 1: expected the header 'time_s,line,duration_s', "
+                          f"got {rows[0]!r}" if rows else f"{path}: empty; expected a header")
+    out = []
+    for n, row in enumerate(rows[1:], start=2):
+        try:
+            t, line, d = row.split(",")
+            out.append(Starvation(float(t), int(line), float(d)))
+        except ValueError:
+            raise MotionError(f"{path}: line {n}: expected time_s,line,duration_s, got {row!r}") from None
+    return out
+
+
+def sent_line_bytes(text: str) -> np.ndarray:
+    """Bytes each source line puts on the link as ``labkit stream`` sends it.
+
+    Comments, spaces and tabs removed, upper case, and a newline; a line with
+    nothing left is not sent (0).
+
+    Parameters
+    ----------
+    text : str
+        The program.
+
+    Returns
+    -------
+    ndarray of int
+        One count per source line.
+
+    Examples
+    --------
+    >>> sent_line_bytes("G1 X10 (cut)\\n\\n; note\\nX.1S5\\n").tolist()
+    [6, 0, 0, 6]
+    """
+    from labkit.gcode.reader import strip_comments
+
+    out = []
+    for raw in text.splitlines():
+        body = re.sub(r"\s", "", strip_comments(raw))
+        out.append(len(body) + 1 if body else 0)
+    return np.asarray(out, dtype=np.int64)
+
+
+_F_WORD = re.compile(r"(F)([-+]?(?:\d+\.?\d*|\.\d+))", re.IGNORECASE)
+
+
+def _f_words(text: str) -> list[float]:
+    from labkit.gcode.reader import strip_comments
+
+    return [float(m.group(2)) for raw in text.splitlines() for m in _F_WORD.finditer(strip_comments(raw))]
+
+
+def with_feed(text: str, feed_mm_min: float) -> str:
+    """The program with its feeds scaled so that the highest F word is ``feed_mm_min``.
+
+    Parameters
+    ----------
+    text : str
+        The program (every F word read as mm/min; comments are left alone).
+    feed_mm_min : float
+        The new highest feed, mm/min (> 0).
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    MotionError
+        The program has no F word, or the feed is not > 0.
+
+    Examples
+    --------
+    >>> with_feed("G1 X1 F1000\\nX2\\nG1 Y1 F500 (slow)\\n", 1500)
+    'G1 X1 F1500\\nX2\\nG1 Y1 F750 (slow)\\n'
+    """
+    if not (feed_mm_min > 0 and math.isfinite(feed_mm_min)):
+        raise MotionError(f"the feed must be > 0 mm/min, got {feed_mm_min!r}")
+    feeds = _f_words(text)
+    if not feeds or max(feeds) <= 0:
+        raise MotionError("the program has no F word > 0: there is no feed to scale")
+    k = feed_mm_min / max(feeds)
+
+    def scale_line(raw: str) -> str:
+        cut = raw.find(";")
+        paren = raw.find("(")
+        ends = [i for i in (cut, paren) if i >= 0]
+        code_end = min(ends) if ends else len(raw)
+        code = _F_WORD.sub(lambda m: f"{m.group(1)}{float(m.group(2)) * k:.6g}", raw[:code_end])
+        return code + raw[code_end:]
+
+    return "".join(scale_line(raw) + nl for raw, nl in
+                   ((ln.rstrip("\r\n"), ln[len(ln.rstrip("\r\n")):]) for ln in text.splitlines(True)))
+
+
+@dataclass(frozen=True)
+class LinkPrediction:
+    """A job streamed over the machine's link, line by line and block by block.
+
+    Attributes
+    ----------
+    machine : MachineSpec
+    line : ndarray of int
+        Source line of each line sent (1-based).
+    bytes : ndarray of int
+        Bytes of each line sent, its newline included.
+    sent_s, arrived_s, parsed_s : ndarray of float
+        When the sender wrote each line, when its newline arrived, when its
+        block(s) entered the planner (the line answered ``ok``), s.
+    fill : ndarray of int
+        Blocks in the planner right after each line was parsed (its fill level).
+    block_line : ndarray of int
+        Source line of each planner block.
+    block_start_s, block_end_s : ndarray of float
+        When each block's motion started and ended, s.
+    stalls : list of Starvation
+        Every time the motors stood while the job had lines left.
+    job_time_s : float
+        End of the last block, s from the first byte.
+    motion_time_s : float
+        The job's time with a link that never holds it back (the plan's), s.
+    """
+
+    machine: object
+    line: np.ndarray
+    bytes: np.ndarray
+    sent_s: np.ndarray
+    arrived_s: np.ndarray
+    parsed_s: np.ndarray
+    fill: np.ndarray
+    block_line: np.ndarray
+    block_start_s: np.ndarray
+    block_end_s: np.ndarray
+    stalls: list = field(default_factory=list)
+    job_time_s: float = 0.0
+    motion_time_s: float = 0.0
+
+    @property
+    def stall_time_s(self) -> float:
+        """Time the motors stood in starvations, s."""
+        return float(sum(s.duration_s for s in self.stalls))
+
+
+def _plan_text(text: str, machine, dialect: str):
+    from labkit.gcode import parse
+    from labkit.motion.pipeline import plan
+
+    return plan(parse(text, dialect=dialect), machine, planner="junction")
+
+
+def predict_stalls(text: str, machine=None, *, line_bytes=None, dialect: str = "grbl",
+                   plan=None) -> LinkPrediction:
+    """Follow a program through the link, the parser and the planner; find where it starves.
+
+    Parameters
+    ----------
+    text : str
+        The program.
+    machine : MachineSpec, str or None
+        As :func:`labkit.motion.load_machine` takes it; its link fields (``link_baud``,
+        ``link_bits_per_byte``, ``rx_buffer_bytes``, ``planner_blocks``, ``block_parse_s``,
+        ``waits_for_lookahead``) and ``buffer_blocks`` decide.
+    line_bytes : sequence of int, optional
+        Bytes the sender puts on the link for each source line, newline included (0: not
+        sent). Default :func:`sent_line_bytes` (as ``labkit stream`` sends).
+    dialect : str
+        How the program is read.
+    plan : Plan, optional
+        The program's plan on this machine, when already made.
+
+    Returns
+    -------
+    LinkPrediction
+
+    Raises
+    ------
+    MotionError
+        ``line_bytes`` does not give one count per line, or a line that makes a block is
+        not sent, or a line is longer than the receive buffer takes.
+
+    Examples
+    --------
+    Three 0.1 mm cuts at 1200 mm/min on the CBR-40, each about 27 ms with its ramps; at
+    1200 baud (120 bytes/s) the 11-byte first line arrives at 91.7 ms and each 6-byte line
+    50 ms later. With a look-ahead of one block the first cut starts when the second has
+    arrived (141.7 ms) and ends at 168.1 ms; the second waits for the third (191.7 ms): a
+    starvation of 23.6 ms. The third waits for the quiet-input flush, with no line left
+    to come: not a starvation.
+
+    >>> from labkit.motion.machine import CBR40
+    >>> m = CBR40.replace(link_baud=1200, buffer_blocks=1)
+    >>> p = predict_stalls("G1X.1F1200\\nG1X.2\\nG1X.3\\n", m)
+    >>> [(s.line, round(s.duration_s, 3)) for s in p.stalls]
+    [(2, 0.024)]
+    """
+    from labkit.motion.machine import load_machine
+
+    m = load_machine(machine)
+    lines_text = text.splitlines()
+    nbytes = sent_line_bytes(text) if line_bytes is None else np.asarray(line_bytes, dtype=np.int64)
+    if len(nbytes) != len(lines_text):
+        raise MotionError(f"line_bytes gives {len(nbytes)} counts for {len(lines_text)} lines")
+    limit = m.rx_buffer_bytes - 1
+    too_long = np.flatnonzero(nbytes >= limit)
+    if len(too_long):
+        k = int(too_long[0])
+        raise MotionError(f"line {k + 1}: {int(nbytes[k])} bytes with its newline; a counting sender "
+                          f"sends only lines shorter than {limit} (the {m.rx_buffer_bytes}-byte buffer "
+                          f"less one)")
+    p = _plan_text(text, m, dialect) if plan is None else plan
+    block_line = np.asarray(p.blocks.line, dtype=np.int64)
+    dur = np.asarray(p.block_time_s, dtype=float)
+    sent_idx = np.flatnonzero(nbytes > 0)
+    unsent = block_line[(block_line >= 1) & (block_line <= len(nbytes))]
+    unsent = unsent[nbytes[unsent - 1] == 0]
+    if len(unsent):
+        raise MotionError(f"line {int(unsent[0])} makes a block but sends nothing")
+
+    if np.any(np.diff(block_line) < 0):
+        raise MotionError("the plan's blocks are not in source-line order")
+    tau = m.link_bits_per_byte / m.link_baud
+    parse_s = m.block_parse_s
+    n_sent = len(sent_idx)
+    src_line = sent_idx + 1
+    sent = np.zeros(n_sent)
+    arrived = np.zeros(n_sent)
+    parsed = np.zeros(n_sent)
+    first_block = np.searchsorted(block_line, src_line, side="left")   # blocks b0 … b1-1 of each line
+    last_block = np.searchsorted(block_line, src_line, side="right")
+    nb = len(block_line)
+    block_parsed = np.full(nb, np.inf)
+    start = np.zeros(nb)
+    end = np.zeros(nb)
+    W = m.buffer_blocks if m.waits_for_lookahead else 0
+    B = m.planner_blocks
+    done = 0                    # blocks whose start and end are known
+    in_flight: list[int] = []   # sent lines not yet answered
+    in_flight_bytes = 0
+    t_sender = wire_free = parse_free = 0.0
+
+    def settle(upto: int, flush_at: float = math.inf):
+        """Start and end of blocks ``done … upto-1``; block j is ready when block j + W is parsed."""
+        nonlocal done
+        while done < upto:
+            j = done
+            ready = block_parsed[j + W] if j + W < nb else max(flush_at, block_parsed[nb - 1])
+            start[j] = ready if j == 0 else max(end[j - 1], ready)
+            end[j] = start[j] + dur[j]
+            done += 1
+
+    for i in range(n_sent):
+        n = int(nbytes[sent_idx[i]])
+        t = t_sender
+        while in_flight and in_flight_bytes + n >= limit:      # GRBL's character counting
+            k = in_flight.pop(0)
+            in_flight_bytes -= int(nbytes[sent_idx[k]])
+            t = max(t, parsed[k])
+        t_sender = sent[i] = t
+        wire_free = max(wire_free, t) + n * tau
+        arrived[i] = wire_free
+        ready = max(arrived[i], parse_free)
+        b0, b1 = first_block[i], last_block[i]
+        need = b1 - 1 - B          # this block must have left the planner for a free slot
+        if b1 > b0 and need >= 0:
+            settle(min(need + 1, max(0, b0 - W)))
+            if done > need:
+                ready = max(ready, end[need])
+        parsed[i] = parse_free = ready + parse_s
+        block_parsed[b0:b1] = parsed[i]
+        in_flight.append(i)
+        in_flight_bytes += n
+        settle(max(0, b1 - W))
+    settle(nb, (parsed[-1] if n_sent else 0.0) + (FLUSH_QUIET_S if W else 0.0))
+
+    stalls = []
+    first_due = arrived - (nbytes[sent_idx] - 1) * tau
+    for j in np.flatnonzero(start[1:] - end[:-1] > _MIN_STALL_S) + 1:
+        t0, t1 = end[j - 1], start[j]
+        # a starvation while line bytes arrive during the stop (not the final flush's wait)
+        if np.any((arrived > t0) & (first_due <= t1)):
+            stalls.append(Starvation(float(t0), int(block_line[j]), float(t1 - t0)))
+    # fill level: blocks entered by each line minus blocks that had ended by then
+    entered = last_block
+    ended = np.searchsorted(np.sort(end), parsed, side="right") if nb else np.zeros(n_sent, int)
+    fill = np.maximum(entered - ended, 0)
+    return LinkPrediction(machine=m, line=src_line, bytes=nbytes[sent_idx], sent_s=sent, arrived_s=arrived,
+                          parsed_s=parsed, fill=fill, block_line=block_line, block_start_s=start,
+                          block_end_s=end, stalls=stalls, job_time_s=float(end.max()) if nb else 0.0,
+                          motion_time_s=float(dur.sum()))
+
+
+@dataclass(frozen=True)
+class StallFreeFeed:
+    """The highest feed at which a job streams without a starvation.
+
+    Attributes
+    ----------
+    feed_mm_min : float
+        The highest F (the program's feeds scaled together) without a starvation, mm/min.
+    limited_by : str
+        ``"link"``, or ``"machine"`` when even the machine's top speed does not starve.
+    programmed_mm_min : float
+        The program's highest F, mm/min.
+    stalls : list of Starvation
+        The starvations at the programmed feed.
+    rows : list of dict
+        For a raster job, per image row (lines with the same Y): ``y_mm``, ``first_line``,
+        ``last_line``, ``bytes``, ``feed_mm_min`` — the feed at which the row's motion takes as
+        long as its bytes on the link (the steady-state limit; the buffers carry a short row
+        past it).
+    """
+
+    feed_mm_min: float
+    limited_by: str
+    programmed_mm_min: float
+    stalls: list
+    rows: list
+
+
+def stall_free_feed(text: str, machine=None, *, line_bytes=None, dialect: str = "grbl",
+                    rel_tol: float = 0.002) -> StallFreeFeed:
+    """The highest feed at which the link never leaves the machine without a block.
+
+    The program's feeds are scaled together (:func:`with_feed`) and the highest
+    F without a starvation (:func:`predict_stalls`) is found by bisection, up to
+    the machine's top speed.
+
+    Parameters
+    ----------
+    text : str
+        The program.
+    machine : MachineSpec, str or None
+        The machine and its link.
+    line_bytes : callable, optional
+        ``text -> bytes per source line`` for a sender other than ``labkit stream``.
+    dialect : str
+        How the program is read.
+    rel_tol : float
+        Relative width of the final bracket.
+
+    Returns
+    -------
+    StallFreeFeed
+
+    Raises
+    ------
+    MotionError
+        The program has no F word.
+    """
+    from labkit.motion.machine import load_machine
+
+    m = load_machine(machine)
+    feeds = _f_words(text)
+    if not feeds or max(feeds) <= 0:
+        raise MotionError("the program has no F word > 0: there is no feed to find")
+    programmed = max(feeds)
+    top = float(min(m.max_rate_mm_min[:2]))
+
+    def stalls_at(feed):
+        t = with_feed(text, feed)
+        return predict_stalls(t, m, dialect=dialect,
+                              line_bytes=None if line_bytes is None else line_bytes(t)).stalls
+
+    at_programmed = stalls_at(programmed)
+    if not stalls_at(top):
+        best, limited = top, "machine"
+    else:
+        lo, hi = 1.0, top
+        if not at_programmed and programmed < top:
+            lo = programmed
+        elif at_programmed:
+            hi = programmed
+            while stalls_at(lo) and lo > 1e-3:
+                lo /= 4
+        while hi - lo > rel_tol * hi:
+            mid = 0.5 * (lo + hi)
+            if stalls_at(mid):
+                hi = mid
+            else:
+                lo = mid
+        best, limited = lo, "link"
+    return StallFreeFeed(feed_mm_min=best, limited_by=limited, programmed_mm_min=programmed,
+                         stalls=at_programmed, rows=_row_limits(text, m, dialect, line_bytes))
+
+
+def _row_limits(text: str, m, dialect: str, line_bytes) -> list[dict]:
+    """Per row of cuts along X at one Y: the feed at which motion time equals link time."""
+    p = _plan_text(text, m, dialect)
+    b = p.blocks
+    nbytes = sent_line_bytes(text) if line_bytes is None else np.asarray(line_bytes(text))
+    t = np.asarray(p.block_time_s)
+    rows = []
+    cut = np.flatnonzero(np.asarray(b.is_motion) & np.asarray(b.laser_on))
+    if not len(cut):
+        return rows
+    y = np.round(np.asarray(b.end_steps)[cut, 1] / m.steps_per_mm[1], 6)
+    y0 = np.round(np.asarray(b.start_steps)[cut, 1] / m.steps_per_mm[1], 6)
+    along_x = y == y0
+    cut, y = cut[along_x], y[along_x]
+    if not len(cut):
+        return rows
+    breaks = np.flatnonzero(np.diff(y) != 0) + 1
+    tau = m.link_bits_per_byte / m.link_baud
+    feed_now = max(_f_words(text))
+    for seg in np.split(np.arange(len(cut)), breaks):
+        blocks = cut[seg]
+        first, last = int(b.line[blocks[0]]), int(b.line[blocks[-1]])
+        nbyte = int(nbytes[first - 1:last].sum())
+        motion = float(t[blocks].sum())
+        rows.append({"y_mm": float(y[seg[0]]), "first_line": first, "last_line": last, "bytes": nbyte,
+                     "feed_mm_min": feed_now * motion / (nbyte * tau) if nbyte else math.inf})
+    return rows
