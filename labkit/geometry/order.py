@@ -42,31 +42,51 @@ __all__ = ["Ordering", "order_segments", "order_paths", "travel_length", "contai
 
 @dataclass(frozen=True)
 class Ordering:
-    """Result of :func:`order_segments`.
+    """An order in which to cut items: labkit's one ordering result, of
+    :func:`order_segments` (chains, mm) and of :func:`labkit.raster.pathing.connect`
+    (raster runs, half-pixel units).
 
     Attributes
     ----------
     order : ndarray of int
         Item indices in cutting order.
     reversed : ndarray of bool
-        Per position: cut that item backwards (end → start).
+        Per position: cut that item backwards (end → start); ``flipped`` is the same array
+        under the raster modules' word.
     entry : ndarray of int
         Per position: candidate (vertex) index where a closed item is entered
-        (-1 for open items).
+        (-1 for open items, and for every raster run).
     travel_mm : float
-        Travel length from ``origin`` through the order, mm.
+        Travel length from ``origin`` through the order, mm (NaN where not measured in mm:
+        raster runs).
     greedy_travel_mm : float
         The same after the greedy step only.
     moves : int
         Improving 2-opt moves applied (work done).
+    examined : int
+        Distances computed to candidate entry points by the greedy search (work done).
+    method : str
+        How the order was found: ``"grid"`` (:func:`greedy_grid`, then 2-opt when asked),
+        or the raster methods ``"indexed"``, ``"reference"`` and ``"scan"``.
     """
 
     order: np.ndarray
     reversed: np.ndarray
-    entry: np.ndarray
-    travel_mm: float
-    greedy_travel_mm: float
-    moves: int
+    entry: np.ndarray | None = None
+    travel_mm: float = math.nan
+    greedy_travel_mm: float = math.nan
+    moves: int = 0
+    examined: int = 0
+    method: str = "grid"
+
+    def __post_init__(self):
+        if self.entry is None:                    # every item open
+            object.__setattr__(self, "entry", np.full(len(self.order), -1, np.int64))
+
+    @property
+    def flipped(self) -> np.ndarray:
+        """``reversed``, as the raster modules name it."""
+        return self.reversed
 
 
 def travel_length(starts, ends, origin=(0.0, 0.0)) -> float:
@@ -350,7 +370,7 @@ def order_segments(starts, ends, *, closed_points=None, origin=(0.0, 0.0), impro
         raise GeometryError(f"neighbours must be >= 1, got {neighbours!r}")
     if n == 0:
         z = np.zeros(0, np.int64)
-        return Ordering(z, z.astype(bool), z, 0.0, 0.0, 0)
+        return Ordering(z, z.astype(bool), z, 0.0, 0.0)
     par = np.full(n, -1, np.int64) if parent is None else np.asarray(parent, dtype=np.int64).copy()
     if par.shape != (n,) or np.any(par >= n) or np.any(par == np.arange(n)):
         raise GeometryError(f"parent must hold one item index (or -1) per item, {n} items")
@@ -371,7 +391,7 @@ def order_segments(starts, ends, *, closed_points=None, origin=(0.0, 0.0), impro
     cell = max(span / max(1.0, math.sqrt(len(cx) / 2.0)), 1e-9)
     nx = int((hi[0] - lo[0]) / cell) + 1
     ny = int((hi[1] - lo[1]) / cell) + 1
-    picked, greedy_travel, _, ok = greedy_grid(cx, cy, ex, ey, citem, n, remaining, par,
+    picked, greedy_travel, examined, ok = greedy_grid(cx, cy, ex, ey, citem, n, remaining, par,
                                                float(origin[0]), float(origin[1]), cell, float(lo[0]),
                                                float(lo[1]), nx, ny)
     if not ok:
@@ -409,7 +429,7 @@ def order_segments(starts, ends, *, closed_points=None, origin=(0.0, 0.0), impro
         outs = p_out[order, flip[order]]
         travel = travel_length(ins, outs, origin)
     return Ordering(np.asarray(order, np.int64), np.asarray(is_rev, bool), np.asarray(entry, np.int64),
-                    travel, float(greedy_travel), moves)
+                    travel, float(greedy_travel), moves, int(examined))
 
 
 def containment_parents(paths: Sequence[Path], tol_mm=0.05) -> np.ndarray:

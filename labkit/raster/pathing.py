@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from labkit.errors import RasterError
+from labkit.geometry.order import Ordering
 from labkit.raster import _walk
 from labkit.raster._border import check_mask
 
@@ -108,28 +109,13 @@ class Segments:
         return self.points * (0.5 * float(pixel_mm))
 
 
-@dataclass(frozen=True)
-class Connection:
-    """The order in which segments are cut.
-
-    Attributes
-    ----------
-    order : ndarray of int64
-        Segment indices in cutting order.
-    flipped : ndarray of bool
-        Per position in ``order``: run that segment backwards.
-    examined : int
-        Distances computed to candidate entry points (one per segment, two
-        when reversible) — the work the seed's eq. 10 counts, (n² − n)/2
-        for its scan.
-    method : str
-        ``"reference"``, ``"indexed"`` or ``"scan"``.
-    """
-
-    order: np.ndarray
-    flipped: np.ndarray
-    examined: int
-    method: str
+#: The order in which segments are cut: labkit's one ordering result
+#: (:class:`labkit.geometry.order.Ordering`). Here ``flipped`` (``reversed``) runs a segment
+#: backwards; ``examined`` counts distances computed to candidate entry points (one per
+#: segment, two when reversible), the work the seed's eq. 10 counts, (n² − n)/2 for its
+#: scan; ``method`` is ``"reference"``, ``"indexed"`` or ``"scan"``; travel is not in mm
+#: here (NaN).
+Connection = Ordering
 
 
 def choose_axis(shape) -> str:
@@ -366,7 +352,7 @@ def connect(segments: Segments, *, method: str = "indexed", origin=(0, 0)) -> Co
         raise RasterError(f"origin must be in the image's quadrant (x, y >= 0 half-pixels), got {origin!r}")
     n = len(segments)
     if n == 0:
-        return Connection(np.zeros(0, np.int64), np.zeros(0, bool), 0, method)
+        return Ordering(np.zeros(0, np.int64), np.zeros(0, bool), examined=0, method=method)
     s, e = segments.starts, segments.ends
     args = (s[:, 0].copy(), s[:, 1].copy(), e[:, 0].copy(), e[:, 1].copy(), bool(segments.reversible),
             ox, oy)
@@ -374,7 +360,7 @@ def connect(segments: Segments, *, method: str = "indexed", origin=(0, 0)) -> Co
 
     if method == "reference":
         order, flipped, examined = _connect.greedy_reference(*args)
-        return Connection(order, flipped, int(examined), method)
+        return Ordering(order, flipped, examined=int(examined), method=method)
     # the grid search every ordering in labkit uses; half-pixel coordinates are integers, so
     # squared distances are exact and the ties fall as in the reference scan
     from labkit.geometry.order import greedy_grid
@@ -394,7 +380,7 @@ def connect(segments: Segments, *, method: str = "indexed", origin=(0, 0)) -> Co
     picked, _, examined, _ = greedy_grid(x, y, lx, ly, citem, n,
                                          np.zeros(n, np.int64), none, float(ox), float(oy), cell,
                                          0.0, 0.0, nx, ny)
-    return Connection(citem[picked], picked % ends == 1, int(examined), method)
+    return Ordering(citem[picked], picked % ends == 1, examined=int(examined), method=method)
 
 
 def scan_order(segments: Segments) -> Connection:
@@ -423,4 +409,4 @@ def scan_order(segments: Segments) -> Connection:
         # reversed lines are also visited from their far end
         for_keys = np.where(flipped, -along[order], along[order])
         order = order[np.lexsort((for_keys, line_coord[order]))]
-    return Connection(order.astype(np.int64), flipped, 0, "scan")
+    return Ordering(order.astype(np.int64), flipped, method="scan")

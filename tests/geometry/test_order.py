@@ -111,3 +111,17 @@ def test_precedence_cycle_and_bad_args():
         order_segments([[0, 0]], [[0, 1], [1, 1]])
     with pytest.raises(GeometryError, match="neighbours must be >= 1"):
         order_segments([[0, 0]], [[0, 1]], neighbours=0)
+
+
+def test_one_ordering_type_for_chains_and_raster_runs():
+    # issue 28 §4: the chain ordering and the raster connection are the same record
+    import labkit.raster as raster
+    from labkit.geometry.order import Ordering
+
+    m = np.zeros((3, 5), bool)
+    m[0, 3:] = m[1, :3] = m[2, 3:] = True
+    c = raster.connect(raster.zigzag_segments(m, axis="rows"))
+    assert type(c) is Ordering and raster.Connection is Ordering
+    assert c.flipped is c.reversed and c.entry.tolist() == [-1, -1, -1] and c.method == "indexed"
+    o = order_segments([[10, 0], [1, 0], [5, 0]], [[11, 0], [2, 0], [4, 0]])
+    assert o.method == "grid" and o.examined >= 3        # at least one distance a step
