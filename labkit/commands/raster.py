@@ -68,6 +68,9 @@ def add_img2gcode_arguments(parser: argparse.ArgumentParser) -> None:
                         help="gray/dither: rapid over white gaps longer than this, mm")
     parser.add_argument("--dialect", default="grbl", help="G-code dialect (grbl, labkit-fw, marlin)")
     add_machine_options(parser)
+    parser.add_argument("--readable", action="store_true",
+                        help="spaced, absolute G-code (about a third larger); the default is compact: no spaces, "
+                             "relative moves along a row where shorter (stock Marlin always gets the readable form)")
     parser.add_argument("--travel-beam-off", action="store_true",
                         help="switch the beam off (M5) for every rapid, for controllers that "
                              "burn on G0 (GRBL with $32=0)")
@@ -173,7 +176,10 @@ def run_img2gcode(args) -> int:
                 "--max-power higher, or a darker image")
         raise RasterError(f"{args.input}: nothing to burn in mode {args.mode} (no marked pixel); "
                           f"expected an image with dark content — try {hint}")
-    text = emit(job.moves, dialect=args.dialect, travel_beam_off=args.travel_beam_off or None,
+    from labkit.gcode.dialects import get_dialect
+
+    compact = not args.readable and get_dialect(args.dialect).modal_motion     # Marlin reads spaced words
+    text = emit(job.moves, dialect=args.dialect, travel_beam_off=args.travel_beam_off or None, compact=compact,
                 comment=f"img2gcode {Path(args.input).name}: mode {args.mode}, beam {args.beam:g} mm"
                         + (f"; material {material}" if material else ""))
     with atomic_output(output, encoding="ascii") as fh:

@@ -33,7 +33,7 @@ from labkit.toolpath.moves import LaserMode, MoveKind, Moves
 from labkit.units import s_within
 
 __all__ = ["MODES", "RasterSettings", "placed_size", "DEFAULT_DPI", "RasterReport", "RasterJob", "segments_to_moves", "mask_job", "gray_job",
-           "power_map", "image_to_job", "summarize"]
+           "power_map", "image_to_job", "summarize", "raster_program"]
 
 #: Modes of :func:`image_to_job` (and ``labkit img2gcode --mode``).
 MODES = ("zigzag", "spiral", "edges", "gray", "dither")
@@ -766,3 +766,65 @@ def image_to_job(image, settings: RasterSettings | None = None, **changes) -> Ra
 def _not_blank(mask: np.ndarray, blank: np.ndarray | None) -> np.ndarray:
     """The burn mask without the blank pixels."""
     return mask if blank is None else mask & ~blank
+
+
+def raster_program(image, *, feed_mm_min: float, pitch_mm: float, mode: str = "gray", dialect: str = "grbl",
+                   compact: bool = True, comment: str | None = None, **settings) -> str:
+    """The G-code ``labkit img2gcode`` writes for an image at one feed and pixel pitch.
+
+    One pixel of ``image`` per ``pitch_mm`` (no resampling unless a size is given in
+    ``settings``); the program as text, compact (:func:`~labkit.gcode.writer.emit`'s
+    ``compact``: no spaces, relative moves along a row where shorter) unless asked
+    otherwise. Made for measuring a format on a link (bytes, the stall-free feed).
+
+    Parameters
+    ----------
+    image : array_like, RasterImage or path
+        What :func:`image_to_job` takes, or an image file (:func:`~labkit.raster.io.read_image`).
+    feed_mm_min : float
+        Scanning (gray, dither) or cutting feed, mm/min.
+    pitch_mm : float
+        Pixel pitch = line spacing = beam diameter, mm.
+    mode : str
+        One of :data:`MODES`.
+    dialect : str
+        G-code dialect (compact needs ``grbl`` or ``labkit-fw``).
+    compact : bool
+        Compact text (default) or the spaced, absolute text.
+    comment : str, optional
+        A header comment.
+    **settings
+        Other fields of :class:`RasterSettings`.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> g = np.array([[255, 0, 128, 128, 255]], np.uint8)
+    >>> print(raster_program(g, feed_mm_min=6000, pitch_mm=0.1, overscan_mm=0.2).split("M5\\n", 1)[1])
+    M4S0
+    G0X-.1Y.05
+    G1X.1F6000
+    X.2S1000
+    X.4S498
+    X.6S0
+    M5
+    M2
+    <BLANKLINE>
+
+    (so short a row is shorter absolute; a photo's rows are written relative).
+    """
+    from labkit.gcode.writer import emit
+
+    from pathlib import Path
+
+    from labkit.raster.io import read_image
+
+    if isinstance(image, (str, Path)):
+        image = read_image(image)
+    if not any(settings.get(k) is not None for k in ("width_mm", "height_mm", "pixel_mm", "dpi")):
+        settings["pixel_mm"] = pitch_mm          # one image pixel per beam pixel
+    job = image_to_job(image, mode=mode, beam_mm=pitch_mm, feed_mm_min=feed_mm_min, **settings)
+    return emit(job.moves, dialect=dialect, compact=compact, comment=comment)
