@@ -48,28 +48,35 @@ def _number(value: float) -> str:
     return "0" if text == "-0" else text
 
 
+def _row_runs(row: np.ndarray):
+    """Runs of equal S from a row's first to its last burned pixel: (start, end) pixel arrays
+    and the S of each run; None for a row with nothing burned."""
+    burned = np.flatnonzero(row)
+    if not len(burned):
+        return None
+    a, b = int(burned[0]), int(burned[-1]) + 1
+    cut = np.flatnonzero(np.diff(row[a:b])) + a + 1
+    starts, ends = np.r_[a, cut], np.r_[cut, b]
+    return starts, ends, row[starts]
+
+
 def lasergrbl_style(power: np.ndarray, pitch_mm: float, feed_mm_min: float) -> str:
     """The S map ``power`` (rows top first, 0 = not burned) as LaserGRBL-style line-to-line text."""
     rows = power.shape[0]
     out = ["G90", f"G0 X0 Y0 F{_number(feed_mm_min)}", "M3 S0"]
     line = 0
     for r in range(rows - 1, -1, -1):
-        row = power[r]
-        burned = np.flatnonzero(row)
-        if not len(burned):
+        found = _row_runs(power[r])
+        if found is None:
             continue
-        a, b = int(burned[0]), int(burned[-1]) + 1
-        seg = row[a:b]
-        cut = np.flatnonzero(np.diff(seg)) + 1
-        starts = np.r_[0, cut] + a
-        ends = np.r_[cut, b - a] + a
-        s = seg[starts - a].tolist()
+        starts, ends, s = found
+        s = s.tolist()
         y = _number((rows - r - 0.5) * pitch_mm)
         if line % 2:                      # backwards: from the right end to the left
-            first = b
+            first = ends[-1]
             runs = zip((starts * pitch_mm)[::-1].tolist(), s[::-1])
         else:
-            first = a
+            first = starts[0]
             runs = zip((ends * pitch_mm).tolist(), s)
         line += 1
         out.append(f"G0 X{_number(first * pitch_mm)} Y{y} S0")
@@ -88,13 +95,7 @@ def lasergrbl_style(power: np.ndarray, pitch_mm: float, feed_mm_min: float) -> s
 
 def s_changes(power: np.ndarray) -> int:
     """Runs of equal S between each row's first and last burned pixel."""
-    total = 0
-    for row in power:
-        burned = np.flatnonzero(row)
-        if len(burned):
-            seg = row[burned[0]:burned[-1] + 1]
-            total += 1 + int(np.count_nonzero(np.diff(seg)))
-    return total
+    return sum(len(found[0]) for found in map(_row_runs, power) if found is not None)
 
 
 def fewest_bytes(power: np.ndarray, pitch_mm: float) -> int:
@@ -102,22 +103,14 @@ def fewest_bytes(power: np.ndarray, pitch_mm: float) -> int:
     S a line, so each run of equal S needs at least its axis word (the shorter of the absolute
     end and the unsigned relative length, without a leading 0), its S word and a line end."""
     total = 0
-    rows = power.shape[0]
-    for r in range(rows):
-        row = power[r]
-        burned = np.flatnonzero(row)
-        if not len(burned):
+    for found in map(_row_runs, power):
+        if found is None:
             continue
-        a, b = int(burned[0]), int(burned[-1]) + 1
-        seg = row[a:b]
-        cut = np.flatnonzero(np.diff(seg)) + 1
-        starts = np.r_[0, cut]
-        ends = np.r_[cut, b - a]
-        for start, end in zip(starts.tolist(), ends.tolist()):
+        for start, end, value in zip(*(column.tolist() for column in found)):
             rel = _number((end - start) * pitch_mm).lstrip("0") or "0"
-            ab = _number((a + end) * pitch_mm)
+            ab = _number(end * pitch_mm)
             ab = ab[1:] if ab.startswith("0.") else ab
-            total += 1 + min(len(rel), len(ab)) + 1 + len(str(int(seg[start]))) + 1
+            total += 1 + min(len(rel), len(ab)) + 1 + len(str(int(value))) + 1
     return total
 
 
