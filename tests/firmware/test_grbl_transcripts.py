@@ -10,7 +10,16 @@ byte and with the recorded pauses, against
 * ``virtual``: :class:`labkit.machine.virtual.VirtualMachine` in real time, a
   fresh machine per transcript;
 
-and every exchange (the bytes sent, the lines that came back) is one test case
+For a transcript in which GRBL reported a hold still decelerating (``Hold:1``) the simulator first
+takes GRBL's accelerations (``$120``-``$122``, as GRBL printed them in the recorded ``$$``:
+:data:`GRBL_ACCELERATION_SETTINGS`), so that its hold decelerates as long as GRBL's did: whether a
+report after ``!`` says ``Hold:1`` or ``Hold:0`` is then GRBL's behaviour, not a difference between
+two machines (the CBR-40 brakes at 500 mm/s², GRBL's defaults at 10). The other transcripts keep
+the machine's own: the replay paces its exchanges faster than the recorder did (it waits for
+GRBL's replies, not 0.35 s more), and at 10 mm/s² a move would still run where GRBL's, paced by
+the recorder, had ended (``line_length``'s first ``G0 X1`` and the ``$`` lines after it).
+
+Every exchange (the bytes sent, the lines that came back) is one test case
 comparing the replies with GRBL's, line by line. Exchanges that differ today
 are listed in :data:`KNOWN_DIFFERENCES` (at the end) and run as strict xfails: when a fix
 makes one match, it XPASSes, the suite fails, and the entry is deleted.
@@ -166,13 +175,48 @@ def _note_writes(exchange: dict, written: set) -> None:
 # ---------------------------------------------------------------------------------------------
 # Targets
 
-class _Firmware:
-    """labkit-fw-sim on a pty, GRBL dialect (with the transcript's limit switches, if any)."""
+#: The settings the simulator takes from GRBL before replaying a transcript that
+#: :func:`brakes_as_grbl`: its accelerations (mm/s²).
+GRBL_ACCELERATION_SETTINGS = (120, 121, 122)
 
-    def __init__(self, sim: str, switches: str = ""):
+
+def brakes_as_grbl(transcript: dict) -> bool:
+    """Whether GRBL reported a hold still decelerating (``Hold:1``) in this transcript."""
+    return any(r.startswith("<Hold:1") for ex in transcript["exchanges"] for r in ex["replies"])
+
+
+def grbl_defaults(numbers) -> dict[int, str]:
+    """GRBL's own values of the settings ``numbers``, as it printed them in the first ``$$`` of
+    a recording made before that recording wrote any setting."""
+    for transcript in transcripts().values():
+        for ex in transcript["exchanges"]:
+            if re.match(r"^\$\d+=", ex["send"]):
+                break                                  # this recording has written one already
+            if ex["send"] == "$$\n":
+                printed = dict(re.match(r"^\$(\d+)=(.*)$", r).groups() for r in ex["replies"]
+                               if re.match(r"^\$\d+=", r))
+                return {n: printed[str(n)] for n in numbers}
+    raise LookupError("no recording prints GRBL's settings with $$ before writing one")
+
+
+class _Firmware:
+    """labkit-fw-sim on a pty, GRBL dialect (with the transcript's limit switches, if any), with
+    ``settings`` written first (number -> value)."""
+
+    def __init__(self, sim: str, switches: str = "", settings: dict | None = None):
         self.proc, pty = _start_sim(sim, "grbl", ["--switches", switches] if switches else [])
         self.fd = os.open(pty, os.O_RDWR | os.O_NOCTTY)
         tty.setraw(self.fd)
+        self.read(0.2)                                # the banner
+        for number, value in (settings or {}).items():
+            self.send(f"${number}={value}\n".encode())
+            got = b""
+            end = time.monotonic() + 5.0
+            while not got.endswith(b"ok\r\n") and time.monotonic() < end:
+                got += self.read(0.1)
+            if not got.endswith(b"ok\r\n"):
+                self.close()
+                raise RuntimeError(f"the simulator refused GRBL's ${number}={value}: {got!r}")
 
     def send(self, data: bytes) -> None:
         os.write(self.fd, data)
@@ -220,9 +264,13 @@ def _start_sim(sim: str, dialect: str, extra_args=()):
     return module.start_sim(sim, dialect, realtime=True, extra_args=extra_args)   # GRBL's moves took wall time too
 
 
-def _open(target: str, sim: str | None, switches: str = ""):
-    """``switches``: the transcript's limit switches (grbl-sim's and labkit-fw-sim's --switches)."""
-    return _Firmware(sim, switches) if target == "firmware" else _Virtual()
+def _open(target: str, sim: str | None, transcript: dict):
+    """The target for ``transcript``: with its limit switches (grbl-sim's and labkit-fw-sim's
+    --switches) and, where it :func:`brakes_as_grbl`, GRBL's accelerations."""
+    if target != "firmware":
+        return _Virtual()
+    settings = grbl_defaults(GRBL_ACCELERATION_SETTINGS) if brakes_as_grbl(transcript) else {}
+    return _Firmware(sim, transcript.get("switches", ""), settings)
 
 
 def _lines(data: bytes) -> tuple[list[str], bool]:
@@ -240,7 +288,9 @@ def _collect(port, exchange) -> bytes:
     deadline = t0 + max(1.0, 1.5 * exchange.get("elapsed_s", 0.0) + 0.5)
     out = b""
     if not want or exchange.get("answered", True) is False:
-        quiet = 0.3                                  # nothing (more) expected: make sure of it
+        # nothing (more) expected: make sure of it, as long as the recorder did where it waited
+        # longer (an M0 whose move must end first)
+        quiet = exchange.get("quiet_s", 0.3)
         while True:
             chunk = port.read(quiet)
             if not chunk:
@@ -268,7 +318,7 @@ def _collect(port, exchange) -> bytes:
 
 def replay(target: str, transcript: dict, sim: str | None = None) -> list[dict]:
     """Replay one transcript; per exchange the lines got and what differs from GRBL."""
-    port = _open(target, sim, transcript.get("switches", ""))
+    port = _open(target, sim, transcript)
     results = []
     written: set = set()
     try:
@@ -331,6 +381,13 @@ def test_exchange_matches_grbl(target, topic, index, sim):
     assert not result["differences"], (
         f"{target}, {topic} #{index}: sent {ex['send']!r}\n  GRBL: {ex['replies']}\n  got:  {result['got']}\n  "
         + "\n  ".join(result["differences"]))
+
+
+def test_replay_brakes_as_grbl_where_grbl_reported_braking():
+    """GRBL's accelerations come from its own recorded $$ (10 mm/s², DEFAULTS_GENERIC, as the
+    vectors' README says), and only the transcript with a decelerating hold takes them."""
+    assert grbl_defaults(GRBL_ACCELERATION_SETTINGS) == {120: "10.000", 121: "10.000", 122: "10.000"}
+    assert [t for t, tr in _TRANSCRIPTS.items() if brakes_as_grbl(tr)] == ["hold_resume"]
 
 
 def test_known_differences_name_real_exchanges():
@@ -431,14 +488,10 @@ def main(argv):
 # as plain xfails). After a fix, delete the entries that now XPASS, or print the
 # whole table afresh with `python tests/firmware/test_grbl_transcripts.py --table`.
 KNOWN_DIFFERENCES: dict[tuple[str, str, int], str] = {
-    ('firmware', 'hold_resume', 10): "?: line 1: fields ['MPos', 'FS', 'Ov'], GRBL ['MPos', 'FS'] (timing: the "
-                                     "machine's 500 mm/s2 ends the hold before this report, GRBL's 10 mm/s2 after "
-                                     "it; Ov: follows the beam going off at the hold's end)",
-    ('firmware', 'hold_resume', 11): "?: line 1: fields ['MPos', 'FS'], GRBL ['MPos', 'FS', 'Ov'] (timing: the "
-                                     "same Ov:, one report earlier)",
-    ('firmware', 'program_flow', 4): "?: line 1: state 'Run', GRBL 'Hold:0' (timing: the recorder asked after "
-                                     "GRBL's move had ended, the replay asks 0.3 s after M0)",
-    ('firmware', 'settings', 71): "$200=1: line 1: 'error:38', GRBL 'error:3' (labkit's own $200+, intended)",
+    ('firmware', 'settings', 71): "$200=1: line 1: 'error:38', GRBL 'error:3' (labkit's own $200+, intended: "
+                                  "$200-$209 are the firmware's settings in both dialects (ramps, laser maximum, "
+                                  "planner, dialect; $208=0 is the way back to labkit-fw), so $200 exists and "
+                                  "1 is out of its range, where GRBL has no $200)",
     ('virtual', 'check_mode', 2): "?: line 1: fields ['MPos', 'Bf', 'FS', 'WCO'], GRBL ['MPos', 'FS', 'WCO']",
     ('virtual', 'check_mode', 9): "$#: line 1: '[G54:0.000,0.000,0.000]', GRBL 'error:8'",
     ('virtual', 'check_mode', 10): "?: line 1: fields ['MPos', 'Bf', 'FS', 'Ov'], GRBL ['MPos', 'FS', 'Ov']",

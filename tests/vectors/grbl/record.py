@@ -524,7 +524,7 @@ def exchange(sim, step):
         timing = {str(i): f for i, r in enumerate(replies) if (f := _timed_fields(r))}
     if timing:
         rec["timing"] = timing
-    for key in ("pause_before_s", "note"):
+    for key in ("pause_before_s", "quiet_s", "note"):
         if step.get(key):
             rec[key] = step[key]
     if not step.get("answered", True):
