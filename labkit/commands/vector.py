@@ -153,12 +153,16 @@ def _run(args, drawing) -> int:
             raise InputError(f"{name}: power S{layer.power_s:g} is above --s-max {args.s_max:g}; "
                              f"expected a power within 0…{args.s_max:g}")
     try:
-        job = vector_job(drawing.paths, default=default, layers=per_layer, tol_mm=args.tol,
-                         arcs=args.arcs, kerf_mm=args.kerf, fill=args.fill,
-                         fill_spacing_mm=args.fill_spacing, fill_angle_rad=math.radians(args.fill_angle),
-                         order=not args.no_order, improve=not args.no_improve, s_max=args.s_max)
+        with warnings.catch_warnings(record=True) as caught:     # e.g. a hole the kerf closes
+            warnings.simplefilter("always")
+            job = vector_job(drawing.paths, default=default, layers=per_layer, tol_mm=args.tol,
+                             arcs=args.arcs, kerf_mm=args.kerf, fill=args.fill,
+                             fill_spacing_mm=args.fill_spacing, fill_angle_rad=math.radians(args.fill_angle),
+                             order=not args.no_order, improve=not args.no_improve, s_max=args.s_max)
     except GeometryError as exc:
         raise InputError(str(exc)) from None
+    for w in caught:
+        print(f"warning: {w.message}", file=sys.stderr)
     paths, moves = job.paths, job.moves
     if len(moves):
         ends = np.vstack([moves.start, moves.end])

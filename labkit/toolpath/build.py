@@ -193,6 +193,8 @@ def prepare_paths(paths: Sequence[Path], *, join_tol_mm=0.01, kerf_mm=0.0, tol_m
     kerf_mm : float
         Beam kerf width; closed shapes are offset by kerf/2 outwards (holes
         inwards, nesting judged over all layers) so parts come out to size.
+        Each shape is offset on its own: one inside an odd number of others is a
+        hole, whichever element or fill rule drew it; none is merged or lost.
         0: no offset.
     tol_mm : float
         Tolerance of the offset geometry, mm.
@@ -261,22 +263,39 @@ def prepare_paths(paths: Sequence[Path], *, join_tol_mm=0.01, kerf_mm=0.0, tol_m
 
 def _offset_by_source(closed: list[Path], distance_mm: float, *, tol_mm: float, arcs: bool
                       ) -> dict[str, list[Path]]:
-    """Offset the region of all closed paths; each result ring goes back to its source's layer.
+    """Kerf compensation ring by ring; each result goes back to its own source's layer.
 
-    A ring lies ``|distance_mm|`` from the ring it was offset from, so the nearest source ring
-    (by the distance from one of its points) is its source; rings merged from several sources
-    take the nearest one's layer and colours.
+    Every closed path moves ``distance_mm`` to its waste side: outwards when it lies inside an
+    even number of the other closed paths (an outline, an island in a hole), inwards when odd (a
+    hole), as LightBurn and LaserGRBL offset nested shapes — whichever element, layer or fill
+    rule drew them (a hole drawn as its own shape inside an outline is still a hole). No path is
+    merged into another or lost: a shape drawn twice is cut twice, as without kerf, and a hole
+    the kerf closes keeps its drawn line (the beam is as wide as the hole), with a warning.
     """
+    import warnings
+
     import shapely
 
-    sources = [shapely.LinearRing(p.sample(tol_mm)) for p in closed]
+    rings = [p.sample(tol_mm) for p in closed]
+    polys = [shapely.make_valid(shapely.Polygon(r)) for r in rings]
+    areas = np.array([q.area for q in polys])
+    tree = shapely.STRtree(polys)
     by_layer: dict[str, list[Path]] = {}
-    for ring in offset_paths(closed, distance_mm, tol_mm=tol_mm, arcs=arcs):
-        probe = shapely.Point(ring.start[:2])
-        k = int(np.argmin([src.distance(probe) for src in sources]))
-        p = closed[k].with_geometry(ring.vertices, ring.centres, ring.sweeps, closed=True,
-                                    deviation_mm=ring.deviation_mm)
-        by_layer.setdefault(p.layer, []).append(p)
+    for i, p in enumerate(closed):
+        probe = shapely.Point(rings[i][0])
+        depth = sum(1 for j in tree.query(probe) if j != i and areas[j] > areas[i] and polys[j].covers(probe))
+        hole = depth % 2 == 1
+        out = offset_paths([p], -distance_mm if hole else distance_mm, tol_mm=tol_mm, arcs=arcs)
+        if not out:
+            warnings.warn(f"{p.source or 'a hole'}: a hole narrower than the kerf ({2 * distance_mm:g} mm) "
+                          f"is cut on its drawn line, uncompensated", stacklevel=3)
+            out = [p]
+        for ring in out:
+            if hole and ring is not p:
+                ring = ring.reversed()            # holes run clockwise, as a region's holes do
+            q = p.with_geometry(ring.vertices, ring.centres, ring.sweeps, closed=True,
+                                deviation_mm=ring.deviation_mm)
+            by_layer.setdefault(q.layer, []).append(q)
     return by_layer
 
 
