@@ -28,6 +28,7 @@ import re
 
 import numpy as np
 
+from labkit.budget import check_budget
 from labkit.errors import InputError
 
 __all__ = ["RUN_ATTR", "mark_runs", "run_key", "glyph_outlines", "svg_text_paths"]
@@ -202,6 +203,9 @@ def glyph_outlines(runs, matrix_of, *, source: str, label: str):
     root = runs[0]
     preserve = str(_own(root, _XML_SPACE) or "") == "preserve"
     texts = _collapse([r.text for r in runs], preserve)
+    characters = sum(len(t) for t in texts)
+    check_budget("segments", 64 * characters, cause=f"{characters} characters of text in {label} ({source}), "
+                 "up to 64 outline segments each")
     pen = [float(root.x or 0.0), float(root.y or 0.0)]
     chunk = [pen[0], getattr(root, "anchor", "start"), []]     # start x, anchor, pieces
     pieces: list = []
@@ -229,6 +233,8 @@ def glyph_outlines(runs, matrix_of, *, source: str, label: str):
             if not piece:
                 continue
             prop, size, font_path = _font(run, source, label, text)
+            if not size > 0:                   # renderers draw nothing (a negative size is invalid)
+                continue
             chunk[2].append([run, piece, prop, size, pen[0], pen[1]])
             pen[0] += _advance(piece, font_path, size)
     close(chunk)

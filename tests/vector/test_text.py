@@ -146,3 +146,33 @@ def test_svg2gcode_cuts_and_fills_text(tmp_path, capsys):
     assert main(["svg2gcode", str(INKSCAPE), "-o", str(filled), "--fill", "--fill-spacing", "0.2"]) == 0
     hatched = parse(filled.read_text())
     assert float(hatched.lengths_mm()[hatched.laser_on].sum()) > 2 * outline
+
+
+@pytest.mark.parametrize("body, error", [
+    ('<text x="1" y="30" font-size="1e300">big</text>', "text placed beyond"),
+    ('<text x="1" y="30">' + "W" * 400_000 + "</text>", "400000 characters of text in text"),
+    ('<text x="1" y="30" font-size="-3">negative</text><text x="1" y="30" font-size="0">zero</text>'
+     '<rect id="r" x="80" y="5" width="5" height="5" fill="#000"/>', None),
+    ('<text x="1" y="30">\U0001F600 \u2603 \u00e9</text>', None),
+])
+def test_hostile_text_is_an_error_or_a_drawing_never_a_traceback(body, error):
+    """A size past double precision and a text past the segment budget are named errors; a
+    font-size of zero or below draws nothing (as resvg: no ink); characters the font lacks do
+    not end the reading."""
+    from labkit.errors import LabkitError
+
+    doc = _text(body)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        if error:
+            with pytest.raises(LabkitError, match=error):
+                read_svg(doc)
+            return
+        d = read_svg(doc)
+    if "negative" in body:
+        png = resvg_py.svg_to_bytes(svg_string=doc, dpi=96.0)          # mm need a dpi
+        ink = np.asarray(Image.open(io.BytesIO(bytes(png))))[:, :, 3] > 0
+        assert ink.any() and not ink[:, : ink.shape[1] * 3 // 4].any()      # only the rect, right
+        assert [p.source for p in d.paths] == ["rect#r"]
+    else:
+        assert d.paths
