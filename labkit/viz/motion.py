@@ -125,10 +125,7 @@ def plot_profile(profiles, i=0, ax=None, *, against="distance", label=None, colo
         ax.axvspan(0, a, color=c, alpha=0.08)
         ax.axvspan(b, end, color=c, alpha=0.16)
     ax.axhline(float(profiles.cap_mm_s[i]), color="0.6", linestyle=":", linewidth=1)
-    ax.set_xlabel("distance along the block (mm)" if against == "distance" else "time (s)")
-    ax.set_ylabel("speed (mm/s)")
-    ax.set_ylim(bottom=0)
-    return ax
+    return _speed_axes(ax, "distance along the block (mm)" if against == "distance" else "time (s)")
 
 
 def plot_speed_time(plan, ax=None, *, n=3000, label=None, boundaries=True, colour=None):
@@ -139,12 +136,20 @@ def plot_speed_time(plan, ax=None, *, n=3000, label=None, boundaries=True, colou
     ax.plot(smp["time_s"], smp["speed_mm_s"], color=colour, linewidth=1,
             label=label or f"{plan.planner} ({plan.job_time_s:.2f} s)")
     if boundaries:
-        sb = plan.lookahead.super_block
-        edges = np.flatnonzero(np.diff(sb)) + 1
-        starts = plan.block_start_s[plan.motion]
-        for t in starts[edges]:
-            ax.axvline(t, color=colour, alpha=0.25, linewidth=0.6)
-    ax.set_xlabel("time (s)")
+        _super_block_lines(ax, plan, plan.block_start_s[plan.motion], colour)
+    return _speed_axes(ax, "time (s)")
+
+
+def _super_block_lines(ax, plan, block_starts, colour):
+    """Thin vertical lines where a super block begins (``block_starts``: where each motion
+    block starts on the plot's x axis)."""
+    edges = np.flatnonzero(np.diff(plan.lookahead.super_block)) + 1
+    for x in block_starts[edges]:
+        ax.axvline(x, color=colour, alpha=0.25, linewidth=0.6)
+
+
+def _speed_axes(ax, xlabel):
+    ax.set_xlabel(xlabel)
     ax.set_ylabel("speed (mm/s)")
     ax.set_ylim(bottom=0)
     return ax
@@ -164,13 +169,8 @@ def plot_speed_distance(plan, ax=None, *, label=None, colour=None):
     colour = colour or _PLANNER_COLOURS.get(plan.planner)
     if xs:
         ax.plot(np.concatenate(xs), np.concatenate(vs), color=colour, linewidth=1, label=label or plan.planner)
-        edges = np.flatnonzero(np.diff(plan.lookahead.super_block)) + 1
-        for x in starts[edges]:
-            ax.axvline(x, color=colour, alpha=0.25, linewidth=0.6)
-    ax.set_xlabel("distance along the path (mm)")
-    ax.set_ylabel("speed (mm/s)")
-    ax.set_ylim(bottom=0)
-    return ax
+        _super_block_lines(ax, plan, starts, colour)
+    return _speed_axes(ax, "distance along the path (mm)")
 
 
 def plot_power_time(plan, ax=None, *, n=3000, label=None, colour="tab:red", cap=True):
