@@ -164,13 +164,16 @@ class BurnCheck:
 
     def overlay(self) -> np.ndarray:
         """An RGB picture (uint8, rows top = high y): the registered scan in grey, missing burn red,
-        extra blue, lighter than predicted orange, darker purple."""
+        extra blue, regions lighter than predicted tinted orange, darker tinted purple."""
         if self.scanned is None:
             raise InputError("this comparison kept no pictures")
         grey = np.clip(255 * (1 - 0.85 * np.clip(self.scanned, 0, 1)), 0, 255).astype(np.uint8)
         img = np.repeat(grey[..., None], 3, axis=2)
         for kind, mask in self._regions.items():
-            img[mask] = _COLOURS[kind]
+            if kind in ("light", "dark"):      # tinted: the burn under a darkness region stays visible
+                img[mask] = (0.45 * img[mask] + 0.55 * np.array(_COLOURS[kind])).astype(np.uint8)
+            else:
+                img[mask] = _COLOURS[kind]
         return img[::-1]
 
 
