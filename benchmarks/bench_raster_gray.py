@@ -26,6 +26,9 @@ peak), the summary and the G-code text made in blocks of rows instead of full-le
 temporaries. What remains is the Moves (123 B a move), scikit-image's resampling and numba.
 
 Run: .venv/bin/python benchmarks/bench_raster_gray.py   (about a minute; 2 cores)
+     .venv/bin/python benchmarks/bench_raster_gray.py --before DIR   (also the command of another
+     labkit tree, e.g. ``git archive <commit> | tar -x -C DIR``, run alternately in the same minutes:
+     before and after measured under the same load)
 """
 
 from __future__ import annotations
@@ -84,15 +87,16 @@ CHILD_USAGE = (
     "sys.exit(r.stderr.decode()) if r.returncode else print(t, u.ru_utime + u.ru_stime, u.ru_maxrss)")
 
 
-def usage(argv, repeat=2):
+def usage(argv, repeat=2, root=ROOT):
     """Best wall and CPU seconds and the peak resident MB of ``argv`` as a fresh process, after
     a warm-up run (compiled kernels and bytecode cached, as on a user's second run). CPU time
-    is what the command costs whatever else the machine runs; wall time shows the waiting."""
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    is what the command costs whatever else the machine runs; wall time shows the waiting.
+    ``root``: the labkit tree that runs it."""
+    env = dict(os.environ, PYTHONPATH=str(root))
     env.pop("PYTHONDONTWRITEBYTECODE", None)
     runs = []
     for _ in range(repeat + 1):
-        done = subprocess.run([sys.executable, "-c", CHILD_USAGE, *argv], cwd=ROOT, capture_output=True,
+        done = subprocess.run([sys.executable, "-c", CHILD_USAGE, *argv], cwd=root, capture_output=True,
                               text=True, env=env)
         if done.returncode:
             raise SystemExit(f"{' '.join(argv)} failed:\n{done.stderr}")
@@ -102,7 +106,7 @@ def usage(argv, repeat=2):
     return min(r[0] for r in runs), min(r[1] for r in runs), max(r[2] for r in runs)
 
 
-def bench_command():
+def bench_command(before=None):
     print("1. labkit img2gcode --mode gray, 500 × 450 px photo at 72 dpi (176 × 159 mm at 0.1 mm), "
           "fresh process, best of 2")
     with tempfile.TemporaryDirectory() as tmp:
@@ -110,9 +114,14 @@ def bench_command():
         ours = [sys.executable, "-m", "labkit", "img2gcode", str(PHOTO), "-o", str(out), "--mode", "gray",
                 "--force"]
         peer = [sys.executable, "-c", PEER, str(PHOTO), str(Path(tmp) / "b.gcode")]
-        rows = {"labkit, with its preview": usage(ours),
-                "labkit --preview none": usage(ours + ["--preview", "none"]),
-                "plain Pillow + Python": usage(peer)}
+        rows = {}
+        if before:
+            rows["before, with its preview"] = usage(ours, root=before)
+        rows["labkit, with its preview"] = usage(ours)
+        if before:
+            rows["before --preview none"] = usage(ours + ["--preview", "none"], root=before)
+        rows["labkit --preview none"] = usage(ours + ["--preview", "none"])
+        rows["plain Pillow + Python"] = usage(peer)
         lines = sum(1 for _ in open(out))
     for name, (wall, cpu, rss) in rows.items():
         print(f"   {name:26s} CPU {cpu:5.2f} s   wall {wall:5.2f} s   peak {rss:5.0f} MB")
@@ -120,6 +129,13 @@ def bench_command():
     _, cpu_peer, rss_peer = rows["plain Pillow + Python"]
     print(f"   {lines:,} G-code lines; without the preview: CPU peer / labkit {cpu_peer / cpu_ours:4.2f}×, "
           f"memory labkit / peer {rss_ours / rss_peer:4.2f}×")
+
+
+def _held_bytes(moves) -> int:
+    """Bytes the Moves' columns hold (a column that is one value for every row, a view with
+    stride 0, holds none)."""
+    columns = (getattr(moves, name) for name in moves.column_names())
+    return sum(c.nbytes for c in columns if 0 not in c.strides)
 
 
 def bench_stages():
@@ -145,18 +161,24 @@ def bench_stages():
         j = job()
         times["job (incl. read)"] = time.perf_counter() - t
         t = time.perf_counter()
-        text = emit(j.moves)
+        text = emit(j.moves, compact=True)          # what the command writes
         times["G-code text"] = time.perf_counter() - t
         t = time.perf_counter()
         write_job_preview(j, Path(tmp) / "p.png")
         times["preview"] = time.perf_counter() - t
     print(f"2. stages in one process (warm): {len(j.moves):,} moves, "
-          f"{j.moves.nbytes / len(j.moves):.0f} B per move allocated, {len(text) / 1e6:.1f} MB of text")
+          f"{_held_bytes(j.moves) / len(j.moves):.0f} B per move held, {len(text) / 1e6:.1f} MB of text")
     print("   " + "   ".join(f"{k} {v:5.2f} s" for k, v in times.items()))
 
 
 if __name__ == "__main__":
-    only = sys.argv[1:]             # e.g. `bench_raster_gray.py command`
-    for name, fn in (("command", bench_command), ("stages", bench_stages)):
-        if not only or name in only:
-            fn()
+    args = sys.argv[1:]             # e.g. `bench_raster_gray.py command --before /tmp/old`
+    before = None
+    if "--before" in args:
+        at = args.index("--before")
+        before = Path(args[at + 1]).resolve()
+        del args[at:at + 2]
+    if not args or "command" in args:
+        bench_command(before)
+    if not args or "stages" in args:
+        bench_stages()

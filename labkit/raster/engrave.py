@@ -399,8 +399,17 @@ def _scan_moves(power, bidirectional, skip_px, overscan_px, pixel_mm, *, feed_mm
                  option="the size (width, height, dpi) or raise the beam diameter")
     kind, start, end, power_s = _move_columns(n)
     _scanlines.scan_moves(*args, True, kind, start, end, power_s)
-    return Moves(kind=kind, start=start, end=end, feed_mm_min=np.full(n, float(feed_mm_min)),
-                 power_s=power_s, laser=np.full(n, int(laser), np.int8), s_max=s_max)
+    # Columns that are one value for every row are read-only views of that value (no memory
+    # a row): a photo's 2.26 M moves hold 33 B less each (what Moves.copy() copies is writable).
+    return Moves(kind=kind, start=start, end=end, feed_mm_min=_same(float(feed_mm_min), n),
+                 power_s=power_s, laser=_same(np.int8(int(laser)), n),
+                 centre=_same(np.full(3, np.nan), n), plane=_same(np.int8(17), n), s_max=s_max)
+
+
+def _same(value, n):
+    """``value`` for each of n rows as a read-only view (no memory per row)."""
+    value = np.asarray(value)
+    return np.broadcast_to(value, (n,) + value.shape)
 
 
 def _move_columns(n):

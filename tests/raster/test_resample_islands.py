@@ -119,3 +119,34 @@ def test_zigzag_at_one_pixel_per_beam_neither_imports_scikit_image_nor_compiles_
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=root,
                          env={**__import__("os").environ, "PYTHONPATH": str(root)}, timeout=300)
     assert out.stdout.strip().splitlines()[-1] == "0 False []", out.stdout + out.stderr
+
+
+@pytest.mark.parametrize("shape, out", [((45, 50), (158, 176)), ((100, 80), (33, 61)), ((30, 40), (30, 97)),
+                                        ((64, 64), (17, 200)), ((1, 9), (3, 20))])
+def test_bicubic_is_scikit_images_resize_value_for_value(shape, out):
+    """The bicubic resampling calls scipy as scikit-image's ``resize`` does (without importing
+    scikit-image): up, down and mixed, the same float64 values."""
+    from skimage.transform import resize
+
+    from labkit.raster.resample import _cubic
+
+    gray = np.random.default_rng(sum(shape)).uniform(0, 255, shape)
+    shrinking = out[0] < shape[0] or out[1] < shape[1]
+    expected = resize(gray, out, order=3, mode="edge", anti_aliasing=shrinking, preserve_range=True)
+    np.testing.assert_array_equal(_cubic(gray, *out), expected)
+
+
+def test_a_gray_job_does_not_import_scikit_image():
+    code = ("import sys, numpy as np; from labkit.raster.engrave import image_to_job; "
+            "image_to_job(np.arange(64, dtype=np.uint8).reshape(8, 8) * 4, mode='gray', beam_mm=0.1, width_mm=2.0); "
+            "print(sorted({m.split('.')[0] for m in sys.modules} & {'skimage', 'scipy'}))")
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=root, timeout=300,
+                         env={**os.environ, "PYTHONPATH": str(root)})
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["['scipy']"]
