@@ -14,7 +14,8 @@ composes them. Its format (version 1, TOML)::
 
     [placement]                    # optional
     start_from = "absolute"        # "absolute": as drawn, in the work coordinates in effect;
-                                   # "origin": the job's lower-left corner at the work origin
+                                   # "origin": the job's lower-left corner at the work origin;
+                                   # "current": the job's lower-left corner where the head stands
     offset_mm = [0.0, 0.0]         # added after start_from, mm
 
     [[layer]]
@@ -46,6 +47,17 @@ is engraved), layers of one operation in file order; a layer's passes run one af
 pass the whole layer, and within each pass every shape inside another is cut before its container
 (:mod:`labkit.geometry.order`'s inner-first rule), so a hole is cut while its part still holds.
 Inner-first holds within a layer: two cut layers run in file order whatever their nesting.
+
+**At the current position** (LightBurn's "Current Position" start-from) the program is written as for
+"origin" and begins with ``G92 X0 Y0``: the head's position when the program starts becomes the
+work origin (XY; Z is left alone), as a sender's "set zero here" does (LaserGRBL's is a G92). It
+ends with ``G92.1``, which clears that offset again, so the next job runs in the coordinates it
+expects. G92 rather than ``G10 L20`` (which rewrites the stored G54 origin in GRBL's EEPROM) and
+rather than relative moves (G91: one lost line displaces all that follow, and the planner's arcs
+and a resume want absolute positions). GRBL 1.1 clears a G92 offset on every reset, so a job
+stopped by a reset (labkit's safe stop sends one) cannot be resumed by line number alone: the head
+must first be jogged back to the job's start and zeroed there again; the record says the job was
+placed so (``placement``).
 """
 
 from __future__ import annotations
@@ -60,13 +72,18 @@ from labkit.errors import InputError
 from labkit.vector.images import PlacedImage, svg_images      # re-exported: the job's bitmaps and text
 from labkit.vector.text import svg_text_paths                 # are read where SVG is read
 
-__all__ = ["FORMAT", "VERSION", "ORDER", "JobLayer", "JobFile", "read_job", "compose_job", "ComposedJob",
+__all__ = ["FORMAT", "VERSION", "ORDER", "PLACEMENTS", "JobLayer", "JobFile", "read_job", "compose_job", "ComposedJob",
            "tab_gaps", "perforation_gaps", "split_at_gaps", "svg_text_paths", "svg_images", "PlacedImage"]
 
 FORMAT = "labkit-job"
 VERSION = 1
 #: Operations in the order they are burned.
 ORDER = ("image", "fill", "score", "cut")
+#: Where a job is placed (``[placement] start_from``), and how the program does it.
+PLACEMENTS = {"absolute": "as drawn, in the work coordinates in effect",
+              "origin": "the job's lower-left corner at the work origin",
+              "current": "the job's lower-left corner where the head stands: G92 X0 Y0 before the first "
+                         "move, G92.1 after the last"}
 _TOP_KEYS = {"format", "version", "machine", "material", "library", "dialect", "s_max", "tol_mm", "placement",
              "layer"}
 _LAYER_KEYS = {"source", "operation", "select", "material", "power_mw", "speed_mm_min", "passes", "kerf_mm",
@@ -147,8 +164,9 @@ def read_job(path) -> JobFile:
     if not isinstance(place, dict) or set(place) - {"start_from", "offset_mm"}:
         raise InputError(f"{p}: [placement] takes start_from and offset_mm; got {place!r}")
     job.start_from = place.get("start_from", "absolute")
-    if job.start_from not in ("absolute", "origin"):
-        raise InputError(f"{p}: placement start_from = {job.start_from!r}; expected \"absolute\" or \"origin\"")
+    if job.start_from not in PLACEMENTS:
+        raise InputError(f"{p}: placement start_from = {job.start_from!r}; expected one of "
+                         + ", ".join(f'"{k}"' for k in PLACEMENTS))
     if "offset_mm" in place:
         job.offset_mm = _pair(f"{p}: [placement]", "offset_mm", place["offset_mm"])
     layers = data.get("layer")
@@ -422,14 +440,22 @@ def compose_job(job: JobFile) -> ComposedJob:
                          dynamic=bool(s["dynamic"]), material=s["material"], from_library=s["from_library"],
                          moves=len(moves)))
     home = parts[0].start[0].copy()          # where the head is before the program (the origin)
-    if job.start_from == "origin" or any(job.offset_mm):
+    if job.start_from == "current":
+        home[:2] = 0.0                       # the head stands at the origin G92 X0 Y0 makes
+    if job.start_from != "absolute" or any(job.offset_mm):
         shift = np.array([*job.offset_mm, 0.0])
-        if job.start_from == "origin":
+        if job.start_from != "absolute":
             lows = np.min([p.bounds(p.laser_on)[0] for p in parts], axis=0)
             shift[:2] -= lows[:2]
         parts = [_shift(p, shift) for p in parts]
     moves = _chain(parts)
     moves.start[0] = home                    # the first move leaves from there, not from a placed copy
+    if job.start_from == "current":
+        from labkit.toolpath.moves import Record
+
+        # written as they stand, before the first move and after the last (as a $ line is)
+        moves.records = ((Record(0, 0, "system", "G92 X0 Y0"),) + tuple(moves.records)
+                         + (Record(0, len(moves), "system", "G92.1"),))
     for d, p in zip(info, parts):
         b = p.bounds(p.laser_on)
         d["bounds_mm"] = [[round(float(v), 4) for v in b[0][:2]], [round(float(v), 4) for v in b[1][:2]]]

@@ -18,6 +18,8 @@ stream, beside the job with the start time in its name. Its format (version 1)::
                           "entry": {…the library's setting…}, "fit": {…its fit provenance…}},
       "planned": {"estimated_time_s": …, "laser_on_time_s": …, "cut_length_mm": …,
                   "travel_length_mm": …, "moves": …, "bounds_mm": [[x, y, z], [x, y, z]]},
+      "layers": […],                      # labkit job only: each layer's settings and where they came from
+      "placement": {"start_from": "current", "offset_mm": [0, 0], "how": "…G92 X0 Y0…"},  # labkit job only
       "stream": null | {"started": …, "ended": …, "ok": true, "lines_total": …,
                         "lines_acknowledged": …, "elapsed_s": …, "planned_s": …, "fault": null,
                         "errors": [[line, code, message], …], "resume_line": null,
@@ -275,6 +277,10 @@ def format_record(rec: dict) -> str:
             f = mat["fit"]
             lines.append(f"           fit {f.get('file')} (sha256 {str(f.get('sha256'))[:16]}…), scan "
                          f"{f.get('scan')}, {f.get('date')}")
+    place = rec.get("placement")
+    if place and (place["start_from"] != "absolute" or any(place["offset_mm"])):
+        lines.append(f"  placed  {place['start_from']}: {place['how']}"
+                     + (", offset {:g}, {:g} mm".format(*place["offset_mm"]) if any(place["offset_mm"]) else ""))
     p = rec.get("planned") or {}
     if "estimated_time_s" in p:
         lines.append(f"  planned {p['estimated_time_s']:.1f} s"

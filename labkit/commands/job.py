@@ -46,7 +46,13 @@ def run_job(args) -> int:
     msg = check_job_fits(np.ptp(box, axis=0)[:2], job.machine, force=args.force, what="the job")
     if msg:
         print(f"warning: {msg} (written anyway: --force)", file=sys.stderr)
+    from labkit.jobfile import PLACEMENTS
+
+    placement = dict(start_from=job.start_from, offset_mm=list(job.offset_mm), how=PLACEMENTS[job.start_from])
     lines = [f"{Path(args.job).name}: {len(composed.layers)} layer(s) on {job.machine}"]
+    if job.start_from != "absolute" or any(job.offset_mm):
+        lines.append(f"placed {job.start_from}: {placement['how']}"
+                     + (f", offset {job.offset_mm[0]:g}, {job.offset_mm[1]:g} mm" if any(job.offset_mm) else ""))
     for d in composed.layers:
         lib = f", library: {' '.join(d['from_library'])}" if d["from_library"] else ""
         lines.append(f"layer {d['index']} {d['operation']} {Path(d['source']).name}: {d['power_mw']:g} mW = "
@@ -66,6 +72,7 @@ def run_job(args) -> int:
         rec = program_record("job", args, inputs=[(p, "job" if i == 0 else f"layer {i}")
                                                    for i, p in enumerate(inputs)], program=output)
         rec["layers"] = composed.layers
+        rec["placement"] = placement
         write_record(rec, record)
         print(f"record          {record}")
     return 0
