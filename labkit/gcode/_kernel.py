@@ -513,22 +513,16 @@ def _scan_line(buf, ls, le, options, present, val, wpos, wend, g_val, g_pos, g_e
                 D_NUMBER_TRAILING if st == 2 else D_NUMBER_TOO_LARGE)
             break
         i = i2
-        if letter == L_G:
-            if ng == MAX_COMMANDS:
+        if letter == L_G or letter == L_M:      # command words, kept in the order written
+            if (ng if letter == L_G else nm) == MAX_COMMANDS:
                 err, detail, epos, eend = E_MODAL_GROUP, D_TOO_MANY, wp, i
                 break
-            g_val[ng] = v
-            g_pos[ng] = wp
-            g_end[ng] = i
-            ng += 1
-        elif letter == L_M:
-            if nm == MAX_COMMANDS:
-                err, detail, epos, eend = E_MODAL_GROUP, D_TOO_MANY, wp, i
-                break
-            m_val[nm] = v
-            m_pos[nm] = wp
-            m_end[nm] = i
-            nm += 1
+            if letter == L_G:
+                g_val[ng], g_pos[ng], g_end[ng] = v, wp, i
+                ng += 1
+            else:
+                m_val[nm], m_pos[nm], m_end[nm] = v, wp, i
+                nm += 1
         else:
             if not options.letters_ok[letter]:
                 err, detail, epos, eend = E_UNSUPPORTED, D_UNKNOWN_LETTER, wp, i
