@@ -18,13 +18,16 @@ in document order. :func:`glyph_outlines` then lays the runs out as SVG 1.1 §10
   ``font-style``, ``font-size``) through matplotlib's font manager and ``TextPath`` —
   a family list with nothing installed is an :class:`~labkit.errors.InputError` naming it.
 
-Not drawn (named by the reader): text on a path (``textPath``). ``letter-spacing``,
-``word-spacing`` and ``rotate`` are not applied.
+* ``letter-spacing`` is added after every character and ``word-spacing`` after every space.
+
+Not drawn (named by the reader): text on a path (``textPath``). ``rotate`` on characters is
+not applied (named in a warning).
 """
 
 from __future__ import annotations
 
 import re
+import warnings
 
 import numpy as np
 
@@ -102,6 +105,15 @@ def _lengths(value) -> list[float]:
         except (ValueError, TypeError):
             raise InputError(f"text position {value!r}: {token!r} is not a length in user units") from None
     return out
+
+
+def _spacing(el, key: str) -> float:
+    """``letter-spacing`` or ``word-spacing`` (inherited) in user units; ``normal`` is 0."""
+    value = str(el.values.get(key) or "normal").strip()
+    if value == "normal":
+        return 0.0
+    found = _lengths(value)
+    return found[0] if found else 0.0
 
 
 def _collapse(texts: list[str], preserve: bool) -> list[str]:
@@ -210,16 +222,24 @@ def glyph_outlines(runs, matrix_of, *, source: str, label: str):
     chunk = [pen[0], getattr(root, "anchor", "start"), []]     # start x, anchor, pieces
     pieces: list = []
 
-    def close(chunk):                          # text-anchor: by the pen's advance, not the ink
-        share = {"middle": 0.5, "end": 1.0}.get(chunk[1], 0.0)
-        for p in chunk[2]:
-            p[4] -= share * (pen[0] - chunk[0])
+    trail = [0.0]                              # letter spacing after the last character so far
+
+    def close(chunk):                          # text-anchor: by the pen's advance, not the ink,
+        share = {"middle": 0.5, "end": 1.0}.get(chunk[1], 0.0)      # less the spacing after its
+        for p in chunk[2]:                                           # last character (as resvg)
+            p[4] -= share * (pen[0] - trail[0] - chunk[0])
         pieces.extend(chunk[2])
 
     for run, text in zip(runs, texts):
         xs, ys = _lengths(_own(run, "x")), _lengths(_own(run, "y"))
         dxs, dys = _lengths(_own(run, "dx")), _lengths(_own(run, "dy"))
-        cuts = list(range(min(max(len(xs), len(ys), len(dxs), len(dys), 1), max(len(text), 1))))
+        letter, word = _spacing(run, "letter-spacing"), _spacing(run, "word-spacing")
+        if _own(run, "rotate") not in (None, "", "0") and text.strip():
+            warnings.warn(f"{source}: {label}: rotate={_own(run, 'rotate')!r} on characters is not applied; "
+                          "they are cut upright (rotate them in the drawing program)", stacklevel=2)
+        spaced = letter != 0.0 or (word != 0.0 and " " in text)
+        each = len(text) if spaced else max(len(xs), len(ys), len(dxs), len(dys), 1)   # one by one
+        cuts = list(range(min(each, max(len(text), 1))))
         for a, b in zip(cuts, cuts[1:] + [max(len(text), 1)]):
             if a < len(xs):                    # an absolute x starts a new chunk
                 close(chunk)
@@ -236,7 +256,14 @@ def glyph_outlines(runs, matrix_of, *, source: str, label: str):
             if not size > 0:                   # renderers draw nothing (a negative size is invalid)
                 continue
             chunk[2].append([run, piece, prop, size, pen[0], pen[1]])
-            pen[0] += _advance(piece, font_path, size)
+            if spaced and b < len(text):       # one character: its advance with the kerning
+                pen[0] += _advance(text[a:b + 1], font_path, size) - _advance(text[b], font_path, size)
+            else:                              # to the next one kept
+                pen[0] += _advance(piece, font_path, size)
+            trail[0] = 0.0
+            if spaced:                          # CSS: after every character; a space gets word too
+                pen[0] += letter + (word if piece == " " else 0.0)
+                trail[0] = letter
     close(chunk)
     out = []
     for run, piece, prop, size, x, y in pieces:

@@ -49,18 +49,49 @@ def test_inkscape_text_is_cut_where_resvg_draws_it():
     """Lines of tspans, a bold word with text after it, kerning (AVAWAY), a centred line with
     a '$' in it, a rotated text: every cut lies on resvg's ink and every edge resvg inks is cut,
     within 1.5 px at 4 px per CSS px (0.1 mm)."""
-    zoom = 4
-    png = resvg_py.svg_to_bytes(svg_path=str(INKSCAPE), dpi=96.0, zoom=zoom)
-    drawn = np.asarray(Image.open(io.BytesIO(bytes(png))))[:, :, 3] > 0
     d = read_svg(INKSCAPE, flip_y=False)
     assert d.layers == ["#ff0000", "#000000", "#0000ff"] and not d.skipped
     assert {p.source for p in d.paths} == {"rect#outline", "text#name", "text#centred", "text#rotated"}
-    rc = _dense_pixels(d.paths, zoom)
+    _held_to_resvg(INKSCAPE, d.paths)
+
+
+def _held_to_resvg(path, paths, zoom=4):
+    """Every cut on resvg's ink and every edge resvg inks cut, within 1.5 px at ``zoom``."""
+    png = resvg_py.svg_to_bytes(svg_path=str(path), dpi=96.0, zoom=zoom)
+    drawn = np.asarray(Image.open(io.BytesIO(bytes(png))))[:, :, 3] > 0
+    rc = _dense_pixels(paths, zoom)
     assert ndimage.distance_transform_edt(~drawn)[rc[:, 0], rc[:, 1]].max() <= 1.5
     cut = np.zeros_like(drawn)
     cut[rc[:, 0], rc[:, 1]] = True
     edge = drawn & ~ndimage.binary_erosion(drawn)
     assert ndimage.distance_transform_edt(~cut)[edge].max() <= 1.5
+
+
+HAND = {   # written by hand
+    "letter- and word-spacing, kerning kept, end anchor":
+        '<text x="5" y="15" style="font-family:\'DejaVu Sans\';font-size:8px;letter-spacing:1.5px;'
+        'word-spacing:4px">Sp aced out</text><text x="95" y="32" style="font-family:\'DejaVu Sans\';'
+        'font-size:6px;letter-spacing:-0.3px;text-anchor:end">Tight <tspan style="letter-spacing:2px">wide'
+        '</tspan></text>',
+    "pretty-printed tspans, middle anchor, spaces around a bold run":
+        '\n  <text x="50" y="15" font-family="DejaVu Sans" font-size="8" text-anchor="middle">\n'
+        '    <tspan x="50" y="15">Middle A</tspan>\n    <tspan x="50" y="30">B</tspan>\n  </text>\n'
+        '  <text x="95" y="38" font-family="DejaVu Sans" font-size="5" text-anchor="end">  end  '
+        '<tspan font-weight="bold">bold</tspan>  </text>\n',
+}
+
+
+@pytest.mark.parametrize("case", HAND)
+def test_hand_written_text_is_cut_where_resvg_draws_it(case, tmp_path):
+    path = tmp_path / "t.svg"
+    path.write_text('<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="40mm" viewBox="0 0 100 40">'
+                    f'{HAND[case]}</svg>')
+    _held_to_resvg(path, read_svg(path, flip_y=False).paths)
+
+
+def test_rotated_characters_are_named():
+    with pytest.warns(UserWarning, match=r"text#r: rotate='30' on characters is not applied"):
+        svg_text_paths(_text('<text id="r" x="10" y="20" rotate="30">abc</text>'))
 
 
 def _text(body, size=8):
