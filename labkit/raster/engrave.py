@@ -413,7 +413,11 @@ def _same(value, n):
 
 
 def _move_columns(n):
-    return (np.zeros(n, np.int8), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n, np.float32))
+    """kind, start, end and S columns for n rows. Every row starts where the row before it
+    ended (a rapid joins cuts that do not meet; the first starts at the origin), so start and
+    end are two views of one array of n + 1 points: 24 B a move less. Moves.copy() parts them."""
+    points = np.zeros((n + 1, 3))
+    return np.zeros(n, np.int8), points[:-1], points[1:], np.zeros(n, np.float32)
 
 
 #: Pixels per band when an image is thresholded band by band (8 MB of float64 gray).
