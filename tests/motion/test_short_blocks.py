@@ -7,7 +7,7 @@ cases the firmware and labkit.motion share."""
 import pytest
 
 from labkit.gcode import parse
-from labkit.motion import plan
+from labkit.motion import load_machine, plan
 
 GCODE = """G21 G90
 M3 S583
@@ -44,8 +44,11 @@ def test_short_blocks_window_end_speed():
     """With a one-block window, junction 3 (the end of block 2's window) is limited to
     what block 3 can slow down from to its rest speed within its length:
     rest[3] + decel · L[3] (3.29404 + 20 · 0.03953 = 4.08461 mm/s, below the
-    junction's rest speed 4.15240 mm/s that the old planner used); the job ends at rest[3]."""
-    p = plan(parse(GCODE), "grbl-diode", planner="fast", buffer_blocks=1)
+    junction's rest speed 4.15240 mm/s that the old planner used); the job ends at rest[3].
+    On grbl-diode with the 250 Hz start/stop floor it had until issue 29 (GRBL's own floor,
+    31 Hz, leaves the junction's rest speed too low for this limit to arise)."""
+    machine = load_machine("grbl-diode").replace(start_rate_hz=250, prescaler=0)
+    p = plan(parse(GCODE), machine, planner="fast", buffer_blocks=1)
     v = p.lookahead.speed_mm_s
     L = p.blocks.length_mm[p.motion]
     rest = p.blocks.rest_mm_s[p.motion]

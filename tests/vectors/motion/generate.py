@@ -26,6 +26,10 @@ from labkit.motion.timer import block_points, step_blocks, tick_power_mw, tick_r
 HERE = Path(__file__).resolve().parent
 SCHEMA = "labkit-motion-vector/1"
 
+#: The grbl-diode description with the 250 Hz start/stop floor it had until issue 29 (it has
+#: GRBL's 31 Hz since): the floor regressions below need a rest speed that high to arise.
+FLOOR_250_HZ = dict(start_rate_hz=250, prescaler=0)
+
 CASES = {
     "lines_2d_hq": dict(
         description="2-D lines in all eight octants and on the axes, high-quality MBLA, linear ramps",
@@ -59,7 +63,7 @@ CASES = {
         description="Short blocks through a one-block look-ahead, fast MBLA on the GRBL diode "
                     "machine: the window's end speed must let the next block slow to its rest "
                     "speed (the reference used to refuse this job)",
-        machine="grbl-diode", planner="fast", buffer_blocks=1,
+        machine="grbl-diode", machine_fields=FLOOR_250_HZ, planner="fast", buffer_blocks=1,
         gcode="G21 G90\nM3 S583\nG1 X0 Y0 F600\nG1 X-0.0554 Y-0.0073 F8070\n"
               "G1 X-0.0361 Y-0.0211 F8406 S470\nG1 X0.0488 Y0.0710 S248\nG1 X0.0183 Y0.0907 F2100\n"),
     "slow_neighbour_depth3_fast": dict(
@@ -68,7 +72,7 @@ CASES = {
                     "(rest speed), below which the junction changes speed at once; before, the "
                     "window ended lower than a later window could keep, and the reference refused "
                     "the job (block 19: 5.02 → 4.33 mm/s within 0.018 mm)",
-        machine="grbl-diode", planner="fast", buffer_blocks=3,
+        machine="grbl-diode", machine_fields=FLOOR_250_HZ, planner="fast", buffer_blocks=3,
         gcode="G21 G90\nM3 S231\nG1 X0 Y0 F600\nG1 X0.0104 Y0.0291 F6771\nG1 X-0.0111 Y0.0150\n"
               "G1 X0.0176 Y0.0190 F717\nG1 X0.0109 Y0.0384 F2199 S320\nG0 X0.0375 Y0.0496\n"
               "G1 X0.0219 Y0.0725 S312\nG1 X0.0512 Y0.0741\nG1 X0.0639 Y0.0746 F8238\n"
@@ -83,7 +87,7 @@ CASES = {
                     "a block next to a slower one exits at its own floor and the slower one "
                     "enters at its own (the reference refused it: block 12 from 3.38 to 1.95 mm/s "
                     "within 0.0125 mm)",
-        machine="grbl-diode", planner="fast", buffer_blocks=1,
+        machine="grbl-diode", machine_fields=FLOOR_250_HZ, planner="fast", buffer_blocks=1,
         gcode="G21 G90\nM3 S163\nG1 X0 Y0 F600\nG1 X-0.0102 Y0.0235 Z-0.0013 F753 S911\n"
               "G1 X0.0081 Y0.0425 Z-0.0051 S433\nG1 X-0.0024 Y0.0553 Z-0.0028 F7431\n"
               "G1 X-0.0282 Y0.0568 Z-0.0059 S671\nG1 X-0.0021 Y0.0763 Z-0.0053 F4785 S703\n"
@@ -112,7 +116,7 @@ def _floats(a):
 def make_vector(name: str) -> dict:
     """Build one vector from the reference."""
     case = CASES[name]
-    m = load_machine(case["machine"])
+    m = load_machine(case["machine"]).replace(**case.get("machine_fields", {}))
     moves = parse(case["gcode"], dialect="grbl")
     p = plan(moves, m, planner=case["planner"], buffer_blocks=case.get("buffer_blocks"))
     sb = step_blocks(p)
