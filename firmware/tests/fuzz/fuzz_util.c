@@ -2,8 +2,9 @@
   fuzz_util.c - the shell's hal for the fuzzers and the beam property:
   output discarded, storage in RAM (../storage_util.c), a clock that moves 1 ms per poll. With
   hal_null.c the step timer never ticks, so when the planner is nearly full
-  the machine is reset (st_reset + plan_reset) and no input can make the
-  loop wait for motion that never finishes; beam_property.c ticks the timer
+  or motion stays queued for long the machine is reset (st_reset +
+  plan_reset) and no input can make the loop wait for motion that never
+  finishes; beam_property.c ticks the timer
   instead (fuzz_set_poll). fuzz_power_on() starts every input from an
   erased storage and a fresh firmware.
 */
@@ -34,16 +35,23 @@ void hal_serial_tx_wait(void) { hal_serial_tx_kick(); }
 
 uint32_t hal_millis(void) { return now_ms; }
 
-/* hal_null's timer never ticks: a nearly full planner is emptied instead. */
-static void reset_when_full(void) {
-  if (plan_free_slots() < 4) {
+/* hal_null's timer never ticks, so what is queued never runs out: a nearly full planner is
+   emptied, and so is motion that stays queued for STUCK_POLLS polls in a row (a G38 line waits
+   in gc_execute_line until the moves before it have ended, as GRBL's probe cycle does; an
+   input's own main-loop passes are far fewer). Either ends the parser's wait as a reset does. */
+#define STUCK_POLLS 1000u
+static uint32_t queued_polls;
+static void reset_when_stuck(void) {
+  queued_polls = plan_is_empty() && st_is_idle() ? 0 : queued_polls + 1;
+  if (plan_free_slots() < 4 || queued_polls > STUCK_POLLS) {
     st_reset();
     plan_reset();
+    queued_polls = 0;
   }
 }
-static void (*poll_work)(void) = reset_when_full;
+static void (*poll_work)(void) = reset_when_stuck;
 
-void fuzz_set_poll(void (*fn)(void)) { poll_work = fn ? fn : reset_when_full; }
+void fuzz_set_poll(void (*fn)(void)) { poll_work = fn ? fn : reset_when_stuck; }
 
 void hal_poll(void) {
   now_ms++;
@@ -58,6 +66,7 @@ void fuzz_fail(const char *what) {
 void fuzz_power_on(void) {
   storage_erase();
   now_ms = 0;
+  queued_polls = 0;
   protocol_startup();
   if (protocol_state() != PROTO_IDLE || !st_is_idle() || !plan_is_empty() ||
       laser_current_duty() != 0 || menu_laser_is_on() || serial_rx_count() != 0)
