@@ -26,6 +26,7 @@ not applied (named in a warning).
 
 from __future__ import annotations
 
+import functools
 import re
 import warnings
 
@@ -165,6 +166,7 @@ def _font(el, source: str, label: str, sample: str):
     return prop, size, path
 
 
+@functools.lru_cache(maxsize=4096)
 def _advance(text: str, path: str, size: float) -> float:
     """The pen's advance over ``text`` (kerning and ligatures included), in user units.
 
@@ -205,8 +207,6 @@ def glyph_outlines(runs, matrix_of, *, source: str, label: str):
         Per non-empty piece of a run: matplotlib path vertices (k, 2) in the output frame and
         their codes (MOVETO, LINETO, CURVE3, CURVE4, CLOSEPOLY).
     """
-    from matplotlib.textpath import TextPath
-
     from labkit.geometry import transform as tf
 
     runs = sorted(runs, key=lambda r: run_key(r)[1])
@@ -269,12 +269,21 @@ def glyph_outlines(runs, matrix_of, *, source: str, label: str):
     for run, piece, prop, size, x, y in pieces:
         if not piece.strip():
             continue
-        glyphs = TextPath((0, 0), piece.replace("$", r"\$"), size=size, prop=prop)   # never mathtext
-        if not len(glyphs.vertices):
+        vertices, codes = _glyphs(piece, prop, size)
+        if not len(vertices):
             continue
         place = matrix_of(run) @ tf.matrix(1, 0, 0, -1, x, y)       # glyphs y up, SVG y down
-        out.append((run, tf.apply(place, glyphs.vertices), np.asarray(glyphs.codes)))
+        out.append((run, tf.apply(place, vertices), codes))
     return out
+
+
+@functools.lru_cache(maxsize=4096)          # text placed character by character repeats them
+def _glyphs(piece: str, prop, size: float):
+    """The outlines of ``piece`` set from its pen at (0, 0): (vertices, codes), y up."""
+    from matplotlib.textpath import TextPath
+
+    glyphs = TextPath((0, 0), piece.replace("$", r"\$"), size=size, prop=prop)   # never mathtext
+    return np.asarray(glyphs.vertices, float), np.asarray(glyphs.codes)
 
 
 def svg_text_paths(source, *, tol_mm: float = 0.01, flip_y: bool = True) -> list:
