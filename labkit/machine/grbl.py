@@ -37,7 +37,7 @@ __all__ = ["Grbl", "Status", "parse_status", "error_message", "alarm_message", "
 
 #: GRBL 1.1's serial RX buffer (bytes) and planner depth (blocks) when ``$I`` does not say.
 DEFAULT_RX_BYTES = 128
-DEFAULT_PLANNER_BLOCKS = 16
+DEFAULT_PLANNER_BLOCKS = 15     # GRBL 1.1 on a 328P: [OPT:V,15,128]
 
 #: Real-time command bytes (GRBL 1.1).
 REALTIME = {
@@ -349,7 +349,7 @@ class Grbl:
     >>> g = Grbl(open_link(virtual_options={"time_scale": 0}))
     >>> info = g.connect()
     >>> info.rx_bytes, info.planner_blocks
-    (128, 16)
+    (128, 15)
     >>> g.command("G21 G90")
     []
     >>> g.get_status().state

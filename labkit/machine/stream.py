@@ -249,6 +249,9 @@ class JobReport:
     refused: bool = False                  #: stopped before anything was sent (pre-flight check)
     controller_told: bool = True           #: False: the link was gone before the stop could be sent
     exception: BaseException | None = None  #: what raised inside the run, when that ended it
+    #: on the virtual machine: every time its planner ran dry during the job
+    #: (:class:`labkit.motion.stall.Starvation`, s from the job's start, source lines)
+    starvations: list = field(default_factory=list)
 
     def summary(self, command: list | None = None) -> str:
         """The report in words.
@@ -286,6 +289,12 @@ class JobReport:
                     lines.append(f"  resume with: {shlex.join(cmd)}")
                 else:
                     lines.append(f"  resume with --resume-from {self.resume_line}")
+        if self.starvations:
+            first = "; ".join(f"line {s.line} at {s.time_s:.3f} s for {s.duration_s * 1000:.1f} ms"
+                              for s in self.starvations[:3])
+            lines.append(f"  planner ran dry {len(self.starvations)} time(s), "
+                         f"{sum(s.duration_s for s in self.starvations):.3f} s in all: {first}"
+                         + (" …" if len(self.starvations) > 3 else ""))
         for w in self.warnings:
             lines.append(f"  {w}")
         return "\n".join(lines)
@@ -487,6 +496,12 @@ def run_job(grbl: Grbl, job: Job, *, mode: str = "counting", on_error: str = "st
     key = object()
     _RUNNING[key] = (controls, done)
     t0 = time.monotonic()
+    from labkit.machine.virtual import VirtualMachine
+
+    vm = getattr(getattr(grbl, "link", None), "port", None)
+    vm = vm if isinstance(vm, VirtualMachine) else None
+    vm_start = (vm.sim_time_s, vm.lines_run) if vm is not None else None
+    runner = None
     try:
         with StopSignals() if handle_signals else _no_signals() as signals:
             runner = JobRunner(grbl, job, report, controls, signals, mode=mode, on_error=on_error,
@@ -503,6 +518,9 @@ def run_job(grbl: Grbl, job: Job, *, mode: str = "counting", on_error: str = "st
     if transcript_error:
         report.warnings.append("warning: " + transcript_error)
     report.elapsed_s = time.monotonic() - t0
+    if vm is not None and runner is not None:
+        gcode = [ln for ln, text in zip(runner.sent_lines, runner.sent_texts) if not text.startswith("$")]
+        report.starvations = vm.starvations_since(*vm_start, gcode)
     return report
 
 
@@ -1292,6 +1310,36 @@ def _virtual_machine(link):
     return None
 
 
+def _stall_notes(job: Job, spec) -> list[str]:
+    """A warning when the machine's serial link will leave its planner empty (issue 30 §2)."""
+    from labkit.motion.machine import load_machine
+    from labkit.motion.stall import predict_stalls, program_feeds, stall_free_feed
+
+    text = "\n".join(job.source_lines) + "\n"
+    per_line = np.zeros(len(job.source_lines), np.int64)
+    for ln, sent in job.send:
+        per_line[ln - 1] = len(sent) + 1
+    try:
+        m = load_machine(spec)
+        pred = predict_stalls(text, m, line_bytes=per_line)
+        if not pred.stalls:
+            return []
+        first = pred.stalls[0]
+        msg = (f"warning: over the {m.link_baud}-baud link ({m.name}) the planner will run dry "
+               f"{len(pred.stalls)} time(s), first at line {first.line} after {first.time_s:.2f} s, "
+               f"standing {pred.stall_time_s:.2f} s in all (a raster job stutters and burns dots "
+               f"there)")
+        if program_feeds(text):
+            free = stall_free_feed(text, m, line_bytes=lambda t: per_line, rel_tol=0.02, rows=False)
+            if free.limited_by == "link":
+                msg += (f"; the highest feed without a stall is about {free.feed_mm_min:.0f} mm/min "
+                        f"(programmed {free.programmed_mm_min:g}): lower the feed or coarsen the "
+                        f"pixel pitch (`labkit plan FILE --machine {m.name}` shows each row)")
+        return [msg]
+    except LabkitError as exc:
+        return [f"note: the stall prediction could not be made: {exc}"]
+
+
 def _job_extents(moves) -> tuple:
     """Per motion row (lo, hi, line) of the job, mm, without the first row's start (that is
     where the head happens to be, not part of the job)."""
@@ -1437,6 +1485,7 @@ def preflight_check(grbl: Grbl, job: Job, *, machine=None, status=None) -> tuple
             notes.append(f"note: the machine description could not be read: {exc}")
         if msg:
             problems.append(msg + "; scale the job down, or name the right machine (--machine)")
+        notes.extend(_stall_notes(job, spec))
     if grbl.setting(20, 0.0) != 1.0:
         return problems, notes
     travel = np.array([grbl.setting(130 + a) for a in range(3)])

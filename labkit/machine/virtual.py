@@ -54,10 +54,15 @@ from labkit.machine.grbl import grbl_reply
 # the virtual machine plans with labkit.motion's junction-deviation planner, never its own.
 from labkit.motion import (Blocks, block_profiles, build_blocks, expand_arcs, load_machine,
                            lookahead, reach_speed)
+from labkit.motion.stall import Starvation
 
 __all__ = ["VirtualMachine", "Piece", "burn_coverage"]
 
+#: Bytes that act the moment they arrive instead of waiting in the RX buffer for a line end.
+_ACTS_ON_ARRIVAL = frozenset(b"\n?!~\x18\x84\x85") | frozenset(range(0x90, 0x9E))
+
 _ALARMED = -1      # _gcode's answer when the line raised an alarm instead of ok/error
+_DEFERRED = -2     # _gcode's answer when the line's reply waits for its last block to end
 
 _REALTIME = {0x3F: "status", 0x21: "hold", 0x7E: "start", 0x18: "reset", 0x84: "door",
              0x85: "jog_cancel"}
@@ -128,6 +133,15 @@ class _Block:
     done_s: float = 0.0    # time already spent on it
     row: Blocks | None = None   # the block as labkit.motion plans it (one row; None for a dwell)
     length_mm: float = 0.0      # what is left of it to run (all of it until a hold re-arms it)
+    #: the line's replies, sent when this block ends (GRBL answers G4, M0, M2 and M30 only
+    #: once the moves before them have run); the next line waits until then
+    replies: tuple = ()
+    pause: bool = False         # M0: a feed hold once the moves before it have run
+
+
+#: Blocks GRBL 1.1's planner holds on a 328P, the running one included: its ring of 16 slots
+#: keeps one free (``$I`` answers ``[OPT:V,15,128]``).
+GRBL_PLANNER_BLOCKS = 15
 
 
 def _stack(rows: list) -> Blocks:
@@ -147,10 +161,20 @@ class VirtualMachine:
         Simulated seconds per wall-clock second; 0 = advance ``tick_s`` per poll.
     tick_s : float
         Machine time per poll when ``time_scale`` is 0.
-    rx_bytes : int
-        Serial RX buffer size (GRBL 128; grblHAL 1024).
+    rx_bytes : int, optional
+        Serial RX buffer size (default the machine's: GRBL 128; grblHAL 1024).
     planner_blocks : int, optional
-        Planner depth (default the machine's ``buffer_blocks``).
+        Planner depth, the running block included (default GRBL 1.1's on a 328P,
+        :data:`GRBL_PLANNER_BLOCKS`: 15).
+    baud : int, optional
+        Model the serial link at this speed (e.g. the machine description's ``link_baud``,
+        115200): bytes take ``bits per byte / baud`` seconds of simulated time each (8N1: 10
+        bits), real-time bytes included, in the order written. None or 0 (the default): every
+        byte arrives the moment it is written.
+    parse_s : float, optional
+        Time GRBL takes to parse and plan one line, s (default the machine description's
+        ``block_parse_s``, 0 when it gives none): a line leaves the RX buffer, is parsed for this
+        long, then waits for planner room.
     banner : bool
         Print the start-up banner when opened, as a board does after its USB reset.
 
@@ -167,12 +191,28 @@ class VirtualMachine:
     """
 
     def __init__(self, machine=None, *, time_scale: float = 1.0, tick_s: float = 0.02,
-                 rx_bytes: int = 128, planner_blocks: int | None = None, banner: bool = True):
+                 rx_bytes: int | None = None, planner_blocks: int | None = None,
+                 baud: int | None = None, parse_s: float | None = None, banner: bool = True):
         self.machine = load_machine(machine or "grbl-diode")
         self.time_scale = float(time_scale)
         self.tick_s = float(tick_s)
-        self.rx_bytes = int(rx_bytes)
-        self.planner_blocks = int(planner_blocks or self.machine.buffer_blocks)
+        self.rx_bytes = int(rx_bytes or getattr(self.machine, "rx_buffer_bytes", 128))
+        #: bytes per second of simulated time the link carries (baud / 10 for 8N1; inf: no link)
+        self.link_bytes_per_s = (baud / getattr(self.machine, "link_bits_per_byte", 10)
+                                 if baud else math.inf)
+        #: time the controller takes to parse and plan one line, s
+        self.parse_s = float(getattr(self.machine, "block_parse_s", 0.0) if parse_s is None
+                             else parse_s)
+        self._wire: deque = deque()          # [first byte's start s, bytes, bytes already arrived]
+        self._wire_free_s = 0.0              # when the link has sent all that was written
+        self._parsed: tuple | None = None    # (line, time its parse ends) read from RX, not yet run
+        self._dry_since: float | None = None
+        #: every time the planner ran dry and a line's blocks arrived later (simulated s since
+        #: power-up, the line's count since power-up as :attr:`lines_run`, the wait)
+        self.starvations: list[Starvation] = []
+        #: G-code lines run since power-up (answered ok or error; not ``$`` lines, not in check mode)
+        self.lines_run = 0
+        self.planner_blocks = int(planner_blocks or GRBL_PLANNER_BLOCKS)
         self.timeout = 0.05
         self.is_open = True
         self.settings = self._initial_settings(self.machine)
@@ -251,19 +291,50 @@ class VirtualMachine:
             raise OSError("virtual machine is closed")
         with self._lock:
             self._advance()
-            for byte in bytes(data):
-                kind = _REALTIME.get(byte)
-                if kind:
-                    self._realtime(kind)
-                elif 0x90 <= byte <= 0x9D:
-                    self._override(byte)
-                elif len(self._rx) < self.rx_bytes - 1:    # GRBL keeps one byte free
-                    self._rx.append(byte)
-                else:
-                    self.overflows += 1
-            self._take_lines()
+            data = bytes(data)
+            if math.isinf(self.link_bytes_per_s):
+                self._arrive(data)
+                self._take_lines()
+            elif data:
+                start = max(self._wire_free_s, self._sim_t)
+                self._wire.append([start, data, 0])
+                self._wire_free_s = start + len(data) / self.link_bytes_per_s
             self._log_beam()
         return len(data)
+
+    def _arrive(self, data: bytes) -> None:
+        """Bytes off the link: real-time ones act at once, the rest wait in the RX buffer."""
+        for byte in data:
+            kind = _REALTIME.get(byte)
+            if kind:
+                self._realtime(kind)
+            elif 0x90 <= byte <= 0x9D:
+                self._override(byte)
+            elif len(self._rx) < self.rx_bytes - 1:    # GRBL keeps one byte free
+                self._rx.append(byte)
+            else:
+                self.overflows += 1
+
+    def _next_arrival_s(self) -> float:
+        """When the next byte that changes anything (a line end, a real-time byte, or the end
+        of what was written) has arrived; inf when the link is idle."""
+        if not self._wire:
+            return math.inf
+        start, data, done = self._wire[0]
+        k = next((i for i in range(done, len(data)) if data[i] in _ACTS_ON_ARRIVAL), len(data) - 1)
+        return start + (k + 1) / self.link_bytes_per_s
+
+    def _receive(self) -> None:
+        """Hand over every byte the link has carried by now."""
+        while self._wire:
+            start, data, done = chunk = self._wire[0]
+            arrived = min(len(data), int((self._sim_t - start) * self.link_bytes_per_s + 1e-6))
+            if arrived > done:
+                chunk[2] = arrived
+                self._arrive(data[done:arrived])
+            if arrived < len(data):
+                return
+            self._wire.popleft()
 
     def read(self, size: int = 1) -> bytes:
         if not self.is_open:
@@ -299,6 +370,37 @@ class VirtualMachine:
     @property
     def rx_used(self) -> int:
         return len(self._rx)
+
+    def starvations_since(self, start_s: float, first_run: int, sent_lines) -> list[Starvation]:
+        """The starvations of a job: those after ``start_s`` (simulated s), timed from it, each
+        naming the source line it waited for.
+
+        Parameters
+        ----------
+        start_s : float
+            :attr:`sim_time_s` when the job's first byte was written.
+        first_run : int
+            :attr:`lines_run` then.
+        sent_lines : sequence of int
+            The source line of every G-code line the job sent (not its ``$`` lines), in order.
+
+        Examples
+        --------
+        >>> vm = VirtualMachine(time_scale=0, tick_s=0.0, banner=False)
+        >>> _ = vm.write(b"G1 X1 F600\\n")        # 1 mm at 10 mm/s: about 0.1 s
+        >>> vm.tick_s = 0.5
+        >>> _ = vm.read(64)                        # half a second later: done, dry since ~0.1 s
+        >>> vm.tick_s = 0.0
+        >>> _ = vm.write(b"G1 X2\\n")
+        >>> [(s.line, round(s.time_s, 1), round(s.duration_s, 1)) for s in vm.starvations_since(0.0, 0, [7, 8])]
+        [(8, 0.1, 0.4)]
+        """
+        out = []
+        for s in self.starvations:
+            k = s.line - first_run - 1
+            if s.time_s >= start_s and 0 <= k < len(sent_lines):
+                out.append(Starvation(s.time_s - start_s, int(sent_lines[k]), s.duration_s))
+        return out
 
     def laser_output(self) -> float:
         """Beam power now, as a fraction of full.
@@ -433,7 +535,12 @@ class VirtualMachine:
                 self.state = "Idle"
         elif kind == "reset":
             moving = (self.state in ("Run", "Jog", "Home") or self._braking) and bool(self._blocks)
+            if self._blocks and self._blocks[-1].replies and not moving:
+                for reply in self._blocks[-1].replies:   # GRBL leaves its wait and answers the line
+                    self._emit(reply)
             self._rx.clear()
+            self._parsed = None
+            self._dry_since = None
             self._blocks.clear()
             self._speed = 0.0
             self._reset_parser()
@@ -503,8 +610,19 @@ class VirtualMachine:
         else:
             dt = self.tick_s
         self._wall = now
-        self._run_for(dt)
-        self._take_lines()
+        target = self._sim_t + dt
+        while True:
+            # run to the next event: a byte that acts arrives, a parse ends, or a block ends
+            t_next = min(target, self._next_arrival_s())
+            if self._parsed is not None and self._parsed[1] > self._sim_t:
+                t_next = min(t_next, self._parsed[1])
+            self._run_for(t_next - self._sim_t)
+            if self._sim_t >= t_next - 1e-12:
+                self._sim_t = max(self._sim_t, t_next)
+            self._receive()
+            self._take_lines()
+            if self._sim_t >= target:
+                break
         self._log_beam()
         self.rx_fill.append((self._sim_t, len(self._rx)))
         if len(self.rx_fill) > 200_000:
@@ -579,6 +697,10 @@ class VirtualMachine:
             b = self._blocks[0]
             if not b.started:
                 self._start_block(b)
+                if b.pause:                     # M0: the moves before it have run; hold here
+                    b.pause = False
+                    self.state, self.substate = "Hold", 0
+                    continue
             left = b.duration_s - b.done_s
             step = min(dt, left)
             start = self.pos.copy()
@@ -594,31 +716,46 @@ class VirtualMachine:
                 self.pos = b.end.copy()
                 self._speed = b.exit_mm_s
                 self._blocks.popleft()
+                for reply in b.replies:         # G4, M0, M2, M30: answered now
+                    self._emit(reply)
                 self._take_lines()              # a line waiting in RX refills the planner now
                 if not self._blocks:
                     self.state = "Idle"
                     self._speed = 0.0
+                    self._dry_since = self._sim_t
                     self._note_stop("buffer empty")
                 self._log_beam()
+                return                          # the caller looks at the link and the parser
 
     def _take_lines(self) -> None:
+        """GRBL's main loop: read a line from the RX buffer, parse it (``parse_s``), run it
+        once the planner has room; not while a G4, M0, M2 or M30 waits to be answered."""
         while True:
-            cut = self._rx.find(b"\n")
-            if cut < 0:
+            if self._parsed is None:
+                if self._blocks and self._blocks[-1].replies:
+                    return
+                cut = self._rx.find(b"\n")
+                if cut < 0:
+                    return
+                raw = bytes(self._rx[:cut])
+                del self._rx[:cut + 1]
+                text = raw.decode("ascii", "replace").strip()
+                if not text:
+                    continue
+                self._parsed = (text, self._sim_t + self.parse_s)
+            text, ready_s = self._parsed
+            if ready_s > self._sim_t + 1e-12:
                 return
-            if len(self._blocks) >= self.planner_blocks:   # planner full: the line waits
-                return
-            raw = bytes(self._rx[:cut])
-            del self._rx[:cut + 1]
-            text = raw.decode("ascii", "replace").strip()
-            if not text:
-                continue
+            if not text.startswith("$") and len(self._blocks) >= self.planner_blocks:
+                return                                  # planner full: the line waits
+            self._parsed = None
             self._line(text)
 
     def _line(self, text: str) -> None:
         if text.startswith("$"):
             self._system(text)
             return
+        self.lines_run += 0 if self.check_mode else 1
         if self.state == "Alarm":
             self._emit(grbl_reply(ErrorCode.GCODE_LOCKED))
             return
@@ -626,7 +763,7 @@ class VirtualMachine:
             self._emit(grbl_reply(ErrorCode.LINE_OVERFLOW))
             return
         err = self._gcode(text, jog=False)
-        if err != _ALARMED:                       # an alarm replaces the line's answer
+        if err not in (_ALARMED, _DEFERRED):      # an alarm replaces the line's answer
             self._emit(grbl_reply(ErrorCode.OK if err is None else ErrorCode(err)))
 
     def _system(self, text: str) -> None:
@@ -638,7 +775,7 @@ class VirtualMachine:
                 self._emit(f"${k}={self.settings[k]}")
         elif cmd == "I":
             self._emit("[VER:1.1h.20190825:labkit-virtual]")
-            self._emit(f"[OPT:VL,{self.planner_blocks},{self.rx_bytes}]")
+            self._emit(f"[OPT:V,{self.planner_blocks},{self.rx_bytes}]")
         elif cmd == "G":
             laser = {0: "M5", 3: "M3", 4: "M4"}[self.laser_mode_word]
             feed = 0 if math.isnan(self.feed_mm_min) else self.feed_mm_min
@@ -754,6 +891,8 @@ class VirtualMachine:
                                          tool_offset=before.tool_offset, home28=before.home28,
                                          home30=before.home30)
             self._check_pos = new_pos
+            if any(r.kind == "end" for r in moves.records):
+                self._emit(grbl_reply(Feedback.PROGRAM_END))
             return None
         n_word = -1
         head = text.lstrip().upper()
@@ -762,6 +901,24 @@ class VirtualMachine:
             n_word = int(digits) if digits else -1
         queued = len(self._blocks)
         self._blocks.extend(self._blocks_of(moves, base, text, n_word, jog))
+        if self._dry_since is not None and len(self._blocks) > queued:
+            if self._sim_t > self._dry_since:             # the planner stood empty for this line
+                self.starvations.append(Starvation(self._dry_since, self.lines_run,
+                                                   self._sim_t - self._dry_since))
+            self._dry_since = None
+        kinds = {r.kind for r in moves.records}
+        deferred = not jog and (bool(kinds & {"pause", "end"})
+                                or any(b.is_dwell for b in list(self._blocks)[queued:]))
+        if deferred:
+            if "pause" in kinds or "end" in kinds or not len(self._blocks) > queued:
+                # a stop of no time at the end of the queue: it holds (M0) or answers (M2, M30)
+                # once the moves before it have run
+                self._blocks.append(_Block(self.lines_accepted, n_word, text, np.array(base, float),
+                                           np.array(base, float), 0.0, 0.0, 0.0, False,
+                                           is_dwell=True, pause="pause" in kinds))
+            last = self._blocks[-1]
+            last.replies = ((grbl_reply(Feedback.PROGRAM_END),) if "end" in kinds else ()) + (
+                grbl_reply(ErrorCode.OK),)
         if not jog:
             if len(self._blocks) > queued:               # the level the last block leaves
                 last = self._blocks[-1]
@@ -771,7 +928,9 @@ class VirtualMachine:
                 self._rest_level = self._beam_fraction(3, self.s_word) if lit else 0.0
         if self._blocks and self.state == "Idle":
             self.state = "Jog" if jog else "Run"
-        return None
+        if not jog and "end" in kinds:
+            self.overrides = (100, 100, 100)         # GRBL's RESTORE_OVERRIDES_AFTER_PROGRAM_END
+        return _DEFERRED if deferred else None
 
     def _blocks_of(self, moves, base, text: str, n_word: int, jog: bool) -> list:
         """A line's moves as the blocks GRBL plans: arcs cut into ``$12`` chords, a move of no

@@ -147,7 +147,7 @@ def test_config_round_trip(tmp_path):
 
 def test_connect_reads_buffer_sizes_from_i():
     g = connect()
-    assert (g.info.rx_bytes, g.info.planner_blocks, g.info.from_machine) == (128, 16, True)
+    assert (g.info.rx_bytes, g.info.planner_blocks, g.info.from_machine) == (128, 15, True)
     assert g.info.banner.startswith("Grbl 1.1")
     g.close()
     big = connect(rx_bytes=1024, planner_blocks=32)       # grblHAL-sized buffers

@@ -17,6 +17,10 @@ from labkit.gcode.reader import parse
 from labkit.machine.virtual import VirtualMachine
 from labkit.motion import MachineSpec, load_machine, plan
 
+#: grbl-diode with the rest speed and planner depth the hand-worked numbers use
+DIODE = load_machine("grbl-diode").replace(start_rate_hz=250, planner_blocks=15,
+                                                  block_parse_s=0.0)
+
 VECTORS = sorted((Path(__file__).resolve().parents[1] / "vectors" / "motion").glob("*.json"))
 
 
@@ -25,6 +29,8 @@ def stream(machine, lines, *, window_bytes=127, step_s=0.001, **options):
     (job time s, the machine).
 
     The job time runs from the first step of machine time to the end of the last block."""
+    options.setdefault("baud", 0)     # an instant link: only the sender's window limits it
+    options.setdefault("parse_s", 0.0)  # and an instant parser: the planner is always full
     vm = VirtualMachine(machine, time_scale=0, tick_s=0.0, banner=False, **options)
     sent = 0
     unanswered: list[int] = []
@@ -79,7 +85,7 @@ def test_one_line_by_hand():
     """10 mm at F600 on grbl-diode: from the rest speed 250 Hz / 80 steps/mm = 3.125 mm/s to
     10 mm/s at 1000 mm/s² takes 6.875 ms over 0.0451172 mm, the same down; the 9.909766 mm
     between take 0.9909766 s: 1.0047266 s."""
-    took, _ = stream("grbl-diode", ["G1 X10 F600"])
+    took, _ = stream(DIODE, ["G1 X10 F600"])
     ramp_mm = (10.0 ** 2 - 3.125 ** 2) / 2000.0
     assert took == pytest.approx(2 * 6.875e-3 + (10.0 - 2 * ramp_mm) / 10.0, rel=1e-12)
     assert took == pytest.approx(1.0047266, abs=1e-7)
@@ -109,9 +115,11 @@ def test_depth_changes_the_time():
 
 
 def test_send_response_starves_the_planner():
-    """One line at a time (send-response over a slow poll) keeps the planner short of
-    blocks: the job takes longer than the whole-job plan."""
-    lines = _raster_row(100)
-    took, vm = stream("grbl-diode", lines, window_bytes=1, step_s=0.005)
+    """One line at a time, answered only at the sender's next 50 ms poll, keeps the planner
+    short of blocks: the job takes longer than the whole-job plan, and the machine says where
+    it stood waiting."""
+    lines = _raster_row(40)
+    took, vm = stream("grbl-diode", lines, window_bytes=1, step_s=0.05)
     assert took > 1.3 * whole_job_time("grbl-diode", lines, vm.planner_blocks)
     assert np.isfinite(took)
+    assert vm.starvations and all(s.duration_s > 0 for s in vm.starvations)
