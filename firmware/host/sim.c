@@ -201,7 +201,7 @@ static double host_seconds(void);
 void hal_timer_start(void) {
   if (!timer_on && motors_stopped) {
     /* a starvation when line bytes arrived while the motors stood (the job had lines left) */
-    if (starve_log && line_bytes_delivered != stop_line_bytes) {
+    if (starve_log && line_bytes_delivered != stop_line_bytes && cycles > stop_cycles) {
       double hz = (double)plan_machine()->timer_clock_hz;
       fprintf(starve_log, "%.9f,%u,%.9f\n", (double)stop_cycles / hz, (unsigned)tick_line,
               (double)(cycles - stop_cycles) / hz);

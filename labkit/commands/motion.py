@@ -2,7 +2,10 @@
 
 ``labkit plan FILE.gcode --planner junction|fast|normal|hq`` prints the job
 time, blocks, super blocks, peak and mean speed and laser-on time; ``--trace
-OUT.csv`` writes one row per block. ``labkit steps FILE.gcode -o OUT.csv``
+OUT.csv`` writes one row per block. It also predicts the stream over the
+machine's serial link (labkit.motion.stall): where the planner runs dry, the
+highest feed at which it does not (per image row for a raster job), and with
+``--fill OUT.csv`` each line's planner fill level. ``labkit steps FILE.gcode -o OUT.csv``
 writes the step pulse train (time, steps per axis, direction bits, timer
 period) that the firmware must reproduce.
 """
@@ -56,6 +59,16 @@ def add_plan_arguments(parser):
     parser.add_argument("--trace", metavar="OUT.csv",
                         help="write one row per block: source line, length, entry/peak/exit "
                              "speed, power, start and duration")
+    from labkit.commands._args import integer
+
+    parser.add_argument("--baud", type=integer(300, 10_000_000), default=None, metavar="N",
+                        help="serial link speed for the stall prediction, 300…10000000 baud "
+                             "(default: the machine's link_baud)")
+    parser.add_argument("--fill", metavar="OUT.csv",
+                        help="write one row per line sent: source line, bytes, when sent, "
+                             "arrived and parsed (s), the planner's fill level (blocks)")
+    parser.add_argument("--no-link", action="store_true",
+                        help="leave out the stall prediction (the serial link)")
 
 
 def _hms(seconds: float) -> str:
@@ -64,20 +77,85 @@ def _hms(seconds: float) -> str:
     return f"{h}:{m:02d}:{s:06.3f}"
 
 
+def _link_prediction(args, machine):
+    """The stream over the machine's link: (prediction at the programmed feed, stall-free feed)."""
+    from pathlib import Path
+
+    from labkit.motion.stall import predict_stalls, program_feeds, stall_free_feed
+
+    m = machine
+    if args.baud is not None:
+        m = m.replace(link_baud=args.baud)
+    if args.buffer is not None:
+        m = m.replace(buffer_blocks=args.buffer)
+    text = Path(args.file).read_text("utf-8", errors="replace")     # parsed already: readable
+    pred = predict_stalls(text, m, dialect=args.dialect)
+    free = stall_free_feed(text, m, dialect=args.dialect) if program_feeds(text) else None
+    return m, pred, free
+
+
+def _write_fill(path, pred) -> None:
+    from labkit._files import atomic_output
+
+    with atomic_output(path, newline="") as fh:
+        fh.write("line,bytes,sent_s,arrived_s,parsed_s,fill_blocks\n")
+        for row in zip(pred.line, pred.bytes, pred.sent_s, pred.arrived_s, pred.parsed_s, pred.fill):
+            fh.write(f"{row[0]},{row[1]},{row[2]:.9g},{row[3]:.9g},{row[4]:.9g},{row[5]}\n")
+
+
+def link_rows(m, pred, free, *, rows_shown: int = 12) -> list[tuple[str, str]]:
+    """The stall prediction as (label, text) rows for a summary table."""
+    out = [("link", f"{m.link_baud} baud ({m.link_bytes_per_s:.0f} bytes/s), RX buffer "
+                    f"{m.rx_buffer_bytes} bytes, planner {m.planner_blocks} blocks, "
+                    f"parse {m.block_parse_s * 1e6:.0f} µs a line")]
+    if pred.stalls:
+        lines = ", ".join(str(s.line) for s in pred.stalls[:8]) + (" …" if len(pred.stalls) > 8 else "")
+        out.append(("stalls", f"{len(pred.stalls)}, standing {pred.stall_time_s:.3f} s "
+                              f"(job {pred.job_time_s:.3f} s over the link); at lines {lines}"))
+    else:
+        out.append(("stalls", f"none (job {pred.job_time_s:.3f} s over the link)"))
+    if free is not None:
+        how = {"link": "the link limits it", "machine": "the machine's top speed; the link never starves it",
+               "travel": "none: rapids outrun the link at any feed"}[free.limited_by]
+        out.append(("stall-free feed", f"{free.feed_mm_min:.0f} mm/min ({how}; programmed "
+                                       f"{free.programmed_mm_min:g})"))
+        for r in free.rows[:rows_shown]:
+            out.append((f"  row y={r['y_mm']:.3f}", f"lines {r['first_line']}–{r['last_line']}: "
+                                                   f"{r['feed_mm_min']:.0f} mm/min, {r['stalls']} stalls"))
+        if len(free.rows) > rows_shown:
+            out.append(("  rows", f"{len(free.rows) - rows_shown} more in --json"))
+    return out
+
+
 def run_plan(args) -> int:
     from labkit._files import atomic_output, check_output_file
 
     if args.trace:
         check_output_file(args.trace, args.file)
+    if args.fill:
+        check_output_file(args.fill, args.file)
     p = _plan(args)
     s = p.summary()
+    link = None if args.no_link else _link_prediction(args, p.machine)
     if args.trace:
         with atomic_output(args.trace, newline="") as fh:
             p.trace().to_csv(fh, index=False, float_format="%.9g")
+    if args.fill and link:
+        _write_fill(args.fill, link[1])
     if args.json:
         out = s.as_dict()
         out["file"] = args.file
         out["machine"] = p.machine.name
+        if link:
+            m, pred, free = link
+            out["link_baud"] = m.link_baud
+            out["stalls"] = [{"time_s": x.time_s, "line": x.line, "duration_s": x.duration_s}
+                             for x in pred.stalls]
+            out["stall_time_s"] = pred.stall_time_s
+            out["job_time_over_link_s"] = pred.job_time_s
+            out["stall_free_feed_mm_min"] = free.feed_mm_min if free else None
+            out["stall_free_limited_by"] = free.limited_by if free else None
+            out["stall_free_rows"] = free.rows if free else []
         print(json.dumps(out, indent=2))
         return 0
     rows = [
@@ -94,6 +172,8 @@ def run_plan(args) -> int:
         ("dwell", f"{s.dwell_time_s:.3f} s"),
         ("corners above GRBL's limit", f"{s.junctions_over_limit}"),
     ]
+    if link:
+        rows += link_rows(*link)
     width = max(len(k) for k, _ in rows)
     for k, v in rows:
         print(f"{k:<{width}}  {v}")

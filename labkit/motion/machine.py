@@ -184,7 +184,7 @@ class MachineSpec:
     link_bits_per_byte: int = 10
     rx_buffer_bytes: int = 128
     planner_blocks: int = 36
-    block_parse_s: float = 0.0
+    block_parse_s: float = 20e-6
     waits_for_lookahead: bool = True
     description: str = dataclasses.field(default="", compare=False)
 

@@ -37,7 +37,7 @@ import numpy as np
 from labkit.errors import MotionError
 
 __all__ = ["Starvation", "LinkPrediction", "StallFreeFeed", "predict_stalls", "stall_free_feed",
-           "sent_line_bytes", "with_feed", "read_starvation_log", "FLUSH_QUIET_S"]
+           "sent_line_bytes", "with_feed", "program_feeds", "read_starvation_log", "FLUSH_QUIET_S"]
 
 #: Quiet input after which the labkit firmware runs what its look-ahead holds back, s
 #: (``FLUSH_QUIET_MS`` in ``firmware/src/protocol.c``).
@@ -136,7 +136,12 @@ def sent_line_bytes(text: str) -> np.ndarray:
 _F_WORD = re.compile(r"(F)([-+]?(?:\d+\.?\d*|\.\d+))", re.IGNORECASE)
 
 
-def _f_words(text: str) -> list[float]:
+def program_feeds(text: str) -> list[float]:
+    """Every F word's value in a program, in order (comments left out), mm/min.
+
+    >>> program_feeds("G1 X1 F1000 (F2)\\nG1 Y1 F500\\n")
+    [1000.0, 500.0]
+    """
     from labkit.gcode.reader import strip_comments
 
     return [float(m.group(2)) for raw in text.splitlines() for m in _F_WORD.finditer(strip_comments(raw))]
@@ -168,7 +173,7 @@ def with_feed(text: str, feed_mm_min: float) -> str:
     """
     if not (feed_mm_min > 0 and math.isfinite(feed_mm_min)):
         raise MotionError(f"the feed must be > 0 mm/min, got {feed_mm_min!r}")
-    feeds = _f_words(text)
+    feeds = program_feeds(text)
     if not feeds or max(feeds) <= 0:
         raise MotionError("the program has no F word > 0: there is no feed to scale")
     k = feed_mm_min / max(feeds)
@@ -390,16 +395,19 @@ class StallFreeFeed:
     feed_mm_min : float
         The highest F (the program's feeds scaled together) without a starvation, mm/min.
     limited_by : str
-        ``"link"``, or ``"machine"`` when even the machine's top speed does not starve.
+        ``"link"``; ``"machine"`` when even the machine's top speed does not starve;
+        ``"travel"`` (``feed_mm_min`` 0) when the job starves at any feed, because moves
+        whose speed F does not set (rapids) outrun the link.
     programmed_mm_min : float
         The program's highest F, mm/min.
     stalls : list of Starvation
         The starvations at the programmed feed.
     rows : list of dict
-        For a raster job, per image row (lines with the same Y): ``y_mm``, ``first_line``,
-        ``last_line``, ``bytes``, ``feed_mm_min`` — the feed at which the row's motion takes as
-        long as its bytes on the link (the steady-state limit; the buffers carry a short row
-        past it).
+        For a raster job (most blocks along X), per image row (consecutive blocks ending at
+        one Y): ``y_mm``, ``first_line``, ``last_line``, ``bytes`` sent, ``stalls`` at the
+        programmed feed, and ``feed_mm_min``: the highest feed, on a grid 3 % apart from the
+        job's stall-free feed up to the machine's top speed, up to which the row never starves
+        (the rows before it streamed as well). Empty for other jobs.
     """
 
     feed_mm_min: float
@@ -408,14 +416,26 @@ class StallFreeFeed:
     stalls: list
     rows: list
 
+    def as_dict(self) -> dict:
+        """Plain values for JSON: ``stall_free_feed_mm_min``, ``limited_by``, ``stalls``, ``rows``."""
+        return {"stall_free_feed_mm_min": self.feed_mm_min, "limited_by": self.limited_by,
+                "programmed_feed_mm_min": self.programmed_mm_min,
+                "stalls": [{"time_s": s.time_s, "line": s.line, "duration_s": s.duration_s}
+                           for s in self.stalls],
+                "rows": self.rows}
+
+
+#: Step of the per-row feed grid (3 %).
+_ROW_STEP = 1.03
+
 
 def stall_free_feed(text: str, machine=None, *, line_bytes=None, dialect: str = "grbl",
-                    rel_tol: float = 0.002) -> StallFreeFeed:
+                    rel_tol: float = 0.002, rows: bool = True) -> StallFreeFeed:
     """The highest feed at which the link never leaves the machine without a block.
 
     The program's feeds are scaled together (:func:`with_feed`) and the highest
     F without a starvation (:func:`predict_stalls`) is found by bisection, up to
-    the machine's top speed.
+    the machine's top speed (the slower of X and Y).
 
     Parameters
     ----------
@@ -429,6 +449,8 @@ def stall_free_feed(text: str, machine=None, *, line_bytes=None, dialect: str = 
         How the program is read.
     rel_tol : float
         Relative width of the final bracket.
+    rows : bool
+        Find each image row's stall-free feed too (a raster job; a few more predictions).
 
     Returns
     -------
@@ -442,7 +464,7 @@ def stall_free_feed(text: str, machine=None, *, line_bytes=None, dialect: str = 
     from labkit.motion.machine import load_machine
 
     m = load_machine(machine)
-    feeds = _f_words(text)
+    feeds = program_feeds(text)
     if not feeds or max(feeds) <= 0:
         raise MotionError("the program has no F word > 0: there is no feed to find")
     programmed = max(feeds)
@@ -456,14 +478,15 @@ def stall_free_feed(text: str, machine=None, *, line_bytes=None, dialect: str = 
     at_programmed = stalls_at(programmed)
     if not stalls_at(top):
         best, limited = top, "machine"
+    elif stalls_at(top * 1e-3):
+        # starving at a thousandth of the top speed: moves F does not set (rapids) outrun the link
+        best, limited = 0.0, "travel"
     else:
-        lo, hi = 1.0, top
+        lo, hi = top * 1e-3, top
         if not at_programmed and programmed < top:
             lo = programmed
         elif at_programmed:
             hi = programmed
-            while stalls_at(lo) and lo > 1e-3:
-                lo /= 4
         while hi - lo > rel_tol * hi:
             mid = 0.5 * (lo + hi)
             if stalls_at(mid):
@@ -471,34 +494,51 @@ def stall_free_feed(text: str, machine=None, *, line_bytes=None, dialect: str = 
             else:
                 lo = mid
         best, limited = lo, "link"
+    row_list = _row_feeds(text, m, dialect, line_bytes, best, top, stalls_at, at_programmed) if rows else []
     return StallFreeFeed(feed_mm_min=best, limited_by=limited, programmed_mm_min=programmed,
-                         stalls=at_programmed, rows=_row_limits(text, m, dialect, line_bytes))
+                         stalls=at_programmed, rows=row_list)
 
 
-def _row_limits(text: str, m, dialect: str, line_bytes) -> list[dict]:
-    """Per row of cuts along X at one Y: the feed at which motion time equals link time."""
+def _rows(text: str, m, dialect: str):
+    """Image rows of a raster job: (y_mm, first line, last line), or [] for another job."""
     p = _plan_text(text, m, dialect)
-    b = p.blocks
+    b = p.blocks[p.motion]
+    if not len(b):
+        return []
+    start = np.asarray(b.start_steps, dtype=float)
+    end = np.asarray(b.end_steps, dtype=float)
+    along_x = (start[:, 1] == end[:, 1]) & (start[:, 0] != end[:, 0])
+    if along_x.mean() < 0.9:
+        return []
+    y = end[:, 1] / m.steps_per_mm[1]
+    cuts = np.flatnonzero(np.diff(end[:, 1]) != 0) + 1
+    lines = np.asarray(b.line)
+    return [(float(y[g[0]]), int(lines[g[0]]), int(lines[g[-1]]))
+            for g in np.split(np.arange(len(b)), cuts)]
+
+
+def _row_feeds(text, m, dialect, line_bytes, best, top, stalls_at, at_programmed) -> list[dict]:
+    rows = _rows(text, m, dialect)
+    if not rows:
+        return []
     nbytes = sent_line_bytes(text) if line_bytes is None else np.asarray(line_bytes(text))
-    t = np.asarray(p.block_time_s)
-    rows = []
-    cut = np.flatnonzero(np.asarray(b.is_motion) & np.asarray(b.laser_on))
-    if not len(cut):
-        return rows
-    y = np.round(np.asarray(b.end_steps)[cut, 1] / m.steps_per_mm[1], 6)
-    y0 = np.round(np.asarray(b.start_steps)[cut, 1] / m.steps_per_mm[1], 6)
-    along_x = y == y0
-    cut, y = cut[along_x], y[along_x]
-    if not len(cut):
-        return rows
-    breaks = np.flatnonzero(np.diff(y) != 0) + 1
-    tau = m.link_bits_per_byte / m.link_baud
-    feed_now = max(_f_words(text))
-    for seg in np.split(np.arange(len(cut)), breaks):
-        blocks = cut[seg]
-        first, last = int(b.line[blocks[0]]), int(b.line[blocks[-1]])
-        nbyte = int(nbytes[first - 1:last].sum())
-        motion = float(t[blocks].sum())
-        rows.append({"y_mm": float(y[seg[0]]), "first_line": first, "last_line": last, "bytes": nbyte,
-                     "feed_mm_min": feed_now * motion / (nbyte * tau) if nbyte else math.inf})
-    return rows
+    firsts = np.array([r[1] for r in rows])
+
+    def row_of(stalls):
+        return {int(np.searchsorted(firsts, s.line, side="right")) - 1 for s in stalls}
+
+    feed = np.full(len(rows), top)
+    open_rows = set(range(len(rows)))
+    prev = best
+    f = best * _ROW_STEP
+    while open_rows and 0 < prev < top:
+        f = min(f, top)
+        for r in row_of(stalls_at(f)) & open_rows:
+            feed[r] = prev
+            open_rows.discard(r)
+        prev, f = f, f * _ROW_STEP
+    programmed_rows = [s for s in at_programmed]
+    return [{"y_mm": y, "first_line": a, "last_line": z, "bytes": int(nbytes[a - 1:z].sum()),
+             "stalls": sum(1 for s in programmed_rows if a <= s.line <= z),
+             "feed_mm_min": float(feed[i])}
+            for i, (y, a, z) in enumerate(rows)]

@@ -1,0 +1,194 @@
+"""The firmware simulator's paced link (``--baud``) against closed forms and the stall predictor (issue 30 §1–2).
+
+The simulator runs on a pty in the grbl dialect with ``--baud N --starvation-log FILE``;
+GRBL's stream.py (re-implemented in test_real_senders.py from its documented behaviour:
+character counting against the 128-byte buffer, ``?`` once a second) streams the job.
+``labkit.motion.stall`` predicts the same stream from the machine description (CBR-40, the
+firmware's defaults) with the link's baud rate. Checked:
+
+* a hand-worked case through stdin: equal short cuts at cruise speed, each line slower on
+  the wire than its block on the motors, starve by exactly the difference;
+* on ten jobs (photos and a gray card from ``img2gcode`` in gray, dither and zig-zag at
+  several pixel pitches and baud rates; vector jobs with many short segments from
+  ``svg2gcode``): every starvation the simulator logs is predicted at the same line, but
+  for those stream.py's once-a-second ``?`` causes (one byte on the wire at a wall-clock
+  moment: at most one byte time long, at most one a second); the predicted stall-free feed
+  F* is within 5 % of the simulated one (none at 0.95 F*, some at 1.05 F*).
+"""
+from __future__ import annotations
+
+import importlib.util
+import re
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from labkit.cli import main
+from labkit.machine.safety import end_process
+from labkit.motion.machine import CBR40
+from labkit.motion.stall import predict_stalls, read_starvation_log, stall_free_feed, with_feed
+
+ROOT = Path(__file__).resolve().parents[2]
+#: stream.py wakes GRBL up with "\r\n\r\n": four empty lines the grbl dialect counts, so
+#: the firmware's line k is the job's line k - 4.
+WAKE_UP_LINES = 4
+
+
+def _real_senders():
+    spec = importlib.util.spec_from_file_location("real_senders", Path(__file__).with_name("test_real_senders.py"))
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+REAL_SENDERS = _real_senders()
+sim = REAL_SENDERS.sim          # the fixture that builds the simulator (make -C firmware sim)
+
+
+def stream_py_bytes(text: str) -> np.ndarray:
+    """Bytes stream.py puts on the link per line: whitespace and (...) removed, newline added."""
+    return np.array([len(re.sub(r"\s|\(.*?\)", "", raw)) + 1 for raw in text.splitlines()])
+
+
+def stream_paced(sim: str, text: str, machine, tmp: Path):
+    """Stream ``text`` with stream.py through the simulator paced as ``machine``'s link says.
+
+    Returns its starvations (numbered by the job's lines) and the seconds the stream took
+    (stream.py's ``?`` goes out once a second).
+    """
+    log = tmp / "starvations.csv"
+    proc = subprocess.Popen([sim, "--pty", "--dialect", "grbl", "--baud", str(machine.link_baud),
+                             "--parse-us", f"{machine.block_parse_s * 1e6:.6f}", "--starvation-log", str(log)],
+                            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            text=True)
+    try:
+        line = proc.stderr.readline()
+        assert "pty " in line, f"simulator did not announce its pty: {line!r}"
+        tally = REAL_SENDERS.stream_py(line.split("pty ", 1)[1].strip(), text, counting=True)
+    finally:
+        end_process(proc)
+    assert len(tally["answers"]) == len(text.splitlines())
+    assert all(a == "ok" for a in tally["answers"]), [a for a in tally["answers"] if a != "ok"][:3]
+    stalls = [s.__class__(s.time_s, s.line - WAKE_UP_LINES, s.duration_s) for s in read_starvation_log(log)]
+    return stalls, tally["seconds"]
+
+
+def poll_shadows(simulated, predicted, baud: int, seconds: float):
+    """Split the simulated starvations the prediction lacks into those a ``?`` can explain and the rest.
+
+    stream.py's once-a-second ``?`` is one byte on the wire at a wall-clock moment no
+    prediction can know; the line bytes behind it arrive one byte time (10 / baud s) later.
+    A starvation it causes is at most that long, and there are at most as many as ``?``s.
+    """
+    lines = {s.line for s in predicted}
+    missed = [s for s in simulated if s.line not in lines]
+    byte_s = 10.0 / baud
+    shadows = [s for s in missed if s.duration_s <= byte_s * 1.001]
+    rest = [s for s in missed if s.duration_s > byte_s * 1.001]
+    if len(shadows) > seconds + 2:
+        rest += shadows
+        shadows = []
+    return shadows, rest
+
+
+# ---------------------------------------------------------------- closed form
+
+def test_equal_short_cuts_starve_by_wire_time_less_block_time(sim, tmp_path):
+    """Hand-worked: line 2 cuts 1 mm, lines 3-61 cut 0.1 mm each along X at 600 mm/min
+    (10 ms each at cruise: the look-ahead always sees more collinear cuts); each such
+    line, 'X1.23\\n', is 6 bytes, 50 ms at 1200 baud. A block runs once the line of the
+    block 16 ahead (its window) has arrived, so from line 6 on every block waits for a
+    line that arrives 50 ms after the one before while the block before it took 10 ms:
+    the motors stand 40 ms. The blocks of lines 46-61 wait for the quiet-input flush
+    after the last line instead: no line is left to come, so no starvation."""
+    lines = ["G21G90", "G1X1F600"] + [f"X{1 + 0.1 * k:.2f}" for k in range(1, 60)]
+    job = "\n".join(lines) + "\n"
+    log = tmp_path / "st.csv"
+    run = subprocess.run([sim, "--dialect", "grbl", "--baud", "1200", "--starvation-log", str(log)],
+                         input=job, capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    stalls = read_starvation_log(log)
+    assert [s.line for s in stalls] == list(range(5, 46)), stalls
+    steady = [s for s in stalls if s.line >= 6]
+    for s in steady:
+        assert s.duration_s == pytest.approx(0.040, abs=2e-4), s
+    gaps = np.diff([s.time_s for s in steady])
+    np.testing.assert_allclose(gaps, 0.050, atol=2e-4)     # one line per 50 ms
+    # the predictor, from the machine description, says the same
+    pred = predict_stalls(job, CBR40.replace(link_baud=1200, block_parse_s=0.0),
+                          line_bytes=[len(x) + 1 for x in lines])
+    by_line = {s.line: s for s in pred.stalls}
+    for s in steady:
+        assert by_line[s.line].duration_s == pytest.approx(s.duration_s, abs=2e-4)
+
+
+def test_paced_options_are_checked(sim, tmp_path):
+    for args, expected in ((["--baud", "12x"], "--baud: expected a whole number"),
+                           (["--baud", "100"], "300 to 10000000"),
+                           (["--starvation-log", str(tmp_path / "s.csv")], "need --baud"),
+                           (["--baud", "9600", "--parse-us", "-1"], "--parse-us: expected"),
+                           (["--baud", "9600", "--realtime"], "leave out --realtime")):
+        run = subprocess.run([sim, *args], input="", capture_output=True, text=True, timeout=30)
+        assert run.returncode == 2 and expected in run.stderr, (args, run.stderr)
+
+
+# ---------------------------------------------------------------- predictor against the simulator
+
+def _image_job(tmp: Path, image: str, mode: str, pitch: float, width_mm: float, feed: float) -> str:
+    out = tmp / f"{Path(image).stem}-{mode}-{pitch}.gcode"
+    assert main(["img2gcode", str(ROOT / "data/images" / image), "-o", str(out), "--mode", mode,
+                 "--beam", str(pitch), "--width", str(width_mm), "--feed", str(feed),
+                 "--preview", "none", "--dialect", "grbl"]) == 0
+    return out.read_text("ascii")
+
+
+def _svg_job(tmp: Path, svg: str, tol: float, feed: float) -> str:
+    out = tmp / f"{Path(svg).stem}-{tol}.gcode"
+    assert main(["svg2gcode", str(ROOT / "data/svg" / svg), "-o", str(out), "--tol", str(tol),
+                 "--feed", str(feed), "--dialect", "grbl"]) == 0
+    return out.read_text("ascii")
+
+
+#: (name, how the job is made, baud): real images and drawings, the pitch and the baud rate
+#: chosen so that the link, not the machine's 1546 mm/min, limits the feed.
+JOBS = [
+    ("photo gray 0.1 mm @ 4800", lambda t: _image_job(t, "photo_500x450_72dpi.jpg", "gray", 0.1, 4.0, 1500), 4800),
+    ("photo gray 0.05 mm @ 9600", lambda t: _image_job(t, "photo_500x450_72dpi.jpg", "gray", 0.05, 2.0, 1500), 9600),
+    ("photo gray 0.05 mm @ 4800", lambda t: _image_job(t, "photo_500x450_72dpi.jpg", "gray", 0.05, 2.0, 300), 4800),
+    ("photo dither 0.1 mm @ 4800", lambda t: _image_job(t, "photo_500x450_72dpi.jpg", "dither", 0.1, 4.0, 1500), 4800),
+    ("gray card dither 0.05 mm @ 4800", lambda t: _image_job(t, "gray_card.png", "dither", 0.05, 3.0, 600), 4800),
+    ("gray card gray 0.1 mm @ 9600", lambda t: _image_job(t, "gray_card.png", "gray", 0.1, 6.0, 1500), 9600),
+    ("waves zigzag 0.05 mm @ 2400", lambda t: _image_job(t, "waves.png", "zigzag", 0.05, 3.0, 100), 2400),
+    ("waves zigzag 0.02 mm @ 9600", lambda t: _image_job(t, "waves.png", "zigzag", 0.02, 1.2, 1000), 9600),
+    ("shapes 0.0005 mm @ 9600", lambda t: _svg_job(t, "svg2gcode/shapes.svg", 0.0005, 1500), 9600),
+    ("jsdc 0.001 mm @ 19200", lambda t: _svg_job(t, "cncjs/jsdc.svg", 0.001, 1500), 19200),
+]
+
+
+@pytest.mark.parametrize("name,make,baud", JOBS, ids=[j[0] for j in JOBS])
+def test_predicted_stalls_and_stall_free_feed_match_the_simulator(sim, tmp_path, name, make, baud, capsys):
+    text = make(tmp_path)
+    machine = CBR40.replace(link_baud=baud)
+    found = stall_free_feed(text, machine, line_bytes=stream_py_bytes, rel_tol=0.005, rows=False)
+    f_star = found.feed_mm_min
+    assert found.limited_by == "link", f"{name}: the link never limits this job (F* = {f_star:.0f})"
+    report = [f"{name}: predicted stall-free feed {f_star:.1f} mm/min"]
+    for factor, must_stall in ((0.95, False), (1.05, True), (1.4, True)):
+        feed = min(f_star * factor, float(machine.max_rate_mm_min[0]))
+        job = with_feed(text, feed)
+        simulated, seconds = stream_paced(sim, job, machine, tmp_path)
+        predicted = predict_stalls(job, machine, line_bytes=stream_py_bytes(job)).stalls
+        shadows, missed = poll_shadows(simulated, predicted, baud, seconds)
+        assert not missed, f"{name} at {feed:.0f} mm/min: simulated starvations not predicted: {missed[:5]}"
+        real = [s for s in simulated if s not in shadows]
+        if must_stall:
+            assert real, f"{name}: no starvation simulated at {feed:.0f} mm/min ({factor} F*)"
+        else:
+            assert not real, f"{name}: starvations simulated at {feed:.0f} mm/min ({factor} F*): {real[:5]}"
+        report.append(f"  {factor:.2f} F*: simulated {len(simulated)} ({len(shadows)} behind a '?'), "
+                      f"predicted {len(predicted)} ({sum(s.duration_s for s in simulated):.4f} s vs "
+                      f"{sum(s.duration_s for s in predicted):.4f} s standing)")
+    with capsys.disabled():
+        print("\n" + "\n".join(report))

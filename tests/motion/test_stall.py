@@ -1,0 +1,200 @@
+"""The stall predictor (labkit.motion.stall) against hand-worked streams, and the link fields.
+
+The paced firmware simulator checks the predictor on real jobs (tests/firmware/test_paced_link.py);
+here every figure is worked by hand from the link's byte time, GRBL's character counting and
+the blocks' cruise times.
+"""
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from labkit.cli import main
+from labkit.errors import MotionError
+from labkit.motion import CBR40, load_machine
+from labkit.motion.stall import (predict_stalls, program_feeds, read_starvation_log, sent_line_bytes,
+                                 stall_free_feed, with_feed)
+
+ROOT = Path(__file__).resolve().parents[2]
+#: 0.1 mm cuts along X at 600 mm/min: 10 ms each at cruise (the look-ahead sees more of them).
+SHORT_CUTS = ["G21G90", "G1X1F600"] + [f"X{1 + 0.1 * k:.2f}" for k in range(1, 60)]
+
+
+def _job(lines):
+    return "\n".join(lines) + "\n"
+
+
+def _c_define(path: str, name: str) -> int:
+    text = (ROOT / path).read_text()
+    return int(re.search(rf"#define {name}\s+(\d+)", text).group(1))
+
+
+def test_the_labkit_firmware_description_holds_the_firmwares_sizes():
+    assert CBR40.planner_blocks == _c_define("firmware/src/config.h", "PLAN_BUFFER_SIZE")
+    assert CBR40.rx_buffer_bytes == _c_define("firmware/src/serial.h", "SERIAL_RX_SIZE")
+    assert CBR40.buffer_blocks == _c_define("firmware/src/defaults.h", "DEFAULT_BUFFER_BLOCKS")
+    assert CBR40.waits_for_lookahead
+    grbl = load_machine("grbl-diode")
+    assert (grbl.rx_buffer_bytes, grbl.planner_blocks, grbl.waits_for_lookahead) == (128, 15, False)
+    assert grbl.link_bytes_per_s == 11_520.0                       # 115200 8N1
+
+
+@pytest.mark.parametrize("field,value,message", [
+    ("link_baud", 0, "link_baud must be >= 1 baud"),
+    ("link_bits_per_byte", 20, "link_bits_per_byte must be 7…12 bits"),
+    ("rx_buffer_bytes", 64, "rx_buffer_bytes must be >= 82 bytes"),
+    ("planner_blocks", 0, "planner_blocks must be >= 1 block"),
+    ("block_parse_s", -1e-3, "block_parse_s must be >= 0 s"),
+    ("block_parse_s", float("nan"), "block_parse_s must be >= 0 s"),
+    ("link_baud", 9600.5, "link_baud must be an integer"),
+    ("waits_for_lookahead", "yes", "waits_for_lookahead must be true or false"),
+])
+def test_bad_link_fields_are_refused(field, value, message):
+    with pytest.raises(MotionError, match=message):
+        CBR40.replace(**{field: value})
+
+
+#: Relative 0.1 mm cuts along X at 600 mm/min: line 1 is 16 bytes, every further line 'X.1'
+#: 4 bytes (33.3 ms at 1200 baud); a cut takes 10 ms at cruise (the first one 20 ms: it
+#: reaches 10 mm/s at its end at 500 mm/s²). A cut is 213 or 214 steps (0.1 mm at 2133.3
+#: steps/mm, rounded where it ends): its time is within one step, 47 µs, of 10 ms.
+STEP_S = 1 / (10 * 6400 / 3)
+RELATIVE_CUTS = ["G21G91G1X.1F600"] + ["X.1"] * 200
+
+
+def test_grbl_starves_by_wire_time_less_block_time():
+    """GRBL runs a block as soon as it is in the planner. Each line after the first arrives
+    33.3 ms after the one before, and is parsed 1 ms later; its block needs 10 ms: from line
+    3 on the motors stand 23.3 ms before every block, each block starting as its line is
+    parsed. Line 2 waits less (the first cut took 20 ms)."""
+    m = CBR40.replace(link_baud=1200, waits_for_lookahead=False, block_parse_s=0.001)
+    p = predict_stalls(_job(RELATIVE_CUTS), m)
+    tau = 10 / 1200
+    np.testing.assert_allclose(p.arrived_s, np.cumsum([len(x) + 1 for x in RELATIVE_CUTS]) * tau)
+    np.testing.assert_allclose(p.parsed_s, p.arrived_s + 0.001)
+    assert [s.line for s in p.stalls] == list(range(2, 202))
+    assert p.stalls[0].duration_s == pytest.approx(16 * tau + 4 * tau + 0.001 - (16 * tau + 0.001 + 0.020),
+                                                   abs=2e-3)
+    for s in p.stalls[1:]:
+        assert s.duration_s == pytest.approx(4 * tau - 0.010, abs=STEP_S)
+    np.testing.assert_allclose(p.block_start_s[1:], p.parsed_s[1:])
+
+
+def test_the_labkit_firmware_waits_for_its_window():
+    """With a look-ahead of 16 blocks, block k starts when the line of block k + 16 is in:
+    the first cut when line 17 has arrived; then each block waits 33.3 - 10 ms for the line
+    16 further on. The last 16 blocks wait for the quiet-input flush (no line left: no
+    starvation)."""
+    m = CBR40.replace(link_baud=1200, block_parse_s=0.0)
+    p = predict_stalls(_job(RELATIVE_CUTS), m)
+    assert p.block_start_s[0] == pytest.approx(p.parsed_s[16])
+    lines = [s.line for s in p.stalls]
+    assert lines == list(range(lines[0], 186)) and lines[0] <= 3
+    for s in p.stalls[1:]:
+        assert s.duration_s == pytest.approx(4 * 10 / 1200 - 0.010, abs=STEP_S)
+    # the same cuts in absolute coordinates: the simulator's closed-form case
+    assert [s.line for s in predict_stalls(_job(SHORT_CUTS), m).stalls] == list(range(5, 46))
+
+
+def test_character_counting_and_fill_level():
+    """A fast link and slow moves: the sender keeps fewer than 127 characters in flight, the
+    planner fills to its 36 blocks and a line waits for a free slot (no starvation)."""
+    lines = ["G21G90"] + [f"G1X{k % 2 * 10}Y{k * 0.5:.1f}F600" for k in range(1, 80)]
+    p = predict_stalls(_job(lines), CBR40)
+    assert not p.stalls
+    assert p.fill.max() == CBR40.planner_blocks
+    n = p.bytes
+    for i in range(len(n)):                                         # in flight when line i went out
+        answered_before = p.parsed_s <= p.sent_s[i]
+        in_flight = n[: i + 1][~answered_before[: i + 1]].sum()
+        assert in_flight < 127, (i, in_flight)
+    # the first lines go out at once: 7 + 14 + 14 + … bytes until the next would reach 127
+    first = np.flatnonzero(p.sent_s == 0.0)
+    assert n[first].sum() < 127 <= n[: len(first) + 1].sum()
+
+
+def test_a_fast_link_never_starves():
+    assert not predict_stalls(_job(SHORT_CUTS), CBR40).stalls      # 115200 baud: 0.5 ms a line
+
+
+def test_stall_free_feed_brackets_the_first_stall():
+    """By hand: a 4-byte line takes 33.3 ms at 1200 baud and a 0.1 mm cut takes as long at
+    0.1 mm / 33.3 ms = 180 mm/min; the first cut's ramp gives a few ms of slack, spent
+    within a few of the 200 cuts above that feed."""
+    m = CBR40.replace(link_baud=1200)
+    text = _job(RELATIVE_CUTS)
+    found = stall_free_feed(text, m, rel_tol=0.001)
+    assert found.limited_by == "link" and found.programmed_mm_min == 600
+    assert not predict_stalls(with_feed(text, found.feed_mm_min), m).stalls
+    assert predict_stalls(with_feed(text, found.feed_mm_min * 1.002), m).stalls
+    assert found.feed_mm_min == pytest.approx(180, rel=0.005)    # cuts of 213 or 214 steps
+    assert len(found.stalls) == len(predict_stalls(text, m).stalls) > 150
+    assert stall_free_feed(text, CBR40).limited_by == "machine"
+
+
+def test_a_raster_jobs_rows_get_their_own_feed(tmp_path):
+    from PIL import Image
+
+    img = np.full((6, 100), 255, np.uint8)
+    img[1, :] = np.arange(100) * 2                                  # a busy row: S changes every pixel
+    img[4, 5:95] = 0                                                # a calm row: one cut
+    Image.fromarray(img).save(tmp_path / "rows.png", dpi=(254, 254))
+    out = tmp_path / "rows.gcode"
+    assert main(["img2gcode", str(tmp_path / "rows.png"), "-o", str(out), "--mode", "gray",
+                 "--beam", "0.1", "--width", "10", "--preview", "none", "--feed", "1500"]) == 0
+    found = stall_free_feed(out.read_text(), CBR40.replace(link_baud=2400))
+    assert found.limited_by == "link"
+    busy = [r for r in found.rows if r["bytes"] > 150]
+    calm = [r for r in found.rows if r["bytes"] <= 150]
+    assert busy and calm
+    assert max(r["feed_mm_min"] for r in busy) < min(r["feed_mm_min"] for r in calm)
+    assert min(r["feed_mm_min"] for r in found.rows) == pytest.approx(found.feed_mm_min)
+
+
+def test_helpers_and_their_errors(tmp_path):
+    assert program_feeds("G1 X1 (F9) F100\nX2 ; F7\n") == [100.0]
+    assert with_feed("G1X1F100\nX2\n", 250) == "G1X1F250\nX2\n"
+    with pytest.raises(MotionError, match="no F word"):
+        with_feed("G0 X1\n", 100)
+    with pytest.raises(MotionError, match="no F word"):
+        stall_free_feed("G0 X1\n", CBR40)
+    with pytest.raises(MotionError, match="line 2: 130 bytes"):
+        predict_stalls("G21\nG1X1F100\n", CBR40, line_bytes=[4, 130])
+    with pytest.raises(MotionError, match="gives 1 counts for 2 lines"):
+        predict_stalls("G21\nG1X1F100\n", CBR40, line_bytes=[4])
+    with pytest.raises(MotionError, match="line 2 makes a block but sends nothing"):
+        predict_stalls("G21\nG1X1F100\n", CBR40, line_bytes=[4, 0])
+    assert sent_line_bytes("(only a comment)\n  G1 X1\n").tolist() == [0, 5]
+    log = tmp_path / "s.csv"
+    log.write_text("time_s,line,duration_s\n0.5,12,0.004\n")
+    assert [(s.line, s.duration_s) for s in read_starvation_log(log)] == [(12, 0.004)]
+    log.write_text("t,l,d\n")
+    with pytest.raises(MotionError, match="line 1: expected the header"):
+        read_starvation_log(log)
+    log.write_text("time_s,line,duration_s\n0.5,x,1\n")
+    with pytest.raises(MotionError, match="line 2: expected time_s,line,duration_s"):
+        read_starvation_log(log)
+
+
+def test_labkit_plan_prints_and_writes_the_stall_prediction(tmp_path, capsys):
+    job = tmp_path / "cuts.gcode"
+    job.write_text(_job(SHORT_CUTS))
+    assert main(["plan", str(job), "--baud", "1200", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["link_baud"] == 1200
+    assert [s["line"] for s in out["stalls"]] == list(range(5, 46))
+    # above 6 bytes / 50 ms per 0.1 mm (120 mm/min): the first, 1 mm cut gives slack
+    assert 120 <= out["stall_free_feed_mm_min"] <= 160
+    assert out["stall_free_limited_by"] == "link"
+    fill = tmp_path / "fill.csv"
+    assert main(["plan", str(job), "--baud", "1200", "--fill", str(fill)]) == 0
+    text = capsys.readouterr().out
+    assert "stalls                      41, standing" in text and "stall-free feed" in text
+    rows = fill.read_text().splitlines()
+    assert rows[0] == "line,bytes,sent_s,arrived_s,parsed_s,fill_blocks" and len(rows) == 62
+    assert main(["plan", str(job), "--json", "--no-link"]) == 0
+    assert "stalls" not in json.loads(capsys.readouterr().out)
