@@ -20,11 +20,16 @@ stream, beside the job with the start time in its name. Its format (version 1)::
                   "travel_length_mm": …, "moves": …, "bounds_mm": [[x, y, z], [x, y, z]]},
       "layers": […],                      # labkit job only: each layer's settings and where they came from
       "placement": {"start_from": "current", "offset_mm": [0, 0], "how": "…G92 X0 Y0…"},  # labkit job only
-      "stream": null | {"started": …, "ended": …, "ok": true, "lines_total": …,
+      "stream": null | {"started": …, "ended": …, "ok": true, "lines_total": …,   # GRBL, firmware or Dobot
                         "lines_acknowledged": …, "elapsed_s": …, "planned_s": …, "fault": null,
                         "errors": [[line, code, message], …], "resume_line": null,
                         "resumed_from": null, "safe_stop": […], "warnings": […], "summary": "…"}
     }
+
+A Dobot stream's record is the same; its ``machine`` is the arm's (name ``dobot-magician``: canvas
+origin, drawing plane, reach, laser PWM), ``planned_s`` and ``estimated_time_s`` are null (the arm
+moves at the speeds set on it), lines count the source lines that make commands, and ``safe_stop``
+lists each stop command with what became of it.
 
 Paths are stored as given on the command line; hashes let :func:`diff_records` tell a changed
 input from a renamed one. Records are written through :func:`labkit._files.atomic_output`.
@@ -40,7 +45,7 @@ from pathlib import Path
 
 from labkit.errors import InputError
 
-__all__ = ["FORMAT", "VERSION", "file_entry", "program_record", "stream_record", "write_record",
+__all__ = ["FORMAT", "VERSION", "file_entry", "program_record", "stream_record", "stream_document", "write_record",
            "read_record", "diff_records", "format_record", "default_record_path", "add_record_option",
            "record_program", "stream_record_target", "utc_now"]
 
@@ -150,8 +155,24 @@ def stream_record(args, report, *, started: str, ended: str, machine_name: str, 
     command : list of str
         The command line that runs the job again.
     """
-    from labkit import __version__
     from labkit.motion.machine import load_machine
+
+    stream = dict(started=started, ended=ended, ok=bool(report.ok), lines_total=report.lines_total,
+                  lines_acknowledged=report.lines_acknowledged, elapsed_s=float(report.elapsed_s),
+                  planned_s=float(report.planned_s), fault=report.fault,
+                  errors=_plain(report.errors), resume_line=report.resume_line,
+                  resumed_from=getattr(args, "resume_from", None), safe_stop=_plain(report.safe_actions),
+                  warnings=_plain(report.warnings), summary=report.summary(command=command))
+    return stream_document(args, stream, load_machine(machine_name).to_dict())
+
+
+def stream_document(args, stream: dict, machine: dict) -> dict:
+    """A stream's record from its outcome (the ``stream`` table) and the machine's description.
+
+    :func:`stream_record` makes ``stream`` from a GRBL job's report, :meth:`labkit.machine.dobot.
+    DobotJob.outcome` from the arm's run; the rest of the record is the same for both.
+    """
+    from labkit import __version__
 
     options = {k: _plain(v) for k, v in sorted(vars(args).items()) if k not in ("traceback",)}
     # the program's own record, when it was written with one, ties the burn to its making
@@ -159,16 +180,11 @@ def stream_record(args, report, *, started: str, ended: str, machine_name: str, 
     inputs = [file_entry(args.file, "program")]
     if made_by.is_file():
         inputs.append(file_entry(made_by, "program record"))
-    stream = dict(started=started, ended=ended, ok=bool(report.ok), lines_total=report.lines_total,
-                  lines_acknowledged=report.lines_acknowledged, elapsed_s=float(report.elapsed_s),
-                  planned_s=float(report.planned_s), fault=report.fault,
-                  errors=_plain(report.errors), resume_line=report.resume_line,
-                  resumed_from=getattr(args, "resume_from", None), safe_stop=_plain(report.safe_actions),
-                  warnings=_plain(report.warnings), summary=report.summary(command=command))
-    return dict(format=FORMAT, version=VERSION, kind="stream", created=ended, labkit=__version__,
-                command="stream", options=options, inputs=inputs, outputs=[],
-                machine=_plain(load_machine(machine_name).to_dict()), material=None,
-                planned=dict(estimated_time_s=float(report.planned_s)), stream=stream)
+    planned = stream.get("planned_s")
+    return dict(format=FORMAT, version=VERSION, kind="stream", created=stream["ended"], labkit=__version__,
+                command="stream", options=options, inputs=inputs, outputs=[], machine=_plain(machine),
+                material=None, planned=dict(estimated_time_s=None if planned is None else float(planned)),
+                stream=_plain(stream))
 
 
 def write_record(record: dict, path) -> Path:
@@ -282,7 +298,7 @@ def format_record(rec: dict) -> str:
         lines.append(f"  placed  {place['start_from']}: {place['how']}"
                      + (", offset {:g}, {:g} mm".format(*place["offset_mm"]) if any(place["offset_mm"]) else ""))
     p = rec.get("planned") or {}
-    if "estimated_time_s" in p:
+    if p.get("estimated_time_s") is not None:
         lines.append(f"  planned {p['estimated_time_s']:.1f} s"
                      + (f", laser on {p['laser_on_time_s']:.1f} s, cut {p['cut_length_mm']:.1f} mm"
                         if "laser_on_time_s" in p else ""))
@@ -295,6 +311,9 @@ def format_record(rec: dict) -> str:
             lines.append(f"          fault: {s['fault']}; resume line {s.get('resume_line')}")
         for ln, code, msg in s.get("errors", []):
             lines.append(f"          line {ln}: error:{code}: {msg}")
+        if m.get("name") == "dobot-magician":          # the arm's stop: each command and its fate
+            for what, state in s.get("safe_stop") or []:
+                lines.append(f"          stop: {what} {state}")
     opts = rec.get("options") or {}
     shown = ", ".join(f"{k}={v}" for k, v in opts.items() if v not in (None, False, [], ""))
     lines.append(f"  options {shown}")

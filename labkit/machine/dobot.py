@@ -840,10 +840,40 @@ class DobotJob:
     def __init__(self, moves, *, s_max: float | None = None, from_line: int | None = None,
                  origin=ORIGIN_MM, z_mm: float = 0.0):
         self.moves = moves
+        self.from_line = from_line
+        self.origin, self.z_mm = tuple(float(v) for v in origin), float(z_mm)
         self.commands = job_commands(moves, origin=origin, z_mm=z_mm, s_max=s_max, from_line=from_line)
         self.last_index: int | None = None
         self.last_stop: StopReport | None = None
         self.elapsed_s: float | None = None
+
+    def machine_description(self) -> dict:
+        """The arm as a record names it (it has no machine description file: no planner runs)."""
+        return dict(name="dobot-magician", description="Dobot Magician arm with its laser, driven by "
+                    "queued commands over its serial protocol ([DobotLaser])", origin_mm=list(self.origin),
+                    z_mm=self.z_mm, reach_mm=list(REACH_MM), laser_pwm_address=LASER_PWM_ADDRESS,
+                    laser_pwm_hz=LASER_PWM_HZ)
+
+    def outcome(self, *, started: str, ended: str, fault: str | None = None, warnings=(),
+                summary: str = "") -> dict:
+        """The last :meth:`run` in the terms of a stream record (:mod:`labkit.record`'s ``stream``).
+
+        Lines count the source lines that make commands (not the closing laser-off labkit adds);
+        one is acknowledged when the arm reported its last command executed. ``planned_s`` is None:
+        the arm moves at the speeds set on it.
+        """
+        lines = sorted({line for _, _, line in self.commands if line > 0})
+        stop = self.last_stop
+        if fault is None:
+            done = len(lines)
+        else:
+            executed = stop.executed_line if stop is not None else None
+            done = 0 if executed is None else sum(1 for line in lines if line <= executed)
+        safe = ([[step.what, step.state(stop.timeout_s)] for step in stop.steps] if stop is not None else [])
+        return dict(started=started, ended=ended, ok=fault is None, lines_total=len(lines), lines_acknowledged=done,
+                    elapsed_s=float(self.elapsed_s or 0.0), planned_s=None, fault=fault, errors=[],
+                    resume_line=stop.resume_line if stop is not None and fault is not None else None,
+                    resumed_from=self.from_line, safe_stop=safe, warnings=list(warnings), summary=summary)
 
     def feed_range_mm_min(self) -> tuple[float, float] | None:
         """The job's lowest and highest feed, mm/min (None without feed moves): the arm does

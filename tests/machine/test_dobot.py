@@ -1,6 +1,7 @@
 """Dobot Magician protocol (seed 003) against the emulator and hand-worked frames."""
 
 import struct
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -130,11 +131,12 @@ def test_cli_dobot_on_the_emulator(tmp_path, capsys):
     p = tmp_path / "draw.gcode"
     p.write_text("G0 X0 Y0\nM3 S500\nG1 X20 Y0 F600\nG2 X20 Y20 I0 J10\nM5\n")
     assert main(["stream", str(p), "--protocol", "dobot"]) == 0
-    note, done = capsys.readouterr().out.splitlines()
+    note, done, record = capsys.readouterr().out.splitlines()
     assert note == ("note: F is not sent to the Dobot: the arm draws at the speed set on it (its "
                     "PTP and ARC parameters), not at the job's F600 mm/min")
     # laser off + rapid, PWM + laser on + line, the arc, the closing laser off
     assert done.startswith("completed: 7 commands queued and executed (last queue index 6)")
+    assert record.startswith("record: ") and Path(record[8:]).is_file()      # on by default, as for GRBL
 
 
 # -- issue 25 §5: what the arm would not draw as written is refused, naming the line ------------
@@ -337,7 +339,8 @@ def test_cli_names_the_resume_command_and_it_finishes_the_job(tmp_path, capsys, 
     monkeypatch.setattr(dobot.Dobot, "run", lambda self, c, _run=dobot.Dobot.run:
                         _run(self, c, ahead=4, stall_s=0.3))
     assert main(["stream", str(p), "--protocol", "dobot", "--s-max", "255"]) == 1
-    last = capsys.readouterr().out.splitlines()[-1]
+    *_, last, record = capsys.readouterr().out.splitlines()
+    assert record.startswith("record: ")                      # the stream's record, written last
     assert last == ("to go on from there (the laser off, a joint move to where that line starts): "
                     f"labkit stream {p} --protocol dobot --s-max 255 --resume-from 11")
     arms = []
@@ -388,3 +391,88 @@ def test_dobot_job_runs_from_plain_values_and_keeps_what_happened():
     assert job.last_stop.laser_off_confirmed and job.last_stop.resume_line is not None
     resumed = DobotJob(parse(text + "M5\n", dialect="labkit-fw"), from_line=job.last_stop.resume_line)
     assert resumed.run(None) == len(resumed.commands) - 1
+
+
+# -- issue 31 §3: a Dobot stream writes the same record as labkit stream does for GRBL ----------
+
+DRAW = "G0 X0 Y0\nM3 S500\nG1 X20 Y0 F600\nG2 X20 Y20 I0 J10\nM5\n"
+
+
+def test_a_completed_dobot_stream_writes_its_record(tmp_path, capsys):
+    import hashlib
+    import json
+
+    from labkit.cli import main
+
+    p = tmp_path / "draw.gcode"
+    p.write_text(DRAW)
+    assert main(["stream", str(p), "--protocol", "dobot", "--record", str(tmp_path / "arm.json")]) == 0
+    rec = json.loads((tmp_path / "arm.json").read_text())
+    assert (rec["format"], rec["version"], rec["kind"], rec["command"]) == ("labkit-record", 1, "stream", "stream")
+    assert rec["inputs"] == [dict(role="program", path=str(p), sha256=hashlib.sha256(DRAW.encode()).hexdigest(),
+                                  bytes=len(DRAW))]
+    assert rec["machine"]["name"] == "dobot-magician" and rec["machine"]["origin_mm"] == [300.0, 100.0]
+    s = rec["stream"]
+    # lines 1 (G0), 3 (G1) and 4 (G2) make commands; M3 rides with line 3, M5's laser-off is labkit's own
+    assert s["ok"] is True and s["lines_total"] == 3 and s["lines_acknowledged"] == 3
+    assert s["fault"] is None and s["safe_stop"] == [] and s["planned_s"] is None
+    assert s["warnings"] == ["F is not sent to the Dobot: the arm draws at the speed set on it (its PTP and ARC "
+                             "parameters), not at the job's F600 mm/min"]
+    assert s["summary"].startswith("completed: 7 commands")
+    assert rec["planned"] == {"estimated_time_s": None}
+    capsys.readouterr()
+    assert main(["record", "show", str(tmp_path / "arm.json")]) == 0
+    shown = capsys.readouterr().out
+    assert "machine dobot-magician" in shown and ": ok, 3/3 lines in" in shown
+
+
+def test_the_record_of_a_grbl_stream_and_of_a_dobot_stream_differ_only_where_they_should(tmp_path, capsys):
+    import json
+
+    from labkit.cli import main
+
+    p = tmp_path / "draw.gcode"
+    p.write_text(DRAW)
+    assert main(["stream", str(p), "--record", str(tmp_path / "grbl.json")]) == 0
+    assert main(["stream", str(p), "--protocol", "dobot", "--record", str(tmp_path / "arm.json")]) == 0
+    a, b = (json.loads((tmp_path / f).read_text()) for f in ("grbl.json", "arm.json"))
+    assert set(a) == set(b) and set(a["stream"]) == set(b["stream"])        # one format for both
+    assert a["inputs"] == b["inputs"]
+    capsys.readouterr()
+    assert main(["record", "diff", str(tmp_path / "grbl.json"), str(tmp_path / "arm.json")]) == 1
+    rows = capsys.readouterr().out
+    assert "machine.name" in rows and "options.protocol" in rows and "inputs" not in rows
+
+
+def test_a_stopped_dobot_stream_records_the_fault_and_each_stop_command(tmp_path, capsys, monkeypatch):
+    import json
+
+    from labkit.cli import main
+    from labkit.machine import dobot
+
+    monkeypatch.setattr(dobot, "DobotEmulator", lambda: _Liar(ahead_by=50))
+    p = tmp_path / "draw.gcode"
+    p.write_text("G0 X0 Y20\nM3 S200\nG1 X20 F600\nG1 Y40\nM5\n")
+    (tmp_path / "draw.gcode.record.json").write_text("{}")   # the program's own record is named as an input
+    assert main(["stream", str(p), "--protocol", "dobot", "--record", str(tmp_path / "arm.json")]) == 1
+    rec = json.loads((tmp_path / "arm.json").read_text())
+    s = rec["stream"]
+    assert s["ok"] is False and s["fault"].startswith("protocol error: the Dobot reports queue index")
+    assert [what for what, _ in s["safe_stop"]] == ["force-stop", "laser off", "PWM 0 %", "queue clear"]
+    assert all(state == "confirmed" for _, state in s["safe_stop"])
+    assert s["summary"].splitlines()[0] == "STOPPED: " + s["fault"]
+    assert s["lines_acknowledged"] < s["lines_total"] == 3
+    assert [i["role"] for i in rec["inputs"]] == ["program", "program record"]
+    capsys.readouterr()
+    assert main(["record", "show", str(tmp_path / "arm.json")]) == 0
+    assert "stop: laser off confirmed" in capsys.readouterr().out
+
+
+def test_no_record_writes_none(tmp_path, capsys):
+    from labkit.cli import main
+
+    p = tmp_path / "draw.gcode"
+    p.write_text(DRAW)
+    assert main(["stream", str(p), "--protocol", "dobot", "--no-record"]) == 0
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["draw.gcode"]
+    assert "record:" not in capsys.readouterr().out

@@ -228,9 +228,10 @@ def test_lost_link_says_the_controller_was_not_told_to_stop(job_file, capsys):
     assert "acknowledged" not in out and "switched off" not in out
     assert FORCE_STOP not in fake.raw and LASER_OFF not in fake.raw
     resume = re.search(rf"labkit stream {job_file} --protocol dobot --port {fake.path} "
-                       rf"--resume-from (\d+)$", out)
+                       rf"--resume-from (\d+)$", out, re.M)
     # the 30 commands queued before the hang-up draw lines 2-30; the next one is line 31's
     assert resume and 2 <= int(resume[1]) <= 31
+    assert out.splitlines()[-1].startswith("record: ")       # the stream's record, even after a lost link
 
 
 def burning_job():
