@@ -24,6 +24,15 @@ alternately in the same minutes on the loaded 2-core machine, from 4.2 s CPU and
 with numpy and Pillow instead of matplotlib (whose import and 2.8-megapixel image were the
 peak), the summary and the G-code text made in blocks of rows instead of full-length
 temporaries. What remains is the Moves (123 B a move), scikit-image's resampling and numba.
+A third round (issue 27 with issue 30's compact text; ``--before`` at 6ab2a74, alternately in one
+run at load 8–12): without the preview 2.43 s CPU and 530 MB before, 1.99 s and 341 MB after
+(with it 2.67 s / 548 MB → 2.70 s / 412 MB; the preview's own cost is issue 29's): a move now
+holds 29 B instead of 87 (start and end are views of one array of points; feed, laser mode,
+arc centre and plane, one value for the whole job, are views of that value), the writer checks
+whole columns by their min and max instead of a second of temporaries, scikit-image is no
+longer imported (its resize is two scipy calls), and the text is a fifth smaller. Left: numba
+(imported for the scan and the writer: ~70 MB and 0.5 s of loading), scipy.ndimage (~30 MB,
+0.2 s), the job summary (0.15 s) and the preview.
 
 Run: .venv/bin/python benchmarks/bench_raster_gray.py   (about a minute; 2 cores)
      .venv/bin/python benchmarks/bench_raster_gray.py --before DIR   (also the command of another
@@ -39,6 +48,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+import numpy as np
 
 from _process import ROOT
 
@@ -132,10 +143,16 @@ def bench_command(before=None):
 
 
 def _held_bytes(moves) -> int:
-    """Bytes the Moves' columns hold (a column that is one value for every row, a view with
-    stride 0, holds none)."""
-    columns = (getattr(moves, name) for name in moves.column_names())
-    return sum(c.nbytes for c in columns if 0 not in c.strides)
+    """Bytes allocated for the Moves' columns: each underlying array once (start and end of a
+    gray job are views of one array; a column of one value is a view of that value). Columns
+    of zeros nobody writes are counted though the system gives them no memory until written."""
+    roots = {}
+    for name in moves.column_names():
+        root = getattr(moves, name)
+        while root.base is not None and isinstance(root.base, np.ndarray):
+            root = root.base
+        roots[id(root)] = root.nbytes
+    return sum(roots.values())
 
 
 def bench_stages():
@@ -167,7 +184,7 @@ def bench_stages():
         write_job_preview(j, Path(tmp) / "p.png")
         times["preview"] = time.perf_counter() - t
     print(f"2. stages in one process (warm): {len(j.moves):,} moves, "
-          f"{_held_bytes(j.moves) / len(j.moves):.0f} B per move held, {len(text) / 1e6:.1f} MB of text")
+          f"{_held_bytes(j.moves) / len(j.moves):.0f} B per move allocated, {len(text) / 1e6:.1f} MB of text")
     print("   " + "   ".join(f"{k} {v:5.2f} s" for k, v in times.items()))
 
 
