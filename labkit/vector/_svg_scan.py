@@ -243,7 +243,7 @@ def render_only(data: bytes) -> tuple[bytes, list[str]]:
     -------
     (bytes, list of str)
         The rewritten document and the labels of what is not drawn: removed text frames
-        (``flowRoot#id``) and text on a path (``textPath in text#id``).
+        (``flowRoot#id``) and text on a path (``text#id (on a path)``).
 
     Examples
     --------
@@ -294,7 +294,7 @@ def render_only(data: bytes) -> tuple[bytes, list[str]]:
     texts = [el for el in root.iter() if isinstance(el.tag, str) and _local(el.tag) == "text"]
     for k, text in enumerate(texts):                   # document order, symbols' and masks' too
         if mark_runs(text, k):
-            dropped.append(f"textPath in text#{text.get('id')}" if text.get("id") else "textPath")
+            dropped.append(f"text#{text.get('id')} (on a path)" if text.get("id") else "text (on a path)")
     return ET.tostring(root, encoding="unicode").encode("utf-8"), dropped
 
 

@@ -152,9 +152,9 @@ def test_a_missing_font_is_named_and_nothing_is_written(tmp_path, capsys):
 def test_text_on_a_path_is_named_not_dropped_silently():
     doc = _text('<path id="p" d="M10 30 H90" stroke="#000" fill="none"/>'
                 '<text id="tp"><textPath href="#p">along</textPath></text>')
-    with pytest.warns(UserWarning, match=r"not cut: .*textPath in text#tp"):
+    with pytest.warns(UserWarning, match=r"not cut: .*text#tp \(on a path\)"):
         d = read_svg(doc)
-    assert d.skipped == ["textPath in text#tp"]
+    assert d.skipped == ["text#tp (on a path)"]
 
 
 def test_svg2gcode_cuts_and_fills_text(tmp_path, capsys):
