@@ -28,6 +28,23 @@ says solid (so a uniformly pale burn is found only when the solid darkness is gi
    area, the area difference per millimetre of burning path (a line's width change), and the mean
    darkness over the predicted burn, predicted and scanned.
 
+``labkit burncheck compare -o REPORT.json`` writes the numbers in this format (version 1)::
+
+    {
+      "format": "labkit-burncheck",       # exactly this
+      "version": 1,                       # a later version changes these keys
+      "program": "label.gcode", "scan": "scan.png", "dpi": 600.0,
+      "model": "dose model w0 … mm, F_th … mJ/mm² (fit fit.json)", "tolerance": 0.15,
+      "shift_mm": [x, y], "in_scan": true, "pixel_mm": 0.0423,   # where the prediction lies in the scan
+      "predicted_mm2": …, "scanned_mm2": …, "solid_darkness": 0.63, "solid_darkness_given": false,
+      "layers": [{"power_s": 300.0, "length_mm": …, "predicted_mm2": …, "scanned_mm2": …,
+                  "missing_mm2": …, "extra_mm2": …, "width_change_mm": …, "predicted_darkness": …,
+                  "scanned_darkness": …, "shift_mm": [x, y]}, …],
+      "part": {… the same keys, power_s null, shift_mm [0, 0] …},
+      "defects": [{"kind": "missing" | "extra" | "light" | "dark", "area_mm2": …,
+                   "bbox_mm": [x0, y0, x1, y1], "layer_s": 300.0 | null, "darkness": …}, …]
+    }
+
 Not handled: a scan turned on the scanner (a turn of 0.1° moves the far end of a 50 mm part by
 0.09 mm: square the piece, or register it with :mod:`labkit.laser.measure` first), a scan whose
 scale is not its stated dpi, and materials whose darkness is not proportional to the burned share
@@ -42,8 +59,12 @@ import numpy as np
 
 from labkit.errors import InputError
 
-__all__ = ["BurnDefect", "LayerCheck", "BurnCheck", "predict_burn", "predicted_scan", "scan_darkness",
-           "check_burn", "check_scan", "overlay"]
+__all__ = ["FORMAT", "VERSION", "BurnDefect", "LayerCheck", "BurnCheck", "predict_burn", "predicted_scan",
+           "scan_darkness", "check_burn", "check_scan", "overlay"]
+
+#: The report's format and version (``labkit burncheck compare -o``).
+FORMAT = "labkit-burncheck"
+VERSION = 1
 
 _MM_PER_INCH = 25.4
 # Burn.scan draws paper at 0.9 and a solid burn at 0.1: the predicted scan's darkness is read back

@@ -133,7 +133,9 @@ def run_burncheck(args) -> int:
     if args.output:
         from labkit._files import atomic_output
 
-        doc = {"format": "labkit-burncheck", "version": 1, "program": args.program, "scan": args.scan,
+        from labkit.burncheck import FORMAT, VERSION
+
+        doc = {"format": FORMAT, "version": VERSION, "program": args.program, "scan": args.scan,
                "dpi": dpi, "model": model, "tolerance": args.tolerance} | res.to_dict()
         with atomic_output(args.output, encoding="utf-8") as fh:
             json.dump(doc, fh, indent=1)
