@@ -32,7 +32,7 @@ sys.path.insert(0, str(HERE.parents[1]))
 from labkit.machine.grbl import Grbl  # noqa: E402
 from labkit.machine.link import open_link  # noqa: E402
 from labkit.machine.stream import Job, run_job  # noqa: E402
-from sim_stream import STEPS_PER_MM, end_state_failures  # noqa: E402  (this folder, beside it)
+from sim_stream import STEPS_PER_MM, end_state_failures, verdict  # noqa: E402  (this folder, beside it)
 
 JOB = """G21 G90
 G0 X5 Y5
@@ -121,11 +121,7 @@ def main(argv):
         failures.append("trace: laser on at the last tick (or no trace)")
     if burning == 0:
         failures.append("trace: the laser never burned")
-    if failures:
-        print("FAILED:\n  " + "\n  ".join(failures))
-        return 1
-    print("qemu_job: PASS")
-    return 0
+    return verdict(failures, "qemu_job: PASS")
 
 
 if __name__ == "__main__":

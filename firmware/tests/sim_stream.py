@@ -56,6 +56,16 @@ def start_sim(sim: str, dialect: str = "grbl", realtime: bool = False, extra_arg
     return proc, line.split("pty ", 1)[1].strip()
 
 
+def verdict(failures: list[str], passed: str) -> int:
+    """The end of a check (here, sim_trace.py, qemu_job.py): the failures and exit status 1, or
+    ``passed`` and 0."""
+    if failures:
+        print("FAILED:\n  " + "\n  ".join(failures))
+        return 1
+    print(passed)
+    return 0
+
+
 def end_state_failures(g, job) -> list[str]:
     """After a job (here and tests/qemu_job.py): what is wrong with where and how the machine ended.
 
@@ -126,11 +136,7 @@ def main(argv):
             proc.kill()
             _, err = proc.communicate()
         print(err.strip())
-    if failures:
-        print("FAILED:\n  " + "\n  ".join(failures))
-        return 1
-    print(f"sim_stream ({dialect}): PASS")
-    return 0
+    return verdict(failures, f"sim_stream ({dialect}): PASS")
 
 
 if __name__ == "__main__":

@@ -22,6 +22,8 @@ import pandas as pd
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
+sys.path.insert(0, str(HERE))
+from sim_stream import verdict  # noqa: E402  (beside this file)
 
 
 def main(argv):
@@ -48,11 +50,7 @@ def main(argv):
         if diff.any():
             bad.append(f"column {col}: {int(diff.sum())} ticks differ, first at tick {int(np.argmax(diff))}")
     print(f"{job.name}: {len(b)} simulator ticks, {len(a)} labkit ticks, columns {', '.join(a.columns)}")
-    if bad:
-        print("FAILED:\n  " + "\n  ".join(bad))
-        return 1
-    print("sim_trace: identical")
-    return 0
+    return verdict(bad, "sim_trace: identical")
 
 
 if __name__ == "__main__":
