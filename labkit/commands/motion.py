@@ -108,6 +108,9 @@ def link_rows(m, pred, free, *, rows_shown: int = 12) -> list[tuple[str, str]]:
     out = [("link", f"{m.link_baud} baud ({m.link_bytes_per_s:.0f} bytes/s), RX buffer "
                     f"{m.rx_buffer_bytes} bytes, planner {m.planner_blocks} blocks, "
                     f"parse {m.block_parse_s * 1e6:.0f} µs a line")]
+    if not m.waits_for_lookahead:
+        out.append(("  caution", "GRBL-style controller: it slows down as its buffer thins, "
+                                 "which the prediction leaves out (it may stall less, run longer)"))
     if pred.stalls:
         lines = ", ".join(str(s.line) for s in pred.stalls[:8]) + (" …" if len(pred.stalls) > 8 else "")
         out.append(("stalls", f"{len(pred.stalls)}, standing {pred.stall_time_s:.3f} s "
