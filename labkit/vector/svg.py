@@ -660,7 +660,7 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
         """A shape's (or a text run's) paths as a renderer paints them: visible, clipped."""
         if _colour(el.stroke) is None:  # fill only: a zero-area subpath paints nothing, and
             kept = [p for p in new if _paints_area(p, tol_mm)]   # the outline of what it paints
-            if len(kept) < len(new):                              # is closed (SVG fills an open
+            if len(kept) < len(new) and label not in invisible:   # is closed (SVG fills an open
                 invisible.append(label)                           # subpath as if closed)
             new = [p if p.closed else _closed(p) for p in kept]
         for p in new:
