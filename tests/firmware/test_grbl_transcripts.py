@@ -72,8 +72,18 @@ _TERMINATOR = re.compile(r"^(ok|error:\d+)$")
 _NUMBER = re.compile(r"^-?\d+(\.(\d+))?$")
 
 def transcripts():
-    """name -> transcript, every JSON file of tests/vectors/grbl/."""
-    return {p.stem: json.loads(p.read_text("utf-8")) for p in sorted(VECTORS.glob("*.json"))}
+    """name -> transcript, every conversation (a JSON file with a topic and exchanges) of
+    tests/vectors/grbl/; other documents there (job_times.json: GRBL's job times) are not
+    conversations. A file with only one of the two keys is an error, never skipped."""
+    out = {}
+    for p in sorted(VECTORS.glob("*.json")):
+        data = json.loads(p.read_text("utf-8"))
+        keys = {"topic", "exchanges"} & set(data) if isinstance(data, dict) else set()
+        if len(keys) == 1:
+            raise ValueError(f"{p}: a conversation needs both 'topic' and 'exchanges', it has only {keys}")
+        if keys:
+            out[p.stem] = data
+    return out
 
 
 # ---------------------------------------------------------------------------------------------
