@@ -202,7 +202,8 @@ def resample_to_beam(image, *, beam_mm: float, width_mm=None, height_mm=None, pi
             out = out.astype(np.float64)
     else:
         gray = arr.astype(np.float64) * (255.0 if arr.dtype == bool else 1.0)
-        out = np.clip(_cubic(gray, rows, cols), 0.0, 255.0)
+        out = _cubic(gray, rows, cols)
+        np.clip(out, 0.0, 255.0, out=out)
         if arr.dtype == bool:
             out = out >= level
     return Resampled(out, float(beam_mm), (float(target[0]), float(target[1])),

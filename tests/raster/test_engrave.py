@@ -209,3 +209,18 @@ def test_placed_size_says_where_the_size_came_from():
     assert (round(w, 3), round(h, 3), size) == (1058.333, 264.583, {"dpi": 96.0})
     assert "no resolution in the file" in source
     assert placed_size((100, 200), height_mm=50)[:3] == (100.0, 50.0, {"height_mm": 50})
+
+
+@pytest.mark.parametrize("s_max, min_power, max_power, white_level",
+                         [(1000.0, 0.0, 1.0, 255.0), (1000.0, 0.2, 0.8, 255.0), (255.0, 0.13, 0.77, 250.0)])
+def test_power_map_is_the_docstring_formula_value_for_value(s_max, min_power, max_power, white_level):
+    """power_map works in one array; S must be the formula's, rounded the same, on grays in and
+    out of 0…255 (the rounding of every .5 included)."""
+    rng = np.random.default_rng(7)
+    gray = np.concatenate([rng.uniform(-20, 280, 20_000), np.arange(0, 256, 0.5)])[None, :]
+    arr = gray.astype(np.float64)
+    darkness = 1.0 - np.clip(arr, 0, 255) / 255.0
+    expected = np.rint(s_max * (min_power + darkness * (max_power - min_power))).astype(np.int64)
+    expected[arr >= white_level] = 0
+    got = power_map(gray, s_max=s_max, min_power=min_power, max_power=max_power, white_level=white_level)
+    assert got.dtype == np.int64 and np.array_equal(got, expected)
