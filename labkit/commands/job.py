@@ -53,6 +53,9 @@ def run_job(args) -> int:
     if job.start_from != "absolute" or any(job.offset_mm):
         lines.append(f"placed {job.start_from}: {placement['how']}"
                      + (f", offset {job.offset_mm[0]:g}, {job.offset_mm[1]:g} mm" if any(job.offset_mm) else ""))
+    if job.start_from == "current":
+        lines.append("a reset clears G92: after one, burn the job again from its start (--resume-from "
+                     "cannot restore where the head stood)")
     for d in composed.layers:
         lib = f", library: {' '.join(d['from_library'])}" if d["from_library"] else ""
         lines.append(f"layer {d['index']} {d['operation']} {Path(d['source']).name}: {d['power_mw']:g} mW = "
