@@ -7,7 +7,7 @@ resample    one pixel = one beam diameter, with the size error in mm
 islands     4-connected segmentation
 pathing     zig-zag runs, spiral corner walk, greedy segment connection (O(n²) and indexed)
 diffusion   error diffusion (Floyd–Steinberg, Atkinson, Jarvis–Judice–Ninke, Stucki)
-engrave     image → Moves for every mode, with the seed's report figures
+engrave     image → Moves for every mode, with the seed's report figures; raster_program: the G-code text
 coverage    Moves → burned pixels (the independent check of every path)
 io          image files as a viewer shows them (EXIF orientation, transparency, pixel aspect), with their dpi
 """
@@ -35,7 +35,7 @@ __all__ = [
 from labkit.raster.coverage import burn_map  # noqa: E402
 from labkit.raster.diffusion import DIFFUSION, dither  # noqa: E402
 from labkit.raster.engrave import (MODES, RasterJob, RasterReport, gray_job, image_to_job,  # noqa: E402
-                                   mask_job, power_map, segments_to_moves, summarize)
+                                   mask_job, power_map, raster_program, segments_to_moves, summarize)
 from labkit.raster.pathing import (Connection, Segments, choose_axis, connect, scan_order,  # noqa: E402
                                    spiral_segments, zigzag_segments)
 
@@ -43,5 +43,5 @@ __all__ += [
     "Segments", "Connection", "zigzag_segments", "spiral_segments", "connect", "scan_order", "choose_axis",
     "DIFFUSION", "dither", "burn_map",
     "MODES", "RasterJob", "RasterReport", "segments_to_moves", "mask_job", "gray_job", "power_map",
-    "image_to_job", "summarize",
+    "image_to_job", "summarize", "raster_program",
 ]
