@@ -3,6 +3,7 @@ its dpi; that picture read back as a scan shows nothing; with one score line pai
 (by hand, below) the line is reported missing, the command exits 1 and writes its report and overlay."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -75,3 +76,23 @@ def test_a_scan_without_a_resolution_needs_dpi(files, capsys):
     assert main(["burncheck", "compare", str(files / "label.gcode"), str(files / "nodpi.png"),
                  "--w0", str(W0), "--fth", str(FTH)]) == 1
     assert "stores no resolution; expected --dpi" in capsys.readouterr().err
+
+
+def test_the_dose_model_comes_from_a_fit_and_a_typed_value_beats_it(tmp_path, capsys):
+    from labkit.laser.measure import read_widths
+    from labkit.laser.models import fit_table
+
+    data = Path(__file__).resolve().parents[2] / "data" / "cutwidth" / "synthetic_paperboard.csv"
+    res = fit_table(read_widths(data), source=data.name)
+    (tmp_path / "fit.json").write_text(json.dumps(res))
+    w0, fth = res["models"]["dose"]["params"]["w0_mm"], res["models"]["dose"]["params"]["fth_mj_mm2"]
+    (tmp_path / "p.gcode").write_text("G21 G90\nM3 S800 F300\nG1 X5\nM5\n")
+    assert main(["burncheck", "predict", str(tmp_path / "p.gcode"), "--fit", str(tmp_path / "fit.json"),
+                 "-o", str(tmp_path / "a.png")]) == 0
+    assert f"w0 {w0:.4g} mm, F_th {fth:.4g} mJ/mm² (fit {tmp_path / 'fit.json'})" in capsys.readouterr().out
+    assert main(["burncheck", "predict", str(tmp_path / "p.gcode"), "--fit", str(tmp_path / "fit.json"),
+                 "--w0", "0.1", "-o", str(tmp_path / "b.png")]) == 0
+    assert f"w0 0.1 mm, F_th {fth:.4g} mJ/mm² (fit {tmp_path / 'fit.json'}, typed --w0)" in capsys.readouterr().out
+    # the narrower beam burns a narrower line: fewer dark rows in its picture
+    rows = [int((np.asarray(Image.open(tmp_path / f)) < 128).any(axis=1).sum()) for f in ("a.png", "b.png")]
+    assert rows[1] < rows[0]
