@@ -93,6 +93,7 @@ def test_the_dose_model_comes_from_a_fit_and_a_typed_value_beats_it(tmp_path, ca
     assert main(["burncheck", "predict", str(tmp_path / "p.gcode"), "--fit", str(tmp_path / "fit.json"),
                  "--w0", "0.1", "-o", str(tmp_path / "b.png")]) == 0
     assert f"w0 0.1 mm, F_th {fth:.4g} mJ/mm² (fit {tmp_path / 'fit.json'}, typed --w0)" in capsys.readouterr().out
-    # the narrower beam burns a narrower line: fewer dark rows in its picture
+    # the narrower beam burns a narrower line (dose_width at 2000 mW, 300 mm/min: 0.272 mm at the fit's
+    # w0 0.119 mm, 0.236 mm at 0.1 mm): fewer dark rows in its picture
     rows = [int((np.asarray(Image.open(tmp_path / f)) < 128).any(axis=1).sum()) for f in ("a.png", "b.png")]
     assert rows[1] < rows[0]
