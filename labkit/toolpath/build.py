@@ -193,8 +193,9 @@ def prepare_paths(paths: Sequence[Path], *, join_tol_mm=0.01, kerf_mm=0.0, tol_m
     kerf_mm : float
         Beam kerf width; closed shapes are offset by kerf/2 outwards (holes
         inwards, nesting judged over all layers) so parts come out to size.
-        Each shape is offset on its own: one inside an odd number of others is a
-        hole, whichever element or fill rule drew it; none is merged or lost.
+        Where offsetting the region would lose a drawn line, each shape is offset
+        on its own: one inside an odd number of others is a hole, whichever
+        element or fill rule drew it; none is merged or lost.
         0: no offset.
     tol_mm : float
         Tolerance of the offset geometry, mm.
@@ -263,14 +264,47 @@ def prepare_paths(paths: Sequence[Path], *, join_tol_mm=0.01, kerf_mm=0.0, tol_m
 
 def _offset_by_source(closed: list[Path], distance_mm: float, *, tol_mm: float, arcs: bool
                       ) -> dict[str, list[Path]]:
-    """Kerf compensation ring by ring; each result goes back to its own source's layer.
+    """Kerf compensation of every closed path; each result ring goes back to its source's layer.
+
+    Where the region of all closed paths has every drawn ring on its boundary, that region is
+    offset as one (a ring lies ``|distance_mm|`` from the ring it was offset from, so the
+    nearest source ring is its source; rings merged from several sources take the nearest
+    one's layer and colours). Where it does not — a hole drawn as its own shape the same way
+    round as its outline under the nonzero rule, overlapping shapes, parts sharing an edge —
+    offsetting the region would lose a drawn line, so each ring is offset on its own instead
+    (:func:`_offset_each`), as LightBurn and LaserGRBL offset nested shapes.
+    """
+    import shapely
+
+    from labkit.geometry.offset import region
+
+    sample_tol = 0.2 * tol_mm                    # as offset_paths samples the region
+    rings = [p.sample(sample_tol) for p in closed]
+    edge = region(closed, tol_mm=sample_tol).boundary.buffer(tol_mm)
+    shapely.prepare(edge)
+    lost = not all(edge.covers(shapely.LineString(r)) for r in rings)
+    if lost:
+        return _offset_each(closed, distance_mm, tol_mm=tol_mm, arcs=arcs)
+    sources = [shapely.LinearRing(r) for r in rings]
+    by_layer: dict[str, list[Path]] = {}
+    for ring in offset_paths(closed, distance_mm, tol_mm=tol_mm, arcs=arcs):
+        probe = shapely.Point(ring.start[:2])
+        k = int(np.argmin([src.distance(probe) for src in sources]))
+        p = closed[k].with_geometry(ring.vertices, ring.centres, ring.sweeps, closed=True,
+                                    deviation_mm=ring.deviation_mm)
+        by_layer.setdefault(p.layer, []).append(p)
+    return by_layer
+
+
+def _offset_each(closed: list[Path], distance_mm: float, *, tol_mm: float, arcs: bool
+                 ) -> dict[str, list[Path]]:
+    """Kerf compensation ring by ring; each result keeps its own source's layer.
 
     Every closed path moves ``distance_mm`` to its waste side: outwards when it lies inside an
     even number of the other closed paths (an outline, an island in a hole), inwards when odd (a
-    hole), as LightBurn and LaserGRBL offset nested shapes — whichever element, layer or fill
-    rule drew them (a hole drawn as its own shape inside an outline is still a hole). No path is
-    merged into another or lost: a shape drawn twice is cut twice, as without kerf, and a hole
-    the kerf closes keeps its drawn line (the beam is as wide as the hole), with a warning.
+    hole) — whichever element, layer or fill rule drew it. No path is merged into another or
+    lost, and a hole the kerf closes keeps its drawn line (the beam is as wide as the hole),
+    with a warning.
     """
     import warnings
 
@@ -288,7 +322,7 @@ def _offset_by_source(closed: list[Path], distance_mm: float, *, tol_mm: float, 
         out = offset_paths([p], -distance_mm if hole else distance_mm, tol_mm=tol_mm, arcs=arcs)
         if not out:
             warnings.warn(f"{p.source or 'a hole'}: a hole narrower than the kerf ({2 * distance_mm:g} mm) "
-                          f"is cut on its drawn line, uncompensated", stacklevel=3)
+                          f"is cut on its drawn line, uncompensated", stacklevel=4)
             out = [p]
         for ring in out:
             if hole and ring is not p:

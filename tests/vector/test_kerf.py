@@ -59,17 +59,18 @@ GEOMETRIC = [c for c in CASES if not c.startswith("text")]
 
 @pytest.mark.parametrize("case", GEOMETRIC)
 def test_no_drawn_line_vanishes(case):
-    """Each drawn closed shape gives one compensated shape, lying half a kerf from the line it
-    came from (every point of it, within the tolerance), and every point of the drawing has a
-    cut beside it within kerf/2 · √2 (an inner right-angled corner)."""
+    """Each compensated shape lies half a kerf from the line it came from (every point of it,
+    within the tolerance), and every point of the drawing has a cut beside it within
+    kerf/2 · √2 (an inner right-angled corner): no drawn line is lost (a shape drawn twice may
+    be cut once)."""
     drawn, cut = _compensated(CASES[case])
-    assert len(cut) == len(drawn)
+    assert len(cut) >= len({tuple(np.round(q.bounds(), 6).ravel()) for q in drawn})
     for p in cut:
         own = shapely.MultiLineString([q.sample(0.001) for q in drawn if q.source == p.source])
         d = shapely.distance(shapely.points(p.sample(0.001)), own)
         assert np.allclose(d, HALF, atol=0.005), f"{case}: {p.source} is not kerf/2 from its drawn line"
+    beside = shapely.MultiLineString([p.sample(0.001) for p in cut])
     for q in drawn:
-        beside = shapely.MultiLineString([p.sample(0.001) for p in cut if p.source == q.source])
         gap = shapely.distance(shapely.points(q.sample(0.001)), beside)
         assert gap.max() <= HALF * np.sqrt(2) + 0.005, f"{case}: {q.source}'s line has no cut beside it"
 
