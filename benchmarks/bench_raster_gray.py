@@ -25,14 +25,14 @@ with numpy and Pillow instead of matplotlib (whose import and 2.8-megapixel imag
 peak), the summary and the G-code text made in blocks of rows instead of full-length
 temporaries. What remains is the Moves (123 B a move), scikit-image's resampling and numba.
 A third round (issue 27 with issue 30's compact text; ``--before`` at 6ab2a74, alternately in one
-run at load 8–12): without the preview 2.43 s CPU and 530 MB before, 1.99 s and 341 MB after
-(with it 2.67 s / 548 MB → 2.70 s / 412 MB; the preview's own cost is issue 29's): a move now
+run at load 10–11): without the preview 2.63 s CPU and 529 MB before, 2.10 s and 340 MB after
+(with it 2.95 s / 548 MB → 2.48 s / 410 MB; the preview's own cost is issue 29's): a move now
 holds 29 B instead of 87 (start and end are views of one array of points; feed, laser mode,
 arc centre and plane, one value for the whole job, are views of that value), the writer checks
 whole columns by their min and max instead of a second of temporaries, scikit-image is no
-longer imported (its resize is two scipy calls), and the text is a fifth smaller. Left: numba
-(imported for the scan and the writer: ~70 MB and 0.5 s of loading), scipy.ndimage (~30 MB,
-0.2 s), the job summary (0.15 s) and the preview.
+longer imported (its resize is two scipy calls), the power map works in one array, and the text
+is a fifth smaller. Left: numba (imported for the scan and the writer: ~70 MB and 0.5 s of
+loading), scipy.ndimage (~30 MB, 0.2 s), the job summary (0.15 s) and the preview.
 
 Run: .venv/bin/python benchmarks/bench_raster_gray.py   (about a minute; 2 cores)
      .venv/bin/python benchmarks/bench_raster_gray.py --before DIR   (also the command of another
