@@ -439,9 +439,10 @@ BYTES_PER_SOURCE_PIXEL = 48
 BYTES_PER_BEAM_PIXEL = {"zigzag": 4, "spiral": 8, "edges": 32, "gray": 40, "dither": 32}
 BYTES_PER_BEAM_PIXEL_BANDED = 2
 #: Peak memory per move of a gray or dithered job from its Moves to its G-code text and
-#: preview (``labkit img2gcode --mode gray`` on a 500 × 450 photo, 2.26 M moves: 239-243 B
-#: above the same command on a tiny image), checked once the moves are counted.
-BYTES_PER_GRAY_MOVE = 250
+#: preview (``labkit img2gcode --mode gray`` on a 500 × 450 photo, 2.26 M moves: 102.5 B
+#: above the same command on a tiny image, rounded up; 239-243 B before a move's start, end
+#: and constant columns shared memory), checked once the moves are counted.
+BYTES_PER_GRAY_MOVE = 120
 
 
 def working_bytes(source_shape, beam_shape, mode: str, *, banded: bool = False) -> float:
