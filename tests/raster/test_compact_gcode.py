@@ -91,3 +91,32 @@ def test_img2gcode_writes_compact_unless_asked(tmp_path, capsys):
     np.testing.assert_array_equal(a.power_s, b.power_s)
     # every header line fits a counting sender's view of GRBL's line buffer
     assert max(len(line) for line in compact.splitlines()) <= 79
+
+
+def test_the_labkit_firmware_runs_the_compact_text_as_labkit_plans_it(tmp_path, capsys):
+    """The firmware's host simulator traces the compact program step for step as ``labkit steps``
+    does (its own tools/sim_trace check: every tick's time, steps, direction and power), and
+    the readable text of the same job takes exactly as many ticks: relative moves, words
+    without spaces and numbers without a leading 0 are read by the firmware as by labkit."""
+    import importlib.util
+    import subprocess
+
+    root = Path(__file__).resolve().parents[2]
+    build = subprocess.run(["make", "-C", str(root / "firmware"), "sim"], capture_output=True, text=True)
+    assert build.returncode == 0, build.stdout + build.stderr
+    spec = importlib.util.spec_from_file_location("sim_trace", root / "firmware" / "tests" / "sim_trace.py")
+    sim_trace = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(sim_trace)
+    strip = np.ascontiguousarray(read_image(PHOTO).pixels[130:134, 100:250])     # 4 rows, 15 mm
+    ticks = {}
+    for compact in (True, False):
+        text = raster_program(strip, feed_mm_min=1500, pitch_mm=0.1, mode="gray", overscan_mm=1.0,
+                              compact=compact)
+        assert ("G91" in text) == compact
+        job = tmp_path / f"{compact}.gcode"
+        job.write_text(text, "ascii")
+        assert sim_trace.main(["sim_trace", str(root / "firmware/build/host/labkit-fw-sim"), str(job)]) == 0
+        out = capsys.readouterr().out
+        assert "sim_trace: identical" in out, out
+        ticks[compact] = int(out.split(" simulator ticks")[0].rsplit(" ", 1)[1])
+    assert ticks[True] == ticks[False] > 10_000
