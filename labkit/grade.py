@@ -264,7 +264,7 @@ def _send_program(vm, lines: list) -> tuple[list, float | None]:
         inflight.append(len(data))
     limit_s = vm.sim_time_s + 24 * 3600.0       # a program that never ends (M0, a huge job)
     while (inflight or vm.state != "Idle") and vm.sim_time_s < limit_s:
-        if vm.state in ("Alarm", "Hold", "Door") and not inflight:
+        if vm.state in ("Alarm", "Hold", "Door"):    # nobody here resumes it (M0 holds unanswered)
             break
         pump()
         if any(a.startswith("ALARM:") for a in answers):

@@ -47,7 +47,7 @@ import numpy as np
 from dataclasses import fields, replace
 
 from labkit.errors import AlarmCode, ErrorCode, Feedback, MotionError
-from labkit.gcode.reader import Interpreter
+from labkit.gcode.reader import Interpreter, grbl_system_verdict, strip_comments
 from labkit.gcode.state import ModalState
 from labkit.machine.grbl import grbl_reply
 # The one place labkit.machine imports the motion machine description (a rename is a one-line fix);
@@ -84,6 +84,23 @@ _DEFAULT_SETTINGS = {
 _FLAG_SETTINGS = {4, 5, 6, 13, 20, 21, 22, 32}
 _BYTE_SETTINGS = {0, 1, 2, 3, 10, 23, 26}
 _RPM_SETTINGS = {30, 31}
+
+
+#: GRBL 1.1h's line buffer holds 79 characters (LINE_BUFFER_SIZE 80 with its terminator).
+GRBL_LINE_MAX = 79
+
+
+def _grbl_line(text: str) -> tuple[str, bool]:
+    """A line as GRBL's serial reader keeps it, and whether it overflowed the line buffer:
+    comments, spaces, control characters and the block-delete ``/`` dropped, letters upper case.
+
+    >>> _grbl_line("g1 x10 (cut) /y5 ; to the corner")
+    ('G1X10Y5', False)
+    >>> _grbl_line("G0X" + "0" * 80)[1]
+    True
+    """
+    kept = "".join(c for c in strip_comments(text) if c > " " and c != "/").upper()
+    return kept[:GRBL_LINE_MAX], len(kept) > GRBL_LINE_MAX
 
 
 def _setting_text(number: int, value: float) -> str:
@@ -139,11 +156,6 @@ class _Block:
     pause: bool = False         # M0: a feed hold once the moves before it have run
 
 
-#: Blocks GRBL 1.1's planner holds on a 328P, the running one included: its ring of 16 slots
-#: keeps one free (``$I`` answers ``[OPT:V,15,128]``).
-GRBL_PLANNER_BLOCKS = 15
-
-
 def _stack(rows: list) -> Blocks:
     """One :class:`~labkit.motion.Blocks` of the queued blocks' rows, in order."""
     return Blocks(**{f.name: np.concatenate([getattr(r, f.name) for r in rows]) for f in fields(Blocks)})
@@ -164,17 +176,17 @@ class VirtualMachine:
     rx_bytes : int, optional
         Serial RX buffer size (default the machine's: GRBL 128; grblHAL 1024).
     planner_blocks : int, optional
-        Planner depth, the running block included (default GRBL 1.1's on a 328P,
-        :data:`GRBL_PLANNER_BLOCKS`: 15).
+        Planner depth, the running block included (default the machine description's
+        ``planner_blocks``: 15 for grbl-diode, GRBL 1.1 on a 328P, ``[OPT:V,15,128]``).
     baud : int, optional
         Model the serial link at this speed (e.g. the machine description's ``link_baud``,
         115200): bytes take ``bits per byte / baud`` seconds of simulated time each (8N1: 10
         bits), real-time bytes included, in the order written. None or 0 (the default): every
         byte arrives the moment it is written.
     parse_s : float, optional
-        Time GRBL takes to parse and plan one line, s (default the machine description's
-        ``block_parse_s``, 0 when it gives none): a line leaves the RX buffer, is parsed for this
-        long, then waits for planner room.
+        Model the time GRBL takes to parse and plan one line, s (e.g. the machine description's
+        ``block_parse_s``, grbl-diode 3.7 ms): a line leaves the RX buffer, is parsed for this
+        long, then waits for planner room. None or 0 (the default): at once.
     banner : bool
         Print the start-up banner when opened, as a board does after its USB reset.
 
@@ -196,13 +208,11 @@ class VirtualMachine:
         self.machine = load_machine(machine or "grbl-diode")
         self.time_scale = float(time_scale)
         self.tick_s = float(tick_s)
-        self.rx_bytes = int(rx_bytes or getattr(self.machine, "rx_buffer_bytes", 128))
+        self.rx_bytes = int(rx_bytes or self.machine.rx_buffer_bytes)
         #: bytes per second of simulated time the link carries (baud / 10 for 8N1; inf: no link)
-        self.link_bytes_per_s = (baud / getattr(self.machine, "link_bits_per_byte", 10)
-                                 if baud else math.inf)
+        self.link_bytes_per_s = baud / self.machine.link_bits_per_byte if baud else math.inf
         #: time the controller takes to parse and plan one line, s
-        self.parse_s = float(getattr(self.machine, "block_parse_s", 0.0) if parse_s is None
-                             else parse_s)
+        self.parse_s = float(parse_s or 0.0)
         self._wire: deque = deque()          # [first byte's start s, bytes, bytes already arrived]
         self._wire_free_s = 0.0              # when the link has sent all that was written
         self._parsed: tuple | None = None    # (line, time its parse ends) read from RX, not yet run
@@ -212,10 +222,13 @@ class VirtualMachine:
         self.starvations: list[Starvation] = []
         #: G-code lines run since power-up (answered ok or error; not ``$`` lines, not in check mode)
         self.lines_run = 0
-        self.planner_blocks = int(planner_blocks or GRBL_PLANNER_BLOCKS)
+        self.planner_blocks = int(planner_blocks or self.machine.planner_blocks)
         self.timeout = 0.05
         self.is_open = True
         self.settings = self._initial_settings(self.machine)
+        self.build_info = ""                 #: ``$I=`` text (GRBL keeps it in EEPROM)
+        self.startup_lines = ["", ""]        #: ``$N0=`` and ``$N1=``, run after every reset
+        self._partial = bytearray()          # the start of a line read out of the RX buffer
         self.overrides = (100, 100, 100)     # feed, rapid, laser power (%), GRBL's Ov: field
         self._ov_changed = False
         self._lock = threading.RLock()
@@ -386,7 +399,7 @@ class VirtualMachine:
 
         Examples
         --------
-        >>> vm = VirtualMachine(time_scale=0, tick_s=0.0, banner=False)
+        >>> vm = VirtualMachine(time_scale=0, tick_s=0.0, parse_s=0.0, banner=False)
         >>> _ = vm.write(b"G1 X1 F600\\n")        # 1 mm at 10 mm/s: about 0.1 s
         >>> vm.tick_s = 0.5
         >>> _ = vm.read(64)                        # half a second later: done, dry since ~0.1 s
@@ -539,6 +552,7 @@ class VirtualMachine:
                 for reply in self._blocks[-1].replies:   # GRBL leaves its wait and answers the line
                     self._emit(reply)
             self._rx.clear()
+            self._partial.clear()
             self._parsed = None
             self._dry_since = None
             self._blocks.clear()
@@ -548,11 +562,21 @@ class VirtualMachine:
             if moving:
                 self.state, self.alarm_code = "Alarm", AlarmCode.ABORT_CYCLE
                 self._emit(grbl_reply(AlarmCode.ABORT_CYCLE))
+            elif self.state == "Sleep":                 # GRBL wakes from sleep locked
+                self.state, self.alarm_code = "Alarm", 0
             elif self.state != "Alarm":
                 self.state = "Idle"
             self._emit("\r\nGrbl 1.1h ['$' for help]")
             if self.state == "Alarm":
                 self._emit(grbl_reply(Feedback.ALARM_LOCK))
+            else:
+                for startup in self.startup_lines:      # GRBL runs its start-up lines
+                    if startup:
+                        err = self._gcode(startup, jog=False)
+                        if err == _DEFERRED:            # answered here, not when it has run
+                            self._blocks[-1].replies = ()
+                        code = ErrorCode.OK if err in (None, _DEFERRED) else ErrorCode(err)
+                        self._emit(f">{startup}:{grbl_reply(code)}")
 
     def _override(self, byte: int) -> None:
         """GRBL 1.1's override bytes: feed 10–200 %, rapid 25/50/100 %, laser power 10–200 %.
@@ -735,13 +759,15 @@ class VirtualMachine:
                 if self._blocks and self._blocks[-1].replies:
                     return
                 cut = self._rx.find(b"\n")
-                if cut < 0:
+                if cut < 0:             # GRBL reads on into its line buffer: the RX empties
+                    if len(self._partial) < 4096:
+                        self._partial += self._rx
+                    self._rx.clear()
                     return
-                raw = bytes(self._rx[:cut])
+                raw = bytes(self._partial + self._rx[:cut])
                 del self._rx[:cut + 1]
+                self._partial.clear()
                 text = raw.decode("ascii", "replace").strip()
-                if not text:
-                    continue
                 self._parsed = (text, self._sim_t + self.parse_s)
             text, ready_s = self._parsed
             if ready_s > self._sim_t + 1e-12:
@@ -752,38 +778,86 @@ class VirtualMachine:
             self._line(text)
 
     def _line(self, text: str) -> None:
-        if text.startswith("$"):
-            self._system(text)
+        """One line as GRBL's serial reader hands it over: spaces, control characters, ``/``
+        and comments dropped, letters upper case, at most 79 characters (else error:11)."""
+        line, overflow = _grbl_line(text)
+        if self.state == "Sleep":
+            return                                  # asleep: GRBL reads nothing until a reset
+        if overflow:
+            self._emit(grbl_reply(ErrorCode.LINE_OVERFLOW))
+            return
+        if not line:
+            self._emit(grbl_reply(ErrorCode.OK))    # GRBL answers an empty or comment line
+            return
+        if line.startswith("$"):
+            self._system(line)
             return
         self.lines_run += 0 if self.check_mode else 1
         if self.state == "Alarm":
             self._emit(grbl_reply(ErrorCode.GCODE_LOCKED))
             return
-        if len(text) > 80:
-            self._emit(grbl_reply(ErrorCode.LINE_OVERFLOW))
-            return
-        err = self._gcode(text, jog=False)
+        err = self._gcode(line, jog=False, text=text)
         if err not in (_ALARMED, _DEFERRED):      # an alarm replaces the line's answer
             self._emit(grbl_reply(ErrorCode.OK if err is None else ErrorCode(err)))
 
-    def _system(self, text: str) -> None:
-        cmd = text[1:].upper()
+    def _system(self, line: str) -> None:
+        """A ``$`` line, in the order GRBL 1.1h's system_execute_line checks it; the grammar of
+        settings and start-up lines is :func:`labkit.gcode.reader.grbl_system_verdict`'s."""
+        reply = self._system_reply(line)
+        if reply is not None:
+            self._emit(grbl_reply(reply))
+
+    def _system_reply(self, line: str):
+        """Do a ``$`` line; the status to answer (None: answered already)."""
+        cmd, rest = line[1:2], line[2:]
         if cmd == "":
             self._emit("[HLP:$$ $# $G $I $N $x=val $Nx=line $J=line $SLP $C $X $H ~ ! ? ctrl-x]")
-        elif cmd == "$":
-            for k in sorted(self.settings):
-                self._emit(f"${k}={self.settings[k]}")
-        elif cmd == "I":
-            self._emit("[VER:1.1h.20190825:labkit-virtual]")
-            self._emit(f"[OPT:V,{self.planner_blocks},{self.rx_bytes}]")
-        elif cmd == "G":
-            laser = {0: "M5", 3: "M3", 4: "M4"}[self.laser_mode_word]
-            feed = 0 if math.isnan(self.feed_mm_min) else self.feed_mm_min
-            st = self._parser.state
-            coolant = " ".join(f"M{m}" for m in st.coolant) or "M9"
-            self._emit(f"[GC:G{self.motion} G{self.coord_system} G{self.plane} G{self.units} G{self.distance} "
-                       f"G{st.feed_mode} {laser} {coolant} T0 F{feed:g} S{self.s_word:g}]")
-        elif cmd == "#":
+            return ErrorCode.OK
+        if cmd == "J":
+            if self.state not in ("Idle", "Jog"):
+                return ErrorCode.NOT_IDLE if self.state != "Alarm" else ErrorCode.GCODE_LOCKED
+            if not rest.startswith("="):
+                return ErrorCode.INVALID_STATEMENT
+            err = self._gcode(line, jog=True)          # the parser runs $J= as GRBL's jog
+            return ErrorCode.OK if err is None else ErrorCode(err)
+        if cmd in "$GCX":
+            if rest:
+                return ErrorCode.INVALID_STATEMENT
+            if cmd == "$":
+                if self.state in ("Run", "Hold", "Jog") or self._blocks:
+                    return ErrorCode.NOT_IDLE
+                for k in sorted(self.settings):
+                    self._emit(f"${k}={self.settings[k]}")
+            elif cmd == "G":
+                laser = {0: "M5", 3: "M3", 4: "M4"}[self.laser_mode_word]
+                feed = 0 if math.isnan(self.feed_mm_min) else self.feed_mm_min
+                st = self._parser.state
+                coolant = " ".join(f"M{m}" for m in st.coolant) or "M9"
+                self._emit(f"[GC:G{self.motion} G{self.coord_system} G{self.plane} G{self.units} "
+                           f"G{self.distance} G{st.feed_mode} {laser} {coolant} T0 F{feed:g} "
+                           f"S{self.s_word:g}]")
+            elif cmd == "X":
+                if self.state == "Alarm":
+                    self.state, self.alarm_code = "Idle", 0
+                    self._emit(grbl_reply(Feedback.ALARM_UNLOCK))
+            else:                                       # $C
+                if not self.check_mode and (self._blocks or self.state != "Idle"):
+                    return ErrorCode.NOT_IDLE
+                self.check_mode = not self.check_mode
+                self._check_pos = self.pos.copy()
+                self._emit(grbl_reply(Feedback.ENABLED if self.check_mode else Feedback.DISABLED))
+                if not self.check_mode:                 # GRBL resets when check mode ends
+                    self._emit(grbl_reply(ErrorCode.OK))
+                    self._reset_parser()
+                    self._emit("\r\nGrbl 1.1h ['$' for help]")
+                    return None
+            return ErrorCode.OK
+        # the rest needs an idle (or alarmed) machine, not in check mode
+        if self.check_mode or self.state not in ("Idle", "Alarm") or self._blocks:
+            return ErrorCode.NOT_IDLE
+        if cmd == "#":
+            if rest:
+                return ErrorCode.INVALID_STATEMENT
             for k in range(6):
                 self._emit("[G{}:{:.3f},{:.3f},{:.3f}]".format(54 + k, *self.coord_origins[k]))
             st = self._parser.state
@@ -792,70 +866,73 @@ class VirtualMachine:
             self._emit("[G92:{:.3f},{:.3f},{:.3f}]".format(*self.g92))
             self._emit(f"[TLO:{self.tool_offset:.3f}]")
             self._emit("[PRB:0.000,0.000,0.000:0]")
-        elif cmd == "X":
-            if self.state == "Alarm":
-                self.state, self.alarm_code = "Idle", 0
-                self._emit(grbl_reply(Feedback.ALARM_UNLOCK))
-        elif cmd == "H":
-            if self._blocks:
-                self._emit(grbl_reply(ErrorCode.NOT_IDLE))
-                return
+            return ErrorCode.OK
+        if cmd == "H":
+            if not self._flag(22):
+                return ErrorCode.SETTING_DISABLED       # homing is off ($22=0)
             self.pos = np.zeros(3)
             self.state, self.alarm_code = "Idle", 0
-        elif cmd == "C":
-            if self._blocks:
-                self._emit(grbl_reply(ErrorCode.NOT_IDLE))
-                return
-            self.check_mode = not self.check_mode
-            self._check_pos = self.pos.copy()
-            self._emit(grbl_reply(Feedback.ENABLED if self.check_mode else Feedback.DISABLED))
-            if not self.check_mode:                 # GRBL resets when check mode ends
-                self._emit(grbl_reply(ErrorCode.OK))
-                self._reset_parser()
-                self._emit("\r\nGrbl 1.1h ['$' for help]")
-                return
-        elif cmd.startswith("J="):
-            if self.state not in ("Idle", "Jog"):
-                self._emit(grbl_reply(ErrorCode.NOT_IDLE if self.state != "Alarm"
-                                      else ErrorCode.GCODE_LOCKED))
-                return
-            err = self._gcode(text, jog=True)          # the parser runs $J= as GRBL's jog
-            if err is not None:
-                self._emit(grbl_reply(ErrorCode(err)))
-                return
-        elif "=" in cmd and cmd.split("=")[0].isdigit():
-            key, _, value = cmd.partition("=")
-            try:
-                number = float(value)
-            except ValueError:
-                self._emit(grbl_reply(ErrorCode.BAD_NUMBER))
-                return
-            if int(key) not in self.settings:
-                self._emit(grbl_reply(ErrorCode.INVALID_STATEMENT))
-                return
-            if self._blocks:
-                self._emit(grbl_reply(ErrorCode.NOT_IDLE))
-                return
-            if number < 0:
-                self._emit(grbl_reply(ErrorCode.NEGATIVE_VALUE))
-                return
-            key = int(key)
-            if key == 20 and int(number) and not self._flag(22):
-                self._emit(grbl_reply(ErrorCode.SOFT_LIMIT_ERROR))
-                return
-            self.settings[key] = _setting_text(key, number)
-            if key == 22 and not int(number):
-                self.settings[20] = "0"               # GRBL: homing off forces soft limits off
-        else:
-            self._emit(grbl_reply(ErrorCode.INVALID_STATEMENT))
-            return
-        self._emit(grbl_reply(ErrorCode.OK))
+            return ErrorCode.OK
+        if cmd == "S":
+            if rest != "LP":
+                return ErrorCode.INVALID_STATEMENT
+            self._emit(grbl_reply(ErrorCode.OK))
+            self._emit(grbl_reply(Feedback.SLEEPING))
+            self.state = "Sleep"
+            return None
+        if cmd == "I":
+            if rest and not rest.startswith("="):
+                return ErrorCode.INVALID_STATEMENT
+            if rest:
+                self.build_info = rest[1:]
+                return ErrorCode.OK
+            self._emit(f"[VER:1.1h.20190830:{self.build_info}]")
+            self._emit(f"[OPT:V,{self.planner_blocks},{self.rx_bytes}]")
+            return ErrorCode.OK
+        if cmd == "R":
+            if rest not in ("ST=$", "ST=#", "ST=*"):
+                return ErrorCode.INVALID_STATEMENT
+            what = rest[-1]
+            if what in "$*":
+                self.settings = self._initial_settings(self.machine)
+            if what in "#*":
+                zero = ((0.0, 0.0, 0.0),) * 3
+                self._parser.state = replace(self._parser.state, coord_origins=zero * 2,
+                                             home28=zero[0], home30=zero[0])
+            if what == "*":
+                self.startup_lines = ["", ""]
+                self.build_info = ""
+            self._emit(grbl_reply(Feedback.RESTORING_DEFAULTS))
+            self._emit(grbl_reply(ErrorCode.OK))
+            self._realtime("reset")                     # GRBL resets after restoring
+            return None
+        if cmd == "N" and not rest:
+            for k, startup in enumerate(self.startup_lines):
+                self._emit(f"$N{k}={startup}")
+            return ErrorCode.OK
+        verdict = grbl_system_verdict(line)
+        if verdict is not None and not (verdict[0] == "soft_limit_error" and self._flag(22)):
+            return ErrorCode[verdict[0].upper()]
+        number, _, value = line[2 if cmd == "N" else 1:].partition("=")
+        key = int(float(number))
+        if cmd == "N":
+            if cmd == "N" and self.state != "Idle":
+                return ErrorCode.NOT_IDLE
+            if key < len(self.startup_lines):
+                self.startup_lines[key] = value
+            return ErrorCode.OK
+        self.settings[key] = _setting_text(key, float(value))
+        if key == 22 and not float(value):
+            self.settings[20] = "0"                     # GRBL: homing off forces soft limits off
+        return ErrorCode.OK
 
-    def _gcode(self, text: str, *, jog: bool) -> int | None:
-        """Interpret one line after the modal state and queue its blocks.
+    def _gcode(self, line: str, *, jog: bool, text: str | None = None) -> int | None:
+        """Interpret one line (as GRBL's reader keeps it) after the modal state and queue its
+        blocks; ``text`` is the line as received, for :attr:`executed`.
 
         Returns None (accepted), an error code, or ``_ALARMED``.
         """
+        text = line if text is None else text
         # the parser works at the end of what is queued, not where the machine is now
         base = self._blocks[-1].end if self._blocks else self.pos
         if self.check_mode:
@@ -864,7 +941,7 @@ class VirtualMachine:
         if not np.array_equal(before.position, base):   # moved under the parser: a stop, $H
             before = replace(before, position=tuple(float(v) for v in base))
             self._parser.state = before
-        moves, error = self._parser.feed(text)
+        moves, error = self._parser.feed(line)
         if error is not None:
             return error.code
         after = self._parser.state
@@ -895,7 +972,7 @@ class VirtualMachine:
                 self._emit(grbl_reply(Feedback.PROGRAM_END))
             return None
         n_word = -1
-        head = text.lstrip().upper()
+        head = line
         if head.startswith("N"):
             digits = "".join(c for c in head[1:].split(" ")[0] if c.isdigit())
             n_word = int(digits) if digits else -1

@@ -162,9 +162,13 @@ def test_settings_state_offsets():
     assert g.read_settings()[30] == "255"
     g.command("G91 G1 X5 F600 M4 S100")
     assert g.parser_state().split()[:5] == ["G1", "G54", "G17", "G21", "G91"]
+    g.wait_status(lambda st: st.state == "Idle", 10.0)   # GRBL answers $# only when idle (error:8)
     assert g.offsets()["G54"] == "0.000,0.000,0.000"
-    with pytest.raises(MachineError, match=r"error:3: unknown or malformed \$ system command"):
+    # GRBL reads '$Q' as a setting whose number is missing: error:2 (recorded: '$Z', dollar_commands)
+    with pytest.raises(MachineError, match=r"error:2: malformed number"):
         g.command("$Q")
+    with pytest.raises(MachineError, match=r"error:3: unknown or malformed \$ system command"):
+        g.command("$999=1")
     g.close()
 
 
