@@ -258,3 +258,18 @@ def test_bad_scans_are_refused(label_prediction):
         check_scan(burn, np.full((400, 700), 0.8), dpi=DPI, tolerance=2)
     with pytest.raises(InputError, match="dpi must be > 0"):
         check_scan(burn, np.full((400, 700), 0.8), dpi=0)
+
+
+@pytest.mark.parametrize("turn_deg", [0.7, -1.5])
+def test_a_piece_turned_on_the_scanner_is_turned_back_and_its_defect_still_found(label_prediction, turn_deg):
+    # the label without its middle fold, laid on the scanner turned by hand (Burn.scan turns it CCW)
+    moves, burn = label_prediction
+    real = predict_burn(parse(label(score_ys=(2, 6))), w0_mm=W0, fth_mj_mm2=FTH, pixel_mm=0.02)
+    img = real.scan(dpi=DPI, margin_mm=3.0, noise=0.02, seed=3, rotation_deg=turn_deg)
+    res = check_scan(burn, SOLID + (img - 0.1) / 0.8 * (PAPER - SOLID), dpi=DPI, moves=moves)
+    assert res.turn_deg == pytest.approx(turn_deg, abs=0.05)
+    assert [d.kind for d in res.defects] == ["missing"] and res.defects[0].layer_s == 300
+    x0, y0, x1, y1 = res.defects[0].bbox_mm
+    assert x0 == pytest.approx(2, abs=0.2) and x1 == pytest.approx(12, abs=0.2) and 3.8 < y0 <= y1 < 4.2
+    assert all(np.hypot(*L.shift_mm) < 0.025 for L in res.layers)
+    assert f"turned {res.turn_deg:+.2f}°" in res.summary()
