@@ -77,7 +77,8 @@ from labkit.vector.images import PlacedImage, svg_images      # re-exported: the
 from labkit.vector.text import svg_text_paths                 # are read where SVG is read
 
 __all__ = ["FORMAT", "VERSION", "ORDER", "PLACEMENTS", "JobLayer", "JobFile", "read_job", "compose_job", "ComposedJob",
-           "tab_gaps", "perforation_gaps", "split_at_gaps", "svg_text_paths", "svg_images", "PlacedImage"]
+           "tab_gaps", "perforation_gaps", "split_at_gaps", "svg_text_paths", "svg_images", "PlacedImage",
+           "engrave_images"]
 
 FORMAT = "labkit-job"
 VERSION = 1
@@ -357,11 +358,7 @@ def _gapped_moves(job: JobFile, layer: JobLayer, paths, s: dict, settings):
 
 
 def _image_moves(job: JobFile, layer: JobLayer, s: dict, power_s: float):
-    import numpy as np
-
-    from labkit.raster.engrave import RasterSettings, image_to_job
     from labkit.raster.io import read_image
-    from labkit.toolpath.moves import LaserMode
 
     if layer.source.suffix.lower() == ".svg":          # the bitmaps it embeds, where it places them
         placed = [p for p in svg_images(layer.source)
@@ -369,26 +366,67 @@ def _image_moves(job: JobFile, layer: JobLayer, s: dict, power_s: float):
         if not placed:
             raise InputError(f"{job.path}: layer {layer.index}: {layer.source.name} embeds no bitmap"
                              + (f" named {layer.select}" if layer.select else ""))
-        items = [(p.image, p.width_mm, (p.height_mm / p.image.pixels.shape[0]) / (p.width_mm / p.image.pixels.shape[1]),
-                  (p.x_mm, p.y_mm)) for p in placed]
+        items = [p.engraving_item for p in placed]
     else:
         items = [(read_image(layer.source), layer.width_mm, None, layer.at_mm)]
+    moves = engrave_images(items, mode=layer.mode, line_interval_mm=s["line_interval_mm"],
+                           feed_mm_min=s["speed_mm_min"], power_s=power_s, s_max=job.s_max, dynamic=s["dynamic"],
+                           where=f"{job.path}: layer {layer.index}: {layer.source.name}")
+    passes = int(s["passes"])
+    return moves if passes == 1 else _chain([moves] * passes)
+
+
+def engrave_images(items, *, mode: str, line_interval_mm: float, feed_mm_min: float, power_s: float,
+                   s_max: float, dynamic: bool = False, where: str = "image"):
+    """Bitmaps engraved through :mod:`labkit.raster`, each at its size and place, one after another.
+
+    The one way a job's image layer and ``svg2gcode --images`` engrave.
+
+    Parameters
+    ----------
+    items : list of (image, width_mm, pixel_aspect, (x_mm, y_mm))
+        A :class:`~labkit.raster.io.RasterImage`, its engraved width (mm, or None for its dpi),
+        its pixels' height over width (None: the image's own) and where its lower-left corner
+        goes, mm (:attr:`labkit.vector.images.PlacedImage.engraving_item` for an SVG's bitmaps).
+    mode : str
+        :data:`labkit.raster.engrave.MODES`.
+    line_interval_mm, feed_mm_min, power_s, s_max : float
+        Line interval (mm), speed (mm/min), power S of full black and S of full power.
+    dynamic : bool
+        M4 (power follows speed).
+    where : str
+        Names the source in the error.
+
+    Returns
+    -------
+    Moves
+        Every bitmap in order; the first move leaves from where the first bitmap's own program
+        starts, before it is placed.
+
+    Raises
+    ------
+    InputError
+        A bitmap with nothing to burn in this mode.
+    """
+    import numpy as np
+
+    from labkit.raster.engrave import RasterSettings, image_to_job
+    from labkit.toolpath.moves import LaserMode
+
     parts = []
     for img, width_mm, pixel_aspect, at in items:
-        settings = RasterSettings(mode=layer.mode, beam_mm=s["line_interval_mm"], width_mm=width_mm,
-                                  pixel_aspect=pixel_aspect, feed_mm_min=s["speed_mm_min"], s_max=job.s_max,
-                                  power_s=power_s, max_power=min(power_s / job.s_max, 1.0),
-                                  laser=LaserMode.DYNAMIC if s["dynamic"] else None)
+        settings = RasterSettings(mode=mode, beam_mm=line_interval_mm, width_mm=width_mm,
+                                  pixel_aspect=pixel_aspect, feed_mm_min=feed_mm_min, s_max=s_max,
+                                  power_s=power_s, max_power=min(power_s / s_max, 1.0),
+                                  laser=LaserMode.DYNAMIC if dynamic else None)
         moves = image_to_job(img, settings).moves
         if not len(moves):
-            raise InputError(f"{job.path}: layer {layer.index}: nothing to burn in {layer.source.name} "
-                             f"(mode {layer.mode})")
+            raise InputError(f"{where}: nothing to burn (mode {mode})")
         parts.append(_shift(moves, np.array([at[0], at[1], 0.0])))
     home = parts[0].start[0] - np.array([*items[0][3], 0.0])
     moves = _chain(parts)
     moves.start[0] = home
-    passes = int(s["passes"])
-    return moves if passes == 1 else _chain([moves] * passes)
+    return moves
 
 
 def _shift(moves, d):

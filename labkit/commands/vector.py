@@ -110,6 +110,17 @@ def add_svg2gcode_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--clip-to-page", action="store_true",
                         help="cut only what lies on the page, as a renderer shows it (default: "
                              "shapes reaching beyond the page are cut whole, with a warning)")
+    from labkit.commands._args import FEED, number
+    from labkit.raster.engrave import MODES
+
+    parser.add_argument("--images", choices=MODES, default=None, metavar="MODE",
+                        help="engrave the bitmaps the SVG embeds, where it places them, before the cuts "
+                             f"({', '.join(MODES)}; as labkit job's image layers, line interval --fill-spacing); "
+                             "default: they are named in a warning and not burned")
+    parser.add_argument("--image-power", type=number(0), default=None, metavar="S",
+                        help="with --images: S of full black (default --power)")
+    parser.add_argument("--image-feed", type=FEED, default=None, metavar="MM_MIN",
+                        help="with --images: engraving speed, mm/min (default --feed)")
 
 
 def add_dxf2gcode_arguments(parser: argparse.ArgumentParser) -> None:
@@ -122,7 +133,7 @@ def add_dxf2gcode_arguments(parser: argparse.ArgumentParser) -> None:
                              "is taken as mm, with a warning)")
 
 
-def _run(args, drawing) -> int:
+def _run(args, drawing, images=None) -> int:
     from labkit._files import atomic_output, check_output_file
     from labkit.commands._args import check_fits
     from labkit.errors import GeometryError, InputError
@@ -163,6 +174,14 @@ def _run(args, drawing) -> int:
         raise InputError(str(exc)) from None
     for w in caught:
         print(f"warning: {w.message}", file=sys.stderr)
+    if images is not None:                     # the bitmaps first, then the cuts (engrave before cut)
+        from labkit.toolpath.job import VectorJob
+        from labkit.toolpath.moves import Moves
+
+        cuts = job.moves.copy()
+        if len(cuts):
+            cuts.start[0] = images.end[-1]    # the cut's first rapid leaves from the last bitmap
+        job = VectorJob(job.paths, Moves.concat([images, cuts]), job.tol_mm)
     paths, moves = job.paths, job.moves
     if len(moves):
         ends = np.vstack([moves.start, moves.end])
@@ -209,7 +228,7 @@ def _refuse_empty(drawing, kind: str) -> None:
         kinds = sorted({s.split("#")[0].split("[")[0] for s in drawing.skipped})
         raise InputError(f"{drawing.source}: nothing to cut: the {kind} holds only "
                          f"{', '.join(kinds)} ({len(drawing.skipped)} element(s)); engrave bitmaps with "
-                         f"labkit job (a layer with operation \"image\" on this file) or img2gcode, and "
+                         f"svg2gcode --images MODE or labkit job (a layer with operation \"image\"), and "
                          f"convert flowed text and text on a path to paths in the drawing program")
     hidden = getattr(drawing, "clipped", [])
     raise InputError(f"{drawing.source}: nothing to cut: the {kind} has no visible shapes"
@@ -226,10 +245,34 @@ def run_svg2gcode(args) -> int:
         warnings.simplefilter("always")
         drawing = read_svg(args.input, tol_mm=args.tol, arcs=args.arcs, fit=args.fit, flip_y=not args.no_flip,
                            clip_to_page=args.clip_to_page)
+    images = _svg_image_moves(args, drawing) if args.images else None     # engraved: no longer skipped
     for w in caught:
+        if images is not None and not drawing.skipped and " not cut: " in str(w.message):
+            continue                            # it named only the bitmaps now engraved
         print(f"warning: {w.message}", file=sys.stderr)
-    _refuse_empty(drawing, "SVG")
-    return _run(args, drawing)
+    if images is None:
+        _refuse_empty(drawing, "SVG")
+    return _run(args, drawing, images)
+
+
+def _svg_image_moves(args, drawing):
+    """``--images``: the SVG's bitmaps engraved as a job's image layer engraves them."""
+    from labkit.errors import InputError
+    from labkit.jobfile import engrave_images
+    from labkit.units import s_within
+    from labkit.vector.images import svg_images
+
+    placed = svg_images(args.input, flip_y=not args.no_flip)
+    if not placed:
+        raise InputError(f"{args.input}: --images {args.images}: the SVG embeds no bitmap")
+    power = args.power if args.image_power is None else args.image_power
+    if not s_within(power, args.s_max):
+        raise InputError(f"--image-power: power S{power:g} is above --s-max {args.s_max:g}; "
+                         f"expected a power within 0…{args.s_max:g}")
+    drawing.skipped[:] = [s for s in drawing.skipped if s not in {p.name for p in placed}]
+    return engrave_images([p.engraving_item for p in placed], mode=args.images, line_interval_mm=args.fill_spacing,
+                          feed_mm_min=args.feed if args.image_feed is None else args.image_feed, power_s=power,
+                          s_max=args.s_max, dynamic=args.dynamic, where=args.input)
 
 
 def run_dxf2gcode(args) -> int:

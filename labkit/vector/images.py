@@ -25,6 +25,12 @@ class PlacedImage:
     width_mm: float
     height_mm: float
 
+    @property
+    def engraving_item(self) -> tuple:
+        """(image, width mm, pixel aspect, (x, y) mm): one item of :func:`labkit.jobfile.engrave_images`."""
+        rows, cols = self.image.pixels.shape[:2]
+        return self.image, self.width_mm, (self.height_mm / rows) / (self.width_mm / cols), (self.x_mm, self.y_mm)
+
 
 def svg_images(source, *, flip_y: bool = True) -> list:
     """The bitmaps an SVG embeds (``<image>`` with a ``data:`` URI or a file beside the SVG), placed.

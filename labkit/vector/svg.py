@@ -722,8 +722,8 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
         add(el, label, new)
     if skipped and warn:
         warnings.warn(f"{name}: not cut: {len(skipped)} element(s) that are not vector shapes: "
-                      f"{', '.join(skipped)} — engrave bitmaps with labkit job (a layer with operation "
-                      f"\"image\" on this SVG) or img2gcode; convert flowed text and text on a path to "
+                      f"{', '.join(skipped)} — engrave bitmaps with svg2gcode --images MODE or labkit job (a "
+                      f"layer with operation \"image\" on this SVG); convert flowed text and text on a path to "
                       f"paths in the drawing program (Inkscape: Path › Object to Path)", stacklevel=2)
     if invisible and warn:
         warnings.warn(f"{name}: skipped {len(invisible)} shape(s) a renderer paints nothing for "

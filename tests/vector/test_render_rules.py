@@ -177,7 +177,7 @@ def test_bitmap_only_file_is_an_error_not_an_empty_job(tmp_path, run_labkit_cli)
                     '<image id="i" width="5" height="5" href="data:image/png;base64,iVBORw0KGgo="/></svg>')
     code, err = run_labkit_cli(["svg2gcode", str(path), "-o", str(tmp_path / "o.gcode")])
     assert code == 1
-    assert "nothing to cut: the SVG holds only image (1 element(s)); engrave bitmaps with labkit job" in err
+    assert "nothing to cut: the SVG holds only image (1 element(s)); engrave bitmaps with svg2gcode --images" in err
     assert not (tmp_path / "o.gcode").exists()
 
 
@@ -189,7 +189,8 @@ def test_text_is_cut_and_the_bitmap_beside_it_named(tmp_path, run_labkit_cli):
                     'href="data:image/png;base64,iVBORw0KGgo="/></svg>')
     code, err = run_labkit_cli(["svg2gcode", str(path), "-o", str(tmp_path / "o.gcode")])
     assert code == 0
-    assert "not cut: 1 element(s) that are not vector shapes: image#i — engrave bitmaps with labkit job" in err
+    assert "not cut: 1 element(s) that are not vector shapes: image#i — engrave bitmaps with svg2gcode --images" \
+        in err
     assert "text#t" not in err and (tmp_path / "o.gcode").exists()
 
 
