@@ -10,12 +10,15 @@ resume runs every line exactly once.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
+from dataclasses import KW_ONLY, dataclass
 
 from labkit.machine.virtual import VirtualMachine
 
 __all__ = ["FaultyPort"]
 
 
+@dataclass(eq=False, repr=False)   # the options are the fields: one list, not an __init__ repeating it
 class FaultyPort:
     """A pyserial-like port between the host and a virtual machine, with one injected fault.
 
@@ -59,33 +62,31 @@ class FaultyPort:
         read and write fails (the cable pulled mid-job).
     """
 
-    def __init__(self, vm: VirtualMachine, *, garble_line=None, drop_newline_of=None,
-                 drop_byte_at=None, disconnect_after_lines=None, silent_after_lines=None,
-                 reset_after_lines=None, drop_ok=None, delay_s=0.0, double_ok=None,
-                 oks_after_banner=0, oks_at_first_line=0, mute_answers_after=None,
-                 status_rewrite=None, disconnect_after_oks=None):
-        self.vm = vm
-        self.double_ok = double_ok
-        self.oks_after_banner = oks_after_banner
-        self.oks_at_first_line = oks_at_first_line
-        self.mute_answers_after = mute_answers_after
-        self.status_rewrite = status_rewrite
-        self.disconnect_after_oks = disconnect_after_oks
+    vm: VirtualMachine
+    _: KW_ONLY
+    garble_line: int | None = None
+    drop_newline_of: int | None = None
+    drop_byte_at: int | None = None
+    disconnect_after_lines: int | None = None
+    silent_after_lines: int | None = None
+    reset_after_lines: int | None = None
+    drop_ok: int | None = None
+    delay_s: float = 0.0
+    double_ok: int | None = None
+    oks_after_banner: int = 0
+    oks_at_first_line: int = 0
+    mute_answers_after: int | None = None
+    status_rewrite: Callable[[str], str] | None = None
+    disconnect_after_oks: int | None = None
+
+    def __post_init__(self):
         self.job_oks = 0                 # oks since the first G-code line
         self._banner_seen = False
         self._filter = any(v is not None and v is not False and v != 0 for v in (
-            drop_ok, double_ok, oks_after_banner, mute_answers_after, status_rewrite,
-            disconnect_after_oks))
-        self.garble_line = garble_line
-        self.drop_newline_of = drop_newline_of
-        self.drop_byte_at = drop_byte_at
-        self.disconnect_after_lines = disconnect_after_lines
-        self.silent_after_lines = silent_after_lines
-        self.reset_after_lines = reset_after_lines
-        self.drop_ok = drop_ok
+            self.drop_ok, self.double_ok, self.oks_after_banner, self.mute_answers_after,
+            self.status_rewrite, self.disconnect_after_oks))
         self.oks = 0
         self._reply = bytearray()
-        self.delay_s = delay_s
         self.lines = 0
         self.bytes = 0
         self._line = bytearray()
