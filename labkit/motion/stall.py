@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from labkit.errors import MotionError
+from labkit.motion._stall import stream_lines
 
 __all__ = ["Starvation", "LinkPrediction", "StallFreeFeed", "predict_stalls", "stall_free_feed",
            "sent_line_bytes", "with_feed", "program_feeds", "read_starvation_log", "FLUSH_QUIET_S"]
@@ -315,72 +316,38 @@ def predict_stalls(text: str, machine=None, *, line_bytes=None, dialect: str = "
 
     if np.any(np.diff(block_line) < 0):
         raise MotionError("the plan's blocks are not in source-line order")
-    tau = m.link_bits_per_byte / m.link_baud
-    parse_s = m.block_parse_s
-    n_sent = len(sent_idx)
+    W = m.buffer_blocks if m.waits_for_lookahead else 0
     src_line = sent_idx + 1
-    sent = np.zeros(n_sent)
-    arrived = np.zeros(n_sent)
-    parsed = np.zeros(n_sent)
+    n_sent = len(sent_idx)
+    nb = len(block_line)
     first_block = np.searchsorted(block_line, src_line, side="left")   # blocks b0 … b1-1 of each line
     last_block = np.searchsorted(block_line, src_line, side="right")
-    nb = len(block_line)
-    block_parsed = np.full(nb, np.inf)
-    start = np.zeros(nb)
-    end = np.zeros(nb)
-    W = m.buffer_blocks if m.waits_for_lookahead else 0
-    B = m.planner_blocks
-    done = 0                    # blocks whose start and end are known
-    in_flight: list[int] = []   # sent lines not yet answered
-    in_flight_bytes = 0
-    t_sender = wire_free = parse_free = 0.0
+    tau = m.link_bits_per_byte / m.link_baud
+    sent_bytes = np.ascontiguousarray(nbytes[sent_idx])
+    sent, arrived, parsed, start, end = stream_lines(
+        sent_bytes, first_block.astype(np.int64), last_block.astype(np.int64),
+        np.ascontiguousarray(dur), tau, float(m.block_parse_s), int(W), int(m.planner_blocks),
+        int(limit), FLUSH_QUIET_S if W else 0.0)
 
-    def settle(upto: int, flush_at: float = math.inf):
-        """Start and end of blocks ``done … upto-1``; block j is ready when block j + W is parsed."""
-        nonlocal done
-        while done < upto:
-            j = done
-            ready = block_parsed[j + W] if j + W < nb else max(flush_at, block_parsed[nb - 1])
-            start[j] = ready if j == 0 else max(end[j - 1], ready)
-            end[j] = start[j] + dur[j]
-            done += 1
-
-    for i in range(n_sent):
-        n = int(nbytes[sent_idx[i]])
-        t = t_sender
-        while in_flight and in_flight_bytes + n >= limit:      # GRBL's character counting
-            k = in_flight.pop(0)
-            in_flight_bytes -= int(nbytes[sent_idx[k]])
-            t = max(t, parsed[k])
-        t_sender = sent[i] = t
-        wire_free = max(wire_free, t) + n * tau
-        arrived[i] = wire_free
-        ready = max(arrived[i], parse_free)
-        b0, b1 = first_block[i], last_block[i]
-        need = b1 - 1 - B          # this block must have left the planner for a free slot
-        if b1 > b0 and need >= 0:
-            settle(min(need + 1, max(0, b0 - W)))
-            if done > need:
-                ready = max(ready, end[need])
-        parsed[i] = parse_free = ready + parse_s
-        block_parsed[b0:b1] = parsed[i]
-        in_flight.append(i)
-        in_flight_bytes += n
-        settle(max(0, b1 - W))
-    settle(nb, (parsed[-1] if n_sent else 0.0) + (FLUSH_QUIET_S if W else 0.0))
-
+    # a starvation: a stop while line bytes arrive (not the final flush's wait). The lines
+    # arriving after the stop began are a suffix (arrival times increase); one of them
+    # started arriving before the stop ended when the suffix's earliest first byte did.
     stalls = []
-    first_due = arrived - (nbytes[sent_idx] - 1) * tau
-    for j in np.flatnonzero(start[1:] - end[:-1] > _MIN_STALL_S) + 1:
-        t0, t1 = end[j - 1], start[j]
-        # a starvation while line bytes arrive during the stop (not the final flush's wait)
-        if np.any((arrived > t0) & (first_due <= t1)):
-            stalls.append(Starvation(float(t0), int(block_line[j]), float(t1 - t0)))
+    gaps = np.flatnonzero(start[1:] - end[:-1] > _MIN_STALL_S) + 1
+    if len(gaps) and n_sent:
+        first_due = arrived - (sent_bytes - 1) * tau
+        earliest_after = np.minimum.accumulate(first_due[::-1])[::-1]
+        t0, t1 = end[gaps - 1], start[gaps]
+        k = np.searchsorted(arrived, t0, side="right")
+        hit = k < n_sent
+        hit[hit] = earliest_after[k[hit]] <= t1[hit]
+        stalls = [Starvation(float(a), int(block_line[j]), float(b - a))
+                  for a, b, j in zip(t0[hit], t1[hit], gaps[hit])]
     # fill level: blocks entered by each line minus blocks that had ended by then
     entered = last_block
     ended = np.searchsorted(np.sort(end), parsed, side="right") if nb else np.zeros(n_sent, int)
     fill = np.maximum(entered - ended, 0)
-    return LinkPrediction(machine=m, line=src_line, bytes=nbytes[sent_idx], sent_s=sent, arrived_s=arrived,
+    return LinkPrediction(machine=m, line=src_line, bytes=sent_bytes, sent_s=sent, arrived_s=arrived,
                           parsed_s=parsed, fill=fill, block_line=block_line, block_start_s=start,
                           block_end_s=end, stalls=stalls, job_time_s=float(end.max()) if nb else 0.0,
                           motion_time_s=float(dur.sum()))
