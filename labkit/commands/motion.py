@@ -77,8 +77,11 @@ def _hms(seconds: float) -> str:
     return f"{h}:{m:02d}:{s:06.3f}"
 
 
-def _link_prediction(args, machine):
-    """The stream over the machine's link: (prediction at the programmed feed, stall-free feed)."""
+def _link_prediction(args, machine, plan=None):
+    """The stream over the machine's link: (prediction at the programmed feed, stall-free feed).
+
+    ``plan`` is the command's own plan, used when it is the one the predictor makes (GRBL's
+    junction planner with its constant-acceleration ramps, arcs whole, every line read)."""
     from pathlib import Path
 
     from labkit.motion.stall import predict_stalls, program_feeds, stall_free_feed
@@ -89,7 +92,9 @@ def _link_prediction(args, machine):
     if args.buffer is not None:
         m = m.replace(buffer_blocks=args.buffer)
     text = Path(args.file).read_text("utf-8", errors="replace")     # parsed already: readable
-    pred = predict_stalls(text, m, dialect=args.dialect)
+    same = (args.planner == "junction" and args.law in (None, "accel") and args.arc_tol is None
+            and not args.lenient)
+    pred = predict_stalls(text, m, dialect=args.dialect, plan=plan if same else None)
     free = stall_free_feed(text, m, dialect=args.dialect) if program_feeds(text) else None
     return m, pred, free
 
@@ -139,7 +144,7 @@ def run_plan(args) -> int:
         check_output_file(args.fill, args.file)
     p = _plan(args)
     s = p.summary()
-    link = None if args.no_link else _link_prediction(args, p.machine)
+    link = None if args.no_link else _link_prediction(args, p.machine, p)
     if args.trace:
         with atomic_output(args.trace, newline="") as fh:
             p.trace().to_csv(fh, index=False, float_format="%.9g")

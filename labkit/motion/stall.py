@@ -127,11 +127,27 @@ def sent_line_bytes(text: str) -> np.ndarray:
     """
     from labkit.gcode.reader import strip_comments
 
+    if _OTHER_LINE_BREAKS.search(text) is None:
+        # lines end in \n or \r\n only: the whole text at once, the same cuts per line
+        body = _SPACE_IN_LINE.sub("", _COMMENT_IN_LINE.sub("", text))
+        parts = body.split("\n")
+        if text.endswith("\n") or not text:
+            parts.pop()
+        n = np.fromiter(map(len, parts), dtype=np.int64, count=len(parts))
+        return np.where(n > 0, n + 1, 0)
     out = []
     for raw in text.splitlines():
         body = re.sub(r"\s", "", strip_comments(raw))
         out.append(len(body) + 1 if body else 0)
     return np.asarray(out, dtype=np.int64)
+
+
+#: What str.splitlines breaks a line at besides \n and \r\n.
+_OTHER_LINE_BREAKS = re.compile("[\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029]|\r(?!\n)")
+#: labkit.gcode.reader's comments (``(`` to ``)`` or the line's end; ``;`` to the line's end)
+#: within one line of a whole text, and the whitespace sent_line_bytes drops.
+_COMMENT_IN_LINE = re.compile(r"\([^)\n]*\)?|;[^\n]*")
+_SPACE_IN_LINE = re.compile(r"[^\S\n]")
 
 
 _F_WORD = re.compile(r"(F)([-+]?(?:\d+\.?\d*|\.\d+))", re.IGNORECASE)
@@ -146,6 +162,43 @@ def program_feeds(text: str) -> list[float]:
     from labkit.gcode.reader import strip_comments
 
     return [float(m.group(2)) for raw in text.splitlines() for m in _F_WORD.finditer(strip_comments(raw))]
+
+
+def _f_words(lines: list[str]):
+    """The F words :func:`with_feed` scales: those in the code of a line (before its first
+    ``;`` or ``(``). ``lines`` keep their ends; returns (line index, start, end) of each F
+    word's number and the number's text."""
+    where, numbers = [], []
+    for i, ln in enumerate(lines):
+        if "F" not in ln and "f" not in ln:
+            continue
+        raw = ln.rstrip("\r\n")
+        ends = [k for k in (raw.find(";"), raw.find("(")) if k >= 0]
+        for m in _F_WORD.finditer(raw, 0, min(ends) if ends else len(raw)):
+            where.append((i, m.start(2), m.end(2)))
+            numbers.append(m.group(2))
+    return where, numbers
+
+
+def _with_numbers(lines: list[str], where, numbers) -> str:
+    """The program with the F numbers at ``where`` (from :func:`_f_words`) replaced by ``numbers``."""
+    out = list(lines)
+    by_line: dict[int, list] = {}
+    for (i, a, b), new in zip(where, numbers):
+        by_line.setdefault(i, []).append((a, b, new))
+    for i, words in by_line.items():
+        ln, parts, cursor = lines[i], [], 0
+        for a, b, new in words:
+            parts += [ln[cursor:a], new]
+            cursor = b
+        parts.append(ln[cursor:])
+        out[i] = "".join(parts)
+    return "".join(out)
+
+
+def _scaled_numbers(values: np.ndarray, k: float) -> list[str]:
+    """F numbers scaled by ``k`` as :func:`with_feed` writes them (6 significant digits)."""
+    return [f"{v:.6g}" for v in (values * k).tolist()]
 
 
 def with_feed(text: str, feed_mm_min: float) -> str:
@@ -178,17 +231,9 @@ def with_feed(text: str, feed_mm_min: float) -> str:
     if not feeds or max(feeds) <= 0:
         raise MotionError("the program has no F word > 0: there is no feed to scale")
     k = feed_mm_min / max(feeds)
-
-    def scale_line(raw: str) -> str:
-        cut = raw.find(";")
-        paren = raw.find("(")
-        ends = [i for i in (cut, paren) if i >= 0]
-        code_end = min(ends) if ends else len(raw)
-        code = _F_WORD.sub(lambda m: f"{m.group(1)}{float(m.group(2)) * k:.6g}", raw[:code_end])
-        return code + raw[code_end:]
-
-    return "".join(scale_line(raw) + nl for raw, nl in
-                   ((ln.rstrip("\r\n"), ln[len(ln.rstrip("\r\n")):]) for ln in text.splitlines(True)))
+    lines = text.splitlines(True)
+    where, numbers = _f_words(lines)
+    return _with_numbers(lines, where, _scaled_numbers(np.array([float(v) for v in numbers]), k))
 
 
 @dataclass(frozen=True)
@@ -353,6 +398,82 @@ def predict_stalls(text: str, machine=None, *, line_bytes=None, dialect: str = "
                           motion_time_s=float(dur.sum()))
 
 
+class _FeedScaled:
+    """A program at other feeds, as :func:`with_feed` writes it, without rewriting its text.
+
+    Scaling the F words changes nothing but each move's feed and each line's bytes: the
+    program is parsed once, and twice more with its scaled F words tagged (all 1, then
+    word j as j + 2), which tells for each move the F word it runs at and the factor the
+    reader applied to it (G20's 25.4, an F in mm/s, G93's length). A move then runs at
+    the new number times that factor, as the reader computes it; a line's bytes change
+    by the new numbers' lengths. The plan at a feed is the same moves with new feeds.
+    Where this cannot hold (a scaled number written with an exponent), :meth:`at`
+    returns None and the caller rewrites the text.
+    """
+
+    def __init__(self, text: str, machine, dialect: str):
+        from labkit.gcode import parse
+
+        self.text, self.machine, self.dialect = text, machine, dialect
+        lines = text.splitlines(True)
+        where, numbers = _f_words(lines)
+        self.values = np.array([float(v) for v in numbers])
+        self.old_len = np.array([len(v) for v in numbers], dtype=np.int64)
+        self.word_line = np.array([w[0] for w in where], dtype=np.int64)
+        self.bytes = sent_line_bytes(text)
+        self.programmed = max(program_feeds(text))
+        self.moves = parse(text, dialect=dialect)
+        self.plan = None            # the last plan made (its blocks' geometry is the program's)
+        one = parse(_with_numbers(lines, where, ["1"] * len(where)), dialect=dialect)
+        tagged = parse(_with_numbers(lines, where, [str(j + 2) for j in range(len(where))]),
+                       dialect=dialect)
+        self.ok = (len(one) == len(tagged) == len(self.moves)
+                   and np.array_equal(one.line, self.moves.line) and np.array_equal(tagged.line, self.moves.line))
+        if not self.ok:
+            return
+        factor = one.feed_mm_min
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ratio = tagged.feed_mm_min / factor
+        tag = np.where(np.isfinite(ratio), np.rint(ratio), 1.0)
+        self.ok = bool(np.all(np.abs(np.where(np.isfinite(ratio), ratio, 1.0) - tag) < 1e-6))
+        # word of each move (-1: no scaled F word sets its feed, which then stays)
+        self.word = (tag - 2).astype(np.int64)
+        self.factor = factor
+
+    def at(self, feed_mm_min: float):
+        """(bytes per source line, moves) of the program at ``feed_mm_min``, or None."""
+        from labkit.toolpath.moves import Moves
+
+        if not self.ok:
+            return None
+        numbers = _scaled_numbers(self.values, feed_mm_min / self.programmed)
+        if any(("e" in x or "n" in x) for x in set(numbers)):   # an exponent, inf, nan
+            return None
+        value = np.array([float(x) for x in numbers])
+        length = np.array([len(x) for x in numbers], dtype=np.int64)
+        nbytes = self.bytes + np.bincount(self.word_line, weights=length - self.old_len,
+                                          minlength=len(self.bytes)).astype(np.int64)
+        feed = self.moves.feed_mm_min.copy()
+        scaled = self.word >= 0
+        f = value[self.word[scaled]] * self.factor[scaled]
+        feed[scaled] = np.where(f > 0, f, np.nan)
+        cols = self.moves.columns()
+        cols["feed_mm_min"] = feed
+        return nbytes, Moves(source=self.moves.source, s_max=self.moves.s_max, **cols)
+
+    def stalls_at(self, feed_mm_min: float) -> list:
+        """The starvations at ``feed_mm_min`` (:func:`predict_stalls` of :func:`with_feed`'s text)."""
+        from labkit.motion.pipeline import plan
+
+        got = self.at(feed_mm_min)
+        if got is None:
+            return predict_stalls(with_feed(self.text, feed_mm_min), self.machine,
+                                  dialect=self.dialect).stalls
+        nbytes, moves = got
+        self.plan = plan(moves, self.machine, planner="junction")
+        return predict_stalls(self.text, self.machine, line_bytes=nbytes, plan=self.plan).stalls
+
+
 @dataclass(frozen=True)
 class StallFreeFeed:
     """The highest feed at which a job streams without a starvation.
@@ -437,10 +558,14 @@ def stall_free_feed(text: str, machine=None, *, line_bytes=None, dialect: str = 
     programmed = max(feeds)
     top = float(min(m.max_rate_mm_min[:2]))
 
-    def stalls_at(feed):
-        t = with_feed(text, feed)
-        return predict_stalls(t, m, dialect=dialect,
-                              line_bytes=None if line_bytes is None else line_bytes(t)).stalls
+    scaled = None
+    if line_bytes is None:
+        scaled = _FeedScaled(text, m, dialect)
+        stalls_at = scaled.stalls_at
+    else:
+        def stalls_at(feed):
+            t = with_feed(text, feed)
+            return predict_stalls(t, m, dialect=dialect, line_bytes=line_bytes(t)).stalls
 
     at_programmed = stalls_at(programmed)
     if not stalls_at(top):
@@ -461,14 +586,18 @@ def stall_free_feed(text: str, machine=None, *, line_bytes=None, dialect: str = 
             else:
                 lo = mid
         best, limited = lo, "link"
-    row_list = _row_feeds(text, m, dialect, line_bytes, best, top, stalls_at, at_programmed) if rows else []
+    if rows:
+        geometry = scaled.plan if scaled is not None and scaled.plan is not None else _plan_text(text, m, dialect)
+        row_list = _row_feeds(text, m, geometry, line_bytes, best, top, stalls_at, at_programmed)
+    else:
+        row_list = []
     return StallFreeFeed(feed_mm_min=best, limited_by=limited, programmed_mm_min=programmed,
                          stalls=at_programmed, rows=row_list)
 
 
-def _rows(text: str, m, dialect: str):
-    """Image rows of a raster job: (y_mm, first line, last line), or [] for another job."""
-    p = _plan_text(text, m, dialect)
+def _rows(p, m):
+    """Image rows of a raster job planned as ``p``: (y_mm, first line, last line), or [] for
+    another job."""
     b = p.blocks[p.motion]
     if not len(b):
         return []
@@ -484,15 +613,16 @@ def _rows(text: str, m, dialect: str):
             for g in np.split(np.arange(len(b)), cuts)]
 
 
-def _row_feeds(text, m, dialect, line_bytes, best, top, stalls_at, at_programmed) -> list[dict]:
-    rows = _rows(text, m, dialect)
+def _row_feeds(text, m, p, line_bytes, best, top, stalls_at, at_programmed) -> list[dict]:
+    rows = _rows(p, m)
     if not rows:
         return []
     nbytes = sent_line_bytes(text) if line_bytes is None else np.asarray(line_bytes(text))
     firsts = np.array([r[1] for r in rows])
 
     def row_of(stalls):
-        return {int(np.searchsorted(firsts, s.line, side="right")) - 1 for s in stalls}
+        lines = np.array([s.line for s in stalls], dtype=np.int64)
+        return set((np.searchsorted(firsts, lines, side="right") - 1).tolist())
 
     feed = np.full(len(rows), top)
     open_rows = set(range(len(rows)))
@@ -504,8 +634,12 @@ def _row_feeds(text, m, dialect, line_bytes, best, top, stalls_at, at_programmed
             feed[r] = prev
             open_rows.discard(r)
         prev, f = f, f * _ROW_STEP
-    programmed_rows = [s for s in at_programmed]
-    return [{"y_mm": y, "first_line": a, "last_line": z, "bytes": int(nbytes[a - 1:z].sum()),
-             "stalls": sum(1 for s in programmed_rows if a <= s.line <= z),
-             "feed_mm_min": float(feed[i])}
+    stall_lines = np.sort(np.array([s.line for s in at_programmed], dtype=np.int64))
+    first = np.array([a for _, a, _ in rows])
+    last = np.array([z for _, _, z in rows])
+    stalls = np.searchsorted(stall_lines, last, side="right") - np.searchsorted(stall_lines, first, side="left")
+    upto = np.concatenate([[0], np.cumsum(nbytes)])
+    row_bytes = upto[last] - upto[first - 1]
+    return [{"y_mm": y, "first_line": a, "last_line": z, "bytes": int(row_bytes[i]),
+             "stalls": int(stalls[i]), "feed_mm_min": float(feed[i])}
             for i, (y, a, z) in enumerate(rows)]

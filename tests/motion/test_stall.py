@@ -198,3 +198,72 @@ def test_labkit_plan_prints_and_writes_the_stall_prediction(tmp_path, capsys):
     assert rows[0] == "line,bytes,sent_s,arrived_s,parsed_s,fill_blocks" and len(rows) == 62
     assert main(["plan", str(job), "--json", "--no-link"]) == 0
     assert "stalls" not in json.loads(capsys.readouterr().out)
+
+
+#: A hand-written program with what the fast path must read as the text path does: inches
+#: (G20: F × 25.4), inverse time (G93: F × length), an F after an inline comment (left as it
+#: is by with_feed), a jog, lower-case f, comments holding F words and CRLF line ends.
+ODD_FEEDS = ("G21 G90\r\nG1 X1 F600 ; F9\r\nX2 (F7) F300\r\nG20 G1 X0.2 Y0.05 f24.5\r\nX0.25\r\n"
+             "G21 G93 G1 X8 Y2 F90\r\nX9 F120\r\nG94 G1 X10 F450.123456789\r\nX11\r\n"
+             "$J=G91 X1 F700\r\nG1 X13 F555\r\n")
+
+
+def _scaled_jobs(tmp_path):
+    from PIL import Image
+
+    img = np.full((5, 60), 255, np.uint8)
+    img[1, :] = np.arange(60) * 4
+    img[3, 10:50] = 0
+    Image.fromarray(img).save(tmp_path / "rows.png", dpi=(254, 254))
+    out = tmp_path / "rows.gcode"
+    assert main(["img2gcode", str(tmp_path / "rows.png"), "-o", str(out), "--mode", "gray",
+                 "--beam", "0.1", "--preview", "none", "--feed", "1500"]) == 0
+    return [(_job(RELATIVE_CUTS), CBR40.replace(link_baud=1200)),
+            (_job(SHORT_CUTS), CBR40.replace(link_baud=1200, waits_for_lookahead=False)),
+            (out.read_text(), CBR40.replace(link_baud=2400)),
+            (out.read_text(), load_machine("grbl-diode").replace(link_baud=9600)),
+            ("".join((ROOT / "data/gcode/cncjs/jsdc-laser.gcode").open().readlines()[:400]),
+             CBR40.replace(link_baud=4800)),
+            (ODD_FEEDS, CBR40.replace(link_baud=300, buffer_blocks=2))]
+
+
+def test_scaling_the_parsed_program_predicts_what_rewriting_its_text_does(tmp_path):
+    """stall_free_feed scales the feeds of the parsed moves and the bytes of the lines; the
+    text path (with_feed, then parse, plan and predict: what a sender-supplied line_bytes
+    still takes) must come out the same, stall for stall and row for row, to the last bit."""
+    from labkit.motion.stall import _FeedScaled
+
+    for text, m in _scaled_jobs(tmp_path):
+        scaled = _FeedScaled(text, m, "grbl")
+        assert scaled.ok
+        top = float(min(m.max_rate_mm_min[:2]))
+        for feed in (top * 1e-3, 97.3, 180.0, 333.3, 611.0, 1200.0, top):
+            assert scaled.stalls_at(feed) == predict_stalls(with_feed(text, feed), m).stalls, feed
+            nbytes, moves = scaled.at(feed)
+            np.testing.assert_array_equal(nbytes, sent_line_bytes(with_feed(text, feed)))
+            from labkit.gcode import parse
+            np.testing.assert_array_equal(moves.feed_mm_min, parse(with_feed(text, feed)).feed_mm_min)
+        fast = stall_free_feed(text, m)
+        by_text = stall_free_feed(text, m, line_bytes=sent_line_bytes)     # the text path
+        assert fast == by_text
+    # the odd program's feeds really moved (inches, inverse time, the jog) and one stayed
+    nbytes, moves = _FeedScaled(ODD_FEEDS, CBR40, "grbl").at(2 * 700)
+    from labkit.gcode import parse
+    before = parse(ODD_FEEDS).feed_mm_min
+    changed = ~np.isclose(moves.feed_mm_min, before, equal_nan=True)
+    assert changed.sum() >= 6 and (~changed).sum() >= 1
+
+
+def test_the_stream_kernel_as_python_equals_compiled(tmp_path):
+    """labkit.motion._stall.stream_lines runs as Python below 20,000 lines and compiled above
+    (labkit._jit's rule): both give the same times to the bit."""
+    from labkit._jit import forced
+
+    for text, m in _scaled_jobs(tmp_path):
+        with forced("python"):
+            a = predict_stalls(text, m)
+        with forced("compiled"):
+            b = predict_stalls(text, m)
+        assert a.stalls == b.stalls
+        for name in ("sent_s", "arrived_s", "parsed_s", "fill", "block_start_s", "block_end_s"):
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
