@@ -55,11 +55,10 @@ ends with ``G92.1``, which clears that offset again, so the next job runs in the
 expects. G92 rather than ``G10 L20`` (which rewrites the stored G54 origin in GRBL's EEPROM) and
 rather than relative moves (G91: one lost line displaces all that follow, and the planner's arcs
 and a resume want absolute positions). GRBL 1.1 clears a G92 offset on every reset, and a resume
-restates the program's own state, in which G92 X0 Y0 made no offset (the program cannot know where
-the head stood: ``labkit stream --resume-from`` on such a job moves in the plain work coordinates,
-not from where the head stood), so a job placed here and stopped by a reset
-(labkit's safe stop sends one) cannot be resumed with ``--resume-from``: burn it again from its
-start, or, for a job that must be resumable, set a work origin there (``G10 L20 P1 X0 Y0``, stored
+restates the program's own state, which cannot know where the head stood, so a job placed here
+and stopped by a reset (labkit's safe stop sends one) cannot be resumed: ``labkit stream
+--resume-from`` refuses it with that reason (:func:`labkit.machine.resume.resume_text`) instead of
+burning in the plain work coordinates. Burn it again from its start, or, for a job that must be resumable, set a work origin there (``G10 L20 P1 X0 Y0``, stored
 in EEPROM) and place the job at the origin. The program's header and the record (``placement``)
 say how the job was placed.
 """

@@ -157,9 +157,17 @@ def _number(v) -> float:
     return int(v) if v == int(v) else v
 
 
-def line_states(text, *, dialect="grbl"):
+def line_states(text, *, dialect="grbl", state: ModalState | None = None):
     """The interpreter's state after every line of ``text`` (rejected lines keep the state
     before them), and the lines.
+
+    Parameters
+    ----------
+    text : str or bytes
+    dialect : str or Dialect
+    state : ModalState, optional
+        The state the first line starts from (default: GRBL's power-on state at the
+        machine origin).
 
     Returns
     -------
@@ -173,7 +181,9 @@ def line_states(text, *, dialect="grbl"):
 
     data = _as_bytes(text)
     lines = _text_lines(data)
-    return _run(data, get_dialect(dialect), lenient=True, trace=True).trace[:len(lines)], lines
+    start = None if state is None else state.record()
+    return _run(data, get_dialect(dialect), lenient=True, trace=True,
+                start=start).trace[:len(lines)], lines
 
 
 def _shortest(value: float) -> str:

@@ -69,8 +69,10 @@ def resume_text(job: "Job", line: int, position=None) -> list[str]:
     """
     if not 1 <= line <= len(job.source_lines):
         raise InputError(f"resume line {line} is outside the file (1–{len(job.source_lines)})")
-    trace, _ = line_states("\n".join(job.source_lines[:line]), dialect=job.dialect)
+    prefix = "\n".join(job.source_lines[:line])
+    trace, _ = line_states(prefix, dialect=job.dialect)
     before = ModalState.at(trace, line - 2)            # the state the line starts from
+    _refuse_unknown_origin(prefix, job.dialect, trace, line)
     here = before.work_position if position is None else np.asarray(position, float)
     finish = []
     if position is not None:
@@ -94,6 +96,31 @@ def resume_text(job: "Job", line: int, position=None) -> list[str]:
         else:
             finish.append(f"G{kind} {xyz}{words}")
     return restate(before, job.dialect, here, origins_kept=True, then=finish)
+
+
+#: A start position no program assumes (Z left at 0: a flat job that never names Z).
+_PROBE_START_MM = (1234.5, -678.25, 0.0)
+
+
+def _refuse_unknown_origin(prefix: str, dialect, trace, line: int) -> None:
+    """Raise when the G92 offset in effect before ``line`` was taken wherever the head stood
+    when the job began (``G92 X0 Y0`` as a job's first line: a job placed at the current
+    position, LightBurn's "Current Position"). GRBL clears G92 on a reset and the program
+    alone cannot say where the head was, so a resume would burn in the wrong place. (A job
+    with no such G92 is resumed, as it is run, in the work coordinates.)"""
+    if line < 2:
+        return
+    here = ModalState.at(trace, line - 2)
+    elsewhere, _ = line_states(prefix, dialect=dialect, state=ModalState(position=_PROBE_START_MM))
+    there = ModalState.at(elsewhere, line - 2)
+    if np.allclose(here.g92, there.g92, atol=1e-9):
+        return
+    raise InputError(
+        f"the G92 offset in effect at line {line} was taken wherever the head stood when the "
+        f"job began (a job placed at the current position); a reset has cleared it and the "
+        f"program does not say where that was, so resuming at line {line} would burn in the "
+        f"wrong place. Run the job again from its start point, or make the remaining lines a "
+        f"job of their own placed where they belong")
 
 
 def frame_text(job: "Job", *, power_s: float = 0.0, feed_mm_min: float = 3000.0) -> list[str]:

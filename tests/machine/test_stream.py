@@ -422,3 +422,25 @@ def test_feed_hold_inside_a_line_then_resume_burns_each_stretch_once():
         assert_exactly_once(job, vm)
         g.close()
     assert inside >= 2, f"only {inside} of 5 faults stopped inside a line"
+
+
+def test_resume_refuses_a_job_placed_at_the_current_position():
+    """A G92 taken wherever the head stood is lost on reset and the program cannot say where
+    that was: resuming would burn in the wrong place, so the resume says so instead."""
+    placed_here = "G92 X0 Y0\nG21 G90\nM4 S300 F600\nG1 X10\nG1 Y10\nM5\nG92.1\n"
+    job = Job.from_text(placed_here)
+    with pytest.raises(InputError, match="G92 offset in effect at line 5 was taken wherever the head"):
+        resume_text(job, 5)
+    assert resume_text(job, 1)[0] == "M5 S0"   # from its first line it is a fresh run: allowed
+    # a G92 taken at a position the program itself commanded is known, and restated
+    known = Job.from_text("G0 X50 Y50\n" + placed_here)
+    assert resume_text(known, 6)[2:5] == ["G92.1", "G0 X60 Y50 Z0", "G92 X10 Y0 Z0"]
+    # after the program has cleared it again (G92.1), the rest resumes in work coordinates
+    after = Job.from_text(placed_here + "G0 X5 Y5\nM4 S300\nG1 X6\n")
+    assert resume_text(after, 10)[:3] == ["M5 S0", "G21 G90 G91.1 G17 G54", "G0 X5 Y5 Z0"]
+    # the runner refuses before a byte is sent
+    vm, g = machine()
+    with pytest.raises(InputError, match="taken wherever the head stood"):
+        run_job(g, job, resume_from=5)
+    assert vm.laser_output() == 0 and vm.executed == []     # nothing was sent, nothing moved
+    g.close()
