@@ -251,8 +251,9 @@ class VirtualMachine:
         #: the rows of the firmware simulator's --beam-log
         self.beam_log: list[tuple[float, float, str, int]] = []
         self._beam_level = 0.0
-        self._status_count = 0
+        self._wco_counter = self._ovr_counter = 0   # GRBL's report refresh counters
         self._wco_sent = np.zeros(3)
+        self._ov_laser = 0
         self._speed = 0.0           # mm/s at the end of the last block executed
         self._hold_v = 0.0          # mm/s while braking for a feed hold
         self._parser = Interpreter("grbl")
@@ -323,10 +324,13 @@ class VirtualMachine:
                 self._realtime(kind)
             elif 0x90 <= byte <= 0x9D:
                 self._override(byte)
-            elif len(self._rx) < self.rx_bytes - 1:    # GRBL keeps one byte free
-                self._rx.append(byte)
             else:
-                self.overflows += 1
+                if len(self._rx) >= self.rx_bytes:
+                    self._take_lines()          # GRBL's main loop reads on while bytes arrive
+                if len(self._rx) < self.rx_bytes:   # GRBL 1.1's ring holds all 128 bytes
+                    self._rx.append(byte)
+                else:
+                    self.overflows += 1
 
     def _next_arrival_s(self) -> float:
         """When the next byte that changes anything (a line end, a real-time byte, or the end
@@ -559,6 +563,7 @@ class VirtualMachine:
             self._speed = 0.0
             self._reset_parser()
             self.check_mode = False
+            self._wco_counter = self._ovr_counter = 0
             if moving:
                 self.state, self.alarm_code = "Alarm", AlarmCode.ABORT_CYCLE
                 self._emit(grbl_reply(AlarmCode.ABORT_CYCLE))
@@ -603,7 +608,7 @@ class VirtualMachine:
         feed = self._blocks[0].speed_mm_s * 60 if self._blocks and self.state == "Run" else 0.0
         s = self.s_word if self.laser_output() > 0 else 0.0
         free_blocks = self.planner_blocks - len(self._blocks)
-        free_rx = self.rx_bytes - 1 - len(self._rx)
+        free_rx = self.rx_bytes - len(self._rx)
         wco = self.work_offset
         mask = int(self.settings[10])
         # $10 bit 0: MPos (1) or WPos (0); bit 1: the buffer state Bf
@@ -614,17 +619,27 @@ class VirtualMachine:
         if mask & 2:
             text += f"|Bf:{free_blocks},{free_rx}"
         text += f"|FS:{feed:.0f},{s:.0f}"
-        if self._status_count % 10 == 0 or not np.array_equal(wco, self._wco_sent):
-            text += "|WCO:{:.3f},{:.3f},{:.3f}".format(*wco)       # GRBL: now and then, and on change
-            self._wco_sent = wco
-        if self._ov_changed or self._status_count % 10 == 1:     # GRBL: on change, else now and then
+        # GRBL's refresh counters: WCO every 10th report idle (30th busy) or at once after it
+        # changes, Ov on the report after WCO, then every 10th idle (20th busy) or at once after
+        # an override or the spindle/laser state changes; no Ln (GRBL's default build has none)
+        busy = self.state in ("Run", "Hold", "Jog", "Door", "Home")
+        if not np.array_equal(wco, self._wco_sent):
+            self._wco_counter, self._wco_sent = 0, wco
+        if self._ov_changed or self.laser_mode_word != self._ov_laser:
+            self._ovr_counter, self._ov_changed, self._ov_laser = 0, False, self.laser_mode_word
+        if self._wco_counter > 0:
+            self._wco_counter -= 1
+        else:
+            self._wco_counter = (30 if busy else 10) - 1
+            self._ovr_counter = self._ovr_counter or 1
+            text += "|WCO:{:.3f},{:.3f},{:.3f}".format(*wco)
+        if self._ovr_counter > 0:
+            self._ovr_counter -= 1
+        else:
+            self._ovr_counter = (20 if busy else 10) - 1
             text += "|Ov:{},{},{}".format(*self.overrides)
-            self._ov_changed = False
             if self.laser_output() > 0:                 # GRBL: A:S (M3) or A:C (M4) while the PWM is on
                 text += "|A:" + ("S" if self.laser_mode_word == 3 else "C")
-        self._status_count += 1
-        if self._blocks and self._blocks[0].n_word >= 0:
-            text += f"|Ln:{self._blocks[0].n_word}"
         return text + ">"
 
     def _advance(self) -> None:
@@ -920,6 +935,8 @@ class VirtualMachine:
                 return ErrorCode.NOT_IDLE
             if key < len(self.startup_lines):
                 self.startup_lines[key] = value
+            elif key == len(self.startup_lines):    # GRBL's EEPROM: the build info's place
+                self.build_info = ""
             return ErrorCode.OK
         self.settings[key] = _setting_text(key, float(value))
         if key == 22 and not float(value):
