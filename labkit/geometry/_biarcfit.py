@@ -545,46 +545,36 @@ def _end_tangent(ba, p0x, p0y, p1x, p1y):
 def _search(ctrl, shape, Ta, rem, guess, p0x, p0y, t0x, t0y, single, kink, tol, buf, tbuf, ba, best,
             per_cubic):
     """Longest piece from Ta (at most rem) that fits: try guess, double or halve, bisect.
-    Returns (length, bracket end or -1, error, end x, end y, buf, tbuf); best holds the fit."""
-    step = min(guess, rem)
+    Returns (length, bracket end or -1, error, end x, end y, buf, tbuf); best holds the fit.
+
+    One fit per pass; what was learnt picks the next length: while nothing failed, double
+    (up to rem); while nothing fitted, halve (down to _MIN_STEP); once a fit and a failure
+    bracket the length, bisect _BISECT times."""
+    s = min(guess, rem)
     lo, hi = 0.0, -1.0
     best_e, bx, by = math.inf, 0.0, 0.0
-    e, ex, ey, buf, tbuf = _chain_fit(ctrl, shape, Ta, Ta + step, p0x, p0y, t0x, t0y, single, kink, tol, buf,
-                                              tbuf, ba, per_cubic)
-    if e <= tol:
-        lo, best_e, bx, by = step, e, ex, ey
-        best[:] = ba
-        while lo < rem:
-            s2 = min(2.0 * lo, rem)
-            e, ex, ey, buf, tbuf = _chain_fit(ctrl, shape, Ta, Ta + s2, p0x, p0y, t0x, t0y, single, kink, tol, buf,
-                                              tbuf, ba, per_cubic)
-            if e <= tol:
-                lo, best_e, bx, by = s2, e, ex, ey
-                best[:] = ba
-            else:
-                hi = s2
+    bisections = 0
+    while True:
+        e, ex, ey, buf, tbuf = _chain_fit(ctrl, shape, Ta, Ta + s, p0x, p0y, t0x, t0y, single, kink, tol, buf,
+                                          tbuf, ba, per_cubic)
+        if e <= tol:
+            lo, best_e, bx, by = s, e, ex, ey
+            best[:] = ba
+        else:
+            hi = s
+        if hi < 0.0:
+            if lo >= rem:
                 break
-    else:
-        hi = step
-        while hi * 0.5 >= _MIN_STEP:
-            s2 = 0.5 * hi
-            e, ex, ey, buf, tbuf = _chain_fit(ctrl, shape, Ta, Ta + s2, p0x, p0y, t0x, t0y, single, kink, tol, buf,
-                                              tbuf, ba, per_cubic)
-            if e <= tol:
-                lo, best_e, bx, by = s2, e, ex, ey
-                best[:] = ba
+            s = min(2.0 * lo, rem)
+        elif lo == 0.0:
+            if hi * 0.5 < _MIN_STEP:
                 break
-            hi = s2
-    if lo > 0.0 and hi > 0.0:
-        for _ in range(_BISECT):
-            mid = 0.5 * (lo + hi)
-            e, ex, ey, buf, tbuf = _chain_fit(ctrl, shape, Ta, Ta + mid, p0x, p0y, t0x, t0y, single, kink, tol, buf,
-                                              tbuf, ba, per_cubic)
-            if e <= tol:
-                lo, best_e, bx, by = mid, e, ex, ey
-                best[:] = ba
-            else:
-                hi = mid
+            s = 0.5 * hi
+        else:
+            if bisections == _BISECT:
+                break
+            bisections += 1
+            s = 0.5 * (lo + hi)
     return lo, hi, best_e, bx, by, buf, tbuf
 
 
