@@ -31,30 +31,17 @@ def line_walk(start, end):
 
     Every axis keeps an integer error ``err = 2·|Δ_i| − N`` (N = the driver's
     |Δ|); each tick the axis steps when ``err >= 0`` (then ``err -= 2N``),
-    and ``err += 2·|Δ_i|``. The driver (|Δ_i| = N) steps every tick.
+    and ``err += 2·|Δ_i|``. The driver (|Δ_i| = N) steps every tick. The walk
+    itself is :func:`lines_walk`'s, on a batch of one line.
     """
     d = start.shape[0]
-    delta = np.empty(d, np.int64)
-    sgn = np.empty(d, np.int64)
     n = 0
     for i in range(d):
-        delta[i] = abs(end[i] - start[i])
-        sgn[i] = 1 if end[i] > start[i] else -1
-        if delta[i] > n:
-            n = delta[i]
+        n = max(n, abs(end[i] - start[i]))
     out = np.empty((n + 1, d), np.int64)
-    err = np.empty(d, np.int64)
-    pos = start.copy()
-    for i in range(d):
-        err[i] = 2 * delta[i] - n
-        out[0, i] = pos[i]
-    for k in range(1, n + 1):
-        for i in range(d):
-            if err[i] >= 0:
-                pos[i] += sgn[i]
-                err[i] -= 2 * n
-            err[i] += 2 * delta[i]
-            out[k, i] = pos[i]
+    offsets = np.zeros(2, np.int64)
+    offsets[1] = n + 1
+    lines_walk(start.reshape((1, d)), end.reshape((1, d)), offsets, out)
     return out
 
 
