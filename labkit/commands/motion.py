@@ -42,11 +42,12 @@ def _add_common(parser):
                         help="skip rejected lines (as a controller would) instead of failing")
 
 
-def _plan(args):
+def _plan(args, moves=None):
     from labkit.gcode import parse_file
     from labkit.motion import plan
 
-    moves = parse_file(args.file, dialect=args.dialect, lenient=args.lenient)
+    if moves is None:
+        moves = parse_file(args.file, dialect=args.dialect, lenient=args.lenient)
     return plan(moves, args.machine, planner=args.planner, buffer_blocks=args.buffer, law=args.law,
                 arc_tol_mm=args.arc_tol)
 
@@ -77,11 +78,12 @@ def _hms(seconds: float) -> str:
     return f"{h}:{m:02d}:{s:06.3f}"
 
 
-def _link_prediction(args, machine, plan=None):
+def _link_prediction(args, machine, plan=None, moves=None):
     """The stream over the machine's link: (prediction at the programmed feed, stall-free feed).
 
-    ``plan`` is the command's own plan, used when it is the one the predictor makes (GRBL's
-    junction planner with its constant-acceleration ramps, arcs whole, every line read)."""
+    ``moves`` and ``plan`` are the command's own, used when they are the ones the predictor
+    makes (every line read; GRBL's junction planner with its constant-acceleration ramps,
+    arcs whole)."""
     from pathlib import Path
 
     from labkit.motion.stall import predict_stalls, program_feeds, stall_free_feed
@@ -94,8 +96,11 @@ def _link_prediction(args, machine, plan=None):
     text = Path(args.file).read_text("utf-8", errors="replace")     # parsed already: readable
     same = (args.planner == "junction" and args.law in (None, "accel") and args.arc_tol is None
             and not args.lenient)
-    pred = predict_stalls(text, m, dialect=args.dialect, plan=plan if same else None)
-    free = stall_free_feed(text, m, dialect=args.dialect) if program_feeds(text) else None
+    if not same:
+        moves = plan = None
+    pred = predict_stalls(text, m, dialect=args.dialect, plan=plan)
+    free = (stall_free_feed(text, m, dialect=args.dialect, moves=moves, plan=plan)
+            if program_feeds(text) else None)
     return m, pred, free
 
 
@@ -142,9 +147,12 @@ def run_plan(args) -> int:
         check_output_file(args.trace, args.file)
     if args.fill:
         check_output_file(args.fill, args.file)
-    p = _plan(args)
+    from labkit.gcode import parse_file
+
+    moves = parse_file(args.file, dialect=args.dialect, lenient=args.lenient)
+    p = _plan(args, moves)
     s = p.summary()
-    link = None if args.no_link else _link_prediction(args, p.machine, p)
+    link = None if args.no_link else _link_prediction(args, p.machine, p, moves)
     if args.trace:
         with atomic_output(args.trace, newline="") as fh:
             p.trace().to_csv(fh, index=False, float_format="%.9g")

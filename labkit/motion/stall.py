@@ -401,47 +401,69 @@ def predict_stalls(text: str, machine=None, *, line_bytes=None, dialect: str = "
 class _FeedScaled:
     """A program at other feeds, as :func:`with_feed` writes it, without rewriting its text.
 
-    Scaling the F words changes nothing but each move's feed and each line's bytes: the
-    program is parsed once, and twice more with its scaled F words tagged (all 1, then
-    word j as j + 2), which tells for each move the F word it runs at and the factor the
-    reader applied to it (G20's 25.4, an F in mm/s, G93's length). A move then runs at
-    the new number times that factor, as the reader computes it; a line's bytes change
-    by the new numbers' lengths. The plan at a feed is the same moves with new feeds.
-    Where this cannot hold (a scaled number written with an exponent), :meth:`at`
-    returns None and the caller rewrites the text.
+    Scaling the F words changes nothing but each move's feed and each line's bytes. The
+    program is parsed once more with its scaled F words tagged (word j as j + 2): a move
+    whose feed is the last scaled word before it times a reader's factor (G20's 25.4, an F
+    in mm/s), both in the program and tagged, runs at that word times that factor. When a
+    move is not so (G93's length, a jog, an F word with_feed leaves alone), a second tagged
+    parse (every word 1) gives each move's factor itself. A move then runs at the new
+    number times its factor, as the reader computes it; a line's bytes change by the new
+    numbers' lengths; the plan at a feed is the same moves with the new feeds. Where this
+    cannot hold (a scaled number written with an exponent), :meth:`at` returns None and
+    the caller rewrites the text.
     """
 
-    def __init__(self, text: str, machine, dialect: str):
+    def __init__(self, text: str, machine, dialect: str, moves=None, plan=None):
         from labkit.gcode import parse
 
         self.text, self.machine, self.dialect = text, machine, dialect
         lines = text.splitlines(True)
         where, numbers = _f_words(lines)
+        self.numbers = numbers
         self.values = np.array([float(v) for v in numbers])
         self.old_len = np.array([len(v) for v in numbers], dtype=np.int64)
         self.word_line = np.array([w[0] for w in where], dtype=np.int64)
         self.bytes = sent_line_bytes(text)
         self.programmed = max(program_feeds(text))
-        self.moves = parse(text, dialect=dialect)
-        self.plan = None            # the last plan made (its blocks' geometry is the program's)
-        one = parse(_with_numbers(lines, where, ["1"] * len(where)), dialect=dialect)
+        self.moves = parse(text, dialect=dialect) if moves is None else moves
+        self.base_plan = plan       # the plan of the text as it is, when given
+        self.plan = plan            # the last plan made (its blocks' geometry is the program's)
         tagged = parse(_with_numbers(lines, where, [str(j + 2) for j in range(len(where))]),
                        dialect=dialect)
-        self.ok = (len(one) == len(tagged) == len(self.moves)
-                   and np.array_equal(one.line, self.moves.line) and np.array_equal(tagged.line, self.moves.line))
+        self.ok = self._same_lines(tagged)
         if not self.ok:
             return
-        factor = one.feed_mm_min
-        with np.errstate(invalid="ignore", divide="ignore"):
-            ratio = tagged.feed_mm_min / factor
-        tag = np.where(np.isfinite(ratio), np.rint(ratio), 1.0)
-        self.ok = bool(np.all(np.abs(np.where(np.isfinite(ratio), ratio, 1.0) - tag) < 1e-6))
-        # word of each move (-1: no scaled F word sets its feed, which then stays)
-        self.word = (tag - 2).astype(np.int64)
-        self.factor = factor
+        feed0, feed_tag = self.moves.feed_mm_min, tagged.feed_mm_min
+        n = len(feed0)
+        word = np.searchsorted(self.word_line, np.asarray(self.moves.line) - 1, side="right") - 1
+        scale, per_s = np.ones(n), np.ones(n)
+        found = np.zeros(n, bool)
+        w = np.maximum(word, 0)
+        for sc, ps in ((1.0, 1.0), (25.4, 1.0), (1.0, 60.0), (25.4, 60.0)):   # as the reader multiplies
+            hit = ~found & (word >= 0) & (self.values[w] * sc * ps == feed0) & ((w + 2.0) * sc * ps == feed_tag)
+            scale[hit], per_s[hit], found[hit] = sc, ps, True
+        same = (feed0 == feed_tag) | (np.isnan(feed0) & np.isnan(feed_tag))
+        if np.all(found ^ same):
+            self.word = np.where(found, word, -1)
+        else:                                   # G93, jogs, words left alone: each move's factor
+            one = parse(_with_numbers(lines, where, ["1"] * len(where)), dialect=dialect)
+            self.ok = self._same_lines(one)
+            if not self.ok:
+                return
+            scale, per_s = one.feed_mm_min, np.ones(n)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                ratio = feed_tag / scale
+            tag = np.where(np.isfinite(ratio), np.rint(ratio), 1.0)
+            self.ok = bool(np.all(np.abs(np.where(np.isfinite(ratio), ratio, 1.0) - tag) < 1e-6))
+            self.word = (tag - 2).astype(np.int64)      # -1: no scaled F word sets its feed
+        self.scale, self.per_s = scale, per_s
+
+    def _same_lines(self, other) -> bool:
+        return len(other) == len(self.moves) and np.array_equal(other.line, self.moves.line)
 
     def at(self, feed_mm_min: float):
-        """(bytes per source line, moves) of the program at ``feed_mm_min``, or None."""
+        """(bytes per source line, moves, the numbers written) of the program at
+        ``feed_mm_min``, or None."""
         from labkit.toolpath.moves import Moves
 
         if not self.ok:
@@ -455,11 +477,11 @@ class _FeedScaled:
                                           minlength=len(self.bytes)).astype(np.int64)
         feed = self.moves.feed_mm_min.copy()
         scaled = self.word >= 0
-        f = value[self.word[scaled]] * self.factor[scaled]
+        f = value[self.word[scaled]] * self.scale[scaled] * self.per_s[scaled]
         feed[scaled] = np.where(f > 0, f, np.nan)
         cols = self.moves.columns()
         cols["feed_mm_min"] = feed
-        return nbytes, Moves(source=self.moves.source, s_max=self.moves.s_max, **cols)
+        return nbytes, Moves(source=self.moves.source, s_max=self.moves.s_max, **cols), numbers
 
     def stalls_at(self, feed_mm_min: float) -> list:
         """The starvations at ``feed_mm_min`` (:func:`predict_stalls` of :func:`with_feed`'s text)."""
@@ -469,8 +491,11 @@ class _FeedScaled:
         if got is None:
             return predict_stalls(with_feed(self.text, feed_mm_min), self.machine,
                                   dialect=self.dialect).stalls
-        nbytes, moves = got
-        self.plan = plan(moves, self.machine, planner="junction")
+        nbytes, moves, numbers = got
+        if self.base_plan is not None and numbers == self.numbers:      # the text as it is
+            self.plan = self.base_plan
+        else:
+            self.plan = plan(moves, self.machine, planner="junction")
         return predict_stalls(self.text, self.machine, line_bytes=nbytes, plan=self.plan).stalls
 
 
@@ -518,7 +543,7 @@ _ROW_STEP = 1.03
 
 
 def stall_free_feed(text: str, machine=None, *, line_bytes=None, dialect: str = "grbl",
-                    rel_tol: float = 0.002, rows: bool = True) -> StallFreeFeed:
+                    rel_tol: float = 0.002, rows: bool = True, moves=None, plan=None) -> StallFreeFeed:
     """The highest feed at which the link never leaves the machine without a block.
 
     The program's feeds are scaled together (:func:`with_feed`) and the highest
@@ -539,6 +564,9 @@ def stall_free_feed(text: str, machine=None, *, line_bytes=None, dialect: str = 
         Relative width of the final bracket.
     rows : bool
         Find each image row's stall-free feed too (a raster job; a few more predictions).
+    moves, plan : Moves and Plan, optional
+        The program as read in ``dialect`` and its plan as :func:`predict_stalls` makes it
+        (GRBL's junction planner on ``machine``), when already made.
 
     Returns
     -------
@@ -560,7 +588,7 @@ def stall_free_feed(text: str, machine=None, *, line_bytes=None, dialect: str = 
 
     scaled = None
     if line_bytes is None:
-        scaled = _FeedScaled(text, m, dialect)
+        scaled = _FeedScaled(text, m, dialect, moves, plan)
         stalls_at = scaled.stalls_at
     else:
         def stalls_at(feed):

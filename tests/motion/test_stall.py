@@ -239,15 +239,20 @@ def test_scaling_the_parsed_program_predicts_what_rewriting_its_text_does(tmp_pa
         top = float(min(m.max_rate_mm_min[:2]))
         for feed in (top * 1e-3, 97.3, 180.0, 333.3, 611.0, 1200.0, top):
             assert scaled.stalls_at(feed) == predict_stalls(with_feed(text, feed), m).stalls, feed
-            nbytes, moves = scaled.at(feed)
+            nbytes, moves, _ = scaled.at(feed)
             np.testing.assert_array_equal(nbytes, sent_line_bytes(with_feed(text, feed)))
             from labkit.gcode import parse
             np.testing.assert_array_equal(moves.feed_mm_min, parse(with_feed(text, feed)).feed_mm_min)
         fast = stall_free_feed(text, m)
         by_text = stall_free_feed(text, m, line_bytes=sent_line_bytes)     # the text path
         assert fast == by_text
+        from labkit.gcode import parse
+        from labkit.motion import plan
+
+        moves = parse(text)                                     # as labkit plan hands them over
+        assert stall_free_feed(text, m, moves=moves, plan=plan(moves, m, planner="junction")) == by_text
     # the odd program's feeds really moved (inches, inverse time, the jog) and one stayed
-    nbytes, moves = _FeedScaled(ODD_FEEDS, CBR40, "grbl").at(2 * 700)
+    nbytes, moves, _ = _FeedScaled(ODD_FEEDS, CBR40, "grbl").at(2 * 700)
     from labkit.gcode import parse
     before = parse(ODD_FEEDS).feed_mm_min
     changed = ~np.isclose(moves.feed_mm_min, before, equal_nan=True)
