@@ -442,6 +442,11 @@ class _Run:
         self.result.sent.append(label)
         self.g.realtime(name)
 
+    def soft_reset(self) -> None:
+        """Send the soft reset (Ctrl-X, recorded as 0x18)."""
+        self.result.sent.append("0x18")
+        self.g.soft_reset()
+
     def status(self):
         return self.g.get_status(5.0)
 
@@ -466,9 +471,16 @@ class _Run:
 
     def start_cut(self, mode: str | None = None) -> bool:
         """Start a slow relative cut and wait until it burns: the controller reports the laser
-        value (or A:) and, on a simulator, the beam is on. False when it never did (a second
-        cut is tried when the first ended unseen, e.g. while the host was busy)."""
-        mode = mode or self.check.cut_mode
+        value (or A:) and, on a simulator, the beam is on. False when it never did; the
+        scenario has then failed, saying that nothing was checked."""
+        if self._burning_cut(mode or self.check.cut_mode):
+            return True
+        self.fail(f"the beam never came on during the {mode + ' ' if mode else ''}cut: nothing was checked")
+        return False
+
+    def _burning_cut(self, mode: str) -> bool:
+        """:meth:`start_cut`'s cut and wait (a second cut is tried when the first ended
+        unseen, e.g. while the host was busy)."""
         for _attempt in range(2):
             dx = self.check.next_dx()
             answer = self.command(f"G21 G91 G1 X{dx:g} F{self.check.target.cut_feed_mm_min:g} "
@@ -617,7 +629,6 @@ class _Check:
         hold, resume = _Run(self, "feed_hold"), _Run(self, "resume")
         out = [r.result for r, k in ((hold, "feed_hold"), (resume, "resume")) if k in keys]
         if not hold.start_cut():
-            hold.fail("the beam never came on during the cut: nothing was checked")
             resume.fail("no hold to resume from")
             return out
         hold.realtime("feed_hold", "!")
@@ -644,11 +655,9 @@ class _Check:
     def soft_reset(self, _keys) -> list:
         run = _Run(self, "soft_reset")
         if not run.start_cut():
-            run.fail("the beam never came on during the cut: nothing was checked")
             return [run.result]
-        run.result.sent.append("0x18")
         run.set_mark()
-        self.g.soft_reset()
+        run.soft_reset()
         self.g.drain_events()                   # the reset's ALARM:3 and banner answer no line
         st = run.status()
         gc = self.g.parser_state()
@@ -662,7 +671,6 @@ class _Check:
     def door(self, _keys) -> list:
         run = _Run(self, "door")
         if not run.start_cut():
-            run.fail("the beam never came on during the cut: nothing was checked")
             return [run.result]
         run.realtime("safety_door", "0x84")
         st = run.wait(lambda s: (s.state == "Door" and s.substate in (0, 1, None)) or _held(s)
@@ -682,7 +690,6 @@ class _Check:
         run = _Run(self, "alarm")
         soft = self.g.setting(20, 0.0) == 1.0
         if not run.start_cut():
-            run.fail("the beam never came on during the cut: nothing was checked")
             return [run.result]
         run.set_mark()
         if soft:
@@ -691,11 +698,9 @@ class _Check:
             run.send("G91 G0 X-100000")
             how = "a line beyond the soft limits ($20=1)"
             alarmed = self._wait_alarm(run)
-            run.result.sent.append("0x18")
-            self.g.soft_reset()
+            run.soft_reset()
         else:
-            run.result.sent.append("0x18")
-            self.g.soft_reset()
+            run.soft_reset()
             how = "a reset mid-cut ($20=0: no soft limits to trip)"
             alarmed = self._wait_alarm(run)
         self.g.drain_events()
@@ -749,7 +754,6 @@ class _Check:
     def _after_m3_cut(self, key: str, word: str) -> list:
         run = _Run(self, key)
         if not run.start_cut("M3"):
-            run.fail("the beam never came on during the M3 cut: nothing was checked")
             return [run.result]
         answer = run.command(word, 60.0)
         run.set_mark()
@@ -840,7 +844,6 @@ class _Check:
     def disconnect(self, _keys) -> list:
         run = _Run(self, "disconnect")
         if not run.start_cut():
-            run.fail("the beam never came on during the cut: nothing was checked")
             return [run.result]
         run.result.sent.append("(link closed)")
         run.set_mark()
