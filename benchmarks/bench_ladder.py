@@ -9,6 +9,8 @@ faster), or peer / labkit where the target is a speed-up (marked ×):
 - ``check``, ``info``: gcodeparser's ``parse_gcode_lines`` over the file, as a process;
 - ``plan``, ``preview``, ``stream`` (to the virtual machine), ``dxf2gcode``: starting Python and
   importing numpy, the floor any numpy-based command pays;
+- ``plan: link`` (the stall prediction over the machine's link, on by default): ``plan --no-link``
+  on the same file, as a process (issue 29: the prediction must not make plan slower than 1.5×);
 - ``svg2gcode``: svg-to-gcode (``parse_file`` and ``Compiler``) on the same file, as a process;
 - ``img2gcode`` (zigzag, gray, dither): a pure-Python row scan of the same pixels writing
   G-code (bench_raster's), as a process.
@@ -126,6 +128,10 @@ def ladder_gcode(tmp, repeat, only):
                 ("stream", [], t_numpy, "import numpy")):
             if not only or cmd in only:
                 labkit_row(cmd, lines_of(f), [cmd, str(f), *extra], peer_t, peer_name, repeat)
+        if not only or "plan" in only:
+            # the stall prediction (issue 30 §2) against plan without it: target ≤ 1.5×
+            t_no_link = timed([PY, "-m", "labkit", "plan", str(f), "--no-link"], repeat)
+            labkit_row("plan: link", lines_of(f), ["plan", str(f)], t_no_link, "plan --no-link", repeat)
 
 
 def svg_rungs(tmp: Path):
