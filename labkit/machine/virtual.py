@@ -528,6 +528,8 @@ class VirtualMachine:
             elif self.state == "Jog":
                 self._blocks.clear()
                 self.state = "Idle"
+            elif self.state == "Idle":          # GRBL holds at rest too, until cycle start
+                self.state, self.substate = "Hold", 0
         elif kind == "door":
             # GRBL 1.1 without a door switch: a feed hold that de-energizes the spindle/laser once
             # stopped (Door:2 while it does, Door:0 after: closed, ready to resume with '~')
@@ -544,6 +546,11 @@ class VirtualMachine:
             if self.state == "Hold" or (self.state == "Door" and self.substate == 0):
                 if self.substate == 1 and self._blocks:    # resumed while still braking
                     self._rearm(self._hold_v)
+                elif (self.state == "Hold" and self._flag(32) and self.laser_mode_word
+                      and self.s_word > 0):
+                    # laser mode: the hold switched the beam off (DISABLE_LASER_DURING_HOLD)
+                    self._emit(grbl_reply(Feedback.RESTORING_SPINDLE))
+                    self._ovr_counter = 0
                 self.state = "Run" if self._blocks else "Idle"
                 self.substate = 0
         elif kind == "jog_cancel":
@@ -717,6 +724,8 @@ class VirtualMachine:
                                        b.power, b.rapid, self._sim_t))
         if self._hold_v <= 1e-9 or not self._blocks or self._blocks[0].is_dwell:
             self.substate, self._hold_v = 0, 0.0
+            if self._flag(32):
+                self._ovr_counter = 0           # GRBL switched the laser off: Ov and A: now
             if self._blocks and not self._blocks[0].is_dwell:
                 self._rearm(0.0)
             self._speed = 0.0
@@ -772,6 +781,8 @@ class VirtualMachine:
         while True:
             if self._parsed is None:
                 if self._blocks and self._blocks[-1].replies:
+                    return
+                if self.state in ("Hold", "Door"):      # GRBL's main loop waits in its suspend
                     return
                 cut = self._rx.find(b"\n")
                 if cut < 0:             # GRBL reads on into its line buffer: the RX empties
