@@ -8,8 +8,17 @@ planner has room, so ``ok`` comes late when it is full), ``ok`` /
 ``error:N`` for every line, real-time bytes, status reports with ``MPos``,
 ``FS``, ``Bf`` and ``WCO``, work offsets (G10 L2/L20 origins of G54–G59 kept
 through a reset as in GRBL's EEPROM, G92 and G43.1 cleared by it; ``WCO`` is their
-sum), soft-limit alarms for moves outside the machine's travel, ``$`` commands (``$$ $I $G $# $X $H $J= $C $N=V``), feed hold,
-resume and soft reset (a reset while moving raises ALARM:3, as GRBL does).
+sum), soft-limit alarms for moves outside the machine's travel, ``$`` commands (``$$ $I $I=
+$G $# $X $H $J= $C $N $Nx= $RST= $SLP $x=V``, in the order and with the errors of GRBL 1.1h),
+G4 answered when its dwell ends, M0 held until cycle start, ``[MSG:Pgm End]`` at M2/M30,
+feed hold, resume and soft reset (a reset while moving raises ALARM:3, as GRBL does). Its
+replies are checked against conversations recorded from GRBL 1.1h itself
+(``tests/firmware/test_grbl_transcripts.py``).
+
+The serial link can be modelled (``baud``: bytes arrive at baud/10 per second of simulated
+time, 8N1) and so can the controller's time to parse a line (``parse_s``); every time the
+planner stands empty while a line is on its way it is recorded in :attr:`starvations`
+(:class:`labkit.motion.stall.Starvation`).
 
 Lines are interpreted one at a time by :class:`labkit.gcode.Interpreter`, which
 keeps the modal state (:class:`labkit.gcode.ModalState`, its one home) between them;
@@ -28,7 +37,7 @@ poll of the port advances ``tick_s`` of machine time (deterministic, as fast
 as the host polls: for tests).
 
 What the machine did is recorded for tests and notebooks: :attr:`executed`
-(every piece of motion, with its line, laser power and whether it burned),
+(every piece of motion, with its line, laser power and whether it burned), :attr:`starvations`,
 :attr:`unsafe_stops` (times the machine stood still with the beam on),
 :attr:`overflows` (bytes lost to a full RX buffer) and :attr:`rx_fill`
 (RX-buffer use over time).
