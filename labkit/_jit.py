@@ -486,6 +486,19 @@ def _install_cache_locator() -> None:
         impl._locator_classes = [cls, *impl._locator_classes]
 
 
+def kernel_named(name: str) -> Kernel:
+    """The kernel whose function is ``module.qualname`` (:attr:`Kernel.name`); its module is
+    imported. Raises LookupError when that module declares no such kernel."""
+    import importlib
+
+    module, _, qualname = name.rpartition(".")
+    importlib.import_module(module)
+    for k in _registry.get(module, []):
+        if k.py_func.__qualname__ == qualname:
+            return k
+    raise LookupError(f"{name} is not a kernel (renamed or removed since the list was recorded)")
+
+
 def warm(table_path=None, report=None) -> list[str]:
     """Compile every kernel any chapter or command uses, for the argument types each uses, into
     the cache (the environment's when writable: ``make lab`` compiles once for every user).
@@ -504,7 +517,6 @@ def warm(table_path=None, report=None) -> list[str]:
         The signatures that could not be compiled, one line each (empty when all were).
     """
     import base64
-    import importlib
     import json
     import pickle
 
@@ -516,10 +528,8 @@ def warm(table_path=None, report=None) -> list[str]:
     problems = []
     with forced("compiled"):
         for name, signatures in table.items():
-            module, _, func = name.rpartition(".")
             try:
-                kernel = getattr(importlib.import_module(module), func)
-                dispatcher = kernel.compiled()
+                dispatcher = kernel_named(name).compiled()
             except Exception as exc:              # noqa: BLE001 (listed, the rest still warm)
                 problems.append(f"{name}: {type(exc).__name__}: {exc}")
                 continue

@@ -12,6 +12,7 @@ Run again after a chapter or a command starts using another kernel or other argu
 
     .venv/bin/python tests/_chapter_kernels.py                 # everything
     .venv/bin/python tests/_chapter_kernels.py notebooks/03-*.ipynb   # update one chapter
+    .venv/bin/python tests/_chapter_kernels.py --commands             # update the commands
 """
 
 from __future__ import annotations
@@ -100,13 +101,16 @@ def main(paths: list[str]) -> int:
     table = json.loads(OUT.read_text()) if OUT.exists() and paths else {}
     table.setdefault("by_source", {})
     table.setdefault("signatures", {})
-    if paths:
+    commands = [("labkit " + " ".join(str(a).replace(str(ROOT) + "/", "") for a in argv), argv)
+                for argv in COMMANDS]
+    if paths == ["--commands"]:
+        jobs = commands
+    elif paths:
         jobs = [(f"notebooks/{Path(p).name}", Path(p)) for p in paths]
     else:
         jobs = [(f"notebooks/{nb.name}", nb)
                 for nb in sorted((ROOT / "notebooks").glob("[0-9][0-9]-*.ipynb"))]
-        jobs += [("labkit " + " ".join(str(a).replace(str(ROOT) + "/", "") for a in argv), argv)
-                 for argv in COMMANDS]
+        jobs += commands
     failed = []
     for name, what in jobs:
         print(f"{name} ...", flush=True)
@@ -117,8 +121,15 @@ def main(paths: list[str]) -> int:
             print(failed[-1], flush=True)
             continue
         table["by_source"][name] = {k: sorted(v) for k, v in sorted(found.items())}
+        # the union, made again from every source: a signature no source calls now goes
+        known = table["signatures"]
         for kernel, sigs in found.items():
-            table["signatures"].setdefault(kernel, {}).update(sigs)
+            known.setdefault(kernel, {}).update(sigs)
+        table["signatures"] = {}
+        for kernels in table["by_source"].values():
+            for kernel, reprs in kernels.items():
+                for text in reprs:
+                    table["signatures"].setdefault(kernel, {})[text] = known[kernel][text]
         _write(table)
     print("\n".join(failed))
     return 1 if failed else 0
