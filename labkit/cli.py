@@ -90,6 +90,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--traceback", action="store_true", help="show a traceback on errors")
     add_arguments(parser)
     args = parser.parse_args(argv[1:])
+    args._argv = [name] + argv[1:]          # the command line as typed, for provenance records
     from labkit.errors import LabkitError
 
     try:

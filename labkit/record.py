@@ -10,6 +10,8 @@ stream, beside the job with the start time in its name. Its format (version 1)::
       "created": "2026-11-25T13:00:00+00:00",   # UTC
       "labkit": "0.1.0",                  # labkit's version
       "command": "svg2gcode",             # the labkit command
+      "argv": ["svg2gcode", "card.svg", "-o", "card.gcode", "--record"],  # as typed (may be absent;
+                                          # `labkit record rerun` needs it)
       "options": {"feed": 600.0, …},      # every option as parsed (after the library filled in)
       "inputs":  [{"role": "input", "path": "card.svg", "sha256": "…", "bytes": 123}, …],
       "outputs": [{"role": "program", "path": "card.gcode", "sha256": "…", "bytes": 456}],
@@ -32,7 +34,8 @@ moves at the speeds set on it), lines count the source lines that make commands,
 lists each stop command with what became of it.
 
 Paths are stored as given on the command line; hashes let :func:`diff_records` tell a changed
-input from a renamed one. Records are written through :func:`labkit._files.atomic_output`.
+input from a renamed one, and :func:`rerun_record` make a program again from its record and tell
+whether it came out byte for byte the same (run it from the folder the command was run in). Records are written through :func:`labkit._files.atomic_output`.
 """
 
 from __future__ import annotations
@@ -47,7 +50,7 @@ from labkit.errors import InputError
 
 __all__ = ["FORMAT", "VERSION", "file_entry", "program_record", "stream_record", "stream_document", "write_record",
            "read_record", "diff_records", "format_record", "default_record_path", "add_record_option",
-           "record_program", "stream_record_target", "utc_now"]
+           "record_program", "stream_record_target", "utc_now", "rerun_record"]
 
 FORMAT = "labkit-record"
 VERSION = 1
@@ -131,9 +134,10 @@ def program_record(command: str, args, *, inputs: list, program, extra_outputs: 
     from labkit.motion.machine import load_machine
 
     text = Path(program).read_text("ascii")
-    options = {k: _plain(v) for k, v in sorted(vars(args).items()) if k not in ("traceback",)}
+    options = {k: _plain(v) for k, v in sorted(vars(args).items())
+               if k != "traceback" and not k.startswith("_")}
     return dict(format=FORMAT, version=VERSION, kind="program", created=utc_now(), labkit=__version__,
-                command=command, options=options,
+                command=command, argv=list(getattr(args, "_argv", None) or []) or None, options=options,
                 inputs=[file_entry(p, role) for p, role in inputs],
                 outputs=[file_entry(program, "program")] + [file_entry(p, r) for p, r in extra_outputs],
                 machine=_plain(load_machine(getattr(args, "machine", None)).to_dict()),
@@ -174,7 +178,8 @@ def stream_document(args, stream: dict, machine: dict) -> dict:
     """
     from labkit import __version__
 
-    options = {k: _plain(v) for k, v in sorted(vars(args).items()) if k not in ("traceback",)}
+    options = {k: _plain(v) for k, v in sorted(vars(args).items())
+               if k != "traceback" and not k.startswith("_")}
     # the program's own record, when it was written with one, ties the burn to its making
     made_by = Path(os.fspath(args.file) + ".record.json")
     inputs = [file_entry(args.file, "program")]
@@ -249,15 +254,16 @@ def _flatten(value, prefix="") -> dict:
 
 
 #: Keys that differ between any two runs and say nothing about the burn (where the record itself went).
-_ALWAYS_DIFFERENT = ("created", "stream.started", "stream.ended", "stream.summary", "options.record")
+# (the command line as typed repeats the options, which are compared one by one)
+_ALWAYS_DIFFERENT = ("created", "stream.started", "stream.ended", "stream.summary", "options.record", "argv")
 
 
 def diff_records(a: dict, b: dict, *, everything: bool = False) -> list[tuple[str, object, object]]:
     """What differs between two records: ``(key, value in a, value in b)``, keys dotted.
 
     Missing keys show as ``None`` on their side. The creation and stream times, the stream's
-    text summary (its numbers are compared one by one) and the record's own path are left out
-    unless ``everything``.
+    text summary (its numbers are compared one by one), the record's own path and the command
+    line as typed (its options are compared one by one) are left out unless ``everything``.
 
     Examples
     --------
@@ -358,3 +364,99 @@ def stream_record_target(args, started: str) -> Path | None:
         return None
     path = default_record_path(args.file, stream_started=started) if target == "auto" else Path(target)
     return check_output_file(path, args.file, option="--record")
+
+
+def _records_by_default(command: str) -> bool:
+    """Whether a labkit command writes its record unasked (it then takes ``--no-record``)."""
+    import argparse
+
+    from labkit.cli import COMMANDS, _load
+
+    if command not in COMMANDS:
+        raise InputError(f"the record's command {command!r} is not a labkit command")
+    parser = argparse.ArgumentParser(add_help=False)
+    _load(command)[0](parser)
+    return "--no-record" in parser._option_string_actions
+
+
+#: Options whose value is the program written, by command line convention.
+_OUTPUT_OPTIONS = ("-o", "--output")
+
+
+def rerun_record(path, output) -> tuple[bool, Path]:
+    """Make a program again from its record: check the inputs, run the recorded command line
+    with ``output`` as the program, and compare it with the recorded program.
+
+    Paths in the record are as typed, so run it from the folder the command ran in. The
+    inputs must be the files the record names (same SHA-256); nothing is written when one
+    differs. The rerun writes no record of its own.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A program's record (``kind = "program"``) with its command line (``argv``).
+    output : str or os.PathLike
+        Where the program made again goes (not the recorded program's own path).
+
+    Returns
+    -------
+    identical : bool
+        The new program has the recorded program's SHA-256.
+    output : Path
+
+    Raises
+    ------
+    InputError
+        Not a program's record, no command line in it, an input missing or changed, the
+        output is the recorded program, or the command fails.
+    """
+    from labkit.cli import main
+
+    rec = read_record(path)
+    argv = rec.get("argv")
+    if rec.get("kind") != "program" or not isinstance(argv, list) or not argv:
+        raise InputError(f"{path}: a program's record with its command line (\"argv\") is needed "
+                         f"to make the program again (records before this labkit lack it)")
+    program = next((o for o in rec.get("outputs", []) if o.get("role") == "program"), None)
+    if program is None:
+        raise InputError(f"{path}: the record names no program")
+    output = Path(output)
+    if output.resolve() == Path(program["path"]).resolve():
+        raise InputError(f"{output}: that is the recorded program itself; choose another file")
+    for entry in rec.get("inputs", []):
+        p = Path(entry["path"])
+        if not p.is_file():
+            raise InputError(f"{path}: input {entry['path']} ({entry['role']}) is missing here; run "
+                             f"from the folder the command ran in")
+        if file_entry(p, entry["role"])["sha256"] != entry["sha256"]:
+            raise InputError(f"{path}: input {entry['path']} has changed since the record "
+                             f"(SHA-256 differs): the program would not be the recorded one")
+    args, i = [], 0
+    while i < len(argv):
+        a = str(argv[i])
+        if a in _OUTPUT_OPTIONS and i + 1 < len(argv):
+            args += [a, os.fspath(output)]
+            i += 2
+            continue
+        if a.startswith("--output="):
+            args.append(f"--output={os.fspath(output)}")
+        elif a == "--record":                       # alone or with a file: no new record
+            if i + 1 < len(argv) and not str(argv[i + 1]).startswith("-") and str(argv[i + 1]).endswith(".json"):
+                i += 1
+        elif not a.startswith("--record="):
+            args.append(a)
+        i += 1
+    if _records_by_default(str(argv[0])):
+        args.append("--no-record")
+    if os.fspath(output) not in args and f"--output={os.fspath(output)}" not in args:
+        raise InputError(f"{path}: the recorded command line names no -o OUTPUT to replace")
+    import contextlib
+    import io
+
+    quiet = io.StringIO()
+    with contextlib.redirect_stdout(quiet), contextlib.redirect_stderr(quiet):
+        status = main(args)
+    if status != 0 or not output.is_file():
+        raise InputError(f"{path}: the recorded command failed when run again: "
+                         + " ".join(quiet.getvalue().split())[-300:])
+    return file_entry(output, "program")["sha256"] == program["sha256"], output

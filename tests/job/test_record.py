@@ -118,3 +118,51 @@ def test_bad_records_are_clear_errors(tmp_path, capsys):
     job.write_text("G0 X1\n")
     code, _, err = _run(capsys, "stream", job, "--record", job)
     assert code == 1 and "--record" in err
+
+
+def test_rerun_makes_the_recorded_program_again(svg, tmp_path, capsys, monkeypatch):
+    """A record is enough to make its program again: the command line it holds, run on inputs
+    with the recorded hashes, writes the recorded bytes; a changed input is refused."""
+    monkeypatch.chdir(tmp_path)
+    code, _, err = _run(capsys, "svg2gcode", "card.svg", "-o", "card.gcode", "--feed", 600,
+                        "--record", "card.json")
+    assert code == 0, err
+    rec = read_record(tmp_path / "card.json")
+    assert rec["argv"] == ["svg2gcode", "card.svg", "-o", "card.gcode", "--feed", "600", "--record", "card.json"]
+    assert "_argv" not in rec["options"]
+    code, text, err = _run(capsys, "record", "rerun", "card.json", "-o", "again.gcode")
+    assert code == 0 and "byte for byte" in text, err
+    assert (tmp_path / "again.gcode").read_bytes() == (tmp_path / "card.gcode").read_bytes()
+    assert not (tmp_path / "again.gcode.record.json").exists()      # the rerun writes no record
+    # a record whose program another labkit wrote (its hash is not what this one writes)
+    other = json.loads((tmp_path / "card.json").read_text())
+    other["outputs"][0]["sha256"] = hashlib.sha256(b"another program").hexdigest()
+    (tmp_path / "other.json").write_text(json.dumps(other))
+    code, text, _ = _run(capsys, "record", "rerun", "other.json", "-o", "again.gcode")
+    assert code == 1 and "differs from the recorded program" in text
+    # an input changed since: refused, nothing written
+    (tmp_path / "card.svg").write_text(SVG.replace('width="30"', 'width="31"'))
+    code, _, err = _run(capsys, "record", "rerun", "card.json", "-o", "third.gcode")
+    assert code == 1 and "card.svg has changed since the record" in err
+    assert not (tmp_path / "third.gcode").exists()
+    code, _, err = _run(capsys, "record", "rerun", "card.json", "-o", "card.gcode")
+    assert code == 1 and "recorded program itself" in err
+    # a record without its command line cannot be rerun
+    del rec["argv"]
+    (tmp_path / "old.json").write_text(json.dumps(rec))
+    code, _, err = _run(capsys, "record", "rerun", "old.json", "-o", "x.gcode")
+    assert code == 1 and "command line" in err
+
+
+def test_rerun_a_job_that_records_by_default(svg, tmp_path, capsys, monkeypatch):
+    """`labkit job` writes its record unasked; its rerun must not write one beside the new program."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "card.toml").write_text('format = "labkit-job"\nversion = 1\nmachine = "cbr40-laser"\n\n[[layer]]\nsource = "card.svg"\n'
+                                        'operation = "cut"\npower_mw = 1200.0\nspeed_mm_min = 600.0\n')
+    code, _, err = _run(capsys, "job", "card.toml", "-o", "card.gcode")
+    assert code == 0, err
+    records = sorted(p.name for p in tmp_path.glob("*.record.json"))
+    assert len(records) == 1
+    code, text, err = _run(capsys, "record", "rerun", records[0], "-o", "again.gcode")
+    assert code == 0 and "byte for byte" in text, err
+    assert sorted(p.name for p in tmp_path.glob("*.record.json")) == records
