@@ -161,6 +161,8 @@ def program_feeds(text: str) -> list[float]:
     """
     from labkit.gcode.reader import strip_comments
 
+    if _OTHER_LINE_BREAKS.search(text) is None:        # lines end in \n or \r\n: all at once
+        return [float(v) for _, v in _F_WORD.findall(_COMMENT_IN_LINE.sub("", text))]
     return [float(m.group(2)) for raw in text.splitlines() for m in _F_WORD.finditer(strip_comments(raw))]
 
 
@@ -398,6 +400,17 @@ def predict_stalls(text: str, machine=None, *, line_bytes=None, dialect: str = "
                           motion_time_s=float(dur.sum()))
 
 
+def _plainly_modal(text: str, scaled_words: int) -> bool:
+    """Whether every F the reader sees in ``text`` is one of the ``scaled_words`` F words
+    :func:`with_feed` scales (none after a comment, none with a space before its number),
+    with no jog ($J) and no inverse time (G93): each move then runs at the last of them."""
+    if _OTHER_LINE_BREAKS.search(text) is not None:
+        return False
+    code = _SPACE_IN_LINE.sub("", _COMMENT_IN_LINE.sub("", text))
+    return (code.count("F") + code.count("f") == scaled_words
+            and re.search(r"\$J|G0*93", code, re.IGNORECASE) is None)
+
+
 class _FeedScaled:
     """A program at other feeds, as :func:`with_feed` writes it, without rewriting its text.
 
@@ -428,22 +441,34 @@ class _FeedScaled:
         self.moves = parse(text, dialect=dialect) if moves is None else moves
         self.base_plan = plan       # the plan of the text as it is, when given
         self.plan = plan            # the last plan made (its blocks' geometry is the program's)
-        tagged = parse(_with_numbers(lines, where, [str(j + 2) for j in range(len(where))]),
-                       dialect=dialect)
-        self.ok = self._same_lines(tagged)
-        if not self.ok:
-            return
-        feed0, feed_tag = self.moves.feed_mm_min, tagged.feed_mm_min
+        feed0 = self.moves.feed_mm_min
         n = len(feed0)
         word = np.searchsorted(self.word_line, np.asarray(self.moves.line) - 1, side="right") - 1
+        w = np.maximum(word, 0)
+        self.ok = True
+        if _plainly_modal(text, len(where)):
+            # every F the reader sees is a scaled word and stays in effect until the next:
+            # a move runs at the last one before it, or has no feed (none yet, or F0)
+            tag = None
+            feed_tag = np.where(word >= 0, w + 2.0, np.nan)
+            still = np.isnan(feed0) & ((word < 0) | (self.values[w] == 0))
+        else:
+            tag = parse(_with_numbers(lines, where, [str(j + 2) for j in range(len(where))]),
+                        dialect=dialect)
+            self.ok = self._same_lines(tag)
+            if not self.ok:
+                return
+            feed_tag = tag.feed_mm_min
+            still = (feed0 == feed_tag) | (np.isnan(feed0) & np.isnan(feed_tag))
         scale, per_s = np.ones(n), np.ones(n)
         found = np.zeros(n, bool)
-        w = np.maximum(word, 0)
         for sc, ps in ((1.0, 1.0), (25.4, 1.0), (1.0, 60.0), (25.4, 60.0)):   # as the reader multiplies
             hit = ~found & (word >= 0) & (self.values[w] * sc * ps == feed0) & ((w + 2.0) * sc * ps == feed_tag)
             scale[hit], per_s[hit], found[hit] = sc, ps, True
-        same = (feed0 == feed_tag) | (np.isnan(feed0) & np.isnan(feed_tag))
-        if np.all(found ^ same):
+        if tag is None and not np.all(found ^ still):
+            self.ok = False                     # not as the text says: rewrite the text instead
+            return
+        if np.all(found ^ still):
             self.word = np.where(found, word, -1)
         else:                                   # G93, jogs, words left alone: each move's factor
             one = parse(_with_numbers(lines, where, ["1"] * len(where)), dialect=dialect)

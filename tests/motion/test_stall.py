@@ -272,3 +272,16 @@ def test_the_stream_kernel_as_python_equals_compiled(tmp_path):
         assert a.stalls == b.stalls
         for name in ("sent_s", "arrived_s", "parsed_s", "fill", "block_start_s", "block_end_s"):
             np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+
+
+def test_which_programs_skip_the_tagged_parse():
+    """A program whose F words are all scaled ones, without jogs or G93, is read without a
+    tagged parse; the odd one is not."""
+    from labkit.motion.stall import _FeedScaled, _plainly_modal
+
+    assert _plainly_modal(_job(RELATIVE_CUTS), 1)
+    assert not _plainly_modal(ODD_FEEDS, 10)                   # CRLF, an F after a comment, G93
+    assert not _plainly_modal("G1X1F100\nX2 (c) F200\n", 1)
+    assert not _plainly_modal("G1X1F100\n$J=X2F50\n", 2)
+    assert not _plainly_modal("G93 G1X1F2\n", 1)
+    assert _FeedScaled(_job(RELATIVE_CUTS), CBR40, "grbl").ok
