@@ -256,11 +256,15 @@ class ComposedJob:
         ``speed_mm_min``, ``passes``, ``kerf_mm``, ``line_interval_mm``, ``dynamic``, ``material``
         (spec or None), ``from_library`` (keys taken from it), ``moves`` (rows), ``bounds_mm``.
     tol_mm : float
+    warnings : list of str
+        What a layer's reader could not cut or draw as a renderer does (each names its file and
+        is said once however many layers read that file), as ``svg2gcode`` and ``dxf2gcode`` say it.
     """
 
     moves: object
     layers: list
     tol_mm: float
+    warnings: list = field(default_factory=list)
 
 
 def _settings(job: JobFile, layer: JobLayer, machine) -> dict:
@@ -306,8 +310,8 @@ def _vector_moves(job: JobFile, layer: JobLayer, s: dict, power_s: float):
     from labkit.toolpath.job import vector_job
     from labkit.toolpath.moves import LaserMode
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
         if layer.source.suffix.lower() == ".svg":
             from labkit.vector.svg import read_svg
 
@@ -316,6 +320,12 @@ def _vector_moves(job: JobFile, layer: JobLayer, s: dict, power_s: float):
             from labkit.vector.dxf import read_dxf
 
             drawing = read_dxf(layer.source, tol_mm=job.tol_mm)
+    # what the reader could not cut is said, as svg2gcode and dxf2gcode say it; bitmaps an image
+    # layer of this job engraves from the same file are not "lost"
+    engraved_here = any(L.operation == "image" and L.source == layer.source for L in job.layers)
+    only_bitmaps = all(k.split("#")[0].split("[")[0] == "image" for k in drawing.skipped)
+    said = [str(w.message) for w in caught          # each names its file; said once per job
+            if not (engraved_here and only_bitmaps and " not cut: " in str(w.message))]
     paths = list(drawing.paths)             # an SVG's text among them, drawn by the reader
     if layer.select:
         paths = [q for q in paths if q.layer in layer.select or q.source in layer.select
@@ -328,10 +338,10 @@ def _vector_moves(job: JobFile, layer: JobLayer, s: dict, power_s: float):
     settings = LayerSettings(feed_mm_min=s["speed_mm_min"], power_s=power_s, passes=int(s["passes"]), laser=laser)
     fill = layer.operation == "fill"
     if layer.tabs or layer.perforate:
-        return _gapped_moves(job, layer, paths, s, settings)
+        return _gapped_moves(job, layer, paths, s, settings), said
     vj = vector_job(paths, default=settings, tol_mm=job.tol_mm, kerf_mm=s["kerf_mm"], fill=fill,
                     fill_spacing_mm=s["line_interval_mm"], s_max=job.s_max)
-    return vj.moves
+    return vj.moves, said
 
 
 def _gapped_moves(job: JobFile, layer: JobLayer, paths, s: dict, settings):
@@ -465,15 +475,18 @@ def compose_job(job: JobFile) -> ComposedJob:
 
     machine = load_machine(job.machine)
     order = sorted(job.layers, key=lambda L: (ORDER.index(L.operation), L.index))
-    parts, info = [], []
+    parts, info, warned = [], [], []
     for layer in order:
         s = _settings(job, layer, machine)
         power_s = float(mw_to_s(s["power_mw"], s_max=job.s_max, max_power_mw=machine.laser_max_power_mw))
         if s["power_mw"] > machine.laser_max_power_mw:
             raise InputError(f"{job.path}: layer {layer.index}: power {s['power_mw']:g} mW is above the machine's "
                              f"{machine.laser_max_power_mw:g} mW")
-        moves = _image_moves(job, layer, s, power_s) if layer.operation == "image" else \
-            _vector_moves(job, layer, s, power_s)
+        if layer.operation == "image":
+            moves = _image_moves(job, layer, s, power_s)
+        else:
+            moves, said = _vector_moves(job, layer, s, power_s)
+            warned += [w for w in said if w not in warned]
         parts.append(moves)
         info.append(dict(index=layer.index, source=os.fspath(layer.source), operation=layer.operation,
                          power_mw=s["power_mw"], power_s=round(power_s, 3), speed_mm_min=s["speed_mm_min"],
@@ -502,7 +515,7 @@ def compose_job(job: JobFile) -> ComposedJob:
         d["bounds_mm"] = [[round(float(v), 4) for v in b[0][:2]], [round(float(v), 4) for v in b[1][:2]]]
     if not all(math.isfinite(v) for d in info for row in d["bounds_mm"] for v in row):
         raise InputError(f"{job.path}: a layer burns nothing")
-    return ComposedJob(moves=moves, layers=info, tol_mm=job.tol_mm)
+    return ComposedJob(moves=moves, layers=info, tol_mm=job.tol_mm, warnings=warned)
 
 
 # --- tabs and perforation: uncut gaps along a cut -------------------------------------------------

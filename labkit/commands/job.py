@@ -40,6 +40,9 @@ def run_job(args) -> int:
     moves = composed.moves
     import sys
 
+    for warned in composed.warnings:
+        print(f"warning: {warned}", file=sys.stderr)
+
     import numpy as np
 
     box = moves.bounds(moves.laser_on)

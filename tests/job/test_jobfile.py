@@ -181,3 +181,35 @@ def test_bad_job_files(folder, edit, match):
     p.write_text(edit(JOB.format(placement="", kerf=0.0)))
     with pytest.raises(InputError, match=match):
         compose_job(read_job(p))
+
+
+def test_what_a_reader_could_not_cut_is_said_once(tmp_path, capsys):
+    """A job is not quieter than svg2gcode: a mask it cannot apply and characters it cuts upright
+    are named (once, though two layers read the file); bitmaps an image layer of the same job
+    engraves are not reported as left out."""
+    import base64
+    import io
+
+    buf = io.BytesIO()
+    Image.fromarray(np.zeros((4, 4), np.uint8)).save(buf, format="PNG")
+    uri = "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode()
+    (tmp_path / "t.svg").write_text(      # written by hand
+        '<svg xmlns="http://www.w3.org/2000/svg" xmlns:xlink="http://www.w3.org/1999/xlink" width="40mm" '
+        'height="30mm" viewBox="0 0 40 30"><rect x="5" y="5" width="30" height="20" fill="none" stroke="#000"/>'
+        '<text x="5" y="20" rotate="30" font-size="8" fill="#000">Hi</text><g mask="url(#m)"><rect x="1" '
+        'y="1" width="3" height="3" fill="#000"/></g><mask id="m"><rect width="40" height="30" fill="#888"/>'
+        f'</mask><image id="pic" x="30" y="1" width="4" height="4" xlink:href="{uri}"/></svg>')
+    layer = '[[layer]]\nsource = "t.svg"\noperation = "{op}"\npower_mw = 500.0\nspeed_mm_min = 600.0\n'
+    head = 'format = "labkit-job"\nversion = 1\nmachine = "cbr40-laser"\n'
+    (tmp_path / "two.toml").write_text(head + layer.format(op="cut") + layer.format(op="score"))
+    warned = compose_job(read_job(tmp_path / "two.toml")).warnings
+    assert len(warned) == 3, warned
+    assert sum("rotate='30'" in w for w in warned) == 1 and sum("mask is not applied" in w for w in warned) == 1
+    assert sum("image#pic" in w for w in warned) == 1        # the bitmap: no image layer takes it
+    (tmp_path / "img.toml").write_text(head + layer.format(op="cut") + layer.format(op="image")
+                                       + 'select = ["pic"]\nline_interval_mm = 0.5\n')
+    warned = compose_job(read_job(tmp_path / "img.toml")).warnings
+    assert len(warned) == 2 and not any("image#pic" in w for w in warned), warned
+    assert main(["job", str(tmp_path / "two.toml"), "-o", str(tmp_path / "two.gcode"), "--no-record"]) == 0
+    err = capsys.readouterr().err
+    assert err.count("warning: ") == 3 and "mask is not applied" in err
