@@ -93,14 +93,15 @@ def test_stream_writes_a_record_by_default(tmp_path, capsys):
 
 def test_stream_record_keeps_the_fault(tmp_path, capsys):
     job = tmp_path / "far.gcode"
-    job.write_text("G21 G90\nM4 S100 F600\nG1 X10\n$Q\nG1 X20\n")       # line 4 is refused (error:3)
+    # line 4 is refused: a $ command while the head moves is GRBL's error:8 (recorded from GRBL 1.1h)
+    job.write_text("G21 G90\nM4 S100 F600\nG1 X10\n$Q\nG1 X20\n")
     code, out, _ = _run(capsys, "stream", job, "--record", tmp_path / "r.json")
     assert code == 1
     s = read_record(tmp_path / "r.json")["stream"]
-    assert not s["ok"] and s["errors"][0][:2] == [4, 3]
+    assert not s["ok"] and s["errors"][0][:2] == [4, 8]
     assert s["resume_line"] and f"--resume-from {s['resume_line']}" in s["summary"]
     code, out, _ = _run(capsys, "record", "show", tmp_path / "r.json")
-    assert "STOPPED" in out and "line 4: error:3" in out
+    assert "STOPPED" in out and "line 4: error:8" in out
 
 
 def test_bad_records_are_clear_errors(tmp_path, capsys):
