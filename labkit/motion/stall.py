@@ -573,7 +573,10 @@ def stall_free_feed(text: str, machine=None, *, line_bytes=None, dialect: str = 
 
     The program's feeds are scaled together (:func:`with_feed`) and the highest
     F without a starvation (:func:`predict_stalls`) is found by bisection, up to
-    the machine's top speed (the slower of X and Y).
+    the machine's top speed (the slower of X and Y). The text is not rewritten for
+    each feed: the parsed moves get the feeds and the lines the byte counts that
+    :func:`with_feed`'s text would give, and only the plan's speeds are made again
+    (the same predictions, to the bit; a ``line_bytes`` sender still rewrites the text).
 
     Parameters
     ----------
