@@ -127,10 +127,10 @@ def sent_line_bytes(text: str) -> np.ndarray:
     """
     from labkit.gcode.reader import strip_comments
 
-    if _OTHER_LINE_BREAKS.search(text) is None:
+    cut = _whole_text_code(text)
+    if cut is not None:
         # lines end in \n or \r\n only: the whole text at once, the same cuts per line
-        body = _SPACE_IN_LINE.sub("", _COMMENT_IN_LINE.sub("", text))
-        parts = body.split("\n")
+        parts = cut[1].split("\n")
         if text.endswith("\n") or not text:
             parts.pop()
         n = np.fromiter(map(len, parts), dtype=np.int64, count=len(parts))
@@ -142,8 +142,25 @@ def sent_line_bytes(text: str) -> np.ndarray:
     return np.asarray(out, dtype=np.int64)
 
 
-#: What str.splitlines breaks a line at besides \n and \r\n.
-_OTHER_LINE_BREAKS = re.compile("[\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029]|\r(?!\n)")
+#: What str.splitlines breaks a line at besides \n and \r\n (and a lone \r).
+_OTHER_LINE_BREAKS = "\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029"
+#: The whitespace ``\s`` matches in ASCII, but \n: deleted by str.translate.
+_ASCII_SPACE = str.maketrans("", "", " \t\r\x0b\x0c\x1c\x1d\x1e\x1f")
+_last_code: list = [None, None]          # the last text and its _whole_text_code (texts are immutable)
+
+
+def _whole_text_code(text: str):
+    """(text without comments, that without whitespace but line ends) when the lines of
+    ``text`` end in \n or \r\n only (as str.splitlines cuts them), else None."""
+    if _last_code[0] is text:
+        return _last_code[1]
+    if text.count("\r") != text.count("\r\n") or any(c in text for c in _OTHER_LINE_BREAKS):
+        out = None
+    else:
+        code = _COMMENT_IN_LINE.sub("", text)
+        out = (code, code.translate(_ASCII_SPACE) if code.isascii() else _SPACE_IN_LINE.sub("", code))
+    _last_code[0], _last_code[1] = text, out
+    return out
 #: labkit.gcode.reader's comments (``(`` to ``)`` or the line's end; ``;`` to the line's end)
 #: within one line of a whole text, and the whitespace sent_line_bytes drops.
 _COMMENT_IN_LINE = re.compile(r"\([^)\n]*\)?|;[^\n]*")
@@ -161,8 +178,9 @@ def program_feeds(text: str) -> list[float]:
     """
     from labkit.gcode.reader import strip_comments
 
-    if _OTHER_LINE_BREAKS.search(text) is None:        # lines end in \n or \r\n: all at once
-        return [float(v) for _, v in _F_WORD.findall(_COMMENT_IN_LINE.sub("", text))]
+    cut = _whole_text_code(text)
+    if cut is not None:                                  # lines end in \n or \r\n: all at once
+        return [float(v) for _, v in _F_WORD.findall(cut[0])]
     return [float(m.group(2)) for raw in text.splitlines() for m in _F_WORD.finditer(strip_comments(raw))]
 
 
@@ -404,9 +422,10 @@ def _plainly_modal(text: str, scaled_words: int) -> bool:
     """Whether every F the reader sees in ``text`` is one of the ``scaled_words`` F words
     :func:`with_feed` scales (none after a comment, none with a space before its number),
     with no jog ($J) and no inverse time (G93): each move then runs at the last of them."""
-    if _OTHER_LINE_BREAKS.search(text) is not None:
+    cut = _whole_text_code(text)
+    if cut is None:
         return False
-    code = _SPACE_IN_LINE.sub("", _COMMENT_IN_LINE.sub("", text))
+    code = cut[1]
     return (code.count("F") + code.count("f") == scaled_words
             and re.search(r"\$J|G0*93", code, re.IGNORECASE) is None)
 
