@@ -11,7 +11,9 @@ through a reset as in GRBL's EEPROM, G92 and G43.1 cleared by it; ``WCO`` is the
 sum), soft-limit alarms for moves outside the machine's travel, ``$`` commands (``$$ $I $I=
 $G $# $X $H $J= $C $N $Nx= $RST= $SLP $x=V``, in the order and with the errors of GRBL 1.1h),
 G4 answered when its dwell ends, M0 held until cycle start, ``[MSG:Pgm End]`` at M2/M30,
-feed hold, resume and soft reset (a reset while moving raises ALARM:3, as GRBL does). Its
+feed hold, resume and soft reset (a reset while moving raises ALARM:3, as GRBL does), simulated
+limit switches (``switches``: ``Pn:`` in status reports) and GRBL's homing cycle (``$H`` with
+``$22=1``, ``$23``-``$27``, ALARM:6/7/8/9, the power-up lock). Its
 replies are checked against conversations recorded from GRBL 1.1h itself
 (``tests/firmware/test_grbl_transcripts.py``).
 
@@ -170,6 +172,78 @@ def _stack(rows: list) -> Blocks:
     return Blocks(**{f.name: np.concatenate([getattr(r, f.name) for r in rows]) for f in fields(Blocks)})
 
 
+#: GRBL 1.1h's homing (config.h as released): Z first, then X and Y together; the search covers
+#: 1.5 x the longest travel of the group, the slow locate 10 x the pull-off.
+_HOMING_GROUPS = ((2,), (0, 1))
+_HOMING_SEARCH_SCALE = 1.5
+_HOMING_LOCATE_SCALE = 10.0
+
+
+def _parse_switches(spec: str):
+    """The ``switches`` option: switch positions (mm from power-up), sides (+1/-1, 0 = none) and
+    which are stuck pressed.
+
+    >>> mm, side, stuck = _parse_switches("X:+5,Z:stuck")
+    >>> mm.tolist(), side.tolist(), stuck.tolist()
+    ([5.0, 0.0, 0.0], [1.0, 0.0, 0.0], [False, False, True])
+    """
+    from labkit.errors import MachineError
+
+    mm, side, stuck = np.zeros(3), np.zeros(3), np.zeros(3, bool)
+    for item in filter(None, spec.replace(" ", "").split(",")):
+        axis, _, where = item.upper().partition(":")
+        if axis not in ("X", "Y", "Z") or not where:
+            raise MachineError(f"switches {spec!r}: {item!r} is not AXIS:MM or AXIS:stuck "
+                               f"(expected e.g. 'X:+5,Y:+5,Z:stuck')")
+        a = "XYZ".index(axis)
+        if where == "STUCK":
+            stuck[a] = True
+            continue
+        try:
+            mm[a] = float(where)
+        except ValueError:
+            raise MachineError(f"switches {spec!r}: {where!r} after {axis}: is not a distance "
+                               f"in mm nor 'stuck'") from None
+        if mm[a] == 0 or not math.isfinite(mm[a]):
+            raise MachineError(f"switches {spec!r}: the {axis} switch needs a side, a nonzero "
+                               f"distance from power-up such as +5 or -5 (got {where!r})")
+        side[a] = math.copysign(1.0, mm[a])
+    return mm, side, stuck
+
+
+def _time_at(profile, distance_mm: float) -> float:
+    """When a move profiled from rest (:func:`labkit.motion.profile.block_profiles`, one block,
+    constant acceleration) has covered ``distance_mm``, s."""
+    acc, cru, peak = float(profile.accel_mm[0]), float(profile.cruise_mm[0]), float(profile.peak_mm_s[0])
+    up, down = float(profile.up[0]), float(profile.down[0])
+    if distance_mm <= acc:
+        return math.sqrt(2.0 * distance_mm / up)
+    if distance_mm <= acc + cru:
+        return float(profile.accel_s[0]) + (distance_mm - acc) / peak
+    s = min(distance_mm - acc - cru, float(profile.decel_mm[0]))
+    return (float(profile.accel_s[0]) + float(profile.cruise_s[0])
+            + (peak - math.sqrt(max(0.0, peak * peak - 2.0 * down * s))) / down)
+
+
+@dataclass
+class _Homing:
+    """The homing cycle under way: the steps still to do and the one running.
+
+    A step is ``("move", axes, distance_mm, rate_mm_min, seek)`` (each axis of ``axes`` starts
+    again at 0 and moves ``distance_mm`` towards its switch when ``seek``, stopping there, or
+    away from it), ``("wait", s)`` (the debounce, ``$26``) or ``("home", axes)`` (the position
+    GRBL sets once the group is homed)."""
+
+    todo: deque
+    step: tuple | None = None
+    t: float = 0.0                       # time into the running step, s
+    duration_s: float = 0.0
+    sign: np.ndarray | None = None       # direction of each moving axis (+1/-1, 0: still)
+    stop_mm: np.ndarray | None = None    # distance at which each axis meets its switch (inf: never)
+    profile: object = None
+    status_asked: bool = False           # a '?' came during the cycle (answered at its end)
+
+
 class VirtualMachine:
     """A simulated GRBL laser machine that looks like a pyserial port.
 
@@ -198,6 +272,13 @@ class VirtualMachine:
         long, then waits for planner room. None or 0 (the default): at once.
     banner : bool
         Print the start-up banner when opened, as a board does after its USB reset.
+    switches : str, optional
+        Limit switches, as the firmware simulator's ``--switches`` and grbl-sim took them for the
+        recorded homing transcripts: ``"X:+5,Y:+5,Z:stuck"`` puts the switch of each named axis
+        that many mm from the power-up position on the side its sign names (it reads pressed at
+        or beyond that point, wherever homing later sets the machine's zero); ``stuck`` is a
+        switch always pressed; an axis not named has none. None (the default): no switch wired,
+        so ``$H`` with homing on ends in ALARM:9 as on a GRBL without switches.
 
     Examples
     --------
@@ -213,8 +294,13 @@ class VirtualMachine:
 
     def __init__(self, machine=None, *, time_scale: float = 1.0, tick_s: float = 0.02,
                  rx_bytes: int | None = None, planner_blocks: int | None = None,
-                 baud: int | None = None, parse_s: float | None = None, banner: bool = True):
+                 baud: int | None = None, parse_s: float | None = None, banner: bool = True,
+                 switches: str | None = None):
         self.machine = load_machine(machine or "grbl-diode")
+        # limit switches in machine coordinates (shifted when homing sets the position), the side
+        # each one is on (+1/-1; 0: none wired) and whether it is stuck pressed
+        self._switch_mm, self._switch_side, self._switch_stuck = _parse_switches(switches or "")
+        self._homing: _Homing | None = None     # the homing cycle under way
         self.time_scale = float(time_scale)
         self.tick_s = float(tick_s)
         self.rx_bytes = int(rx_bytes or self.machine.rx_buffer_bytes)
@@ -265,7 +351,7 @@ class VirtualMachine:
         self._ov_laser = 0
         self._speed = 0.0           # mm/s at the end of the last block executed
         self._hold_v = 0.0          # mm/s while braking for a feed hold
-        self._parser = Interpreter("grbl")
+        self._parser = Interpreter("grbl", streaming=True)   # GRBL reads a stream: % is error:1
         self._reset_parser()
         if self._flag(22):                  # GRBL's HOMING_INIT_LOCK: homing first, or $X
             self.state, self.alarm_code = "Alarm", 0
@@ -300,6 +386,149 @@ class VirtualMachine:
     def _flag(self, number: int) -> bool:
         """An on/off setting ($20 soft limits, $22 homing, $32 laser mode …)."""
         return self.settings.get(number, "0") not in ("0", "")
+
+    # -- limit switches and homing ------------------------------------------------------------
+
+    def _pressed(self, pos=None) -> np.ndarray:
+        """The limit inputs as GRBL reads them (``$5`` inverts them) with the head at ``pos``
+        (machine mm; default where it is): one bool per axis."""
+        pos = self.pos if pos is None else np.asarray(pos, float)
+        wired = self._switch_side != 0
+        reached = (pos - self._switch_mm) * self._switch_side >= -1e-9
+        raw = self._switch_stuck | (wired & reached)
+        return raw ^ self._flag(5)
+
+    @property
+    def limit_pins(self) -> str:
+        """The limit inputs that read pressed now, as the status report's ``Pn:`` names them
+        (``"X"``, ``"XZ"``; ``""`` when none)."""
+        with self._lock:
+            return "".join(a for a, on in zip("XYZ", self._pressed()) if on)
+
+    def _set_axis(self, axis: int, value_mm: float) -> None:
+        """Give ``axis`` a new machine position without moving it (homing): its switch stays
+        where it physically is."""
+        self._switch_mm[axis] += value_mm - self.pos[axis]
+        self.pos[axis] = value_mm
+
+    def _start_homing(self) -> None:
+        """``$H``: GRBL 1.1h's homing cycle, group by group (Z, then X and Y): a search at
+        ``$25`` over 1.5 x the group's longest travel (``$13x``), a pull-off of ``$27`` at
+        ``$25``, a slow locate at ``$24`` over 10 x the pull-off, the pull-off again, ``$26`` ms
+        of debounce after each; ``$23`` names the axes that home towards -. The beam is off."""
+        pulloff = float(self.settings[27])
+        seek, feed = float(self.settings[25]), float(self.settings[24])
+        debounce = int(self.settings[26]) / 1000.0
+        todo: deque = deque()
+        for axes in _HOMING_GROUPS:
+            search = _HOMING_SEARCH_SCALE * max(float(self.settings[130 + a]) for a in axes)
+            for distance, rate, towards in ((search, seek, True), (pulloff, seek, False),
+                                            (_HOMING_LOCATE_SCALE * pulloff, feed, True),
+                                            (pulloff, seek, False)):
+                todo.append(("move", axes, distance, rate, towards))
+                todo.append(("wait", debounce))
+            todo.append(("home", axes))
+        self._homing = _Homing(todo)
+        self.state = "Home"
+        self._speed = 0.0
+        self._rest_level = 0.0          # the beam stays off after the cycle until a line lights it
+
+    def _begin_homing_step(self, h: _Homing) -> None:
+        """Start the next step of the cycle: zero the moving axes and time their move."""
+        h.step, h.t = h.todo.popleft(), 0.0
+        if h.step[0] == "wait":
+            h.duration_s = h.step[1]
+            return
+        if h.step[0] == "home":
+            h.duration_s = 0.0
+            return
+        _, axes, distance, rate, seek = h.step
+        towards_minus = int(self.settings[23])
+        h.sign = np.zeros(3)
+        h.stop_mm = np.full(3, math.inf)
+        for a in axes:
+            self._set_axis(a, 0.0)      # GRBL counts each phase from 0
+            side = -1.0 if towards_minus & (1 << a) else 1.0
+            h.sign[a] = side if seek else -side
+        if seek:
+            pressed_now = self._pressed()
+            for a in axes:
+                # the switch point along the way, if the input reads pressed just beyond it
+                to_switch = float(self._switch_mm[a] * h.sign[a])
+                if pressed_now[a]:
+                    h.stop_mm[a] = 0.0
+                elif 0.0 < to_switch <= distance and self._pressed(
+                        np.where(np.arange(3) == a, h.sign * (to_switch + 1e-6), self.pos))[a]:
+                    h.stop_mm[a] = to_switch
+        # every axis of the group at the homing rate (GRBL's rate x sqrt(n) along the path),
+        # within the slowest axis' maximum rate and acceleration
+        top = min([rate] + [self.machine.max_rate_mm_min[a] for a in axes]) / 60.0
+        accel = min(self.machine.accel_mm_s2[a] for a in axes)
+        h.profile = block_profiles(distance, 0.0, top, 0.0, accel, accel, "accel")
+        if seek and all(math.isfinite(h.stop_mm[a]) for a in axes):
+            h.duration_s = _time_at(h.profile, max(float(h.stop_mm[a]) for a in axes))
+        else:
+            h.duration_s = float(h.profile.time_s[0])
+
+    def _run_homing(self, dt: float) -> float:
+        """Run the homing cycle for ``dt`` s; the time left when it ended."""
+        h = self._homing
+        while dt > 0 and self.state == "Home":
+            if h.step is None:
+                if not h.todo:
+                    self._homing_done()
+                    return dt
+                self._begin_homing_step(h)
+            step = min(dt, h.duration_s - h.t)
+            h.t += step
+            self._sim_t += step
+            dt -= step
+            if h.step[0] == "move":
+                start = self.pos.copy()
+                s = float(h.profile.sample(0, h.t)[0])
+                moving = h.sign != 0
+                self.pos[moving] = (h.sign * np.minimum(s, h.stop_mm))[moving]
+                self.executed.append(Piece(self.lines_accepted, -1, "$H", tuple(start),
+                                           tuple(self.pos), 0.0, True, self._sim_t))
+            if h.t < h.duration_s - 1e-12:
+                continue
+            step_done, h.step = h.step, None
+            if step_done[0] == "move":
+                _, axes, _, _, seek = step_done
+                if seek and not all(math.isfinite(h.stop_mm[a]) for a in axes):
+                    self._homing_failed(AlarmCode.HOMING_FAIL_APPROACH)     # no switch found
+                elif not seek and self._pressed()[list(axes)].any():
+                    self._homing_failed(AlarmCode.HOMING_FAIL_PULLOFF)      # still pressed
+            elif step_done[0] == "home":
+                # homed: the switch end of the travel is 0 (GRBL's machine space is -$13x..0),
+                # the axis one pull-off inside it
+                pulloff = float(self.settings[27])
+                for a in step_done[1]:
+                    travel = float(self.settings[130 + a])
+                    towards_minus = int(self.settings[23]) & (1 << a)
+                    self._set_axis(a, -travel + pulloff if towards_minus else -pulloff)
+        return dt
+
+    def _homing_done(self) -> None:
+        """The cycle ended well: a '?' that came meanwhile is answered (still in Home, as GRBL's
+        homing loop serves no real-time request), the start-up lines run, then $H's ok."""
+        h, self._homing = self._homing, None
+        if h.status_asked:
+            self._emit(self._status_report())
+        self.state, self.alarm_code = "Idle", 0
+        self._run_startup_lines()
+        self._emit(grbl_reply(ErrorCode.OK))
+
+    def _homing_failed(self, alarm: int) -> None:
+        """The cycle failed (no switch, still pressed, a reset or the door): the alarm, $H's ok,
+        and the soft reset GRBL then makes (its banner, locked until $H or $X). A '?' sent
+        during the cycle is lost with the reset, as in GRBL."""
+        self._homing = None
+        self.state, self.alarm_code = "Alarm", alarm
+        self._emit(grbl_reply(AlarmCode(alarm)))
+        self._emit(grbl_reply(ErrorCode.OK))
+        self._realtime("reset")
+
 
     # -- pyserial-like surface ----------------------------------------------------------------
 
@@ -444,6 +673,8 @@ class VirtualMachine:
             return self._laser_output()
 
     def _laser_output(self) -> float:
+        if self.state == "Home":
+            return 0.0                                  # GRBL homes with the beam off
         moving = (self.state in ("Run", "Jog") or self._braking) and self._blocks
         if self.state == "Door" and self.substate != 2:
             return 0.0                                  # GRBL de-energizes once the door hold stops
@@ -527,6 +758,15 @@ class VirtualMachine:
             self.unsafe_stops.append((self._sim_t, why, power))
 
     def _realtime(self, kind: str) -> None:
+        if self.state == "Home":
+            # GRBL's homing loop serves no real-time request: a '?' is answered once the cycle
+            # has ended; a reset or the door ends it in an alarm; hold and cycle start wait
+            if kind == "status":
+                self._homing.status_asked = True
+            elif kind in ("reset", "door"):
+                self._homing_failed(AlarmCode.HOMING_FAIL_RESET if kind == "reset"
+                                    else AlarmCode.HOMING_FAIL_DOOR)
+            return
         if kind == "status":
             self._emit(self._status_report())
         elif kind == "hold":
@@ -591,13 +831,17 @@ class VirtualMachine:
             if self.state == "Alarm":
                 self._emit(grbl_reply(Feedback.ALARM_LOCK))
             else:
-                for startup in self.startup_lines:      # GRBL runs its start-up lines
-                    if startup:
-                        err = self._gcode(startup, jog=False)
-                        if err == _DEFERRED:            # answered here, not when it has run
-                            self._blocks[-1].replies = ()
-                        code = ErrorCode.OK if err in (None, _DEFERRED) else ErrorCode(err)
-                        self._emit(f">{startup}:{grbl_reply(code)}")
+                self._run_startup_lines()
+
+    def _run_startup_lines(self) -> None:
+        """GRBL's start-up lines (``$N0=``, ``$N1=``), each answered ``>line:ok`` (or its error)."""
+        for startup in self.startup_lines:
+            if startup:
+                err = self._gcode(startup, jog=False)
+                if err == _DEFERRED:            # answered here, not when it has run
+                    self._blocks[-1].replies = ()
+                code = ErrorCode.OK if err in (None, _DEFERRED) else ErrorCode(err)
+                self._emit(f">{startup}:{grbl_reply(code)}")
 
     def _override(self, byte: int) -> None:
         """GRBL 1.1's override bytes: feed 10–200 %, rapid 25/50/100 %, laser power 10–200 %.
@@ -635,6 +879,9 @@ class VirtualMachine:
         if mask & 2:
             text += f"|Bf:{free_blocks},{free_rx}"
         text += f"|FS:{feed:.0f},{s:.0f}"
+        pins = self.limit_pins
+        if pins:                                        # GRBL: the inputs that read pressed
+            text += f"|Pn:{pins}"
         # GRBL's refresh counters: WCO every 10th report idle (30th busy) or at once after it
         # changes, Ov on the report after WCO, then every 10th idle (20th busy) or at once after
         # an override or the spindle/laser state changes; no Ln (GRBL's default build has none)
@@ -743,6 +990,9 @@ class VirtualMachine:
 
     def _run_for(self, dt: float) -> None:
         while dt > 0:
+            if self.state == "Home":
+                dt = self._run_homing(dt)
+                continue
             if self._braking:
                 dt = self._brake(dt)
                 continue
@@ -791,8 +1041,8 @@ class VirtualMachine:
             if self._parsed is None:
                 if self._blocks and self._blocks[-1].replies:
                     return
-                if self.state in ("Hold", "Door"):      # GRBL's main loop waits in its suspend
-                    return
+                if self.state in ("Hold", "Door", "Home"):   # GRBL's main loop waits (a suspend,
+                    return                                   # the homing cycle)
                 cut = self._rx.find(b"\n")
                 if cut < 0:             # GRBL reads on into its line buffer: the RX empties
                     if len(self._partial) < 4096:
@@ -905,9 +1155,10 @@ class VirtualMachine:
         if cmd == "H":
             if not self._flag(22):
                 return ErrorCode.SETTING_DISABLED       # homing is off ($22=0)
-            self.pos = np.zeros(3)
-            self.state, self.alarm_code = "Idle", 0
-            return ErrorCode.OK
+            if rest:                                    # GRBL's default build: no $HX, $HY …
+                return ErrorCode.INVALID_STATEMENT
+            self._start_homing()
+            return None                                 # answered when the cycle ends
         if cmd == "S":
             if rest != "LP":
                 return ErrorCode.INVALID_STATEMENT

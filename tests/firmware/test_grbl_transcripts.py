@@ -242,9 +242,10 @@ class _Firmware:
 
 
 class _Virtual:
-    """labkit's virtual machine in real time, read as a port is."""
+    """labkit's virtual machine in real time, read as a port is, with the transcript's limit
+    switches (the same spec as the simulator's --switches)."""
 
-    def __init__(self):
+    def __init__(self, switches: str = ""):
         from labkit.machine.virtual import VirtualMachine
         from labkit.motion import load_machine
         # the GRBL that recorded the transcripts: DEFAULTS_GENERIC's mechanics and no settings of
@@ -252,7 +253,7 @@ class _Virtual:
         generic = load_machine("grbl-diode").replace(
             steps_per_mm=(250.0,) * 3, max_rate_mm_min=(500.0,) * 3, accel_mm_s2=(10.0,) * 3,
             travel_mm=(200.0,) * 3, grbl_settings=())
-        self.vm = VirtualMachine(generic, time_scale=1.0)
+        self.vm = VirtualMachine(generic, time_scale=1.0, switches=switches or None)
         self.vm.timeout = 0
 
     def send(self, data: bytes) -> None:
@@ -284,7 +285,7 @@ def _open(target: str, sim: str | None, transcript: dict):
     """The target for ``transcript``: with its limit switches (grbl-sim's and labkit-fw-sim's
     --switches) and, where it :func:`brakes_as_grbl`, GRBL's accelerations."""
     if target != "firmware":
-        return _Virtual()
+        return _Virtual(transcript.get("switches", ""))
     settings = grbl_defaults(GRBL_ACCELERATION_SETTINGS) if brakes_as_grbl(transcript) else {}
     return _Firmware(sim, transcript.get("switches", ""), settings)
 
@@ -537,19 +538,6 @@ KNOWN_DIFFERENCES: dict[tuple[str, str, int], str] = {
     ('virtual', 'errors', 169): '?: line 1: MPos:40.000,0.000,0.000, GRBL MPos:41.000,0.000,0.000',
     ('virtual', 'hold_resume', 18): "?: line 1: fields ['MPos', 'FS', 'Ov', 'A'], GRBL ['MPos', 'FS']",
     ('virtual', 'hold_resume', 26): "?: line 1: fields ['MPos', 'FS', 'Ov', 'A'], GRBL ['MPos', 'FS']",
-    ('virtual', 'homing', 10): '?: line 1: MPos:0.000,0.000,0.000, GRBL MPos:-3.000,-3.000,-3.000',
-    ('virtual', 'homing', 14): '?: line 1: MPos:-10.000,-5.000,0.000, GRBL MPos:-10.000,-5.000,-3.000',
-    ('virtual', 'homing', 16): '?: line 1: MPos:0.000,0.000,0.000, GRBL MPos:-3.000,-3.000,-3.000',
-    ('virtual', 'homing', 18): "$H: line 1: 'ok', GRBL 'ALARM:9'",
-    ('virtual', 'homing', 19): "?: line 1: state 'Idle', GRBL 'Alarm'",
-    ('virtual', 'homing', 20): '\'\\x18\': missing lines ["[MSG:\'$H\'|\'$X\' to unlock]"]',
-    ('virtual', 'homing', 21): "?: line 1: state 'Idle', GRBL 'Alarm'",
-    ('virtual', 'homing', 22): "$X: line 1: 'ok', GRBL '[MSG:Caution: Unlocked]'",
-    ('virtual', 'homing', 23): '?: line 1: MPos:0.000,0.000,0.000, GRBL MPos:-30.000,-30.000,-3.000',
-    ('virtual', 'homing', 25): "$H: extra lines ['ok']",
-    ('virtual', 'homing', 26): '\'\\x18\': line 1: "Grbl 1.1h [\'$\' for help]", GRBL \'ALARM:6\'',
-    ('virtual', 'homing', 27): "?: line 1: state 'Idle', GRBL 'Alarm'",
-    ('virtual', 'homing', 28): "$X: line 1: 'ok', GRBL '[MSG:Caution: Unlocked]'",
     ('virtual', 'homing_limits', 23): "$J=G91 X5 F100: line 1: 'ok', GRBL 'error:15'",
     ('virtual', 'homing_limits', 25): "$J=G91 X-1 F300: line 1: 'ok', GRBL 'error:15'",
     ('virtual', 'homing_limits', 26): "?: line 1: state 'Jog', GRBL 'Idle'",
@@ -581,12 +569,6 @@ KNOWN_DIFFERENCES: dict[tuple[str, str, int], str] = {
     ('virtual', 'homing_limits', 59): "G38.3 Z-0.5 F200: line 1: 'ok', GRBL '[PRB:-1.000,0.000,-0.500:0]'",
     ('virtual', 'homing_limits', 61): '?: line 1: MPos:5.427,0.000,-0.500, GRBL MPos:-1.000,0.000,-0.500',
     ('virtual', 'homing_limits', 63): '?: line 1: MPos:5.427,0.000,-0.500, GRBL MPos:-1.000,0.000,-0.500',
-    ('virtual', 'homing_stuck', 8): "$H: line 1: 'ok', GRBL 'ALARM:8'",
-    ('virtual', 'homing_stuck', 9): "?: line 1: state 'Idle', GRBL 'Alarm'",
-    ('virtual', 'homing_stuck', 10): '\'\\x18\': missing lines ["[MSG:\'$H\'|\'$X\' to unlock]"]',
-    ('virtual', 'homing_stuck', 11): "?: line 1: state 'Idle', GRBL 'Alarm'",
-    ('virtual', 'homing_stuck', 12): "$X: line 1: 'ok', GRBL '[MSG:Caution: Unlocked]'",
-    ('virtual', 'homing_stuck', 13): "?: line 1: fields ['MPos', 'FS', 'Ov'], GRBL ['MPos', 'FS', 'Pn', 'Ov']",
     ('virtual', 'issue27_lines', 1): "%: line 1: 'ok', GRBL 'error:1'",
     ('virtual', 'issue27_lines', 4): "%: line 1: 'ok', GRBL 'error:1'",
     ('virtual', 'line_length', 14): "$I=000000000000000000000000000: line 1: 'error:8', GRBL 'ok'",
