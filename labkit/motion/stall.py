@@ -150,15 +150,16 @@ _last_code: list = [None, None]          # the last text and its _whole_text_cod
 
 
 def _whole_text_code(text: str):
-    """(text without comments, that without whitespace but line ends) when the lines of
-    ``text`` end in \n or \r\n only (as str.splitlines cuts them), else None."""
+    """(text without comments, that without whitespace but line ends, its F words' values)
+    when the lines of ``text`` end in \n or \r\n only (as str.splitlines cuts them), else None."""
     if _last_code[0] is text:
         return _last_code[1]
     if text.count("\r") != text.count("\r\n") or any(c in text for c in _OTHER_LINE_BREAKS):
         out = None
     else:
         code = _COMMENT_IN_LINE.sub("", text)
-        out = (code, code.translate(_ASCII_SPACE) if code.isascii() else _SPACE_IN_LINE.sub("", code))
+        out = (code, code.translate(_ASCII_SPACE) if code.isascii() else _SPACE_IN_LINE.sub("", code),
+               tuple(float(v) for _, v in _F_WORD.findall(code)))
     _last_code[0], _last_code[1] = text, out
     return out
 #: labkit.gcode.reader's comments (``(`` to ``)`` or the line's end; ``;`` to the line's end)
@@ -180,7 +181,7 @@ def program_feeds(text: str) -> list[float]:
 
     cut = _whole_text_code(text)
     if cut is not None:                                  # lines end in \n or \r\n: all at once
-        return [float(v) for _, v in _F_WORD.findall(cut[0])]
+        return list(cut[2])
     return [float(m.group(2)) for raw in text.splitlines() for m in _F_WORD.finditer(strip_comments(raw))]
 
 
@@ -359,10 +360,15 @@ def predict_stalls(text: str, machine=None, *, line_bytes=None, dialect: str = "
     from labkit.motion.machine import load_machine
 
     m = load_machine(machine)
-    lines_text = text.splitlines()
     nbytes = sent_line_bytes(text) if line_bytes is None else np.asarray(line_bytes, dtype=np.int64)
-    if len(nbytes) != len(lines_text):
-        raise MotionError(f"line_bytes gives {len(nbytes)} counts for {len(lines_text)} lines")
+    if line_bytes is None:
+        n_lines = len(nbytes)
+    elif _whole_text_code(text) is not None:             # lines end in \n or \r\n
+        n_lines = text.count("\n") + (not text.endswith("\n") and text != "")
+    else:
+        n_lines = len(text.splitlines())
+    if len(nbytes) != n_lines:
+        raise MotionError(f"line_bytes gives {len(nbytes)} counts for {n_lines} lines")
     limit = m.rx_buffer_bytes - 1
     too_long = np.flatnonzero(nbytes >= limit)
     if len(too_long):
@@ -427,7 +433,8 @@ def _plainly_modal(text: str, scaled_words: int) -> bool:
         return False
     code = cut[1]
     return (code.count("F") + code.count("f") == scaled_words
-            and re.search(r"\$J|G0*93", code, re.IGNORECASE) is None)
+            and "$J" not in code.upper()
+            and ("93" not in code or re.search(r"G0*93", code, re.IGNORECASE) is None))
 
 
 class _FeedScaled:
