@@ -126,7 +126,8 @@ G_MOTION, G_NONMODAL, G_PLANE, G_UNITS, G_DISTANCE, G_ARCDIST, G_FEEDMODE, G_CUT
     G_TOOLLEN, G_COORD, G_PATH, M_STOP, M_LASER, M_COOLANT, M_RECORD = range(15)
 
 MAX_COMMANDS = 16   # G or M words per line; more cannot be valid (fewer groups exist)
-MAX_LINE_NUMBER = 9_999_999  # GRBL's limit for N
+MAX_LINE_NUMBER = 9_999_999  # labkit's limit for N
+MAX_LINE_NUMBER_GRBL = 10_000_000  # GRBL 1.1's MAX_LINE_NUMBER (N10000000 is accepted)
 #: Largest magnitude of a number or coordinate, mm (2**53: above it a float64 no longer
 #: holds every integer, so neither the position nor the digits written back are exact).
 MAX_ABS_VALUE = 9007199254740992.0
@@ -155,7 +156,8 @@ def _read_number(buf, i, end):
     """Read ``[+-]digits[.digits]`` at ``buf[i]``.
 
     Returns (value, next index, status) with status 0 ok, 1 no digits,
-    2 followed by something that cannot end a number (``1.2.3``, ``5x``…),
+    2 followed by something that cannot end a number (``1.2.3``, ``5x``…; the value is the
+    number read up to it, which is where GRBL's reader ends the word),
     3 magnitude at or above :data:`MAX_ABS_VALUE` (``X`` followed by 400 digits).
     """
     neg = False
@@ -189,14 +191,14 @@ def _read_number(buf, i, end):
         i += 1
     if ndigits == 0:
         return 0.0, i, 1
+    trailing = 0
     if i < end:
         c = buf[i]
-        ok_end = (_is_space(c) or c == 10 or c == 40 or c == 59 or c == 42
-                  or (65 <= c <= 90) or (97 <= c <= 122))
-        if not ok_end:
-            return 0.0, i, 2
+        if not (_is_space(c) or c == 10 or c == 40 or c == 59 or c == 42
+                or (65 <= c <= 90) or (97 <= c <= 122)):
+            trailing = 2
     if extra_exp > 0:
-        return 0.0, i, 3           # 19 or more integer digits: beyond MAX_ABS_VALUE
+        return 0.0, i, trailing or 3   # 19 or more integer digits: beyond MAX_ABS_VALUE
     value = float(mant)
     while frac > 22:
         value = value / 1e22
@@ -204,8 +206,8 @@ def _read_number(buf, i, end):
     if frac > 0:
         value = value / _POW10[frac]
     if value >= MAX_ABS_VALUE:
-        return 0.0, i, 3
-    return (-value if neg else value), i, 0
+        return 0.0, i, trailing or 3
+    return (-value if neg else value), i, trailing
 
 
 @jit
@@ -532,6 +534,9 @@ def interpret(buf, options, lenient, max_errors, trace):
                 continue
             if c == 59:   # ';' comment to end of line
                 break
+            if c == 42 and options.grbl_streamed:   # GRBL has no checksum: '*' is no letter
+                err, epos, eend = E_EXPECTED_LETTER, i, i + 1
+                break
             if c == 42:   # '*' checksum: XOR of every byte before it
                 x = 0
                 for k in range(ls, i):
@@ -586,6 +591,8 @@ def interpret(buf, options, lenient, max_errors, trace):
             while i < le and _is_space(buf[i]):
                 i += 1
             v, i2, st = _read_number(buf, i, le)
+            if st == 2 and options.grbl_verdicts:
+                st = 0        # GRBL ends the word there; what follows must start the next one
             if st != 0:
                 j = i2
                 if st == 2:   # show the whole malformed token, e.g. "X1.2.3"
@@ -610,8 +617,16 @@ def interpret(buf, options, lenient, max_errors, trace):
                 if not options.letters_ok[letter]:
                     err, detail, epos, eend = E_UNSUPPORTED, D_UNKNOWN_LETTER, wp, i
                     break
+                if options.grbl_verdicts and letter == L_T and v > options.max_tool:
+                    err, epos, eend = E_MAX_VALUE, wp, i     # GRBL: as T is read, before a repeat
+                    break
                 if present[letter]:
                     err, epos, eend = E_REPEATED, wp, i
+                    break
+                if options.grbl_verdicts and v < 0 and (letter == L_F or letter == L_N
+                                                        or letter == L_P or letter == L_T
+                                                        or letter == L_S):
+                    err, epos, eend = E_NEGATIVE, wp, i      # GRBL: F N P T S as they are read
                     break
                 present[letter] = True
                 val[letter] = v
@@ -647,6 +662,9 @@ def interpret(buf, options, lenient, max_errors, trace):
         word_limit = le + 1
         if err != OK and options.grbl_verdicts and err != E_OVERFLOW:
             word_limit = epos
+        grbl_jog = is_jog and options.grbl_verdicts   # GRBL reads a jog's words as any line's
+        jog_refused = -1       # GRBL: the first command word a jog cannot take (error 16, last)
+        axis_command = False   # GRBL: a word of G0-G3 G38 G10 G28 G30 G92 G43.1 G49 was read
         if (err == OK or word_limit <= le) and not is_system:
             for k in range(ng):
                 if g_pos[k] >= word_limit:
@@ -656,12 +674,15 @@ def interpret(buf, options, lenient, max_errors, trace):
                 grp = -1
                 if is_jog and not (t10 == 200 or t10 == 210 or t10 == 900 or t10 == 910
                                    or t10 == 530):
-                    err, detail, epos, eend = E_INVALID_JOG, D_JOG_COMMAND, g_pos[k], g_end[k]
-                    break
+                    if not grbl_jog:
+                        err, detail, epos, eend = E_INVALID_JOG, D_JOG_COMMAND, g_pos[k], g_end[k]
+                        break
+                    if jog_refused < 0:
+                        jog_refused = k
                 if v < 0 or abs(v * 10.0 - t10) > 1e-6:
                     err, detail, epos, eend = E_UNSUPPORTED, D_UNKNOWN_G, g_pos[k], g_end[k]
                     break
-                if not (is_jog or _contains(options.g_codes_ok, t10)):
+                if not ((is_jog and not grbl_jog) or _contains(options.g_codes_ok, t10)):
                     base = t10 - t10 % 10
                     if t10 % 10 != 0 and _contains(options.g_codes_ok, base) and not (
                             base == 900 or base == 910 or base == 280 or base == 300
@@ -671,6 +692,13 @@ def interpret(buf, options, lenient, max_errors, trace):
                         err, detail, epos, eend = E_UNSUPPORTED, D_UNKNOWN_G, g_pos[k], g_end[k]
                     break
                 code = t10 // 10
+                if options.grbl_verdicts and (code <= 3 or code == 38 or t10 == 100 or t10 == 280
+                                              or t10 == 300 or t10 == 920 or code == 43
+                                              or code == 49):
+                    if axis_command:     # GRBL: checked as the word is read, before its group
+                        err, epos, eend = E_AXIS_CONFLICT, g_pos[k], g_end[k]
+                        break
+                    axis_command = True
                 if code <= 3 or code == 80 or code == 38:
                     grp = G_MOTION
                     motion_new = t10 // 10 if code != 38 else t10
@@ -726,7 +754,7 @@ def interpret(buf, options, lenient, max_errors, trace):
                     err, epos, eend = E_MODAL_GROUP, g_pos[k], g_end[k]
                     break
                 groups |= 1 << grp
-        if err == OK and is_jog and nm > 0:
+        if err == OK and is_jog and nm > 0 and not grbl_jog:
             err, detail, epos, eend = E_INVALID_JOG, D_JOG_COMMAND, m_pos[0], m_end[0]
         if err != OK and options.grbl_verdicts and err != E_OVERFLOW:
             word_limit = epos
@@ -774,19 +802,41 @@ def interpret(buf, options, lenient, max_errors, trace):
         probing = False
         nhome = 0
         move_kind = RAPID
+        zero_arc = False      # a G2/G3 of radius 0 GRBL accepts (it moves as a line)
         jog_feed = 0.0
         move_feed = feed
         feed_ok = feed > 0
         if err == OK and is_jog:
             # GRBL's jog: F and X Y Z only (N allowed); G20/G21, G90/G91 and G53 for this
             # line only; the parser's modal state is left as it was, but for the position.
-            for letter in (L_I, L_J, L_K, L_P, L_R, L_S, L_T):
-                if present[letter] and (err == OK or wpos[letter] < epos):
-                    err, detail, epos, eend = E_UNUSED, D_JOG_WORD, wpos[letter], wend[letter]
-            if err == OK and present[L_N]:
-                nv = val[L_N]
-                if nv < 0 or nv > MAX_LINE_NUMBER or nv != math.floor(nv):
+            if grbl_jog:
+                # in GRBL's order: N, F, a dwell's P, unused words, then the commands
+                if present[L_N] and math.floor(val[L_N]) > MAX_LINE_NUMBER_GRBL:
                     err, epos, eend = E_LINE_NUMBER, wpos[L_N], wend[L_N]
+                elif not present[L_F]:
+                    err, epos, eend = E_UNDEFINED_FEED, ls, le
+                elif dwell and not present[L_P]:
+                    err, detail, epos, eend = E_MISSING_VALUE, D_DWELL_P, gcol_nonmodal, gend_nonmodal
+                elif axis_words and val[L_F] == 0:
+                    err, epos, eend = E_UNDEFINED_FEED, wpos[L_F], wend[L_F]
+                for letter in (L_I, L_J, L_K, L_L, L_P, L_R, L_S, L_T):
+                    if present[letter] and not (letter == L_P and dwell) and (
+                            err == OK or (err == E_UNUSED and wpos[letter] < epos)):
+                        err, detail, epos, eend = E_UNUSED, D_JOG_WORD, wpos[letter], wend[letter]
+                if err == OK and (jog_refused >= 0 or nm > 0):
+                    err, detail, epos, eend = E_INVALID_JOG, D_JOG_COMMAND, ls, le
+                    if jog_refused >= 0:
+                        epos, eend = g_pos[jog_refused], g_end[jog_refused]
+                    if nm > 0 and (jog_refused < 0 or m_pos[0] < epos):
+                        epos, eend = m_pos[0], m_end[0]
+            else:
+                for letter in (L_I, L_J, L_K, L_P, L_R, L_S, L_T):
+                    if present[letter] and (err == OK or wpos[letter] < epos):
+                        err, detail, epos, eend = E_UNUSED, D_JOG_WORD, wpos[letter], wend[letter]
+                if err == OK and present[L_N]:
+                    nv = val[L_N]
+                    if nv < 0 or nv > MAX_LINE_NUMBER or nv != math.floor(nv):
+                        err, epos, eend = E_LINE_NUMBER, wpos[L_N], wend[L_N]
             if err == OK:
                 if not present[L_F]:
                     err, epos, eend = E_UNDEFINED_FEED, ls, le
@@ -809,7 +859,10 @@ def interpret(buf, options, lenient, max_errors, trace):
         if err == OK and not is_system and not is_jog:
             if present[L_N]:
                 nv = val[L_N]
-                if nv < 0 or nv > MAX_LINE_NUMBER or nv != math.floor(nv):
+                if options.grbl_verdicts:     # GRBL keeps N's whole part (negative: error 4)
+                    if math.floor(nv) > MAX_LINE_NUMBER_GRBL:
+                        err, epos, eend = E_LINE_NUMBER, wpos[L_N], wend[L_N]
+                elif nv < 0 or nv > MAX_LINE_NUMBER or nv != math.floor(nv):
                     err, epos, eend = E_LINE_NUMBER, wpos[L_N], wend[L_N]
             if err == OK and present[L_F]:
                 if val[L_F] < 0:
@@ -853,23 +906,33 @@ def interpret(buf, options, lenient, max_errors, trace):
                     and motion_new != 80:
                 err, epos, eend = E_AXIS_CONFLICT, gcol_motion, gend_motion
             if err == OK and nonmodal == 100:                         # G10 L2 / L20
+                p_word = val[L_P] if present[L_P] else 0.0
+                l_word = val[L_L] if present[L_L] else 0.0
+                if options.grbl_verdicts:
+                    # GRBL: P and L by their whole part, a missing one is 0; only both missing
+                    # is error 28 (G10 L2 X1 sets the active system, G10 P1 X1 is L0: error 20)
+                    p_word = math.floor(p_word)
+                    l_word = math.floor(l_word) if l_word >= 0 else math.ceil(l_word)
                 if not axis_words:
                     err, epos, eend = E_NO_AXIS_WORDS, gcol_nonmodal, gend_nonmodal
-                elif not (present[L_L] and present[L_P]):
+                elif not (present[L_L] and present[L_P]) and not (
+                        options.grbl_verdicts and (present[L_L] or present[L_P])):
                     err, detail, epos, eend = E_MISSING_VALUE, D_G10_LP, gcol_nonmodal, gend_nonmodal
-                elif val[L_P] != math.floor(val[L_P]) or val[L_P] > 6:
+                elif p_word != math.floor(p_word) or p_word > 6:
                     err, epos, eend = E_COORD_SYS, wpos[L_P], wend[L_P]
-                elif val[L_L] != 2 and val[L_L] != 20:
-                    err, detail, epos, eend = E_UNSUPPORTED, D_G10_L, wpos[L_L], wend[L_L]
-                elif val[L_L] == 2 and present[L_R]:
+                elif l_word != 2 and l_word != 20:
+                    err, detail, epos, eend = E_UNSUPPORTED, D_G10_L, gcol_nonmodal, gend_nonmodal
+                    if present[L_L]:
+                        epos, eend = wpos[L_L], wend[L_L]
+                elif l_word == 2 and present[L_R]:
                     err, detail, epos, eend = E_UNSUPPORTED, D_G10_R, wpos[L_R], wend[L_R]
                 else:
-                    set_sys = coord_new if val[L_P] == 0 else int(val[L_P]) - 1
+                    set_sys = coord_new if p_word == 0 else int(p_word) - 1
                     for a in range(3):
                         new_sys[a] = wcs[set_sys, a]
                         if present[L_X + a]:
                             v = val[L_X + a] * scale
-                            if val[L_L] == 20:     # the current position becomes v
+                            if l_word == 20:     # the current position becomes v
                                 new_sys[a] = pos[a] - g92[a] - v - (tlo if a == 2 else 0.0)
                             else:
                                 new_sys[a] = v
@@ -967,6 +1030,9 @@ def interpret(buf, options, lenient, max_errors, trace):
                     in_plane = present[L_X + a0] or present[L_X + a1]
                     if not feed_ok:
                         err, epos, eend = E_UNDEFINED_FEED, gcol_motion, gend_motion
+                    elif options.grbl_verdicts and not in_plane:   # GRBL: before the centre
+                        err, epos, eend = (E_NO_PLANE_AXIS if axis_words else E_NO_AXIS_WORDS,
+                                           gcol_motion, gend_motion)
                     elif present[L_R]:
                         r = val[L_R] * scale
                         dx = target[a0] - pos[a0]
@@ -1016,14 +1082,21 @@ def interpret(buf, options, lenient, max_errors, trace):
                             r0 = math.hypot(pos[a0] - ctr[a0], pos[a1] - ctr[a1])
                             r1 = math.hypot(target[a0] - ctr[a0], target[a1] - ctr[a1])
                             dr = abs(r1 - r0)
-                            if r0 <= 1e-9:
+                            if r0 <= 1e-9 and options.grbl_verdicts and dr <= options.arc_tol_abs:
+                                # GRBL 1.1h: a circle of radius 0 whose end is within the
+                                # tolerance of it is accepted; it goes straight to its end
+                                zero_arc = True
+                                moving = target[0] != pos[0] or target[1] != pos[1] \
+                                    or target[2] != pos[2]
+                                move_kind = LINE
+                            elif r0 <= 1e-9:
                                 err, detail, epos, eend = E_INVALID_ARC, D_ZERO_RADIUS, gcol_motion, gend_motion
                             elif dr > options.arc_tol_abs and dr > options.arc_tol_rel * r0:
                                 err, detail, epos, eend = E_INVALID_ARC, D_RADIUS_MISMATCH, gcol_motion, gend_motion
                                 aux0, aux1 = r0, r1
                             else:
                                 moving = True
-                    if moving:
+                    if moving and not zero_arc:
                         move_kind = ARC_CW if motion_mode == 2 else ARC_CCW
             # The feed of this move: modal, or (G93) the move's length × F.
             move_feed = feed_new
@@ -1056,7 +1129,7 @@ def interpret(buf, options, lenient, max_errors, trace):
             # Value words no command used.
             if err == OK:
                 arc_r = moving and move_kind >= ARC_CW and present[L_R]
-                arc_ijk = moving and move_kind >= ARC_CW and not present[L_R]
+                arc_ijk = (moving and move_kind >= ARC_CW and not present[L_R]) or zero_arc
                 for letter in (L_I, L_J, L_K, L_R, L_P, L_L):
                     if not present[letter]:
                         continue

@@ -107,9 +107,14 @@ class Dialect:
         Answer each line as GRBL 1.1h does where labkit's firmware answers otherwise: an
         unclosed ``(`` ends at the line end, ``?`` ``~`` ``!`` are real-time characters taken
         out of the line, an R arc whose chord is longer than 2R is error 34, and of several
-        faults in a line the first in GRBL's parser order is reported; streamed
-        (:func:`labkit.gcode.check`), a ``%`` line is error 1 (GRBL has no program
-        delimiter) and ``$`` lines are checked against GRBL's system commands.
+        faults in a line the first in GRBL's parser order is reported (each word checked as
+        it is read, then GRBL's checks of the whole line in its order); a number ends where
+        GRBL's reader ends it (``X1.2.3`` is ``X1.2`` and then ``.``, no letter: error 1), N
+        and G10's L and P count by their whole part, two axis commands in one line are error
+        24 before their modal group, and an I J K circle of radius 0 whose end is within
+        0.005 mm of it is a move. Streamed (:func:`labkit.gcode.check`, the virtual
+        machine), a ``%`` line and a ``*`` are error 1 (GRBL has no program delimiter and no
+        checksum) and ``$`` lines are checked against GRBL's system commands.
     """
 
     name: str

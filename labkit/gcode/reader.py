@@ -387,6 +387,8 @@ def grbl_system_verdict(line: str, dialect: str | Dialect = "grbl") -> tuple[str
         return "invalid_statement", "'=' after the setting number"
     rest = rest[1:]
     if startup:                                  # $Nx=<G-code>: the line is checked as G-code
+        if rest.startswith("$") and not rest.startswith("$J="):   # GRBL's G-code parser: no letter
+            return "expected_letter", "a start-up line of G-code, not a $ command"
         errors = check(rest, dialect=d)
         return None if not errors else (errors[0].status.name, f"a valid startup line: {errors[0].message}")
     m = _GRBL_FLOAT.match(rest)

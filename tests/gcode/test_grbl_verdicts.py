@@ -12,6 +12,7 @@ import pytest
 
 from labkit.gcode import reader
 from labkit.gcode.reader import check, grbl_system_verdict, parse
+from labkit.toolpath.moves import MoveKind
 
 TRANSCRIPT = Path(__file__).resolve().parents[1] / "vectors" / "grbl" / "issue27_lines.json"
 
@@ -37,7 +38,8 @@ def test_every_recorded_line_gets_grbls_verdict():
 @pytest.mark.parametrize("line, code", [
     ("M118 T\n", 20),                 # GRBL reads M118 (unsupported) before the bare T
     ("G5.5 X1.2.3\n", 20),            # a command left of a malformed number
-    ("G1 X1.2.3 G5.5\n", 2),          # and right of it: the number is read first
+    ("G1 X1.2.3 G5.5\n", 1),          # and right of it: GRBL reads X1.2, then '.' is no letter
+                                      # (recorded: 'G0 X1.2.3' is error:1, errors.json)
     ("M3 M5 T\n", 21),                # M5 breaks M3's modal group before T is read
     ("G0 X1 ? Y2\n", 0),              # ? is taken out of the stream (a status request)
     ("%\n", 1), ("% comment\n", 1),
@@ -72,3 +74,85 @@ def test_refused_system_lines_count_once():
     m = parse("$RST=gcode\nG0 X1\n%\n", lenient=True, streaming=True)
     assert [e.code for e in m.diagnostics] == [3, 1] and m.dropped_diagnostics == 0
     assert [r.text for r in m.records] == []
+
+
+# ---- GRBL's number on each line the transcripts of issue 26 recorded (task: every line of
+# tests/vectors/grbl/*.json where labkit's grbl dialect answered otherwise) -------------------
+
+#: (transcript, exchange index) of each line; GRBL's answer is read from the recording.
+RECORDED_LINES = [
+    ("errors", 6),      # *              : GRBL has no checksum, '*' is no letter
+    ("errors", 7),      # G0 X1 #
+    ("errors", 8),      # G0 X1 =2       : X1 is read, then '=' is no letter
+    ("errors", 9),      # %              : streamed, no program delimiter
+    ("errors", 10),     # G0 X1 %
+    ("errors", 11),     # G0 @
+    ("errors", 18),     # G0 X1.2.3      : X1.2, then '.' is no letter
+    ("errors", 25),     # N-5 G0 X1      : negative, as N is read (4, not 27)
+    ("errors", 72),     # N1.5 G0 X1     : N's whole part
+    ("errors", 97),     # N10000000 G0 X1: GRBL's largest N
+    ("errors", 60),     # G0 G1 X1       : two axis commands (24) before the modal group (21)
+    ("errors", 83),     # G10 L2 P1 G28 X1
+    ("check_mode", 22),  # G0 X1 G1
+    ("errors", 74),     # G10 L2.5 P1 X1 : L's whole part
+    ("errors", 76),     # G10 L2 P1.5 X1 : P's whole part
+    ("errors", 100),    # G10 L2 X1      : no P is P0, the active system
+    ("errors", 103),    # G10 P1 X1      : no L is L0, unsupported (20)
+    ("errors", 120),    # G3 I1 J1 F100  : no axis words (26) before the plane (32)
+    ("errors", 124),    # G2 X0 Y0 I0 J0 F100: radius 0, the end within 0.005 mm of it
+    ("dollar_commands", 41),  # $J=G4 P1: the jog's F (22) before its commands (16)
+    ("dollar_commands", 11),  # $N1=$X  : a start-up line is G-code, '$' no letter
+]
+
+
+def _recorded(topic, index):
+    """(line sent without its line end, GRBL's verdict: 0 for ok, else the error number)."""
+    path = TRANSCRIPT.parent / f"{topic}.json"
+    exchange = json.loads(path.read_text("utf-8"))["exchanges"][index]
+    verdict = [r for r in exchange["replies"] if r == "ok" or r.startswith("error:")][-1]
+    return exchange["send"].rstrip("\n"), 0 if verdict == "ok" else int(verdict.split(":")[1])
+
+
+@pytest.mark.parametrize("topic, index", RECORDED_LINES,
+                         ids=[f"{t}-{i}" for t, i in RECORDED_LINES])
+def test_recorded_line_gets_grbls_number(topic, index):
+    """check() on the line as sent and the streaming Interpreter (what the virtual machine
+    runs) on the line as GRBL's reader keeps it (spaces dropped) both answer as GRBL did."""
+    line, code = _recorded(topic, index)
+    assert [e.code for e in check(line + "\n")] == ([code] if code else []), line
+    if not line.startswith("$N"):                  # $N lines are the machine's, not the parser's
+        _, error = reader.Interpreter("grbl", streaming=True).feed(line.replace(" ", ""))
+        assert (error.code if error else 0) == code, line
+
+
+def test_recorded_lines_are_the_ones_labkit_answered_otherwise():
+    """The vectors above are the recorded lines, and GRBL refused most of them."""
+    lines = [_recorded(t, i) for t, i in RECORDED_LINES]
+    assert [text for text, _ in lines][:3] == ["*", "G0 X1 #", "G0 X1 =2"]
+    assert sum(code == 0 for _, code in lines) == 6 and len(lines) == 21
+
+
+@pytest.mark.parametrize("line, code", [
+    ("G2 I5 F10\n", 26),             # GRBL: an arc without any axis word (26), not 32
+    ("G2 Z1 I5 F10\n", 32),          # with an axis word outside the plane: 32
+    ("G43.1 Z1 G49\n", 24),          # both axis commands (GRBL: G43.1 and G49 are)
+    ("G0 G80\n", 21),                # G80 is no axis command: the modal group
+    ("T300 T1\n", 38),               # T above 255 as it is read, before the repeat
+    ("S-1 M3 M3\n", 4),              # the negative S is read before the second M3
+    ("$J=G4 P1 F100\n", 16),         # with F, the jog's command is refused last
+    ("$J=X1 F100 S5\n", 36),         # S is a word a jog does not use
+    ("$J=G5 X1 F100\n", 20),         # GRBL reads a jog's G words as any line's
+    ("G10 X1\n", 28),                # neither L nor P
+    ("G2 X0.01 Y0 I0 J0 F10\n", 33),  # radius 0, the end 0.01 mm away: beyond 0.005 mm
+])
+def test_grbls_order_of_checks_beyond_the_recordings(line, code):
+    """Hand-written lines: GRBL's order read from its gcode.c (STEP 2 word by word, then
+    STEP 3), each answered as that order gives."""
+    assert [e.code for e in check(line)] == [code]
+
+
+def test_a_zero_radius_arc_moves_as_a_line_and_labkit_fw_refuses_it():
+    m = parse("G0 X5\nG2 X5.004 Y0 I0 J0 F100\n")
+    assert [MoveKind(k).name for k in m.kind] == ["RAPID", "LINE"] and m.end[-1, 0] == 5.004
+    assert [e.code for e in check("G2 X0 Y0 I0 J0 F100\n", dialect="labkit-fw")] == [33]
+    assert [e.code for e in check("G0 G1 X1\nN1.5 G0 X1\nG0 X1.2.3\n", dialect="labkit-fw")] == [21, 27, 2]
