@@ -12,8 +12,8 @@ sum), soft-limit alarms for moves outside the machine's travel, ``$`` commands (
 $G $# $X $H $J= $C $N $Nx= $RST= $SLP $x=V``, in the order and with the errors of GRBL 1.1h),
 G4 answered when its dwell ends, M0 held until cycle start, ``[MSG:Pgm End]`` at M2/M30,
 feed hold, resume and soft reset (a reset while moving raises ALARM:3, as GRBL does), simulated
-limit switches (``switches``: ``Pn:`` in status reports) and GRBL's homing cycle (``$H`` with
-``$22=1``, ``$23``-``$27``, ALARM:6/7/8/9, the power-up lock). Its
+limit switches (``switches``: ``Pn:`` in status reports, ALARM:1 with hard limits ``$21=1``) and
+GRBL's homing cycle (``$H`` with ``$22=1``, ``$23``-``$27``, ALARM:6/7/8/9, the power-up lock). Its
 replies are checked against conversations recorded from GRBL 1.1h itself
 (``tests/firmware/test_grbl_transcripts.py``).
 
@@ -410,6 +410,30 @@ class VirtualMachine:
         where it physically is."""
         self._switch_mm[axis] += value_mm - self.pos[axis]
         self.pos[axis] = value_mm
+
+    def _stop_at_switch(self, start: np.ndarray) -> bool:
+        """Whether the motion from ``start`` to here pressed a switch that was not pressed (the
+        edge GRBL's hard-limit interrupt sees); if so the head is put back where it met the first
+        one (the step is a straight line)."""
+        hit = self._pressed() & ~self._pressed(start)
+        if not hit.any():
+            return False
+        travel = self.pos - start
+        with np.errstate(divide="ignore", invalid="ignore"):
+            where = np.where(travel != 0, (self._switch_mm - start) / travel, 0.0)
+        self.pos = start + travel * float(np.clip(where[hit], 0.0, 1.0).min())
+        return True
+
+    def _critical_alarm(self, alarm: int) -> None:
+        """A soft or hard limit: GRBL stops at once (the queue, the RX buffer and the beam cleared),
+        says the alarm and that a reset is needed, and is locked in Alarm."""
+        self._blocks.clear()
+        self._rest_level = 0.0
+        self._rx.clear()
+        self._speed = 0.0
+        self.state, self.alarm_code = "Alarm", alarm
+        self._emit(grbl_reply(AlarmCode(alarm)))
+        self._emit(grbl_reply(Feedback.RESET_TO_CONTINUE))
 
     def _start_homing(self) -> None:
         """``$H``: GRBL 1.1h's homing cycle, group by group (Z, then X and Y): a search at
@@ -1016,8 +1040,13 @@ class VirtualMachine:
             self.pos = b.start + (b.end - b.start) * frac
             self._sim_t += step
             dt -= step
+            hit = self._flag(21) and self._stop_at_switch(start)
             self.executed.append(Piece(b.line, b.n_word, b.text, tuple(start), tuple(self.pos),
                                        b.power, b.rapid, self._sim_t))
+            if hit:                             # $21: GRBL's hard limit
+                self._critical_alarm(AlarmCode.HARD_LIMIT)
+                self._log_beam()
+                return
             self._log_beam()
             if b.done_s >= b.duration_s - 1e-12:
                 self.pos = b.end.copy()
@@ -1241,13 +1270,7 @@ class VirtualMachine:
             self._parser.state = before               # the line is not executed
             if jog:
                 return ErrorCode.TRAVEL_EXCEEDED
-            # soft limit: GRBL holds, resets and raises ALARM:2
-            self._blocks.clear()
-            self._rest_level = 0.0
-            self._rx.clear()
-            self.state, self.alarm_code = "Alarm", AlarmCode.SOFT_LIMIT
-            self._emit(grbl_reply(AlarmCode.SOFT_LIMIT))
-            self._emit(grbl_reply(Feedback.RESET_TO_CONTINUE))
+            self._critical_alarm(AlarmCode.SOFT_LIMIT)  # GRBL holds, resets and raises ALARM:2
             return _ALARMED
         self.lines_accepted += 1
         if self.check_mode:                              # check mode changes no offsets

@@ -201,3 +201,19 @@ def test_pn_names_every_pressed_input_and_5_inverts_them():
     assert vm.limit_pins == "XZ" and fields[fields.index("FS:0,0") + 1] == "Pn:XZ"
     assert talk(vm, b"$5=1\n") == ["ok"]
     assert vm.limit_pins == "Y"                      # inverted: the unwired input reads pressed
+
+
+def test_hard_limits_stop_at_the_switch_with_alarm_1_and_the_beam_off():
+    vm = machine(switches="X:+5")
+    assert talk(vm, b"$21=1\n$32=1\n") == ["ok", "ok"]
+    lines = talk(vm, b"G1 X10 F300 M3 S1000\n", 4.0)     # 5 mm at 5 mm/s: the switch after ~1 s
+    assert lines == ["ok", "ALARM:1", "[MSG:Reset to continue]"]
+    assert vm.state == "Alarm" and vm.pos[0] == pytest.approx(5.0, abs=1e-9)
+    assert vm.laser_output() == 0.0 and max(p.end[0] for p in vm.executed) == pytest.approx(5.0)
+    assert talk(vm, b"\x18") == [BANNER, LOCK]
+    # already pressed: moving on or back is no new edge, as GRBL's pin-change interrupt sees it
+    assert talk(vm, b"$X\nG0 X6\n", 2.0) == ["[MSG:Caution: Unlocked]", "ok", "ok"]
+    assert talk(vm, b"G0 X4\n", 2.0) == ["ok"] and vm.state == "Idle"
+    # $21=0: the same switch is only a Pn: input
+    assert talk(vm, b"$21=0\nG0 X10\n", 3.0) == ["ok", "ok"]
+    assert vm.pos[0] == 10.0 and vm.limit_pins == "X"
