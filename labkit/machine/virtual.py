@@ -412,11 +412,12 @@ class VirtualMachine:
         self.pos[axis] = value_mm
 
     def _stop_at_switch(self, start: np.ndarray) -> bool:
-        """Whether the motion from ``start`` to here pressed a switch that was not pressed (the
-        edge GRBL's hard-limit interrupt sees); if so the head is put back where it met the first
-        one (the step is a straight line)."""
-        hit = self._pressed() & ~self._pressed(start)
-        if not hit.any():
+        """Whether the motion from ``start`` to here tripped GRBL's hard limit: an input changed
+        (its pin-change interrupt) while one reads pressed. If so the head is put back where the
+        first input changed (the step is a straight line)."""
+        now = self._pressed()
+        hit = now != self._pressed(start)
+        if not (hit.any() and now.any()):
             return False
         travel = self.pos - start
         with np.errstate(divide="ignore", invalid="ignore"):

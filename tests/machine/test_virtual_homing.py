@@ -217,3 +217,13 @@ def test_hard_limits_stop_at_the_switch_with_alarm_1_and_the_beam_off():
     # $21=0: the same switch is only a Pn: input
     assert talk(vm, b"$21=0\nG0 X10\n", 3.0) == ["ok", "ok"]
     assert vm.pos[0] == 10.0 and vm.limit_pins == "X"
+
+
+def test_a_hard_limit_is_any_input_changing_while_one_reads_pressed():
+    """GRBL's pin-change interrupt reads all inputs: with Z's switch stuck pressed, X leaving
+    its switch is a change while one reads pressed: ALARM:1 where X's switch is."""
+    vm = machine(switches="X:+5,Z:stuck")
+    assert talk(vm, b"G0 X6\n", 3.0) == ["ok"] and vm.limit_pins == "XZ"
+    assert talk(vm, b"$21=1\n") == ["ok"]
+    assert talk(vm, b"G0 X4\n", 3.0) == ["ok", "ALARM:1", "[MSG:Reset to continue]"]
+    assert vm.pos[0] == pytest.approx(5.0) and vm.limit_pins == "XZ"
