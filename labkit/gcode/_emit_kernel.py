@@ -160,7 +160,70 @@ def _number_chars(value, decimals, compact):
     return n
 
 
-@jit
+def _number_chars_numpy(values, decimals):
+    """:func:`_number_chars` (compact) of every element of the int64 array ``values``."""
+    scale = 10 ** decimals
+    magnitude = np.abs(values)
+    whole, frac = np.divmod(magnitude, scale)
+    n = (values < 0).astype(np.int64)
+    digits = np.ones_like(whole)                  # whole's digits; a lone 0 before a point is dropped
+    power = 10
+    while power <= int(whole.max(initial=0)):
+        digits += whole >= power
+        power *= 10
+    n += np.where((whole == 0) & (frac > 0), 0, digits)
+    fraction = np.where(frac > 0, 1 + decimals, 0)  # the point and the digits before trailing zeros
+    for k in range(1, decimals):
+        fraction -= (frac > 0) & (frac % 10 ** k == 0)
+    return n + fraction
+
+
+def _choose_relative_numpy(kind, end_i, cur0, relative0, decimals, last):
+    """:func:`choose_relative` as Python: each row's cost in either mode for all rows at once
+    (numpy), then the two-state programme over plain ints, tie for tie as the kernel takes it
+    (a Python loop over numpy scalars is several times slower)."""
+    n = kind.shape[0]
+    big = 1 << 40
+    moves = kind != DWELL                          # every row but a dwell moves the position
+    before = np.maximum.accumulate(np.where(moves, np.arange(n), -1))
+    previous = np.concatenate(([-1], before))[:n]   # the last moving row before each row
+    cur = np.where(previous[:, None] >= 0, end_i[np.maximum(previous, 0)], np.asarray(cur0)[None, :3])
+    changed = end_i != cur
+    line_abs = np.where(changed, 1 + _number_chars_numpy(end_i, decimals), 0).sum(axis=1)
+    line_rel = np.where(changed, 1 + _number_chars_numpy(end_i - cur, decimals), 0).sum(axis=1)
+    still = ~changed.any(axis=1)
+    line_abs[still] = 1 + _number_chars_numpy(end_i[still, 0], decimals)
+    line_rel[still] = 2
+    straight = (kind == RAPID) | (kind == LINE)
+    line_abs[~straight] = 0
+    line_rel[~straight] = np.where(kind[~straight] == DWELL, 0, big)
+    switch_cost = np.where(moves, 3, big).tolist()
+    c0 = 0 if relative0 == 0 else 3
+    c1 = 0 if relative0 == 1 else 3
+    from0 = bytearray(n)                           # the mode of the row before, for each mode
+    from1 = bytearray(n)
+    for i, (a, r, s) in enumerate(zip(line_abs.tolist(), line_rel.tolist(), switch_cost)):
+        if c0 <= c1 + s:
+            n0 = c0 + a
+        else:
+            n0 = c1 + s + a
+            from0[i] = 1
+        if c1 <= c0 + s:
+            n1 = c1 + r
+        else:
+            n1 = c0 + s + r
+            from1[i] = 1
+        c0, c1 = n0, n1
+    rel = np.zeros(n, np.int8)
+    m = 0 if c0 <= c1 + (4 if last else 0) else 1
+    for i in range(n - 1, -1, -1):
+        rel[i] = m
+        if (from1 if m else from0)[i]:
+            m = 1 - m
+    return rel
+
+
+@jit(python_below=8_000_000, python=_choose_relative_numpy)  # 4 elements a row: ~0.4 µs a row as Python
 def choose_relative(kind, end_i, cur0, relative0, decimals, last):
     """Per row, 1 where the move is best written relative (G91), 0 absolute (G90).
 
@@ -250,7 +313,9 @@ def _end_line(out, used, line_start, numbered, checksums, number):
     return used + 1
 
 
-@jit(python_below=150_000)  # column elements (~15 a move): ~10,000 moves as Python
+# column elements (14 a move): 8-9.5 µs a move as Python (the 4096² zig-zag, a gray and a dithered
+# photo), so 100,000 moves take about LOAD_COST_S, what loading numba and this module costs
+@jit(python_below=1_400_000)
 def write_moves(rows, state, fmt, first_number, records, row0, relative):
     """Write a block of the program body: ``rows`` an :data:`EmitRows` (program rows ``row0``
     on), ``state`` the writer's modal state before them (see :data:`STATE_SIZE`; updated in

@@ -96,3 +96,63 @@ def test_blocks_of_any_size_write_the_same_program(monkeypatch):
         back = parse(emit(m, compact=True))
         np.testing.assert_allclose(back.end, whole.end, atol=1e-9)
         np.testing.assert_array_equal(back.power_s, whole.power_s)
+
+
+def _random_block(rng, n, scale):
+    """Rows of every kind (dwells and arcs among straight moves), with repeats of a position."""
+    kind = rng.choice([EK.RAPID, EK.LINE, EK.LINE, EK.ARC_CW, EK.ARC_CCW, EK.DWELL], n).astype(np.int64)
+    end = (rng.integers(-5, 6, (n, 3)) * scale + rng.integers(-3, 4, (n, 3))).astype(np.int64)
+    if n > 1:
+        end[rng.integers(0, n, n // 2)] = end[0]                 # lines that do not move
+    return kind, end
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_choose_relative_as_python_equals_the_kernel(seed):
+    """The numpy twin that runs below python_below (so a small job does not load numba for
+    its G90/G91 choice) picks the kernel's modes, tie for tie: against the kernel's own code
+    as Python and compiled, on random blocks of every move kind, scale and mode before."""
+    from labkit import _jit
+
+    rng = np.random.default_rng(seed)
+    for _ in range(200):
+        n = int(rng.integers(0, 60))
+        decimals = int(rng.integers(0, 6))
+        kind, end = _random_block(rng, n, int(rng.choice([1, 10, 1000, 10 ** decimals, 10 ** 7])))
+        cur0 = rng.integers(-20, 20, 3).astype(np.int64) * 1000
+        relative0, last = int(rng.integers(0, 2)), bool(rng.integers(0, 2))
+        twin = EK._choose_relative_numpy(kind, end, cur0, relative0, decimals, last)
+        assert np.array_equal(twin, EK.choose_relative.py_func(kind, end, cur0, relative0, decimals, last))
+        with _jit.forced("compiled"):
+            assert np.array_equal(twin, EK.choose_relative(kind, end, cur0, relative0, decimals, last))
+
+
+def test_a_zigzag_job_writes_compact_gcode_without_loading_numba(tmp_path):
+    """Issue 29's regression: the G90/G91 choice had no Python path, so the 4096² zig-zag's
+    10,076 moves loaded numba (about 1 s) to write what Python writes in 0.08 s. A job of that
+    size now writes compact G-code as Python by the rule, the same text as compiled."""
+    import subprocess
+    import sys
+
+    script = (
+        "import sys, numpy as np\n"
+        "from labkit.toolpath import LaserMode, MovesBuilder\n"
+        "from labkit.gcode import emit\n"
+        "b = MovesBuilder(feed_mm_min=1000, power_s=1000, laser=LaserMode.CONSTANT)\n"
+        "rng = np.random.default_rng(0)\n"
+        "for r in range(2519):\n"
+        "    x0, x1 = sorted(rng.integers(0, 4096, 2) / 10)\n"
+        "    b.rapid(x=x0 if r % 2 else x1, y=r / 10)\n"
+        "    b.line(x=x1 if r % 2 else x0)\n"
+        "    b.rapid(x=x1 if r % 2 else x0, y=r / 10 + 0.05)\n"
+        "    b.line(x=x0 if r % 2 else x1)\n"
+        "sys.stdout.write(emit(b.build(), compact=True))\n"
+        "sys.stderr.write(str('numba' in sys.modules))\n")
+    env = {k: v for k, v in __import__("os").environ.items() if k != "LABKIT_JIT"}
+    auto = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True)
+    compiled = subprocess.run([sys.executable, "-c", script], env=dict(env, LABKIT_JIT="compiled"),
+                              capture_output=True, text=True)
+    assert auto.returncode == 0 and compiled.returncode == 0, auto.stderr + compiled.stderr
+    assert auto.stdout.count("\n") > 10_000
+    assert auto.stderr == "False" and compiled.stderr == "True"
+    assert auto.stdout == compiled.stdout
