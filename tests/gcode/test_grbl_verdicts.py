@@ -156,3 +156,18 @@ def test_a_zero_radius_arc_moves_as_a_line_and_labkit_fw_refuses_it():
     assert [MoveKind(k).name for k in m.kind] == ["RAPID", "LINE"] and m.end[-1, 0] == 5.004
     assert [e.code for e in check("G2 X0 Y0 I0 J0 F100\n", dialect="labkit-fw")] == [33]
     assert [e.code for e in check("G0 G1 X1\nN1.5 G0 X1\nG0 X1.2.3\n", dialect="labkit-fw")] == [21, 27, 2]
+
+
+def test_grbl_verdicts_as_python_equal_compiled():
+    """The compiled kernel and its Python twin (labkit/_jit.py) answer every line above alike:
+    number, line and column."""
+    from labkit import _jit
+
+    text = "".join(_recorded(t, i)[0] + "\n" for t, i in RECORDED_LINES) + (
+        "G2 I5 F10\nG43.1 Z1 G49\nT300 T1\nS-1 M3 M3\n$J=G4 P1 F100\n$J=X1 F100 S5\n"
+        "$J=G5 X1 F100\nG10 X1\nG0 X5\nG2 X5.004 Y0 I0 J0 F100\n")
+    answers = {}
+    for how in ("python", "compiled"):
+        with _jit.forced(how):
+            answers[how] = [(e.line, e.code, e.column) for e in check(text)]
+    assert answers["python"] == answers["compiled"] and len(answers["python"]) == 23
