@@ -152,7 +152,15 @@ def run_plan(args) -> int:
     moves = parse_file(args.file, dialect=args.dialect, lenient=args.lenient)
     p = _plan(args, moves)
     s = p.summary()
-    link = None if args.no_link else _link_prediction(args, p.machine, p, moves)
+    link, link_note = None, None
+    if not args.no_link:
+        from labkit.errors import GcodeError
+
+        try:
+            link = _link_prediction(args, p.machine, p, moves)
+        except GcodeError as exc:       # --lenient: a line the controller refuses stops a sender
+            link_note = (f"not predicted: a sender would stop at line {exc.line} (error {exc.code}: "
+                         f"{exc.message})")
     if args.trace:
         with atomic_output(args.trace, newline="") as fh:
             p.trace().to_csv(fh, index=False, float_format="%.9g")
@@ -172,6 +180,9 @@ def run_plan(args) -> int:
             out["stall_free_feed_mm_min"] = free.feed_mm_min if free else None
             out["stall_free_limited_by"] = free.limited_by if free else None
             out["stall_free_rows"] = free.rows if free else []
+        elif link_note:
+            out["stalls"] = None
+            out["stall_prediction"] = link_note
         print(json.dumps(out, indent=2))
         return 0
     rows = [
@@ -190,6 +201,8 @@ def run_plan(args) -> int:
     ]
     if link:
         rows += link_rows(*link)
+    elif link_note:
+        rows.append(("stalls", link_note))
     width = max(len(k) for k, _ in rows)
     for k, v in rows:
         print(f"{k:<{width}}  {v}")

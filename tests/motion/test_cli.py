@@ -70,3 +70,17 @@ def test_errors_are_one_line(job, capsys):
     assert "no such file" in capsys.readouterr().err.lower()
     with pytest.raises(SystemExit):
         main(["plan", str(job), "--planner", "grbl"])
+
+
+def test_plan_lenient_says_why_it_predicts_no_stalls(tmp_path, capsys):
+    """--lenient plans around a line GRBL refuses (an arc whose end is off its circle: error 33),
+    but a sender stops there, so the link prediction is left out with that reason, not a failure."""
+    prog = tmp_path / "bad_arc.gcode"
+    prog.write_text("G21 G90\nG1 X10 F600\nG3 X0 Y5 I-5 J0\nG1 X20\n")      # written by hand
+    assert main(["plan", str(prog), "--lenient"]) == 0
+    out = capsys.readouterr().out
+    assert "not predicted: a sender would stop at line 3 (error 33" in out
+    assert main(["plan", str(prog), "--lenient", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["stalls"] is None and "line 3" in doc["stall_prediction"] and doc["job_time_s"] > 0
+    assert main(["plan", str(prog)]) == 1                  # without --lenient: the parse error itself
