@@ -567,7 +567,8 @@ _MESSAGES = {
                                       "G10 L2 P<0-6> or G10 L20 P<0-6> with axis words"),
     (K.E_AXIS_CONFLICT, 0): ("axis_command_conflict",
                              "two commands in one line both use the axis words",
-                             "G10, G28, G30, G92 or G43.1 on a line without G0-G3 or G38"),
+                             "one command per line that uses the axis words: G0-G3, G38, "
+                             "G10, G28, G30, G92, G43.1 or G49"),
     (K.E_COORD_SYS, 0): ("unsupported_coord_sys", "coordinate system number out of range",
                          "P0 (the active system) or P1-P6 (G54-G59)"),
     (K.E_G53_MOTION, 0): ("g53_invalid_motion_mode", "G53 needs G0 or G1",
