@@ -1001,8 +1001,13 @@ class VirtualMachine:
             self._hold_v = max(0.0, v - acc * step)
             self._sim_t += step
             dt -= step
+            hit = self._flag(21) and self._stop_at_switch(start)
             self.executed.append(Piece(b.line, b.n_word, b.text, tuple(start), tuple(self.pos),
                                        b.power, b.rapid, self._sim_t))
+            if hit:                                  # $21: braking onto a switch
+                self._hold_v = 0.0
+                self._critical_alarm(AlarmCode.HARD_LIMIT)
+                return dt
         if self._hold_v <= 1e-9 or not self._blocks or self._blocks[0].is_dwell:
             self.substate, self._hold_v = 0, 0.0
             if self._flag(32):

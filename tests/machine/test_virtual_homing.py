@@ -227,3 +227,17 @@ def test_a_hard_limit_is_any_input_changing_while_one_reads_pressed():
     assert talk(vm, b"$21=1\n") == ["ok"]
     assert talk(vm, b"G0 X4\n", 3.0) == ["ok", "ALARM:1", "[MSG:Reset to continue]"]
     assert vm.pos[0] == pytest.approx(5.0) and vm.limit_pins == "XZ"
+
+
+def test_a_hold_braking_onto_a_switch_is_a_hard_limit():
+    """At 5 mm/s and 10 mm/s² a hold needs 5²/(2·10) = 1.25 mm to stop: held 0.5 mm before
+    X's switch, the head reaches it while braking."""
+    vm = machine(switches="X:+5")
+    assert talk(vm, b"$21=1\n") == ["ok"]
+    vm.write(b"G1 X10 F300\n")
+    answered = []
+    while vm.pos[0] < 4.5:                           # 0.5 mm before the switch, at full speed
+        answered += talk(vm, b"", TICK_S)
+    assert answered == ["ok"] and vm.pos[0] < 4.6 and vm.state == "Run"
+    assert talk(vm, b"!", 2.0) == ["ALARM:1", "[MSG:Reset to continue]"]
+    assert vm.state == "Alarm" and vm.alarm_code == 1 and vm.pos[0] == pytest.approx(5.0)
