@@ -223,7 +223,7 @@ def _choose_relative_numpy(kind, end_i, cur0, relative0, decimals, last):
     return rel
 
 
-@jit(python_below=8_000_000, python=_choose_relative_numpy)  # 4 elements a row: ~0.4 µs a row as Python
+@jit(python_below=6_000_000, python=_choose_relative_numpy)  # 4 elements a row: 0.4-0.7 µs a row as Python
 def choose_relative(kind, end_i, cur0, relative0, decimals, last):
     """Per row, 1 where the move is best written relative (G91), 0 absolute (G90).
 
