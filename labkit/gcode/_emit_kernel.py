@@ -173,8 +173,8 @@ def _number_chars_numpy(values, decimals):
         power *= 10
     n += np.where((whole == 0) & (frac > 0), 0, digits)
     fraction = np.where(frac > 0, 1 + decimals, 0)  # the point and the digits before trailing zeros
-    for k in range(1, decimals):
-        fraction -= (frac > 0) & (frac % 10 ** k == 0)
+    for place in range(1, decimals):            # a trailing zero at this place is not written
+        fraction -= (frac > 0) & (frac % 10 ** place == 0)
     return n + fraction
 
 
