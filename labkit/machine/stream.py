@@ -1492,14 +1492,11 @@ def preflight_check(grbl: Grbl, job: Job, *, machine=None, status=None) -> tuple
     if not np.all(np.isfinite(travel)):
         notes.append("note: soft limits are on but $130-$132 were not read: travel not checked")
         return problems, notes
-    if vm is not None:
-        box_lo, box_hi, rule = np.zeros(3), travel, "0…$130-$132, the virtual machine's travel"
-    else:
-        # GRBL's soft limits: −$13x…0 per axis; positive on an axis whose position is
-        # positive (a build that sets the origin at home, HOMING_FORCE_SET_ORIGIN)
-        positive = np.asarray(st.mpos[:3], float) > 1e-3 if st.mpos is not None else np.zeros(3, bool)
-        box_lo, box_hi = np.where(positive, 0.0, -travel), np.where(positive, travel, 0.0)
-        rule = "GRBL's −$130…0 per axis (0…$130 where the position is positive)"
+    # GRBL's soft limits (the virtual machine's too): −$13x…0 per axis; positive on an axis
+    # whose position is positive (a build that sets the origin at home, HOMING_FORCE_SET_ORIGIN)
+    positive = np.asarray(st.mpos[:3], float) > 1e-3 if st.mpos is not None else np.zeros(3, bool)
+    box_lo, box_hi = np.where(positive, 0.0, -travel), np.where(positive, travel, 0.0)
+    rule = "GRBL's −$130…0 per axis (0…$130 where the position is positive)"
     wco, how = _work_offset(grbl, job, parser, st)
     if wco is None:
         notes.append(f"note: the travel was not checked: {how}; --check-first lets the "

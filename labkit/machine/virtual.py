@@ -8,8 +8,9 @@ planner has room, so ``ok`` comes late when it is full), ``ok`` /
 ``error:N`` for every line, real-time bytes, status reports with ``MPos``,
 ``FS``, ``Bf`` and ``WCO``, work offsets (G10 L2/L20 origins of G54–G59 kept
 through a reset as in GRBL's EEPROM, G92 and G43.1 cleared by it; ``WCO`` is their
-sum), soft-limit alarms for moves outside the machine's travel, ``$`` commands (``$$ $I $I=
-$G $# $X $H $J= $C $N $Nx= $RST= $SLP $x=V``, in the order and with the errors of GRBL 1.1h),
+sum), soft limits in GRBL's machine space (−$13x…0: ALARM:2, then nothing answered until
+a reset), ``$`` commands (``$$ $I $I= $G $# $X $H $J= $C $N $Nx= $RST= $SLP $x=V``, in the
+order and with the errors of GRBL 1.1h),
 G4 answered when its dwell ends, M0 held until cycle start, ``[MSG:Pgm End]`` at M2/M30,
 feed hold, resume and soft reset (a reset while moving raises ALARM:3, as GRBL does), simulated
 limit switches (``switches``: ``Pn:`` in status reports, ALARM:1 with hard limits ``$21=1``) and
@@ -301,6 +302,8 @@ class VirtualMachine:
         # each one is on (+1/-1; 0: none wired) and whether it is stuck pressed
         self._switch_mm, self._switch_side, self._switch_stuck = _parse_switches(switches or "")
         self._homing: _Homing | None = None     # the homing cycle under way
+        #: after ALARM:1/2, the replies the reset owes (None: no critical alarm waits for one)
+        self._critical_owed: tuple | None = None
         self.time_scale = float(time_scale)
         self.tick_s = float(tick_s)
         self.rx_bytes = int(rx_bytes or self.machine.rx_buffer_bytes)
@@ -425,9 +428,24 @@ class VirtualMachine:
         self.pos = start + travel * float(np.clip(where[hit], 0.0, 1.0).min())
         return True
 
+    def _outside_travel(self, points) -> bool:
+        """GRBL 1.1h's soft-limit test (system_check_travel_limits, built without
+        HOMING_FORCE_SET_ORIGIN): a machine position (mm) outside −$13x…0 on any axis."""
+        travel = np.array([float(self.settings[130 + a]) for a in range(3)])
+        p = np.asarray(points, float).reshape(-1, 3)
+        return bool(np.any(p > 1e-6) or np.any(p < -travel - 1e-6))
+
     def _critical_alarm(self, alarm: int) -> None:
         """A soft or hard limit: GRBL stops at once (the queue, the RX buffer and the beam cleared),
-        says the alarm and that a reset is needed, and is locked in Alarm."""
+        says the alarm and that a reset is needed, and is locked in Alarm. Until that reset it
+        reads no line and answers no real-time byte ('?' included); the reset then answers the
+        line GRBL was in (the one that hit the soft limit, or a line waiting for the planner or
+        for a G4 when a switch was hit) before its banner."""
+        if alarm == AlarmCode.SOFT_LIMIT or self._parsed is not None:
+            owed = (grbl_reply(ErrorCode.OK),)
+        else:
+            owed = self._blocks[-1].replies if self._blocks else ()
+        self._critical_owed = owed
         self._blocks.clear()
         self._rest_level = 0.0
         self._rx.clear()
@@ -783,6 +801,8 @@ class VirtualMachine:
             self.unsafe_stops.append((self._sim_t, why, power))
 
     def _realtime(self, kind: str) -> None:
+        if self._critical_owed is not None and kind != "reset":
+            return                              # GRBL's critical-event loop waits for a reset
         if self.state == "Home":
             # GRBL's homing loop serves no real-time request: a '?' is answered once the cycle
             # has ended; a reset or the door ends it in an alarm; hold and cycle start wait
@@ -832,6 +852,9 @@ class VirtualMachine:
                 self._blocks.clear()
                 self.state = "Idle"
         elif kind == "reset":
+            for reply in self._critical_owed or ():
+                self._emit(reply)
+            self._critical_owed = None
             moving = (self.state in ("Run", "Jog", "Home") or self._braking) and bool(self._blocks)
             if self._blocks and self._blocks[-1].replies and not moving:
                 for reply in self._blocks[-1].replies:   # GRBL leaves its wait and answers the line
@@ -1073,6 +1096,8 @@ class VirtualMachine:
         """GRBL's main loop: read a line from the RX buffer, parse it (``parse_s``), run it
         once the planner has room; not while a G4, M0, M2 or M30 waits to be answered."""
         while True:
+            if self._critical_owed is not None:
+                return                                  # after ALARM:1/2 nothing is read
             if self._parsed is None:
                 if self._blocks and self._blocks[-1].replies:
                     return
@@ -1269,10 +1294,13 @@ class VirtualMachine:
             return error.code
         after = self._parser.state
         new_pos = np.array(after.position, float)
-        lo = np.zeros(3)
-        hi = np.asarray(self.machine.travel_mm, float)
-        target_ok = bool(np.all(new_pos >= lo - 1e-6) and np.all(new_pos <= hi + 1e-6))
-        if not target_ok and self._flag(20):          # soft limits ($20, GRBL: off by default)
+        # soft limits ($20, GRBL: off by default) in GRBL's machine space, −$13x…0: a jog's
+        # target, or every point a line's motion is cut into (G28's via point, arc chords)
+        targets = [new_pos[None, :]]
+        if self._flag(20) and not jog and len(moves):
+            targets.append(np.asarray(expand_arcs(moves, float(self.settings[12])).end,
+                                      float)[:, :3])
+        if self._flag(20) and self._outside_travel(np.concatenate(targets)):
             self._parser.state = before               # the line is not executed
             if jog:
                 return ErrorCode.TRAVEL_EXCEEDED

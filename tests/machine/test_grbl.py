@@ -184,13 +184,15 @@ def test_jog_and_soft_limit_alarm_then_unlock():
     g = connect()
     g.set_setting(22, 1)            # GRBL ships soft limits off; they need homing enabled
     g.set_setting(20, 1)
-    g.jog(x=20, y=5, feed_mm_min=3000)
+    g.jog(x=-20, y=-5, feed_mm_min=3000)      # GRBL's machine space: −$130…0 per axis
     st = g.wait_status(lambda s: s.state == "Idle", 5)
-    assert st.mpos == (20.0, 5.0, 0.0)
+    assert st.mpos == (-20.0, -5.0, 0.0)
     with pytest.raises(MachineError, match="error:15: jog target outside"):
-        g.jog(x=-50, feed_mm_min=1000)
+        g.jog(x=50, feed_mm_min=1000)
     with pytest.raises(MachineError, match="ALARM:2 while sending .*: soft limit"):
         g.command("G90 G0 X9999")
+    g.soft_reset()                            # GRBL answers nothing after ALARM:2 until a reset,
+    g.drain_events()                          # then the alarmed line's ok before its banner
     with pytest.raises(MachineError, match="error:9: G-code is locked out"):
         g.command("G0 X0")
     g.unlock()

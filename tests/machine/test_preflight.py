@@ -66,7 +66,8 @@ def soft_limits_on(g):
 
 
 def negative_y_job():
-    """A job below the origin in Y, as the README's sample (cncjs' jsdc-laser) lies."""
+    """A job below the origin in Y, as the README's sample (cncjs' jsdc-laser) lies; in GRBL's
+    machine space (−$13x…0, the power-up position 0) its X10 is outside from the origin at 0."""
     return burn("G21 G90\nM4 S300 F1200\nG0 X10 Y-5\nG1 X40 Y-40\nG1 X10\nM5\nG0 X0 Y0\n")
 
 
@@ -75,16 +76,16 @@ def test_a_job_outside_the_soft_limits_is_refused_then_runs_from_a_moved_origin(
     soft_limits_on(g)
     job = negative_y_job()
     rep = run_job(g, job)
-    assert_refused(rep, vm, "line 3 (G0X10Y-5) would take Y to -5.000 mm", "outside the travel "
-                   "0…400 mm", "ALARM:2", "G10 L20 P0 X0 Y0")
-    # the fix it names: the origin where the job fits (the head at 100, 100)
-    g.command("G0 X100 Y100")
+    assert_refused(rep, vm, "line 3 (G0X10Y-5) would take X to 10.000 mm", "outside the travel "
+                   "-400…0 mm (GRBL's", "ALARM:2", "G10 L20 P0 X0 Y0")
+    # the fix it names: the origin where the job fits (the head at -300, -300 in GRBL's space)
+    g.command("G0 X-300 Y-300")
     g.wait_status(lambda s: s.state == "Idle", 10)
     g.command("G10 L20 P0 X0 Y0")
     rep = run_job(g, job)
     assert rep.ok, rep.summary()
     burned = [p for p in vm.executed if p.power > 0]
-    assert burned and min(min(p.start[1], p.end[1]) for p in burned) == pytest.approx(60.0)
+    assert burned and min(min(p.start[1], p.end[1]) for p in burned) == pytest.approx(-340.0)
     g.close()
 
 
@@ -128,7 +129,7 @@ def test_a_program_end_after_the_last_move_keeps_the_travel_checked():
 def test_the_coordinate_system_the_job_selects_is_the_one_checked():
     vm, g = machine()
     soft_limits_on(g)
-    g.command("G10 L2 P2 X0 Y50")                     # G55's origin 50 mm up: Y-5 is inside
+    g.command("G10 L2 P2 X-50 Y-50")                  # G55's origin at -50, -50: X10 Y-5 inside
     job = "G21 G90 {}\nM4 S300 F1200\nG1 X10 Y-5\nM5\n"
     assert preflight_check(g, burn(job.format("G55")))[0] == []
     assert preflight_check(g, burn(job.format("G54")))[0][0].startswith("line 3 ")
@@ -207,8 +208,12 @@ def test_travel_of_a_real_grbl_is_negative_unless_its_position_says_otherwise():
         assert len(problems) == 1 and "outside the travel -400…0 mm (GRBL's" in problems[0]
         job = burn("G21 G90\nM4 S300 F1200\nG1 X-10 Y-10\nM5\n")
         assert preflight_check(g, job)[0] == []
-        g.command("G0 X5 Y5")                            # a positive position: 0…$130
+        # a positive position, as a build homing to 0 (HOMING_FORCE_SET_ORIGIN) has: 0…$130.
+        # The virtual GRBL's soft limits are GRBL's −$130…0, so they are off for the move there
+        g.set_setting(20, 0)
+        g.command("G0 X5 Y5")
         g.wait_status(lambda s: s.state == "Idle", 10)
+        g.set_setting(20, 1)
         assert preflight_check(g, burn("G21 G90\nM4 S300 F1200\nG1 X10 Y10\nM5\n"))[0] == []
     finally:
         g.close()
