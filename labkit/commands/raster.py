@@ -190,6 +190,7 @@ def run_img2gcode(args) -> int:
     if preview is not None:
         write_job_preview(job, preview)
         print(f"{'preview':<{_label_width(report)}}  {preview}")
+    _warn_if_link_starves(text, job.moves, args)
     from labkit.record import record_program
 
     made = record_program("img2gcode", args, inputs=[(args.input, "input")], program=output,
@@ -197,6 +198,68 @@ def run_img2gcode(args) -> int:
     if made:
         print(f"{'record':<{_label_width(report)}}  {made}")
     return 0
+
+
+def _motion_line_rows(text: str, n_moves: int):
+    """The source line (1-based) of each move of a program emit wrote from ``n_moves`` moves:
+    the lines with an axis word, none a comment; None when they are not one a move."""
+    import numpy as np
+
+    from labkit.motion.stall import sent_line_bytes
+
+    nbytes = sent_line_bytes(text)
+    raw = np.frombuffer(text.encode("ascii", "replace"), dtype=np.uint8)
+    line_of = np.cumsum(raw == ord("\n")) - (raw == ord("\n"))       # 0-based line of each byte
+    axis = (raw == ord("X")) | (raw == ord("Y")) | (raw == ord("Z"))
+    lines = np.unique(line_of[axis])
+    lines = lines[nbytes[lines] > 0]
+    return (lines + 1, nbytes) if len(lines) == n_moves else (None, nbytes)
+
+
+def _warn_if_link_starves(text: str, moves, args) -> None:
+    """Warn on stderr when the machine's link cannot deliver the job at its feed, and say what
+    feed or pixel pitch it can (issue 30 §3). A cheap necessary condition first
+    (:func:`labkit.motion.stall.may_starve`); the predictor only when it holds."""
+    import math
+    import sys
+
+    from labkit.errors import LabkitError
+    from labkit.motion.machine import load_machine
+    from labkit.motion.stall import block_time_bounds, may_starve
+
+    m = load_machine(args.machine)
+    line, nbytes = _motion_line_rows(text, len(moves))
+    bounds = block_time_bounds(moves, m) if line is not None else None
+    if bounds is not None and not may_starve(nbytes, line[bounds[0]], bounds[1], m):
+        return
+    from labkit.gcode import parse
+    from labkit.motion.pipeline import plan
+    from labkit.motion.stall import predict_stalls, stall_free_feed
+
+    try:
+        read = parse(text, dialect=args.dialect)
+        planned = plan(read, m, planner="junction")
+        stalls = predict_stalls(text, m, dialect=args.dialect, plan=planned).stalls
+        if not stalls:
+            return
+        free = stall_free_feed(text, m, dialect=args.dialect, rows=False, moves=read, plan=planned)
+    except LabkitError as exc:         # the program is written; only the check could not be made
+        print(f"note: the link to {m.name} was not checked: {exc}", file=sys.stderr)
+        return
+    head = (f"warning: at {m.link_baud} baud ({m.name}) the link cannot keep up with this job: "
+            f"{len(stalls)} starvations predicted at the programmed feed {free.programmed_mm_min:g} mm/min "
+            f"(first at line {stalls[0].line})")
+    if free.limited_by == "travel":
+        print(f"{head}; its rapids outrun the link at any feed: a faster link (baud) is needed",
+              file=sys.stderr)
+        return
+    feed = math.floor(free.feed_mm_min)
+    # lines per mm fall as the pitch grows, so the feed the link allows grows with it
+    pitch = math.ceil(args.beam * free.programmed_mm_min / free.feed_mm_min * 1000) / 1000
+    print(f"{head}. The link limits it to {feed} mm/min: write it with --feed {feed}, or at a pixel "
+          f"pitch of about {pitch:g} mm (--beam; an estimate: the feed the link allows grows about "
+          f"in proportion with the pitch). Written anyway: a faster link may run it",
+          file=sys.stderr)
 
 
 def _label_width(report) -> int:

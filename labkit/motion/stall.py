@@ -38,7 +38,9 @@ from labkit.errors import MotionError
 from labkit.motion._stall import stream_lines
 
 __all__ = ["Starvation", "LinkPrediction", "StallFreeFeed", "predict_stalls", "stall_free_feed",
-           "sent_line_bytes", "with_feed", "program_feeds", "read_starvation_log", "FLUSH_QUIET_S"]
+           "sent_line_bytes", "with_feed", "program_feeds", "read_starvation_log", "may_starve",
+           "block_time_bounds",
+           "FLUSH_QUIET_S"]
 
 #: Quiet input after which the labkit firmware runs what its look-ahead holds back, s
 #: (``FLUSH_QUIET_MS`` in ``firmware/src/protocol.c``).
@@ -422,6 +424,135 @@ def predict_stalls(text: str, machine=None, *, line_bytes=None, dialect: str = "
                           parsed_s=parsed, fill=fill, block_line=block_line, block_start_s=start,
                           block_end_s=end, stalls=stalls, job_time_s=float(end.max()) if nb else 0.0,
                           motion_time_s=float(dur.sum()))
+
+
+def block_time_bounds(moves, machine=None):
+    """The blocks straight moves make, and a lower bound of each one's motion time.
+
+    A move makes a block when it moves by a step (as :func:`labkit.motion.build_blocks`
+    drops the others); the block runs its step-rounded length no faster than its feed
+    (rapids: no faster than all axes at their top rates at once).
+
+    Parameters
+    ----------
+    moves : Moves
+        Rapids and lines only.
+    machine : MachineSpec, str or None
+
+    Returns
+    -------
+    (ndarray of int, ndarray of float) or None
+        The rows of ``moves`` that make a block and their times' lower bounds, s; None
+        when ``moves`` has an arc or a dwell (their blocks are not one a row).
+
+    Examples
+    --------
+    >>> from labkit.toolpath.moves import Moves
+    >>> from labkit.motion.machine import CBR40
+    >>> m = Moves.from_cuts([(1, 0)], [(7, 0)], feed_mm_min=600, power_s=500)  # a rapid, a cut
+    >>> rows, t = block_time_bounds(m, CBR40)
+    >>> rows.tolist(), float(t[1].round(3))                # 6 mm at 600 mm/min: 0.6 s
+    ([0, 1], 0.6)
+    """
+    from labkit.motion.blocks import to_steps
+    from labkit.motion.machine import load_machine
+    from labkit.toolpath.moves import MoveKind
+
+    m = load_machine(machine)
+    kind = np.asarray(moves.kind)
+    if np.any((kind != MoveKind.RAPID) & (kind != MoveKind.LINE)):
+        return None
+    spm = np.asarray(m.steps_per_mm, dtype=float)
+    delta = to_steps(moves.end, spm) - to_steps(moves.start, spm)
+    rows = np.flatnonzero(np.any(delta != 0, axis=1))
+    length = np.linalg.norm(delta[rows] / spm, axis=1)
+    top = float(np.linalg.norm(np.asarray(m.max_rate_mm_min, dtype=float)))
+    feed = np.asarray(moves.feed_mm_min, dtype=float)[rows]
+    fast = np.where((kind[rows] == MoveKind.LINE) & (feed > 0), np.minimum(feed, top), top)
+    return rows, length / (fast / 60.0)
+
+
+def may_starve(line_bytes, block_line, block_min_s, machine=None) -> bool:
+    """Whether a job *can* starve on the link: a necessary condition for a stall, O(n) numpy.
+
+    False proves :func:`predict_stalls` finds no starvation; True says only that it may.
+    A stop before block j needs block j ready (its line parsed; on a controller that waits
+    for its look-ahead, the line of block j + ``buffer_blocks``) after block j - 1 has
+    ended; at the job's end, where the last blocks wait for the quiet-input flush, it is a
+    starvation only while lines still arrive: the last line after block j - 1 has ended. From the job's start, or from the last
+    moment a line had to wait for a planner slot (the planner then held ``planner_blocks``
+    - 1 blocks not yet run, those just before it), the lines after arrive no later than the
+    sum of their wire time and one parse each (a character-counting sender may wait for an
+    answer, at most one parse), while the blocks run no faster than their lower bounds and
+    the first starts no sooner than its window (or a quiet input) lets it.
+    The condition is that sum exceeding the motion it must keep ahead of, for some block.
+
+    Parameters
+    ----------
+    line_bytes : array of int
+        Bytes each source line puts on the link (0: not sent), as :func:`sent_line_bytes`.
+    block_line : array of int
+        Source line (1-based) of each planner block, in order.
+    block_min_s : array of float
+        A lower bound of each block's motion time, s (its length over the fastest it may
+        run, less a step's rounding).
+    machine : MachineSpec, str or None
+        The machine and its link.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    Sixty 0.1 mm cuts at 600 mm/min (10 ms each) in 7-byte lines: 7.3 ms a line at 9600
+    baud keeps ahead of them; at 4800 baud (14.6 ms a line) the link may fall behind.
+
+    >>> from labkit.motion.machine import CBR40
+    >>> cuts = (np.full(60, 7), np.arange(1, 61), np.full(60, 0.010))
+    >>> may_starve(*cuts, CBR40.replace(link_baud=9600)), may_starve(*cuts, CBR40.replace(link_baud=4800))
+    (False, True)
+    """
+    from labkit.motion.machine import load_machine
+
+    m = load_machine(machine)
+    nbytes = np.asarray(line_bytes, dtype=np.int64)
+    block_line = np.asarray(block_line, dtype=np.int64)
+    nb = len(block_line)
+    if nb < 2 or not np.any(nbytes > 0):
+        return False
+    tau = m.link_bits_per_byte / m.link_baud
+    p = float(m.block_parse_s)
+    # upper bound of each line's parse, from a reset: wire time and one parse per sent line
+    link = np.cumsum(np.where(nbytes > 0, nbytes * tau + p, 0.0))
+    motion = np.concatenate([[0.0], np.cumsum(np.asarray(block_min_s, dtype=float))])  # blocks 0…k-1
+    W = m.buffer_blocks if m.waits_for_lookahead else 0
+    Q = m.planner_blocks - 1
+    j = np.arange(1, nb)
+    ready = link[block_line[np.minimum(j + W, nb - 1)] - 1] + p
+    if W:
+        # the last blocks wait for the flush after the last line, but a wait is a starvation
+        # only while a line still arrives: the last one after block j - 1 has ended
+        ready = np.where(j + W >= nb, link[-1] + p, ready)
+    # the reset at line r: the Q blocks before r's first block still to run (a line with
+    # fewer blocks before it never waits for a slot)
+    first_block = np.searchsorted(block_line, np.arange(1, len(nbytes) + 1), side="left")
+    slack = np.where(first_block >= Q, motion[np.maximum(first_block - Q, 0)] - link, -np.inf)
+    best = np.maximum.accumulate(slack)
+    # from the start: block 0 runs once its window has arrived (no sooner than the wire
+    # brings it), or after a quiet input of FLUSH_QUIET_S, possible only where the next
+    # line may arrive that much after the one before
+    arrived_lb = tau * np.cumsum(nbytes).astype(float)
+    k0 = block_line[0] - 1
+    kw = block_line[min(W, nb - 1)] - 1
+    start0 = arrived_lb[kw]
+    if W:
+        gap = link[k0 + 1:kw + 1] + p - arrived_lb[k0:kw] >= FLUSH_QUIET_S
+        if np.any(gap):
+            start0 = min(start0, float(arrived_lb[k0:kw][gap][0]) + FLUSH_QUIET_S)
+    ready_line = np.where(j + W >= nb, len(nbytes), block_line[np.minimum(j + W, nb - 1)]) - 1
+    ahead = np.maximum(best[ready_line], -start0)
+    return bool(np.any(ready - motion[j] + ahead > 0))
 
 
 def _plainly_modal(text: str, scaled_words: int) -> bool:

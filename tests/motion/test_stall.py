@@ -285,3 +285,48 @@ def test_which_programs_skip_the_tagged_parse():
     assert not _plainly_modal("G1X1F100\n$J=X2F50\n", 2)
     assert not _plainly_modal("G93 G1X1F2\n", 1)
     assert _FeedScaled(_job(RELATIVE_CUTS), CBR40, "grbl").ok
+
+
+def _cheap_condition(text, m):
+    """may_starve on a parsed program: its blocks' lines and their times' lower bounds."""
+    from labkit.gcode import parse
+    from labkit.motion.stall import block_time_bounds, may_starve
+
+    moves = parse(text)
+    bounds = block_time_bounds(moves, m)
+    if bounds is None:
+        return None
+    rows, low = bounds
+    return may_starve(sent_line_bytes(text), np.asarray(moves.line)[rows], low, m)
+
+
+def test_the_cheap_condition_never_misses_a_stall(tmp_path):
+    """may_starve is a necessary condition: wherever the predictor finds a starvation it holds,
+    on the jobs above at several feeds and baud rates; and it is not always true (a fast link
+    under slow moves proves there is none). Its blocks and lower bounds are the plan's: one a
+    line, each below the block's planned time."""
+    from labkit.gcode import parse
+    from labkit.motion import plan
+    from labkit.motion.stall import block_time_bounds
+
+    checked = stalled = cleared = 0
+    for text, m in _scaled_jobs(tmp_path) + [(_job(lines), CBR40) for lines in (SHORT_CUTS, RELATIVE_CUTS)]:
+        moves = parse(text)
+        bounds = block_time_bounds(moves, m)
+        if bounds is None:                                  # arcs: the predictor itself decides
+            continue
+        p = plan(moves, m, planner="junction")
+        rows, low = bounds
+        np.testing.assert_array_equal(np.asarray(moves.line)[rows], p.blocks.line)
+        assert np.all(low <= np.asarray(p.block_time_s) * (1 + 1e-9))
+        for baud in (m.link_baud, 1200, 9600, 115200):
+            for feed in (120.0, 600.0, 1500.0, 6000.0):
+                mb = m.replace(link_baud=baud)
+                t = with_feed(text, feed)
+                stalls = predict_stalls(t, mb).stalls
+                cheap = _cheap_condition(t, mb)
+                assert cheap or not stalls, (baud, feed, stalls[:2])
+                checked += 1
+                stalled += bool(stalls)
+                cleared += not cheap
+    assert checked >= 60 and stalled >= 10 and cleared >= 10
