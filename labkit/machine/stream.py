@@ -1179,6 +1179,10 @@ def _make_safe(grbl: Grbl, fault: _Fault, report: JobReport, acked: list, inflig
             elif ev.kind == "ok" and inflight:
                 inflight.popleft()
         stop.events = []
+    if str(fault).startswith(("ALARM:1:", "ALARM:2:")):
+        # GRBL's critical alarm answers nothing until the reset, which then answers the line it
+        # was in: that ok acknowledges a line that never ran
+        stop.events = [ev for ev in stop.events if ev.kind != "ok"]
     for ev in stop.events:
         if ev.kind in ("ok", "error") and ev.seq < limit and inflight:
             ln, n = inflight.popleft()

@@ -193,6 +193,7 @@ def test_alarm_stops_and_names_the_line():
     vm, g = machine()
     g.set_setting(22, 1)            # GRBL ships soft limits off; they need homing enabled
     g.set_setting(20, 1)
+    g.command("G10 L2 P1 X-300 Y-300")   # GRBL's travel is −$13x…0: the raster's origin inside it
     # the pre-flight check would refuse this job (test_preflight.py): here the controller's own
     # alarm mid-job is what is tested
     rep = run_job(g, job, preflight=False)
