@@ -209,9 +209,9 @@ def _motion_line_rows(text: str, n_moves: int):
 
     nbytes = sent_line_bytes(text)
     raw = np.frombuffer(text.encode("ascii", "replace"), dtype=np.uint8)
-    line_of = np.cumsum(raw == ord("\n")) - (raw == ord("\n"))       # 0-based line of each byte
-    axis = (raw == ord("X")) | (raw == ord("Y")) | (raw == ord("Z"))
-    lines = np.unique(line_of[axis])
+    axis = np.flatnonzero((raw == ord("X")) | (raw == ord("Y")) | (raw == ord("Z")))
+    lines = np.searchsorted(np.flatnonzero(raw == ord("\n")), axis)     # 0-based, in order
+    lines = lines[np.concatenate([[True], lines[1:] != lines[:-1]])] if len(lines) else lines
     lines = lines[nbytes[lines] > 0]
     return (lines + 1, nbytes) if len(lines) == n_moves else (None, nbytes)
 

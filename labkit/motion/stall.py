@@ -129,6 +129,9 @@ def sent_line_bytes(text: str) -> np.ndarray:
     """
     from labkit.gcode.reader import strip_comments
 
+    fast = _plain_line_bytes(text)
+    if fast is not None:
+        return fast
     cut = _whole_text_code(text)
     if cut is not None:
         # lines end in \n or \r\n only: the whole text at once, the same cuts per line
@@ -142,6 +145,28 @@ def sent_line_bytes(text: str) -> np.ndarray:
         body = re.sub(r"\s", "", strip_comments(raw))
         out.append(len(body) + 1 if body else 0)
     return np.asarray(out, dtype=np.int64)
+
+
+def _plain_line_bytes(text: str):
+    """:func:`sent_line_bytes` of a text as programs are written (printable ASCII, tabs, \\n
+    line ends, comments only as whole lines starting with ``;``) with numpy over its bytes,
+    else None. A program writer's output, as long as a photo's, takes a few ms."""
+    raw = np.frombuffer(text.encode("latin-1", "replace"), dtype=np.uint8)
+    if not len(raw) or raw.max() > 126 or ((raw < 32) & (raw != 10) & (raw != 9)).any():
+        return None
+    ends = np.flatnonzero(raw == 10)
+    if raw[-1] != 10:                                       # the last line has no newline
+        ends = np.append(ends, len(raw))
+    starts = np.concatenate([[0], ends[:-1] + 1])
+    comment = raw[np.minimum(starts, len(raw) - 1)] == 59
+    comment &= starts < ends                                # an empty line is no comment
+    special = np.flatnonzero((raw == 40) | (raw == 59))     # ( and ;
+    if len(special) and not comment[np.searchsorted(ends, special)].all():
+        return None
+    kept = np.concatenate([[0], np.cumsum((raw != 32) & (raw != 9), dtype=np.int64)])
+    n = kept[ends] - kept[starts]
+    n[comment] = 0
+    return np.where(n > 0, n + 1, 0)
 
 
 #: What str.splitlines breaks a line at besides \n and \r\n (and a lone \r).
@@ -482,9 +507,11 @@ def may_starve(line_bytes, block_line, block_min_s, machine=None) -> bool:
     starvation only while lines still arrive: the last line after block j - 1 has ended. From the job's start, or from the last
     moment a line had to wait for a planner slot (the planner then held ``planner_blocks``
     - 1 blocks not yet run, those just before it), the lines after arrive no later than the
-    sum of their wire time and one parse each (a character-counting sender may wait for an
-    answer, at most one parse), while the blocks run no faster than their lower bounds and
-    the first starts no sooner than its window (or a quiet input) lets it.
+    sum over them of the slower of wire and parse (two parses more: the first line crosses
+    the wire before its parse; a character-counting sender that may put two lines in flight
+    waits for an answer only while the parser has work), while the blocks run no faster
+    than their lower bounds and the first starts no sooner than its window (or a quiet
+    input) lets it.
     The condition is that sum exceeding the motion it must keep ahead of, for some block.
 
     Parameters
@@ -523,17 +550,23 @@ def may_starve(line_bytes, block_line, block_min_s, machine=None) -> bool:
         return False
     tau = m.link_bits_per_byte / m.link_baud
     p = float(m.block_parse_s)
-    # upper bound of each line's parse, from a reset: wire time and one parse per sent line
-    link = np.cumsum(np.where(nbytes > 0, nbytes * tau + p, 0.0))
+    # upper bound of each line's parse, from a reset, less 2 p: the wire and the parser work
+    # side by side, a line costing the slower of the two, as long as the sender may put two
+    # lines in flight (it then waits for an answer only while the parser has a line to
+    # parse); else the wire, then the parse
+    sent = nbytes[nbytes > 0]
+    side_by_side = len(sent) < 2 or int((sent[1:] + sent[:-1]).max()) < m.rx_buffer_bytes - 1
+    per_line = np.maximum(nbytes * tau, p) if side_by_side else nbytes * tau + p
+    link = np.cumsum(np.where(nbytes > 0, per_line, 0.0))
     motion = np.concatenate([[0.0], np.cumsum(np.asarray(block_min_s, dtype=float))])  # blocks 0…k-1
     W = m.buffer_blocks if m.waits_for_lookahead else 0
     Q = m.planner_blocks - 1
     j = np.arange(1, nb)
-    ready = link[block_line[np.minimum(j + W, nb - 1)] - 1] + p
+    ready = link[block_line[np.minimum(j + W, nb - 1)] - 1] + 2 * p
     if W:
         # the last blocks wait for the flush after the last line, but a wait is a starvation
         # only while a line still arrives: the last one after block j - 1 has ended
-        ready = np.where(j + W >= nb, link[-1] + p, ready)
+        ready = np.where(j + W >= nb, link[-1] + 2 * p, ready)
     # the reset at line r: the Q blocks before r's first block still to run (a line with
     # fewer blocks before it never waits for a slot)
     first_block = np.searchsorted(block_line, np.arange(1, len(nbytes) + 1), side="left")
@@ -543,13 +576,14 @@ def may_starve(line_bytes, block_line, block_min_s, machine=None) -> bool:
     # brings it), or after a quiet input of FLUSH_QUIET_S, possible only where the next
     # line may arrive that much after the one before
     arrived_lb = tau * np.cumsum(nbytes).astype(float)
+    parsed_lb = np.maximum(arrived_lb + p, np.cumsum(nbytes > 0) * p)     # one parser, in order
     k0 = block_line[0] - 1
     kw = block_line[min(W, nb - 1)] - 1
-    start0 = arrived_lb[kw]
+    start0 = parsed_lb[kw]
     if W:
-        gap = link[k0 + 1:kw + 1] + p - arrived_lb[k0:kw] >= FLUSH_QUIET_S
+        gap = link[k0 + 1:kw + 1] + 2 * p - arrived_lb[k0:kw] >= FLUSH_QUIET_S
         if np.any(gap):
-            start0 = min(start0, float(arrived_lb[k0:kw][gap][0]) + FLUSH_QUIET_S)
+            start0 = max(parsed_lb[k0], min(start0, float(arrived_lb[k0:kw][gap][0]) + FLUSH_QUIET_S))
     ready_line = np.where(j + W >= nb, len(nbytes), block_line[np.minimum(j + W, nb - 1)]) - 1
     ahead = np.maximum(best[ready_line], -start0)
     return bool(np.any(ready - motion[j] + ahead > 0))

@@ -330,3 +330,27 @@ def test_the_cheap_condition_never_misses_a_stall(tmp_path):
                 stalled += bool(stalls)
                 cleared += not cheap
     assert checked >= 60 and stalled >= 10 and cleared >= 10
+
+
+def test_the_numpy_line_bytes_equal_the_line_by_line_ones(monkeypatch):
+    """sent_line_bytes counts a plainly written program (whole-line ; comments) with numpy; on
+    random texts of G-code words, spaces, tabs, comments and empty lines it gives what the
+    comment-stripping path gives, and leaves every other text to that path."""
+    import random
+
+    import labkit.motion.stall as stall
+
+    random.seed(30)
+    words = ["G1", "X1.5", " ", "\t", "S100", ";c", "\n", "\n", "F300", "y2", "(a)", ";(", "\n;x(y)", "\r\n"]
+    fast = 0
+    for _ in range(3000):
+        text = "".join(random.choice(words) for _ in range(random.randint(0, 30)))
+        got = stall._plain_line_bytes(text)
+        with monkeypatch.context() as mp:
+            mp.setattr(stall, "_plain_line_bytes", lambda t: None)
+            expected = sent_line_bytes(text)
+        if got is not None:
+            fast += 1
+            np.testing.assert_array_equal(got, expected, err_msg=repr(text))
+        np.testing.assert_array_equal(sent_line_bytes(text), expected, err_msg=repr(text))
+    assert 500 < fast < 3000

@@ -28,15 +28,16 @@ def _image(tmp_path):
     return path
 
 
-def _machine_file(tmp_path, baud):
-    """grbl-diode with another link speed, as a user would copy and edit it."""
+def _machine_file(tmp_path, baud, name="grbl-diode"):
+    """A shipped machine description with another link speed, as a user would copy and edit it."""
     from labkit.motion.machine import MACHINES_DIR
 
-    text = (MACHINES_DIR / "grbl-diode.toml").read_text()
+    text = (MACHINES_DIR / f"{name}.toml").read_text()
     assert "link_baud = 115200" in text
-    path = tmp_path / f"slow{baud}.toml"
+    path = tmp_path / f"{name}-{baud}.toml"
     path.write_text(text.replace("link_baud = 115200", f"link_baud = {baud}")
-                    .replace('name = "grbl-diode"', f'name = "grbl-diode-{baud}"'))
+                    .replace(f'name = "{name}"', f'name = "{name}-{baud}"'))
+    assert load_machine(str(path)) == load_machine(name).replace(link_baud=baud, name=f"{name}-{baud}")
     return path
 
 
@@ -101,18 +102,12 @@ def test_the_cheap_condition_never_misses_a_stall_on_img2gcode_jobs(tmp_path, ca
     seen = starved = 0
     for name in ("cbr40-laser", "grbl-diode"):
         for baud in (2400, 9600, 38400, 115200):
-            text_m = tmp_path / f"{name}{baud}.toml"
-            base = load_machine(name)
+            machine = _machine_file(tmp_path, baud, name)
+            m = load_machine(str(machine))
             for feed in (600, 3000, 6000):
-                m = base.replace(link_baud=baud)
                 calls.clear()
-                machine = _machine_file(tmp_path, baud) if name == "grbl-diode" else None
-                args = ["img2gcode", str(png), "-o", str(out), "--mode", mode, "--preview", "none",
-                        "--feed", str(feed)]
-                if machine is None:
-                    text_m.write_text(f'name = "cbr{baud}"\nlink_baud = {baud}\n')
-                    machine = text_m
-                assert main(args + ["--machine", str(machine)]) == 0
+                assert main(["img2gcode", str(png), "-o", str(out), "--mode", mode, "--preview", "none",
+                             "--feed", str(feed), "--machine", str(machine)]) == 0
                 capsys.readouterr()
                 if real(out.read_text(), m).stalls:
                     assert calls, (name, baud, feed)
