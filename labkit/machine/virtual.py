@@ -166,6 +166,7 @@ class _Block:
     #: once the moves before them have run); the next line waits until then
     replies: tuple = ()
     pause: bool = False         # M0: a feed hold once the moves before it have run
+    probe: int = 0              # G38.2-G38.5 as 382-385: the move stops when the probe switches
 
 
 def _stack(rows: list) -> Blocks:
@@ -180,9 +181,9 @@ _HOMING_SEARCH_SCALE = 1.5
 _HOMING_LOCATE_SCALE = 10.0
 
 
-def _parse_switches(spec: str):
-    """The ``switches`` option: switch positions (mm from power-up), sides (+1/-1, 0 = none) and
-    which are stuck pressed.
+def _parse_switches(spec: str, option: str = "switches"):
+    """The ``switches`` option (or ``probe``, the same form): switch positions (mm from
+    power-up), sides (+1/-1, 0 = none) and which are stuck pressed.
 
     >>> mm, side, stuck = _parse_switches("X:+5,Z:stuck")
     >>> mm.tolist(), side.tolist(), stuck.tolist()
@@ -194,7 +195,7 @@ def _parse_switches(spec: str):
     for item in filter(None, spec.replace(" ", "").split(",")):
         axis, _, where = item.upper().partition(":")
         if axis not in ("X", "Y", "Z") or not where:
-            raise MachineError(f"switches {spec!r}: {item!r} is not AXIS:MM or AXIS:stuck "
+            raise MachineError(f"{option} {spec!r}: {item!r} is not AXIS:MM or AXIS:stuck "
                                f"(expected e.g. 'X:+5,Y:+5,Z:stuck')")
         a = "XYZ".index(axis)
         if where == "STUCK":
@@ -203,10 +204,10 @@ def _parse_switches(spec: str):
         try:
             mm[a] = float(where)
         except ValueError:
-            raise MachineError(f"switches {spec!r}: {where!r} after {axis}: is not a distance "
+            raise MachineError(f"{option} {spec!r}: {where!r} after {axis}: is not a distance "
                                f"in mm nor 'stuck'") from None
         if mm[a] == 0 or not math.isfinite(mm[a]):
-            raise MachineError(f"switches {spec!r}: the {axis} switch needs a side, a nonzero "
+            raise MachineError(f"{option} {spec!r}: the {axis} input needs a side, a nonzero "
                                f"distance from power-up such as +5 or -5 (got {where!r})")
         side[a] = math.copysign(1.0, mm[a])
     return mm, side, stuck
@@ -280,6 +281,10 @@ class VirtualMachine:
         or beyond that point, wherever homing later sets the machine's zero); ``stuck`` is a
         switch always pressed; an axis not named has none. None (the default): no switch wired,
         so ``$H`` with homing on ends in ALARM:9 as on a GRBL without switches.
+    probe : str, optional
+        The probe input for G38.2-G38.5, in the same form: ``"Z:-2"`` touches at 2 mm below the
+        power-up position and beyond, ``"Z:stuck"`` always touches (``$6`` inverts it). None
+        (the default): it never touches, so G38.2 ends in ALARM:5 as on a GRBL with no probe.
 
     Examples
     --------
@@ -296,12 +301,16 @@ class VirtualMachine:
     def __init__(self, machine=None, *, time_scale: float = 1.0, tick_s: float = 0.02,
                  rx_bytes: int | None = None, planner_blocks: int | None = None,
                  baud: int | None = None, parse_s: float | None = None, banner: bool = True,
-                 switches: str | None = None):
+                 switches: str | None = None, probe: str | None = None):
         self.machine = load_machine(machine or "grbl-diode")
         # limit switches in machine coordinates (shifted when homing sets the position), the side
         # each one is on (+1/-1; 0: none wired) and whether it is stuck pressed
         self._switch_mm, self._switch_side, self._switch_stuck = _parse_switches(switches or "")
         self._homing: _Homing | None = None     # the homing cycle under way
+        # the probe input: where it touches (the same form as a switch) and GRBL's last result
+        self._probe_mm, self._probe_side, self._probe_stuck = _parse_switches(probe or "", "probe")
+        self._probe_at = np.zeros(3)            # GRBL's sys_probe_position, machine mm
+        self._probe_touched = False             # GRBL's sys.probe_succeeded
         #: after ALARM:1/2, the replies the reset owes (None: no critical alarm waits for one)
         self._critical_owed: tuple | None = None
         self.time_scale = float(time_scale)
@@ -412,6 +421,7 @@ class VirtualMachine:
         """Give ``axis`` a new machine position without moving it (homing): its switch stays
         where it physically is."""
         self._switch_mm[axis] += value_mm - self.pos[axis]
+        self._probe_mm[axis] += value_mm - self.pos[axis]
         self.pos[axis] = value_mm
 
     def _stop_at_switch(self, start: np.ndarray) -> bool:
@@ -427,6 +437,42 @@ class VirtualMachine:
             where = np.where(travel != 0, (self._switch_mm - start) / travel, 0.0)
         self.pos = start + travel * float(np.clip(where[hit], 0.0, 1.0).min())
         return True
+
+    def _probe_reached(self, kind: int, pos=None) -> bool:
+        """Whether the probe input is where a G38 move of ``kind`` (382-385) stops: touching
+        for G38.2/G38.3, no longer touching for G38.4/G38.5 (``$6`` inverts the input)."""
+        pos = self.pos if pos is None else np.asarray(pos, float)
+        wired = self._probe_side != 0
+        reached = (pos - self._probe_mm) * self._probe_side >= -1e-9
+        touching = bool(self._probe_stuck.any() or (wired & reached).any()) ^ self._flag(6)
+        return touching != (kind >= 384)
+
+    def _probe_result(self, b: "_Block", touched: bool) -> None:
+        """GRBL's end of a probe cycle (mc_probe_cycle): the touch position kept, or for G38.3 and
+        G38.5 where it stopped, or for G38.2 and G38.4 ALARM:5 (the last position kept); then
+        ``[PRB:x,y,z:0|1]`` (machine mm) and the line's ok."""
+        self._probe_touched = touched
+        if touched or b.probe in (383, 385):
+            self._probe_at = self.pos.copy()
+        else:
+            self.state, self.alarm_code = "Alarm", AlarmCode.PROBE_FAIL_CONTACT
+            self._emit(grbl_reply(AlarmCode.PROBE_FAIL_CONTACT))
+        self._emit(self._prb_line())
+
+    def _probe_crossing(self, kind: int, start: np.ndarray) -> np.ndarray:
+        """Where between ``start`` and here the probe input switched (a straight step): the
+        first point found reached, by bisection to well under a step."""
+        lo, hi = 0.0, 1.0
+        for _ in range(40):
+            mid = 0.5 * (lo + hi)
+            if self._probe_reached(kind, start + (self.pos - start) * mid):
+                hi = mid
+            else:
+                lo = mid
+        return start + (self.pos - start) * hi
+
+    def _prb_line(self) -> str:
+        return "[PRB:{:.3f},{:.3f},{:.3f}:{:d}]".format(*self._probe_at, self._probe_touched)
 
     def _outside_travel(self, points) -> bool:
         """GRBL 1.1h's soft-limit test (system_check_travel_limits, built without
@@ -868,6 +914,7 @@ class VirtualMachine:
             self._reset_parser()
             self.check_mode = False
             self._wco_counter = self._ovr_counter = 0
+            self._probe_at, self._probe_touched = np.zeros(3), False   # GRBL clears them
             if moving:
                 self.state, self.alarm_code = "Alarm", AlarmCode.ABORT_CYCLE
                 self._emit(grbl_reply(AlarmCode.ABORT_CYCLE))
@@ -1055,6 +1102,13 @@ class VirtualMachine:
                     self.state = "Idle"
                 return
             b = self._blocks[0]
+            if not b.started and b.probe and self._probe_reached(b.probe):
+                # GRBL's probe cycle: the input already where the move should take it
+                self._blocks.clear()
+                self.state, self.alarm_code = "Alarm", AlarmCode.PROBE_FAIL_INITIAL
+                self._emit(grbl_reply(AlarmCode.PROBE_FAIL_INITIAL))
+                self._emit(grbl_reply(ErrorCode.OK))
+                continue
             if not b.started:
                 self._start_block(b)
                 if b.pause:                     # M0: the moves before it have run; hold here
@@ -1077,15 +1131,23 @@ class VirtualMachine:
                 self._log_beam()
                 return
             self._log_beam()
-            if b.done_s >= b.duration_s - 1e-12:
-                self.pos = b.end.copy()
-                self._speed = b.exit_mm_s
+            touched = b.probe and self._probe_reached(b.probe)
+            if touched:                         # stopped where the input switched
+                self.pos = self._probe_crossing(b.probe, start)
+            if touched or b.done_s >= b.duration_s - 1e-12:
+                if not touched:
+                    self.pos = b.end.copy()
+                self._speed = 0.0 if touched else b.exit_mm_s
                 self._blocks.popleft()
+                if b.probe:
+                    self.state = "Idle"
+                    self._probe_result(b, bool(touched))
                 for reply in b.replies:         # G4, M0, M2, M30: answered now
                     self._emit(reply)
                 self._take_lines()              # a line waiting in RX refills the planner now
                 if not self._blocks:
-                    self.state = "Idle"
+                    if self.state != "Alarm":       # ALARM:5 stays
+                        self.state = "Idle"
                     self._speed = 0.0
                     self._dry_since = self._sim_t
                     self._note_stop("buffer empty")
@@ -1210,7 +1272,7 @@ class VirtualMachine:
                 self._emit("[{}:{:.3f},{:.3f},{:.3f}]".format(name, *p))
             self._emit("[G92:{:.3f},{:.3f},{:.3f}]".format(*self.g92))
             self._emit(f"[TLO:{self.tool_offset:.3f}]")
-            self._emit("[PRB:0.000,0.000,0.000:0]")
+            self._emit(self._prb_line())
             return ErrorCode.OK
         if cmd == "H":
             if not self._flag(22):
@@ -1329,8 +1391,11 @@ class VirtualMachine:
                                                    self._sim_t - self._dry_since))
             self._dry_since = None
         kinds = {r.kind for r in moves.records}
+        if "probe" in kinds:                 # G38.x: its ok waits for the probe cycle's end
+            for b in list(self._blocks)[queued:]:
+                b.probe = int(after.motion)
         deferred = not jog and (bool(kinds & {"pause", "end"})
-                                or any(b.is_dwell for b in list(self._blocks)[queued:]))
+                                or any(b.is_dwell or b.probe for b in list(self._blocks)[queued:]))
         if deferred:
             if "pause" in kinds or "end" in kinds or not len(self._blocks) > queued:
                 # a stop of no time at the end of the queue: it holds (M0) or answers (M2, M30)

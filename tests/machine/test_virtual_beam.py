@@ -53,7 +53,7 @@ def test_program_end_reset_and_alarm_switch_it_off():
     assert vm.laser_output() == 0.0 and vm.state == "Alarm"
     run(vm, b"$X\n")
     vm.settings[22], vm.settings[20] = "1", "1"                     # soft limits: an ALARM:2
-    run(vm, b"G90 G1 X1 F600 S400 M3\n")            # the reset forgot F
+    run(vm, b"G90 G1 X-1 F600 S400 M3\n")           # the reset forgot F; inside GRBL's −$130…0
     assert vm.laser_output() == 0.4
     assert "ALARM:2" in run(vm, b"G1 X9999\n") and vm.laser_output() == 0.0
 

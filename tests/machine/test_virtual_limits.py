@@ -88,3 +88,70 @@ def test_a_hard_limit_answers_the_line_waiting_on_a_dwell_at_the_reset():
     assert talk(vm, b"$21=1\n") == ["ok"]
     assert talk(vm, b"G0 X-10\nG4 P0.01\n", 3.0) == ["ok", "ALARM:1", "[MSG:Reset to continue]"]
     assert talk(vm, b"\x18") == ["ok", BANNER, LOCK]
+
+
+# -- probing (G38.2-G38.5) ---------------------------------------------------------------------
+
+def probing(probe="Z:-2", **kw):
+    """GRBL's generic mechanics with a probe plate 2 mm below the power-up position."""
+    vm = VirtualMachine(generic(), time_scale=0, tick_s=TICK_S, banner=False, probe=probe, **kw)
+    vm.timeout = 0
+    return vm
+
+
+def prb(line):
+    """The position and success flag of a ``[PRB:x,y,z:f]`` line."""
+    xyz, flag = line[5:-1].rsplit(":", 1)
+    return tuple(float(v) for v in xyz.split(",")), int(flag)
+
+
+def test_g38_2_stops_where_the_probe_touches_and_dollar_hash_shows_it():
+    """Z from 0 towards -5 at 60 mm/min (1 mm/s): the plate at Z-2 is met after 2 mm; the
+    head stops there, [PRB:0,0,-2:1] then ok; the beam stays off."""
+    vm = probing()
+    assert talk(vm, b"M3 S1000\n") == ["ok"]
+    lines = talk(vm, b"G38.2 Z-5 F60\n", 6.0)
+    assert len(lines) == 2 and lines[1] == "ok"
+    (x, y, z), flag = prb(lines[0])
+    assert (x, y, flag) == (0.0, 0.0, 1) and z == pytest.approx(-2.0, abs=1e-3)
+    assert vm.pos[2] == pytest.approx(-2.0, abs=1e-3) and vm.state == "Idle"
+    assert all(p.power == 0 for p in vm.executed)
+    assert talk(vm, b"$#\n")[-2:] == [lines[0], "ok"]
+    # the parser continues from where it stopped: G91 Z1 ends at Z-1
+    assert talk(vm, b"G91 G0 Z1\n", 3.0) == ["ok"]
+    assert vm.pos[2] == pytest.approx(-1.0, abs=1e-3)
+
+
+def test_g38_4_moves_until_the_probe_lets_go():
+    vm = probing()
+    assert talk(vm, b"G0 Z-3\n", 5.0) == ["ok"]                # on the plate
+    lines = talk(vm, b"G38.4 Z0 F60\n", 4.0)                   # away: leaves it at Z-2
+    (_, _, z), flag = prb(lines[0])
+    assert lines[1:] == ["ok"] and flag == 1 and z == pytest.approx(-2.0, abs=1e-3)
+
+
+def test_a_probe_already_where_the_move_should_end_is_alarm_4_and_nothing_moves():
+    vm = probing(probe="Z:stuck")
+    assert talk(vm, b"G38.2 Z-5 F60\n", 1.0) == ["ALARM:4", "ok"]
+    assert vm.state == "Alarm" and vm.alarm_code == 4 and vm.pos[2] == 0.0
+    assert talk(vm, b"G0 X-1\n") == ["error:9"]
+
+
+def test_no_touch_is_alarm_5_for_g38_2_and_a_result_for_g38_3():
+    """No plate: G38.2 runs its whole move, ALARM:5 and the last probe position (none yet:
+    0,0,0) with flag 0; G38.3 reports where it stopped, flag 0, without an alarm."""
+    vm = probing(probe=None)
+    assert talk(vm, b"G38.2 Z-1 F60\n", 2.0) == ["ALARM:5", "[PRB:0.000,0.000,0.000:0]", "ok"]
+    assert vm.state == "Alarm" and vm.pos[2] == pytest.approx(-1.0)
+    assert talk(vm, b"$X\n") == ["[MSG:Caution: Unlocked]", "ok"]
+    assert talk(vm, b"G38.3 Z-1.5 F60\n", 2.0) == ["[PRB:0.000,0.000,-1.500:0]", "ok"]
+    assert vm.state == "Idle"
+    assert talk(vm, b"\x18")[0] == "Grbl 1.1h ['$' for help]"   # a reset clears the result
+    assert "[PRB:0.000,0.000,0.000:0]" in talk(vm, b"$#\n")
+
+
+def test_a_bad_probe_spec_is_a_clear_error():
+    from labkit.errors import MachineError
+
+    with pytest.raises(MachineError, match="probe 'Q:1'"):
+        probing(probe="Q:1")
