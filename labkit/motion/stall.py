@@ -163,10 +163,22 @@ def _plain_line_bytes(text: str):
     special = np.flatnonzero((raw == 40) | (raw == 59))     # ( and ;
     if len(special) and not comment[np.searchsorted(ends, special)].all():
         return None
-    kept = np.concatenate([[0], np.cumsum((raw != 32) & (raw != 9), dtype=np.int64)])
-    n = kept[ends] - kept[starts]
+    # kept bytes per line, counted a block of lines at a time (a running count over the whole
+    # text would cost 8 B a byte: 150 MB on a photo's program)
+    n = np.empty(len(ends), dtype=np.int64)
+    for a in range(0, len(ends), _COUNT_BLOCK_LINES):
+        b = min(a + _COUNT_BLOCK_LINES, len(ends))
+        lo, hi = int(starts[a]), int(ends[b - 1])
+        part = raw[lo:hi]
+        kept = np.zeros(hi - lo + 1, dtype=np.int64)
+        np.cumsum((part != 32) & (part != 9), out=kept[1:])
+        n[a:b] = kept[ends[a:b] - lo] - kept[starts[a:b] - lo]
     n[comment] = 0
     return np.where(n > 0, n + 1, 0)
+
+
+#: Lines counted at a time by :func:`_plain_line_bytes` (bounds its memory, not its result).
+_COUNT_BLOCK_LINES = 1 << 16
 
 
 #: What str.splitlines breaks a line at besides \n and \r\n (and a lone \r).
@@ -488,13 +500,24 @@ def block_time_bounds(moves, machine=None):
     if np.any((kind != MoveKind.RAPID) & (kind != MoveKind.LINE)):
         return None
     spm = np.asarray(m.steps_per_mm, dtype=float)
-    delta = to_steps(moves.end, spm) - to_steps(moves.start, spm)
-    rows = np.flatnonzero(np.any(delta != 0, axis=1))
-    length = np.linalg.norm(delta[rows] / spm, axis=1)
     top = float(np.linalg.norm(np.asarray(m.max_rate_mm_min, dtype=float)))
-    feed = np.asarray(moves.feed_mm_min, dtype=float)[rows]
-    fast = np.where((kind[rows] == MoveKind.LINE) & (feed > 0), np.minimum(feed, top), top)
-    return rows, length / (fast / 60.0)
+    rows_out, times_out = [], []
+    for a in range(0, len(kind), _BOUND_BLOCK_ROWS):      # a block of rows at a time: bounded memory
+        b = min(a + _BOUND_BLOCK_ROWS, len(kind))
+        delta = to_steps(moves.end[a:b], spm) - to_steps(moves.start[a:b], spm)
+        rows = np.flatnonzero(np.any(delta != 0, axis=1))
+        length = np.linalg.norm(delta[rows] / spm, axis=1)
+        feed = np.asarray(moves.feed_mm_min[a:b], dtype=float)[rows]
+        fast = np.where((kind[a:b][rows] == MoveKind.LINE) & (feed > 0), np.minimum(feed, top), top)
+        rows_out.append(rows + a)
+        times_out.append(length / (fast / 60.0))
+    if not rows_out:
+        return np.zeros(0, dtype=np.int64), np.zeros(0)
+    return np.concatenate(rows_out), np.concatenate(times_out)
+
+
+#: Moves bounded at a time by :func:`block_time_bounds` (its memory, not its result).
+_BOUND_BLOCK_ROWS = 1 << 16
 
 
 def may_starve(line_bytes, block_line, block_min_s, machine=None) -> bool:
@@ -556,37 +579,56 @@ def may_starve(line_bytes, block_line, block_min_s, machine=None) -> bool:
     # parse); else the wire, then the parse
     sent = nbytes[nbytes > 0]
     side_by_side = len(sent) < 2 or int((sent[1:] + sent[:-1]).max()) < m.rx_buffer_bytes - 1
-    per_line = np.maximum(nbytes * tau, p) if side_by_side else nbytes * tau + p
-    link = np.cumsum(np.where(nbytes > 0, per_line, 0.0))
-    motion = np.concatenate([[0.0], np.cumsum(np.asarray(block_min_s, dtype=float))])  # blocks 0…k-1
+    del sent
+    # the arrays below are as long as the program (millions of rows for a photo): each is made
+    # once and reused in place, so the check costs a few of them, not a score
+    link = nbytes * tau                                                  # wire time of each line
+    if side_by_side:
+        np.maximum(link, p, out=link)
+    else:
+        link += p
+    link[nbytes <= 0] = 0.0
+    np.cumsum(link, out=link)
+    motion = np.empty(nb + 1)                                            # blocks 0…k-1
+    motion[0] = 0.0
+    np.cumsum(np.asarray(block_min_s, dtype=float), out=motion[1:])
     W = m.buffer_blocks if m.waits_for_lookahead else 0
     Q = m.planner_blocks - 1
-    j = np.arange(1, nb)
-    ready = link[block_line[np.minimum(j + W, nb - 1)] - 1] + 2 * p
+    # the line each block j >= 1 waits for (its window's last), 0-based
+    wait_line = block_line[np.minimum(np.arange(1 + W, nb + W), nb - 1)] - 1
+    ready = link[wait_line] + 2 * p
     if W:
         # the last blocks wait for the flush after the last line, but a wait is a starvation
         # only while a line still arrives: the last one after block j - 1 has ended
-        ready = np.where(j + W >= nb, link[-1] + 2 * p, ready)
+        last = max(nb - 1 - W, 0)
+        ready[last:] = link[-1] + 2 * p
+        wait_line[last:] = len(nbytes) - 1
     # the reset at line r: the Q blocks before r's first block still to run (a line with
     # fewer blocks before it never waits for a slot)
     first_block = np.searchsorted(block_line, np.arange(1, len(nbytes) + 1), side="left")
-    slack = np.where(first_block >= Q, motion[np.maximum(first_block - Q, 0)] - link, -np.inf)
-    best = np.maximum.accumulate(slack)
+    best = motion[np.maximum(first_block - Q, 0)]
+    best -= link
+    best[first_block < Q] = -np.inf
+    del first_block
+    np.maximum.accumulate(best, out=best)
     # from the start: block 0 runs once its window has arrived (no sooner than the wire
     # brings it), or after a quiet input of FLUSH_QUIET_S, possible only where the next
-    # line may arrive that much after the one before
-    arrived_lb = tau * np.cumsum(nbytes).astype(float)
-    parsed_lb = np.maximum(arrived_lb + p, np.cumsum(nbytes > 0) * p)     # one parser, in order
+    # line may arrive that much after the one before (only the lines up to block W's count)
     k0 = block_line[0] - 1
     kw = block_line[min(W, nb - 1)] - 1
+    head = nbytes[:kw + 1]
+    arrived_lb = tau * np.cumsum(head).astype(float)
+    parsed_lb = np.maximum(arrived_lb + p, np.cumsum(head > 0) * p)     # one parser, in order
     start0 = parsed_lb[kw]
     if W:
         gap = link[k0 + 1:kw + 1] + 2 * p - arrived_lb[k0:kw] >= FLUSH_QUIET_S
         if np.any(gap):
             start0 = max(parsed_lb[k0], min(start0, float(arrived_lb[k0:kw][gap][0]) + FLUSH_QUIET_S))
-    ready_line = np.where(j + W >= nb, len(nbytes), block_line[np.minimum(j + W, nb - 1)]) - 1
-    ahead = np.maximum(best[ready_line], -start0)
-    return bool(np.any(ready - motion[j] + ahead > 0))
+    ahead = best[wait_line]
+    np.maximum(ahead, -start0, out=ahead)
+    ready -= motion[1:nb]
+    ready += ahead
+    return bool(np.any(ready > 0))
 
 
 def _plainly_modal(text: str, scaled_words: int) -> bool:
