@@ -59,7 +59,7 @@ from labkit.geometry._greedyfit import fit_runs_many
 from labkit.geometry.bezier import cubic_samples, flatten_cubics
 from labkit.geometry.path import Path
 
-__all__ = ["fit_arcs", "cubics_to_arcs", "cubic_chains_to_arcs", "coordinate_limit_mm", "tolerance_budget", "ToleranceBudget",
+__all__ = ["fit_arcs", "cubics_to_arcs", "cubic_chains_to_arcs", "chain_fits", "coordinate_limit_mm", "tolerance_budget", "ToleranceBudget",
            "sampling_share", "FLATTEN_SHARE", "CORNER_RAD", "KINK_RAD", "METHODS"]
 
 #: Share of the tolerance spent on sampling a curve before a polyline fit (the rest fits).
@@ -449,6 +449,32 @@ def cubic_chains_to_arcs(chains, tol_mm, **meta) -> list[Path]:
     >>> round(float(a.radii_mm()[0]), 2), round(float(b.radii_mm()[0]), 2)
     (10.0, 20.0)
     """
+    return [Path(v, c, s, deviation_mm=dev, **meta) for v, c, s, dev in chain_fits(chains, tol_mm)]
+
+
+def chain_fits(chains, tol_mm) -> list[tuple]:
+    """:func:`cubic_chains_to_arcs` without making the Paths, for a reader that puts the pieces
+    into Paths of its own.
+
+    Parameters
+    ----------
+    chains : sequence of array_like, each shape (m, 4, 2)
+        Control points in mm; within a chain each cubic starts where the one before ends.
+    tol_mm : float
+        Largest distance between each curve and its lines and arcs, mm.
+
+    Returns
+    -------
+    list of tuple
+        Per chain: vertices (k + 1, 2) in mm, centres (k, 2) in mm (NaN for lines), sweeps (k,)
+        in rad (0 for lines) and the deviation bound in mm, as the Path would hold them.
+
+    Examples
+    --------
+    >>> v, c, s, dev = chain_fits([[[[0, 0], [1, 1], [2, 1], [3, 0]]]], 0.01)[0]
+    >>> v.shape[1], c.shape[1], len(s) == len(v) - 1, dev <= 0.01
+    (2, 2, True, True)
+    """
     if not tol_mm > 0:
         raise GeometryError(f"tol_mm must be > 0 mm, got {tol_mm!r}")
     if not len(chains):
@@ -476,5 +502,4 @@ def cubic_chains_to_arcs(chains, tol_mm, **meta) -> list[Path]:
     polylines = [dense[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
     if any(len(q) < 2 for q in polylines):
         raise GeometryError("fit_arcs: all points coincide")
-    return [Path(v, c, s, deviation_mm=w + flat_tol, **meta)
-            for v, c, s, w in _greedy_runs(polylines, fit_tol, True)]
+    return [(v, c, s, w + flat_tol) for v, c, s, w in _greedy_runs(polylines, fit_tol, True)]

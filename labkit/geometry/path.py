@@ -32,7 +32,7 @@ from labkit.errors import GeometryError
 from labkit.geometry.circle import chord_segments
 from labkit.geometry import transform as _tf
 
-__all__ = ["Path", "total_length", "paths_bounds", "bounds_each", "count_segments", "max_deviation", "check_paths"]
+__all__ = ["Path", "total_length", "paths_bounds", "bounds_each", "sample_each", "count_segments", "max_deviation", "check_paths"]
 
 _META = ("layer", "stroke", "fill", "fill_rule", "source")
 
@@ -390,6 +390,53 @@ def _axis_crossings(starts, centres, sweeps):
 
 
 _AXES = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])      # cos, sin of k quarters
+
+
+def sample_each(paths: Sequence[Path], tol_mm=0.01) -> list[np.ndarray]:
+    """Each path's :meth:`Path.sample` (the same points), all paths in one vectorised pass.
+
+    >>> a, b = sample_each([Path.circle((0, 0), 1), Path.rectangle(0, 0, 2, 1)], 0.1)
+    >>> len(a), b.tolist()
+    (9, [[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [0.0, 1.0], [0.0, 0.0]])
+    """
+    if not tol_mm > 0:
+        raise GeometryError(f"tol_mm must be > 0 mm, got {tol_mm!r}")
+    if not len(paths):
+        return []
+    n_seg = np.array([p.n_segments for p in paths])
+    v = np.concatenate([p.vertices for p in paths])
+    sw = np.concatenate([p.sweeps for p in paths])
+    first_vertex = np.cumsum(n_seg + 1) - (n_seg + 1)
+    row = np.arange(len(sw)) + np.repeat(np.arange(len(paths)), n_seg)    # each segment's start
+    arc = sw != 0
+    counts = np.ones(len(sw), np.int64)
+    if arc.any():
+        centres = np.concatenate([p.centres for p in paths])
+        r = np.hypot(*(v[row[arc]] - centres[arc]).T)
+        counts[arc] = chord_segments(r, sw[arc], tol_mm)
+    seg = np.repeat(np.arange(len(sw)), counts)
+    first = np.cumsum(counts) - counts
+    k = np.arange(len(seg)) - first[seg] + 1
+    out = v[row[seg] + 1]                                 # segment ends (lines: exact)
+    inner = arc[seg] & (k < counts[seg])
+    if inner.any():
+        i = seg[inner]
+        c = centres[i]
+        p0 = v[row[i]] - c
+        rad = np.hypot(*p0.T)
+        a = np.arctan2(p0[:, 1], p0[:, 0]) + sw[i] * (k / counts[seg])[inner]
+        out[inner] = c + rad[:, None] * np.stack([np.cos(a), np.sin(a)], axis=1)
+    # each path: its first vertex, then its segments' points
+    per_path = np.add.reduceat(counts, np.cumsum(n_seg) - n_seg) if len(sw) else np.zeros(len(paths), np.int64)
+    per_path = np.where(n_seg > 0, per_path, 0)
+    size = per_path + 1
+    start = np.cumsum(size) - size
+    pts = np.empty((int(size.sum()), 2))
+    body = np.ones(len(pts), bool)
+    body[start] = False
+    pts[start] = v[first_vertex]
+    pts[body] = out
+    return np.split(pts, start[1:])
 
 
 def bounds_each(paths: Sequence[Path]) -> np.ndarray:

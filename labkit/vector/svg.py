@@ -51,8 +51,8 @@ from labkit._jit import job_units
 from labkit.errors import GeometryError
 from labkit.geometry import transform as tf
 from labkit.budget import check_budget
-from labkit.geometry.arcfit import (coordinate_limit_mm, cubic_chains_to_arcs, cubics_to_arcs,
-                                   sampling_share, tolerance_budget)
+from labkit.geometry.arcfit import (chain_fits, coordinate_limit_mm, cubics_to_arcs, sampling_share,
+                                   tolerance_budget)
 from labkit.geometry.bezier import cubic_samples, flatten_cubics, quad_to_cubic
 from labkit.geometry.clip import clip_paths
 from labkit.geometry.measure import path_distance
@@ -185,12 +185,13 @@ def _name(el, index):
 
 class _Chain:
     """A curve chain waiting for the greedy fit: a :class:`_FitBatch` fits a drawing's chains
-    together; until then it stands in the builder's lists for the lines and arcs it becomes."""
+    together; until then it stands in the builder's lists for the lines and arcs it becomes
+    (``fit``: vertices, centres, sweeps and deviation, :func:`chain_fits`)."""
 
-    __slots__ = ("ctrl", "path")
+    __slots__ = ("ctrl", "fit")
 
     def __init__(self, ctrl):
-        self.ctrl, self.path = ctrl, None
+        self.ctrl, self.fit = ctrl, None
 
     @property
     def end(self):
@@ -198,8 +199,8 @@ class _Chain:
 
 
 class _FitBatch:
-    """The curve chains of one drawing, fitted in one go (:func:`cubic_chains_to_arcs`: one
-    flattening and one fitting call for hundreds of chains) when the drawing has been read."""
+    """The curve chains of one drawing, fitted in one go (:func:`chain_fits`: one flattening
+    and one fitting call for hundreds of chains) when the drawing has been read."""
 
     def __init__(self, tol_mm):
         self.tol, self.chains = tol_mm, []
@@ -211,8 +212,8 @@ class _FitBatch:
 
     def resolve(self):
         if self.chains:
-            for chain, path in zip(self.chains, cubic_chains_to_arcs([c.ctrl for c in self.chains], self.tol)):
-                chain.path = path
+            for chain, fit in zip(self.chains, chain_fits([c.ctrl for c in self.chains], self.tol)):
+                chain.fit = fit
             self.chains = []
 
 
@@ -228,14 +229,14 @@ class _Subpath:
         v, c, s, dev = [], [], [], self.dev
         for x in self.v:
             if isinstance(x, _Chain):
-                v.extend(x.path.vertices[1:])
-                dev = max(dev, x.path.deviation_mm)
+                v.extend(x.fit[0][1:])
+                dev = max(dev, x.fit[3])
             else:
                 v.append(x)
         for x in self.c:
-            c.extend(x.path.centres) if isinstance(x, _Chain) else c.append(x)
+            c.extend(x.fit[1]) if isinstance(x, _Chain) else c.append(x)
         for x in self.s:
-            s.extend(x.path.sweeps) if isinstance(x, _Chain) else s.append(x)
+            s.extend(x.fit[2]) if isinstance(x, _Chain) else s.append(x)
         return _subpath(v, c, s, self.closed, dev, self.meta)
 
 
