@@ -158,7 +158,7 @@ def _measure(args) -> int:
 
     from labkit._files import atomic_output, check_output_file, figure_format, read_json
     from labkit.errors import InputError
-    from labkit.laser.measure import check_layout, measure_lines, register, scale_from_reference
+    from labkit.laser.measure import WIDTHS_HEADER, check_layout, measure_lines, register, scale_from_reference
     from labkit.raster.color import to_gray
     from labkit.raster.io import read_image
     from labkit.viz.laser import plot_scan_annotations
@@ -190,9 +190,10 @@ def _measure(args) -> int:
     turn = round(-float(np.degrees(tf.rotation)) / 90.0) * 90 % 360
     out = df.assign(material=args.material, thickness_mm=args.thickness, machine=args.machine,
                     beam_mm=args.beam, cut_through="", notes=args.notes or f"measured from {Path(args.scan).name}")
-    cols = ["material", "thickness_mm", "machine", "beam_mm", "power_mw", "power_s", "speed_mm_min",
+    cols = ["material", "thickness_mm", "machine", "beam_mm", "power_mw", "s_word", "speed_mm_min",
             "width_mm", "cut_through", "repeat", "notes", "row", "col", "width_sd_mm", "burned_fraction", "burned"]
     with atomic_output(args.output, newline="") as fh:
+        fh.write(WIDTHS_HEADER + "\n")
         out[cols].to_csv(fh, index=False, float_format="%.6g")
     _save(lambda ax: plot_scan_annotations(img, layout, df, ax, transform=tf), png,
            size=(9, 9 * img.shape[0] / img.shape[1]))

@@ -134,12 +134,12 @@ def _measure_tone(args) -> int:
 
     img, layout = _scan_image(args)
     df = measure_wedge(img, layout)
-    curve = fit_tone(df.power_s, df.darkness, spread=df.darkness_sd, weights=df.pixels,
+    curve = fit_tone(df.s_word, df.darkness, spread=df.darkness_sd, weights=df.pixels,
                      s_max=float(layout.get("s_max", 1000.0)), feed_mm_min=float(layout["speeds_mm_min"][0]),
                      line_interval_mm=float(layout["pitch_mm"]))
     curve.save(args.output)
     for r, fitted in zip(df.itertuples(), curve.darkness[1:]):
-        print(f"step {r.step:2d}  S {r.power_s:7.1f}  darkness {r.darkness:.3f} ± {r.darkness_sd:.3f}"
+        print(f"step {r.step:2d}  S {r.s_word:7.1f}  darkness {r.darkness:.3f} ± {r.darkness_sd:.3f}"
               f"  fitted {fitted:.3f}")
     print(f"{args.output}: tone curve (img2gcode --mode gray --tone)")
     return 0

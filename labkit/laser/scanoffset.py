@@ -158,7 +158,7 @@ def measure_scan_offset(image, layout: dict) -> pd.DataFrame:
         When the layout is not a scan-offset pattern, the scan does not register, or a speed
         has fewer than two pairs with both lines seen.
     """
-    img, tf = registered_scan(image, layout, kind="scan-offset", maker="labkit raster-test scan-offset")
+    img, tf, layout = registered_scan(image, layout, kind="scan-offset", maker="labkit raster-test scan-offset")
     px_mm = 1.0 / tf.scale
     half = min(0.25 * float(layout["pitch_mm"]), 2 * px_mm)
     rows = []

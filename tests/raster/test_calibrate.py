@@ -163,7 +163,7 @@ def _known_darkness(s, pitch):
 @pytest.fixture(scope="module")
 def wedge_scan():
     g = wedge_pattern(12)
-    s = np.array([ln["power_s"] for ln in g.layout["lines"]])
+    s = np.array([ln["s_word"] for ln in g.layout["lines"]])
     img = render_scan(g.layout, _known_width(s, g.layout["pitch_mm"]), dpi=1200, noise=0.02, rotation_deg=2.0)
     return g, img
 
@@ -172,10 +172,10 @@ def test_wedge_measured_and_fitted_to_the_known_curve(wedge_scan):
     g, img = wedge_scan
     pitch = g.layout["pitch_mm"]
     df = measure_wedge(img, g.layout)
-    assert len(df) == 12 and df.power_s.tolist() == pytest.approx(1000 * np.arange(1, 13) / 12)
-    assert df.darkness.to_numpy() == pytest.approx(_known_darkness(df.power_s, pitch), abs=0.01)
+    assert len(df) == 12 and df.s_word.tolist() == pytest.approx(1000 * np.arange(1, 13) / 12)
+    assert df.darkness.to_numpy() == pytest.approx(_known_darkness(df.s_word, pitch), abs=0.01)
     assert (df.darkness_sd > 0).all()
-    curve = fit_tone(df.power_s, df.darkness, spread=df.darkness_sd, weights=df.pixels)
+    curve = fit_tone(df.s_word, df.darkness, spread=df.darkness_sd, weights=df.pixels)
     between = np.linspace(40, 1000, 50)                 # between the knots too
     assert curve.darkness_at(between) == pytest.approx(_known_darkness(between, pitch), abs=0.015)
     assert np.all(np.diff(curve.darkness_at(np.linspace(0, 1000, 500))) >= 0)
@@ -200,8 +200,8 @@ def test_wedge_burned_by_the_dose_simulator_follows_the_dose_model():
         return 0.8 / 0.9 * dose_width(2500 * np.asarray(s) / 1000, v, w0, fth) / 0.2
 
     # within 0.025 (5 % of the darkest patch): the scan's pixels average the simulated edges
-    assert df.darkness.to_numpy() == pytest.approx(model(df.power_s), abs=0.025)
-    curve = fit_tone(df.power_s, df.darkness, weights=df.pixels)
+    assert df.darkness.to_numpy() == pytest.approx(model(df.s_word), abs=0.025)
+    curve = fit_tone(df.s_word, df.darkness, weights=df.pixels)
     s = np.linspace(125, 1000, 200)
     assert curve.darkness_at(s) == pytest.approx(model(s), abs=0.025)
 
