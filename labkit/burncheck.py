@@ -412,7 +412,7 @@ class _Grid:
         key = np.round(b.power_mw[blk], 6)
         self.keys = np.unique(key)
         if moves is not None and len(moves) and b.move.max() < len(moves):
-            s_of = {float(k): float(moves.power_s[b.move[blk][key == k][0]]) for k in self.keys}
+            s_of = {float(k): float(moves.s_word[b.move[blk][key == k][0]]) for k in self.keys}
         else:
             s_of = {float(k): None for k in self.keys}
         self.label = [s_of[float(k)] for k in self.keys]

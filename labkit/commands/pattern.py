@@ -122,7 +122,7 @@ def _estimate(a) -> tuple[float, str, str]:
 def _build(a):
     from labkit.toolpath import patterns
 
-    kw = dict(feed_mm_min=a.feed, power_s=a.power)
+    kw = dict(feed_mm_min=a.feed, s_word=a.power)
     if a.pattern == "helix":
         return patterns.helix((a.x, a.y), a.radius, a.pitch, a.turns, z_start_mm=a.z, ccw=not a.cw, **kw)
     if a.pattern == "spiral":

@@ -51,7 +51,7 @@ def run_slice(args) -> int:
                  option="--step (or raise --beam)")
     moves, info = section_toolpath(mesh, args.step, args.beam, top_down=not args.bottom_up,
                                    max_deg=args.max_deg, tol_mm=args.tol, z_top_mm=args.z_top,
-                                   feed_mm_min=args.feed, power_s=args.power)
+                                   feed_mm_min=args.feed, s_word=args.power)
     lines = write_gcode(args.output, moves, dialect=args.dialect, comment=f"labkit slice {args.model}")
     cut = moves.laser_on
     print(f"{args.output}: {len(info)} levels, {sum(lv['rings'] for lv in info)} rings, {len(moves)} moves, "

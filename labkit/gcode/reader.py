@@ -501,7 +501,7 @@ def modal_trace(text, *, dialect: str | Dialect = "grbl", filename: str | None =
         "distance": [f"G{int(v)}" for v in state["distance"][:n]],
         "arc_centres": ["G90.1" if v == 90.1 else "G91.1" for v in state["arc_distance"][:n]],
         "feed_mm_min": state["feed_mm_min"][:n],
-        "S": state["power_s"][:n],
+        "S": state["s_word"][:n],
         "laser": [laser_names[int(v)] for v in state["laser"][:n]],
         "x": state["position"][:n, 0], "y": state["position"][:n, 1],
         "z": state["position"][:n, 2],

@@ -253,10 +253,10 @@ def grid_pattern(powers_mw, speeds_mm_min, *, line_mm: float = 10.0, gap_mm: flo
     label_v = float(speeds.max()) if label_speed_mm_min is None else float(label_speed_mm_min)
     to_s = dict(s_max=s_max, max_power_mw=max_power_mw)
 
-    starts, ends, feeds, power_s, lines = [], [], [], [], []
+    starts, ends, feeds, s_word, lines = [], [], [], [], []
 
     def cut(a, b, feed, s):
-        starts.append(a); ends.append(b); feeds.append(feed); power_s.append(s)
+        starts.append(a); ends.append(b); feeds.append(feed); s_word.append(s)
 
     col_x = np.arange(len(speeds)) * (line_mm + gap_mm)
     for i, p in enumerate(powers):
@@ -306,7 +306,7 @@ def grid_pattern(powers_mw, speeds_mm_min, *, line_mm: float = 10.0, gap_mm: flo
             cut((fx - h, fy), (fx + h, fy), label_v, s_label)
             cut((fx, fy - h), (fx, fy + h), label_v, s_label)
     moves = Moves.from_cuts(np.asarray(starts, float), np.asarray(ends, float), feed_mm_min=np.asarray(feeds),
-                            power_s=np.asarray(power_s), s_max=s_max)
+                            s_word=np.asarray(s_word), s_max=s_max)
     everything = np.vstack([np.asarray(starts), np.asarray(ends)])
     layout = dict(
         version=LAYOUT_VERSION, units="mm", direction="+X",

@@ -1446,7 +1446,7 @@ def preflight_check(grbl: Grbl, job: Job, *, machine=None, status=None) -> tuple
     burning = np.asarray(m.laser_on, bool)
     s30 = grbl.setting(30)
     if burning.any() and math.isfinite(s30) and s30 > 0:
-        powers = np.asarray(m.power_s, float)[burning]
+        powers = np.asarray(m.s_word, float)[burning]
         k = int(np.argmax(powers))
         s_job, ln = float(powers[k]), int(np.asarray(m.line)[burning][k])
         if s_job > s30 * (1 + 1e-6):

@@ -338,7 +338,7 @@ def build_blocks(moves: Moves, machine: MachineSpec | str | None = None, *,
     Examples
     --------
     >>> from labkit.toolpath import MovesBuilder, LaserMode
-    >>> b = MovesBuilder(feed_mm_min=600, power_s=400, laser=LaserMode.DYNAMIC)
+    >>> b = MovesBuilder(feed_mm_min=600, s_word=400, laser=LaserMode.DYNAMIC)
     >>> b.line(x=3, y=4)
     >>> blk = build_blocks(b.build())
     >>> blk.steps[0].tolist(), int(blk.ticks[0]), round(float(blk.length_mm[0]), 6)

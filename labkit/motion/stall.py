@@ -486,7 +486,7 @@ def block_time_bounds(moves, machine=None):
     --------
     >>> from labkit.toolpath.moves import Moves
     >>> from labkit.motion.machine import CBR40
-    >>> m = Moves.from_cuts([(1, 0)], [(7, 0)], feed_mm_min=600, power_s=500)  # a rapid, a cut
+    >>> m = Moves.from_cuts([(1, 0)], [(7, 0)], feed_mm_min=600, s_word=500)  # a rapid, a cut
     >>> rows, t = block_time_bounds(m, CBR40)
     >>> rows.tolist(), float(t[1].round(3))                # 6 mm at 600 mm/min: 0.6 s
     ([0, 1], 0.6)

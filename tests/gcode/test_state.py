@@ -168,7 +168,7 @@ def test_interpreter_line_by_line_gives_the_parse_of_the_whole_text(name):
         got.append(moves)
     joined = Moves.concat(got)
     assert len(joined) == len(whole)
-    for col in ("kind", "start", "end", "centre", "work_offset", "feed_mm_min", "power_s", "laser",
+    for col in ("kind", "start", "end", "centre", "work_offset", "feed_mm_min", "s_word", "laser",
                 "plane", "dwell_s"):
         assert np.array_equal(getattr(joined, col), getattr(whole, col), equal_nan=True), col
 

@@ -71,7 +71,7 @@ def test_apply_scan_offset_hand_worked():
     # a forward row at y 0, a link, a backward row at y 1, both at 3000 mm/min (50 mm/s)
     starts = [[-1, 0], [0, 0], [10, 0], [11, 0], [11, 1], [10, 1], [0, 1]]
     ends = [[0, 0], [10, 0], [11, 0], [11, 1], [10, 1], [0, 1], [-1, 1]]
-    m = Moves.from_cuts(starts, ends, feed_mm_min=3000, power_s=[0, 500, 0, 0, 0, 500, 0], origin=(-1, 0, 0))
+    m = Moves.from_cuts(starts, ends, feed_mm_min=3000, s_word=[0, 500, 0, 0, 0, 500, 0], origin=(-1, 0, 0))
     assert len(m) == 7                                 # no rapid: one contiguous path
     out = apply_scan_offset(m, ScanOffset(slope_s=0.004, intercept_mm=0.01))
     shift = 0.004 * 50 + 0.01                          # 0.21 mm
@@ -105,7 +105,7 @@ def test_corrected_gray_job_lands_aligned():
 
 
 def test_apply_scan_offset_refuses_column_scans():
-    m = Moves.from_cuts([[0, 0], [1, 10]], [[0, 10], [1, 0]], feed_mm_min=3000, power_s=500)
+    m = Moves.from_cuts([[0, 0], [1, 10]], [[0, 10], [1, 0]], feed_mm_min=3000, s_word=500)
     with pytest.raises(InputError, match="scans along Y"):
         apply_scan_offset(m, ScanOffset(slope_s=0.004, intercept_mm=0.0))
 
@@ -252,8 +252,8 @@ def test_img2gcode_tone_and_scan_offset(tmp_path, capsys):
     plain = parse((tmp_path / "plain.gcode").read_text())
     tone = parse((tmp_path / "tone.gcode").read_text())
     # gray 128 asks for darkness share w = 1 - 128/255 = 0.498: S 498 plain, 1000·w² = 248 on the square-root material
-    assert sorted(set(plain.power_s[plain.laser_on].tolist())) == pytest.approx([247, 498, 1000], abs=1)
-    assert sorted(set(tone.power_s[tone.laser_on].tolist())) == pytest.approx([61, 248, 1000], abs=3)
+    assert sorted(set(plain.s_word[plain.laser_on].tolist())) == pytest.approx([247, 498, 1000], abs=1)
+    assert sorted(set(tone.s_word[tone.laser_on].tolist())) == pytest.approx([61, 248, 1000], abs=3)
     # backward rows moved by 0.004 s × 50 mm/s = 0.2 mm in +X
     back = tone.laser_on & (tone.end[:, 0] < tone.start[:, 0])
     back_plain = plain.laser_on & (plain.end[:, 0] < plain.start[:, 0])
