@@ -470,7 +470,7 @@ def compose_job(job: JobFile) -> ComposedJob:
     """
     import numpy as np
 
-    from labkit.motion.machine import load_machine
+    from labkit.motion.spec import load_machine
     from labkit.units import mw_to_s
 
     machine = load_machine(job.machine)

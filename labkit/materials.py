@@ -553,7 +553,7 @@ def apply_material(args, kind: str, *, raster_mode: str | None = None) -> str:
             if hasattr(args, f):
                 setattr(args, f, _plain(getattr(args, f)))
         return ""
-    from labkit.motion.machine import load_machine
+    from labkit.motion.spec import load_machine
     from labkit.units import mw_to_s
 
     machine = load_machine(args.machine)

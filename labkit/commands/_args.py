@@ -115,7 +115,7 @@ def check_fits(args, size_mm, what: str = "the job") -> None:
     """Refuse (or, with ``--force``, warn about) a job larger than ``--machine``'s travel."""
     import sys
 
-    from labkit.motion.machine import check_job_fits
+    from labkit.motion.spec import check_job_fits
 
     msg = check_job_fits(size_mm, args.machine, force=args.force, what=what)
     if msg:

@@ -26,7 +26,7 @@ def run_job(args) -> int:
     from labkit.gcode import emit
     from labkit.gcode.simulate import summarize
     from labkit.jobfile import compose_job, read_job
-    from labkit.motion.machine import check_job_fits
+    from labkit.motion.spec import check_job_fits
     from labkit.record import default_record_path, program_record, write_record
 
     job = read_job(args.job)

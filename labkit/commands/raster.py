@@ -224,7 +224,7 @@ def _warn_if_link_starves(text: str, moves, args) -> None:
     import sys
 
     from labkit.errors import LabkitError
-    from labkit.motion.machine import load_machine
+    from labkit.motion.spec import load_machine
     from labkit.motion.stall import block_time_bounds, may_starve
 
     m = load_machine(args.machine)

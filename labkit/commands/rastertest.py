@@ -62,7 +62,7 @@ def run_raster_test(args) -> int:
 
 
 def _machine(args):
-    from labkit.motion.machine import CBR40, load_machine
+    from labkit.motion.spec import CBR40, load_machine
 
     return CBR40 if args.machine is None else load_machine(args.machine)
 

@@ -230,7 +230,7 @@ def grid_pattern(powers_mw, speeds_mm_min, *, line_mm: float = 10.0, gap_mm: flo
     powers = _positive("powers_mw", powers_mw)
     speeds = _positive("speeds_mm_min", speeds_mm_min)
     if max_power_mw is None:
-        from labkit.motion.machine import CBR40
+        from labkit.motion.spec import CBR40
 
         max_power_mw = CBR40.laser_max_power_mw
     if np.any(powers > max_power_mw):

@@ -67,7 +67,7 @@ def scan_offset_pattern(speeds_mm_min, *, power_mw: float, pairs: int = 3, line_
     GridPattern
         Its layout has ``kind`` ``"scan-offset"`` and each line a ``direction`` (``"+X"`` or ``"-X"``).
     """
-    from labkit.motion.machine import CBR40
+    from labkit.motion.spec import CBR40
 
     m = CBR40 if machine is None else machine
     if int(pairs) != pairs or pairs < 2:

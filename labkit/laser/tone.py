@@ -90,7 +90,7 @@ def wedge_pattern(steps: int = 16, *, s_max: float = 1000.0, machine=None,
         raise InputError(f"steps must be a whole number >= 2, got {steps!r}")
     if int(patch_lines) != patch_lines or patch_lines < 3:
         raise InputError(f"patch_lines must be a whole number >= 3, got {patch_lines!r}")
-    from labkit.motion.machine import CBR40
+    from labkit.motion.spec import CBR40
 
     m = CBR40 if machine is None else machine
     max_power_mw = m.laser_max_power_mw

@@ -1316,7 +1316,7 @@ def _virtual_machine(link):
 
 def _stall_notes(job: Job, spec) -> list[str]:
     """A warning when the machine's serial link will leave its planner empty (issue 30 §2)."""
-    from labkit.motion.machine import load_machine
+    from labkit.motion.spec import load_machine
     from labkit.motion.stall import predict_stalls, program_feeds, stall_free_feed
 
     text = "\n".join(job.source_lines) + "\n"
@@ -1480,7 +1480,7 @@ def preflight_check(grbl: Grbl, job: Job, *, machine=None, status=None) -> tuple
     if spec is None and vm is not None:
         spec = vm.machine
     if spec is not None:
-        from labkit.motion.machine import check_job_fits
+        from labkit.motion.spec import check_job_fits
 
         try:
             msg = check_job_fits(hi.max(axis=0) - lo.min(axis=0), spec, force=True)

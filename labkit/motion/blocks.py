@@ -39,7 +39,7 @@ import numpy as np
 
 from labkit.errors import MotionError
 from labkit.motion.bresenham import arc_lattice_points, direction_bits
-from labkit.motion.machine import MachineSpec, load_machine
+from labkit.motion.spec import MachineSpec, load_machine
 from labkit.toolpath.moves import PLANE_AXES, LaserMode, MoveKind, Moves, check_moves
 
 __all__ = ["BlockKind", "Blocks", "BlockFifo", "build_blocks", "to_steps", "expand_arcs"]

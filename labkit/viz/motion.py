@@ -359,7 +359,7 @@ def laser_explorer(make_moves, machine=None):
     import matplotlib.pyplot as plt
 
     from labkit.motion import load_machine, plan
-    from labkit.motion.laser import dose_uniformity
+    from labkit.motion.power import dose_uniformity
     from labkit.toolpath.corners import add_corner_loops
 
     m = load_machine(machine)

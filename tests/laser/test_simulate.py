@@ -10,7 +10,7 @@ from labkit.laser.measure import measure_lines
 from labkit.laser.models import dose_width
 from labkit.laser.patterns import grid_pattern
 from labkit.laser.simulate import simulate_burn
-from labkit.motion.machine import CBR40
+from labkit.motion.spec import CBR40
 from labkit.toolpath import MovesBuilder
 from labkit.units import mw_to_s
 

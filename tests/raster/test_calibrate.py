@@ -20,7 +20,7 @@ from labkit.laser.scanoffset import (ScanOffset, apply_scan_offset, fit_scan_off
                                      measure_scan_offset, scan_offset_pattern)
 from labkit.laser.simulate import simulate_burn
 from labkit.laser.tone import fit_tone, isotonic, load_tone, measure_wedge, wedge_pattern
-from labkit.motion.machine import load_machine
+from labkit.motion.spec import load_machine
 from labkit.toolpath.moves import Moves
 
 DIODE = load_machine("grbl-diode")      # 6000 mm/min: fast enough for a delay to show

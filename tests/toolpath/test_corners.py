@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from labkit.errors import GeometryError
 from labkit.motion import plan
-from labkit.motion.laser import dose_uniformity
+from labkit.motion.power import dose_uniformity
 from labkit.toolpath import LaserMode, MoveKind, MovesBuilder
 from labkit.toolpath.corners import add_corner_loops, turn_angles
 
