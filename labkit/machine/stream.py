@@ -129,10 +129,11 @@ class Job:
         InputError
             A line longer than the controller accepts.
         """
-        from labkit.gcode import parse
+        from labkit.gcode import parse_with_states
         from labkit.geometry.circle import grbl_segments
 
-        moves = parse(text, dialect=dialect, filename=filename)
+        # one reading gives the moves (to plan) and what each line states (trace, below)
+        moves, trace = parse_with_states(text, dialect=dialect, filename=filename)
         source = text.split("\n")
         if source and source[-1] == "":
             source.pop()
@@ -176,7 +177,6 @@ class Job:
             job_time = p.job_time_s
         except (LabkitError, ValueError) as exc:
             raise MachineError(f"cannot plan the job for its ETA: {exc}") from exc
-        trace, _ = line_states(text, dialect=dialect)
         rows = trace[[k - 1 for k, _ in send]]      # the interpreter numbers lines as split here
         return cls(source, send, moves, blocks, done_at, job_time, filename, dialect,
                    _syncing([t for _, t in send], rows), [bool(v) for v in rows["axis_words"]], rows)
