@@ -237,7 +237,8 @@ def parse_with_states(text, *, dialect: str | Dialect = "grbl", filename: str | 
     Parameters
     ----------
     text, dialect, filename, lenient, streaming
-        As for :func:`parse`.
+        As for :func:`parse`, which raises the same :class:`~labkit.errors.GcodeError` in
+        strict mode.
 
     Returns
     -------
@@ -247,11 +248,6 @@ def parse_with_states(text, *, dialect: str | Dialect = "grbl", filename: str | 
         What :func:`~labkit.gcode.state.line_states` returns: the modal state after every
         line, one row per line (a rejected line keeps the state before it);
         :meth:`~labkit.gcode.state.ModalState.at` reads a row.
-
-    Raises
-    ------
-    GcodeError
-        In strict mode, for the first line that cannot be accepted.
 
     Examples
     --------
