@@ -20,8 +20,7 @@ import json
 
 
 def add_cutwidth_arguments(parser):
-    from labkit.commands._args import integer, number
-    from labkit.gcode.dialects import DIALECTS
+    from labkit.commands._args import add_dialect_option, add_line_grid_options, integer, number
 
     sub = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
 
@@ -34,17 +33,12 @@ def add_cutwidth_arguments(parser):
                    help="spacing of LO:HI:N ranges (default linear)")
     p.add_argument("-o", "--output", required=True, metavar="GRID.gcode",
                    help="G-code to write; the layout goes to the same name with .json")
-    p.add_argument("--line", type=number(0.1, 1000), default=10.0, metavar="MM",
-                   help="burned length of each line, 0.1…1000 mm (default 10)")
-    p.add_argument("--pitch", type=number(0.05, 100), default=2.0, metavar="MM",
-                   help="distance between rows, 0.05…100 mm (default 2)")
-    p.add_argument("--overscan", type=number(0, 100), default=3.0, metavar="MM",
-                   help="beam-off run before and after each line, 0…100 mm (default 3)")
+    add_line_grid_options(p, line_mm=10.0, pitch_mm=2.0, overscan_mm=3.0)
     p.add_argument("--repeats", type=integer(1, 100), default=1, metavar="N", help="copies of each line (default 1)")
     p.add_argument("--passes", type=integer(1, 100), default=1, metavar="N", help="passes per line (default 1)")
     p.add_argument("--max-power", type=number(1, 1e6), default=None, metavar="MW",
                    help="power at full S, mW (default the CBR-40's 2500)")
-    p.add_argument("--dialect", choices=list(DIALECTS), default="grbl", help="G-code dialect (default grbl)")
+    add_dialect_option(p)
 
     m = sub.add_parser("measure", help="measure every line's width in a scan of the burned grid")
     m.add_argument("scan", metavar="SCAN.png", help="scan or photograph (burn dark on light)")

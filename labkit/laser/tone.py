@@ -119,7 +119,7 @@ def measure_wedge(image, layout: dict, *, trim_mm: float | None = None) -> pd.Da
     Parameters
     ----------
     image : ndarray
-        Grey scan, 0…1 (paper light, burn dark), any turn on the scanner.
+        The scan, as :func:`labkit.laser.scanoffset.measure_scan_offset` takes it.
     layout : dict
         The wedge's layout (:func:`wedge_pattern`).
     trim_mm : float, optional

@@ -547,10 +547,9 @@ def check_moves(value, *, name: str = "moves", finite: bool = True, error: type 
 
     Parameters
     ----------
-    value : object
-        What the caller was given.
-    name : str
-        The argument's name, for the message.
+    value, name
+        What the caller was given and the argument's name, as for
+        :func:`labkit.geometry.path.check_paths`.
     finite : bool
         Also require finite positions on motion rows, finite arc centres, finite
         powers on motion rows and finite dwells on dwell rows.
