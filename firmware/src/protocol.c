@@ -865,6 +865,8 @@ static void system_task(void) {
     }
   }
   if (f & RT_RESET) {
+    if (critical)
+      f &= (uint16_t)~RT_STATUS;  /* GRBL's critical wait answers no '?': its reset drops it */
     if (in_wait) {
       reset_stop();               /* the waiting line is answered first, then the banner */
       reset_pending = 1;
