@@ -192,6 +192,28 @@ def test_greedy_order_on_memoryviews_gives_the_compiled_order():
     assert a.examined == b.examined
 
 
+def test_two_opt_as_python_gives_the_compiled_tour():
+    """The 2-opt improvement (``_two_opt``, run as Python up to its python_below of 150,000
+    elements) as Python: the compiled tour, reversals, travel and move count, on open segments
+    and closed loops with parents (containment) and on open segments alone, 2,000 items."""
+    from labkit.geometry import order_segments
+
+    rng = np.random.default_rng(6)
+    starts = rng.uniform(0, 300, (1500, 2))
+    ends = starts + rng.normal(0, 4, (1500, 2))
+    loops = [c + rng.uniform(1, 6) * np.c_[np.cos(a), np.sin(a)]
+             for c, a in zip(rng.uniform(0, 300, (500, 2)), [np.linspace(0, 6, 7)] * 500)]
+    parent = np.full(2000, -1)
+    parent[rng.choice(1500, 300, replace=False)] = 1500 + rng.integers(0, 500, 300)
+    for kwargs in ({"closed_points": loops, "parent": parent}, {}):
+        a, b = _both(order_segments, starts, ends, improve=True, **kwargs)
+        np.testing.assert_array_equal(a.order, b.order)
+        np.testing.assert_array_equal(a.reversed, b.reversed)
+        assert a.travel_mm == b.travel_mm
+        greedy = order_segments(starts, ends, improve=False, **kwargs)
+        assert a.travel_mm < greedy.travel_mm          # the 2-opt did move items
+
+
 @pytest.mark.parametrize("mode", ["gray", "dither"])
 def test_gray_and_dither_kernels_as_python_give_the_compiled_moves(mode):
     """The scan-line and error-diffusion kernels run as Python below their python_below (a
