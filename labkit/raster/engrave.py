@@ -493,6 +493,9 @@ def working_bytes(source_shape, beam_shape, mode: str, *, banded: bool = False) 
 def _mask_in_bands(image: np.ndarray, weights, invert: bool, level: float) -> np.ndarray:
     """``threshold(to_gray(image))`` (inverted first if asked) without the blank pixels,
     computed in bands of rows."""
+    if image.ndim == 2 and image.dtype == np.uint8:
+        # 8-bit gray is labkit gray as it is (to_gray's scale is 255 / 255) and has no alpha
+        return (np.subtract(255, image, dtype=np.uint8) if invert else image) < level
     rows, cols = image.shape[:2]
     mask = np.empty((rows, cols), bool)
     step = max(1, BAND_PIXELS // max(cols, 1))
