@@ -100,12 +100,17 @@ def power_colours(fraction, *, low: float = 0.0, high: float = 0.8) -> np.ndarra
     """
     given = np.asarray(fraction, float)
     rgb = np.empty(given.shape + (3,), np.uint8)
-    rgb[...] = _WHITE
     drawn = ~np.isnan(given)
     values = given[drawn]               # a picture's grid is mostly blank, and often one power
-    if values.size:
-        one = values.min() == values.max()
-        rgb[drawn] = _plasma(values[:1] if one else values, low, high)
+    one = values.size and values.min() == values.max()
+    colours = _plasma(values[:1] if one else values, low, high)
+    for channel in range(3):            # a plane at a time: a fraction of a mask of RGB triples
+        if one:
+            rgb[..., channel] = np.where(drawn, colours[0, channel], _WHITE[channel])
+        else:
+            plane = np.full(given.shape, _WHITE[channel], np.uint8)
+            plane[drawn] = colours[:, channel]
+            rgb[..., channel] = plane
     return rgb
 
 
