@@ -416,10 +416,17 @@ def dithered_moves_estimate(gray) -> int:
     100
     """
     g = np.asarray(gray, dtype=np.float64)
-    d = np.clip(1.0 - g / 255.0, 0.0, 1.0)
-    spread = float((2.0 * np.minimum(d, 1.0 - d)).sum())
-    dark = g < 128
-    edges = int(np.count_nonzero(dark[:, 1:] != dark[:, :-1])) if g.ndim == 2 else 0
+    if g.ndim != 2 or not g.size:
+        return 0
+    spread = 0.0
+    edges = 0
+    step = max(1, BAND_PIXELS // g.shape[1])             # a band of rows at a time: a few MB
+    for r in range(0, g.shape[0], step):
+        band = g[r:r + step]
+        d = np.clip(1.0 - band / 255.0, 0.0, 1.0)
+        spread += float((2.0 * np.minimum(d, 1.0 - d)).sum())
+        dark = band < 128
+        edges += int(np.count_nonzero(dark[:, 1:] != dark[:, :-1]))
     return int(round(spread)) + 2 * edges
 
 
