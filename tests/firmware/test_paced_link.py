@@ -18,7 +18,6 @@ firmware's defaults) with the link's baud rate. Checked:
 from __future__ import annotations
 
 import importlib.util
-import re
 import subprocess
 from pathlib import Path
 
@@ -29,6 +28,7 @@ from labkit.cli import main
 from labkit.machine.safety import end_process
 from labkit.motion.machine import CBR40
 from labkit.motion.stall import predict_stalls, read_starvation_log, stall_free_feed, with_feed
+from paced_stream import stream_py_bytes
 
 ROOT = Path(__file__).resolve().parents[2]
 #: stream.py wakes GRBL up with "\r\n\r\n": four empty lines the grbl dialect counts, so
@@ -45,11 +45,6 @@ def _real_senders():
 
 REAL_SENDERS = _real_senders()
 sim = REAL_SENDERS.sim          # the fixture that builds the simulator (make -C firmware sim)
-
-
-def stream_py_bytes(text: str) -> np.ndarray:
-    """Bytes stream.py puts on the link per line: whitespace and (...) removed, newline added."""
-    return np.array([len(re.sub(r"\s|\(.*?\)", "", raw)) + 1 for raw in text.splitlines()])
 
 
 def stream_paced(sim: str, text: str, machine, tmp: Path):
