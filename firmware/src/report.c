@@ -161,8 +161,9 @@ const char *report_state_name(void) {
   switch (st_state()) {
   case ST_HOLDING: return "Hold:1";
   case ST_HELD: return "Hold:0";
-  case ST_RUN:
-  case ST_DWELL: return "Run";
+  case ST_RUN: return "Run";
+  case ST_DWELL:                 /* GRBL dwells (G4) with its planner empty, in Idle */
+    return settings.dialect == GC_DIALECT_GRBL ? "Idle" : "Run";
   default: break;
   }
   return plan_is_empty() ? "Idle" : "Run";

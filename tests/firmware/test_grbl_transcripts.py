@@ -525,6 +525,47 @@ KNOWN_DIFFERENCES: dict[tuple[str, str, int], str] = {
     ('virtual', 'program_flow', 31): "?: line 1: fields ['MPos', 'FS'], GRBL ['MPos', 'FS', 'Ov']",
     ('virtual', 'reset', 20): "?: line 1: fields ['MPos', 'FS', 'Ov'], GRBL ['MPos', 'FS']",
     ('virtual', 'status_reports', 94): "?: line 1: fields ['MPos', 'FS'], GRBL ['MPos', 'FS', 'WCO']",
+    # startup_jog: the virtual machine neither runs a start-up line that is a jog as GRBL does (when
+    # stored and after a reset) nor refuses G-code during a jog (error:9)
+    ('virtual', 'startup_jog', 2): '?: line 1: MPos:0.000,0.000,0.000, GRBL MPos:2.000,0.000,0.000',
+    ('virtual', 'startup_jog', 5): "?: line 1: state 'Run', GRBL 'Jog'",
+    ('virtual', 'startup_jog', 6): '?: line 1: MPos:2.000,0.000,0.000, GRBL MPos:4.000,0.000,0.000',
+    ('virtual', 'startup_jog', 13): "$N1=$XYG91X1F100: line 1: 'error:1', GRBL 'ok'",
+    ('virtual', 'startup_jog', 14): '?: line 1: MPos:2.000,0.000,0.000, GRBL MPos:5.000,0.000,0.000',
+    ('virtual', 'startup_jog', 15): "$N: line 2: '$N1=', GRBL '$N1=$XYG91X1F100'",
+    ('virtual', 'startup_jog', 19): "G0X0: line 1: 'ok', GRBL 'error:9'",
+    ('virtual', 'startup_jog', 23): '?: line 1: MPos:0.000,0.000,0.000, GRBL MPos:8.000,0.000,0.000',
+    ('virtual', 'startup_jog', 27): '?: line 1: MPos:0.000,0.000,0.000, GRBL MPos:8.000,0.000,0.000',
+    # reset_wait: a dwell from rest runs as motion there (Run, then ALARM:3 at the reset) where GRBL
+    # dwells in Idle; a reset does not answer the line that waited (ALARM:3, [MSG:Pgm End] for M2,
+    # ok, then the banner); G10 L20 is answered before the move ends
+    ('virtual', 'reset_wait', 2): "?: line 1: state 'Run', GRBL 'Idle'",
+    ('virtual', 'reset_wait', 3): "'\\x18': line 1: 'ALARM:3', GRBL 'ok'",
+    ('virtual', 'reset_wait', 4): "?: line 1: state 'Alarm', GRBL 'Idle'",
+    ('virtual', 'reset_wait', 5): "G1 X10 F300: line 1: 'error:9', GRBL 'ok'",
+    ('virtual', 'reset_wait', 6): "G4 P0.01: extra lines ['error:9']",
+    ('virtual', 'reset_wait', 7): "?: line 1: state 'Alarm', GRBL 'Run'",
+    ('virtual', 'reset_wait', 8): '\'\\x18\': line 1: "Grbl 1.1h [\'$\' for help]", GRBL \'ALARM:3\'',
+    ('virtual', 'reset_wait', 15): '\'\\x18\': line 2: "Grbl 1.1h [\'$\' for help]", GRBL \'ok\'',
+    ('virtual', 'reset_wait', 21): '\'\\x18\': line 2: "Grbl 1.1h [\'$\' for help]", GRBL \'[MSG:Pgm End]\'',
+    ('virtual', 'reset_wait', 26): "G10 L20 P1 X0: extra lines ['ok']",
+    ('virtual', 'reset_wait', 27): '\'\\x18\': line 2: "Grbl 1.1h [\'$\' for help]", GRBL \'ok\'',
+    ('virtual', 'reset_wait', 35): '\'\\x18\': line 2: "Grbl 1.1h [\'$\' for help]", GRBL \'ok\'',
+    # hard_limits: a limit switch released with $21=1 raises no ALARM:1 there, and a reset with a
+    # switch pressed gives no [MSG:Check Limits]
+    ('virtual', 'hard_limits', 5): '\'\\x18\': line 2: "[MSG:\'$H\'|\'$X\' to unlock]", GRBL \'[MSG:Check Limits]\'',
+    ('virtual', 'hard_limits', 10): "G0 X4: missing lines ['ALARM:1', '[MSG:Reset to continue]']",
+    ('virtual', 'hard_limits', 11): "?: extra lines ['<Idle|MPos:4.000,0.000,0.000|FS:0,0>']",
+    ('virtual', 'hard_limits', 12): '\'\\x18\': missing lines ["[MSG:\'$H\'|\'$X\' to unlock]"]',
+    ('virtual', 'hard_limits', 13): "?: line 1: state 'Idle', GRBL 'Alarm'",
+    ('virtual', 'hard_limits', 14): "$X: line 1: 'ok', GRBL '[MSG:Caution: Unlocked]'",
+    ('virtual', 'hard_limits', 22): '\'\\x18\': line 3: "[MSG:\'$H\'|\'$X\' to unlock]", GRBL \'[MSG:Check Limits]\'',
+    ('virtual', 'hard_limits', 31): '\'\\x18\': line 2: "[MSG:\'$H\'|\'$X\' to unlock]", GRBL \'[MSG:Check Limits]\'',
+    ('virtual', 'hard_limits', 33): "$J=G91 X-2 F300: missing lines ['ALARM:1', '[MSG:Reset to continue]']",
+    ('virtual', 'hard_limits', 34): "?: extra lines ['<Idle|MPos:3.000,0.000,0.000|FS:0,0|WCO:0.000,0.000,0.000>']",
+    ('virtual', 'hard_limits', 35): '\'\\x18\': missing lines ["[MSG:\'$H\'|\'$X\' to unlock]"]',
+    ('virtual', 'hard_limits', 36): "$X: line 1: 'ok', GRBL '[MSG:Caution: Unlocked]'",
+    ('virtual', 'hard_limits', 55): '\'\\x18\': line 2: "[MSG:\'$H\'|\'$X\' to unlock]", GRBL \'[MSG:Check Limits]\'',
 }
 
 
