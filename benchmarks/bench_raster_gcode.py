@@ -189,9 +189,10 @@ def streamed_stall_free_feed(paced, sim, text, machine, start_mm_min, tmp: Path,
                              rel_tol=0.01, max_runs=8):
     """The highest feed at which the paced simulator logs no starvation, found by streaming:
     from ``start_mm_min`` up or down by ``step`` until the verdict changes, then halved to
-    ``rel_tol``; never above the machine's top speed. A stream whose sender was late (a loaded
-    machine; ``PacedRun.host_late``) is run again, up to twice. Returns (feed, runs, bracket,
-    streams disturbed all the same)."""
+    ``rel_tol``; never above the machine's top speed. The simulator waits up to 10 s of wall
+    time for the sender (``--expect``), so load on the machine does not make starvations; a
+    stream whose sender was later still (``PacedRun.host_late``) is listed. Returns (feed,
+    runs, bracket, feeds whose stream was disturbed)."""
     from labkit.motion.stall import with_feed
 
     top = float(min(machine.max_rate_mm_min[:2]))

@@ -5,7 +5,7 @@
     labkit-fw-sim [--pty] [--dialect grbl|labkit-fw] [--trace FILE]
                   [--eeprom FILE] [--panel PATH] [--beam-log PATH] [--stats]
                   [--realtime] [--switches SPEC]
-                  [--baud N [--parse-us US] [--starvation-log FILE]]
+                  [--baud N [--parse-us US] [--starvation-log FILE] [--expect FILE]]
 
   Serial: stdin/stdout by default; --pty creates a pseudo-terminal and
   prints its path on stderr ("labkit-fw-sim: pty /dev/pts/N"); open it with
@@ -66,6 +66,16 @@
   clock run on without it: at exit the simulator prints on stderr how many
   times the host's line then came before another answer ("the host was late
   N times"); stops from such a moment on may be the host's, not the link's.
+  --expect FILE (with --baud) gives the simulator the line bytes the host
+  will write, in order (real-time bytes such as '?' left out): it then knows
+  the host's next line instead of guessing it from the last one, holds the
+  clock whenever a counting host has room for it and waits for it up to 10 s
+  of wall time instead of 0.25 s, so a loaded host machine does not make
+  starvations the link would not, while a link too slow for the job still
+  does (its bytes arrive at the baud rate's pace whatever the host does).
+  Nothing is waited for once the host has written the whole file. A host
+  byte that differs from the file ends this at that byte (the guess and the
+  0.25 s apply from there) and is reported on stderr at exit.
   A byte due during a tick is read at its arrival, not at the tick's end.
   While the motors stand, the clock jumps to the next byte's
   arrival; with nothing on the wire it follows the wall clock. The
@@ -165,6 +175,11 @@ static uint32_t owed_bytes, rx_line_len, last_line_len;
 static int host_turn;                 /* an answer went out; the host may send a line */
 static double host_turn_since;
 #define HOST_ANSWER_S 0.25
+#define HOST_EXPECT_S 10.0            /* the wait when the host's bytes are known (--expect) */
+static uint8_t *expect_buf;           /* --expect: the host's line bytes, in order */
+static size_t expect_len;
+static int expect_on;                 /* the host has written what the file says so far */
+static uint64_t expect_off_at;        /* the first host byte that differed (with !expect_on) */
 static int host_waited_out;           /* the wait for the host's line ran out while moving */
 static unsigned long host_late;       /* ... and its line came before another answer */
 static char tx_line[8];               /* the start of the line being written to the host */
@@ -513,6 +528,10 @@ static void wire_put(const uint8_t *p, size_t n) {
     uint64_t due = (wire_last_due > cycles ? wire_last_due : cycles) + byte_cycles;
     wire_last_due = due;
     if (!is_rt(b)) {
+      if (expect_on && (line_bytes_wired >= expect_len || expect_buf[line_bytes_wired] != b)) {
+        expect_on = 0;
+        expect_off_at = line_bytes_wired + 1;
+      }
       line_bytes_wired++;
       /* line ends as the core's line assembler counts them: '\r' and '\n' each end a
          line, but in the labkit-fw dialect the '\n' of an empty "\r\n" does not */
@@ -553,14 +572,36 @@ static void wire_deliver(void) {
   }
 }
 
+/* The bytes of the host's next line still to write, as --expect gives them: through
+   the next '\n' (0 once it has written the whole file). */
+static size_t expected_line_rest(void) {
+  static size_t from = (size_t)-1, rest;
+  if (line_bytes_wired != from) {
+    from = (size_t)line_bytes_wired;
+    const uint8_t *nl = from < expect_len ? memchr(expect_buf + from, '\n', expect_len - from) : 0;
+    rest = from >= expect_len ? 0 : nl ? (size_t)(nl - expect_buf) - from + 1 : expect_len - from;
+  }
+  return rest;
+}
+
 /* The host owes a line: it has been answered since it last fell silent, it has
-   room for a line like its last by GRBL's character counting, and nothing it
-   sent is still on the wire. Silence for HOST_ANSWER_S of wall time ends the
+   room for its next line by GRBL's character counting (stream.py: fewer than
+   127 bytes in flight with it), and nothing it sent is still on the wire. The
+   next line is known with --expect, else taken to be as long as the last.
+   Silence for HOST_ANSWER_S of wall time (HOST_EXPECT_S with --expect) ends the
    wait until the next answer (the job has ended, or its next line is longer). */
 static int waiting_for_host(void) {
-  if (!host_turn || wire_tail < wire_head || input_eof || owed_bytes + last_line_len >= 127u)
+  if (!host_turn || wire_tail < wire_head || input_eof)
     return 0;
-  if (host_seconds() - host_turn_since > HOST_ANSWER_S) {
+  if (expect_on) {
+    size_t rest = expected_line_rest();
+    /* a line begun is finished; a new one needs room */
+    if (rest == 0 || (rx_line_len == 0 && owed_bytes + rest >= 127u))
+      return 0;
+  } else if (owed_bytes + last_line_len >= 127u) {
+    return 0;
+  }
+  if (host_seconds() - host_turn_since > (expect_on ? HOST_EXPECT_S : HOST_ANSWER_S)) {
     host_turn = 0;
     host_waited_out = !plan_is_empty() || !st_is_idle();
     return 0;
@@ -713,16 +754,49 @@ static int open_pty(void) {
   return m;
 }
 
+/* --expect FILE: the whole file, the host's line bytes in order. */
+static int read_expect(const char *path) {
+  FILE *f = fopen(path, "rb");
+  if (!f) {
+    perror(path);
+    return 0;
+  }
+  size_t cap = 1 << 16;
+  expect_buf = malloc(cap);
+  size_t n;
+  while (expect_buf && (n = fread(expect_buf + expect_len, 1, cap - expect_len, f)) > 0) {
+    expect_len += n;
+    if (expect_len == cap) {
+      uint8_t *more = realloc(expect_buf, cap * 2);
+      if (!more)
+        break;
+      expect_buf = more;
+      cap *= 2;
+    }
+  }
+  int full = expect_buf && expect_len == cap;   /* realloc failed: not all of it read */
+  int bad = ferror(f) || !expect_buf || full;
+  fclose(f);
+  if (bad) {
+    fprintf(stderr, "labkit-fw-sim: --expect: cannot read %s\n", path);
+    return 0;
+  }
+  expect_on = 1;
+  return 1;
+}
+
 static void usage(void) {
   fprintf(stderr, "usage: labkit-fw-sim [--pty] [--dialect grbl|labkit-fw] [--trace FILE] "
                   "[--eeprom FILE] [--panel PATH] [--beam-log PATH] [--stats] [--realtime] "
-                  "[--switches SPEC] [--baud N [--parse-us US] [--starvation-log FILE]]\n");
+                  "[--switches SPEC] [--baud N [--parse-us US] [--starvation-log FILE] "
+                  "[--expect FILE]]\n");
   exit(2);
 }
 
 int main(int argc, char **argv) {
   int use_pty = 0, stats = 0, dialect = -1;
   const char *trace_path = 0, *beam_log_path = 0, *panel_path = 0, *starve_path = 0;
+  const char *expect_path = 0;
   double parse_us = 0.0;
   for (int i = 1; i < argc; i++) {
     if (!strcmp(argv[i], "--pty"))
@@ -752,6 +826,8 @@ int main(int argc, char **argv) {
       }
     } else if (!strcmp(argv[i], "--starvation-log") && i + 1 < argc)
       starve_path = argv[++i];
+    else if (!strcmp(argv[i], "--expect") && i + 1 < argc)
+      expect_path = argv[++i];
     else if (!strcmp(argv[i], "--beam-log") && i + 1 < argc)
       beam_log_path = argv[++i];
     else if (!strcmp(argv[i], "--panel") && i + 1 < argc)
@@ -806,10 +882,12 @@ int main(int argc, char **argv) {
   }
   if (panel_path)
     open_panel(panel_path);
-  if ((starve_path || parse_us > 0) && !baud) {
-    fprintf(stderr, "labkit-fw-sim: --starvation-log and --parse-us need --baud\n");
+  if ((starve_path || parse_us > 0 || expect_path) && !baud) {
+    fprintf(stderr, "labkit-fw-sim: --starvation-log, --parse-us and --expect need --baud\n");
     return 2;
   }
+  if (expect_path && !read_expect(expect_path))
+    return 1;
   if (baud && realtime) {
     fprintf(stderr, "labkit-fw-sim: --baud runs on simulated time; leave out --realtime\n");
     return 2;
@@ -863,6 +941,11 @@ int main(int argc, char **argv) {
     fclose(beam_log);
   if (starve_log)
     fclose(starve_log);
+  if (expect_path && !expect_on)
+    fprintf(stderr, "labkit-fw-sim: --expect: the host's line byte %llu differs from %s (or the "
+                    "file has fewer bytes); the host's next line was guessed from there\n",
+            (unsigned long long)expect_off_at, expect_path);
+  free(expect_buf);
   if (baud && host_late)
     fprintf(stderr, "labkit-fw-sim: the host was late %lu times (a line it had room for came more "
                     "than %.2f s of wall time after its answer)\n", host_late, HOST_ANSWER_S);

@@ -39,7 +39,30 @@ REAL_SENDERS = _real_senders()
 def stream_py_bytes(text: str) -> np.ndarray:
     """Bytes stream.py puts on the link per line: whitespace and (...) removed, newline added
     (it keeps ``;`` comments)."""
-    return np.array([len(re.sub(r"\s|\(.*?\)", "", raw)) + 1 for raw in text.splitlines()])
+    return np.array([len(REAL_SENDERS.stream_py_line(raw)) for raw in text.splitlines()])
+
+
+def paced_sim(sim: str, machine, text: str, tmp: Path, *, parse_us: float | None = None,
+              extra_args=()) -> tuple[list[str], Path]:
+    """The simulator's command line for stream.py streaming ``text`` over ``machine``'s link.
+
+    The simulator gets what stream.py will write (``--expect``: it then holds its clock for
+    the sender's next line however late a loaded machine makes it, so that only the link
+    can starve the planner) and a starvation log, returned with the command.
+    """
+    expect, log = tmp / "expect.txt", tmp / "starvations.csv"
+    expect.write_bytes(REAL_SENDERS.stream_py_sent(text))
+    parse_us = machine.block_parse_s * 1e6 if parse_us is None else parse_us
+    return ([sim, "--pty", "--dialect", "grbl", "--baud", str(machine.link_baud), "--parse-us", f"{parse_us:.6f}",
+             "--starvation-log", str(log), "--expect", str(expect), *extra_args], log)
+
+
+def sim_complaints(err: str) -> tuple[int, str]:
+    """What the paced simulator said at exit about its host: (times late, the --expect
+    mismatch or '')."""
+    late = re.search(r"the host was late (\d+) times", err)
+    off = re.search(r"--expect: .*", err)
+    return (int(late.group(1)) if late else 0), (off.group(0) if off else "")
 
 
 def _number(value: float) -> str:
@@ -88,18 +111,15 @@ class PacedRun:
     seconds : float
         Wall time of the stream.
     host_late : int
-        How often the sender was late (more than the simulator's wait for it, 0.25 s of
-        wall time, with room for a line while blocks were queued): the simulated clock ran
-        on without it, so a stop after that may be the sender's, not the link's.
-    attempts : int
-        Streams run to get one with a punctual sender.
+        How often the sender had room for a line and took longer than the simulator waits
+        for it (10 s of wall time, ``--expect``) while blocks were queued: the simulated
+        clock ran on without it, so a stop after that may be the sender's, not the link's.
     """
 
     stalls: list
     beam: list
     seconds: float
     host_late: int = 0
-    attempts: int = 1
 
     @property
     def burn_span_s(self) -> float:
@@ -115,7 +135,7 @@ class PacedRun:
 
 
 def stream_paced(sim: str, text: str, machine, tmp: Path, *, parse_us: float | None = None,
-                 extra_args=(), attempts: int = 3) -> PacedRun:
+                 extra_args=()) -> PacedRun:
     """Stream ``text`` with stream.py (counting) through the simulator set up as ``machine``.
 
     Parameters
@@ -133,38 +153,31 @@ def stream_paced(sim: str, text: str, machine, tmp: Path, *, parse_us: float | N
         The simulator's ``--parse-us`` (default: ``block_parse_s``).
     extra_args : sequence of str
         More simulator options (``--trace FILE``).
-    attempts : int
-        Streams to run at most while the sender was late (a loaded machine): the last is
-        returned, its ``host_late`` saying whether it too was disturbed.
+
+    Raises
+    ------
+    AssertionError
+        A line not answered ``ok``, or stream.py wrote other bytes than the simulator was
+        told to expect.
     """
-    for attempt in range(1, attempts + 1):
-        run = _stream_once(sim, text, machine, tmp, parse_us, extra_args)
-        run.attempts = attempt
-        if not run.host_late:
-            break
-    return run
-
-
-def _stream_once(sim, text, machine, tmp, parse_us, extra_args) -> PacedRun:
     settings = firmware_settings(machine)
-    log, beam = tmp / "starvations.csv", tmp / "beam.csv"
-    parse_us = machine.block_parse_s * 1e6 if parse_us is None else parse_us
-    proc = subprocess.Popen([sim, "--pty", "--dialect", "grbl", "--baud", str(machine.link_baud),
-                             "--parse-us", f"{parse_us:.6f}", "--starvation-log", str(log),
-                             "--beam-log", str(beam), *extra_args],
-                            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+    job = "\n".join(settings) + "\n" + text
+    beam = tmp / "beam.csv"
+    cmd, log = paced_sim(sim, machine, job, tmp, parse_us=parse_us, extra_args=("--beam-log", str(beam), *extra_args))
+    proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                             text=True)
     try:
         line = proc.stderr.readline()
         if "pty " not in line:
             raise AssertionError(f"simulator did not announce its pty: {line!r}")
-        job = "\n".join(settings) + "\n" + text
         tally = REAL_SENDERS.stream_py(line.split("pty ", 1)[1].strip(), job, counting=True)
         proc.terminate()
         err = proc.communicate(timeout=30)[1]
     finally:
         end_process(proc)
-    late = re.search(r"the host was late (\d+) times", err)
+    late, off = sim_complaints(err)
+    if off:
+        raise AssertionError(f"the simulator was told the wrong bytes: {off}")
     bad = [(k + 1, a) for k, a in enumerate(tally["answers"]) if a != "ok"]
     if len(tally["answers"]) != len(job.splitlines()) or bad:
         raise AssertionError(f"not every line answered ok: {bad[:3]} ({len(tally['answers'])} answers)")
@@ -174,4 +187,4 @@ def _stream_once(sim, text, machine, tmp, parse_us, extra_args) -> PacedRun:
     with open(beam, newline="", encoding="ascii") as fh:
         rows = list(csv.reader(fh))[1:]
     return PacedRun(stalls=stalls, beam=[(float(r[0]), int(r[1])) for r in rows], seconds=tally["seconds"],
-                    host_late=int(late.group(1)) if late else 0)
+                    host_late=late)
