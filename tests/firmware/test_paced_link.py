@@ -25,7 +25,7 @@ import pytest
 
 from labkit.cli import main
 from labkit.machine.safety import end_process
-from labkit.motion.machine import CBR40
+from labkit.motion.spec import CBR40
 from labkit.motion.stall import predict_stalls, read_starvation_log, stall_free_feed, with_feed
 from paced_stream import REAL_SENDERS, WAKE_UP_LINES, paced_sim, sim_complaints, stream_py_bytes
 
