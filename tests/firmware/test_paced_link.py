@@ -27,7 +27,7 @@ from labkit.cli import main
 from labkit.machine.safety import end_process
 from labkit.motion.spec import CBR40
 from labkit.motion.stall import predict_stalls, read_starvation_log, stall_free_feed, with_feed
-from paced_stream import REAL_SENDERS, WAKE_UP_LINES, paced_sim, sim_complaints, stream_py_bytes
+from paced_stream import REAL_SENDERS, WAKE_UP_LINES, paced_sim, poll_shadows, sim_complaints, stream_py_bytes
 
 ROOT = Path(__file__).resolve().parents[2]
 sim = REAL_SENDERS.sim          # the fixture that builds the simulator (make -C firmware sim)
@@ -57,24 +57,6 @@ def stream_paced(sim: str, text: str, machine, tmp: Path):
     assert all(a == "ok" for a in tally["answers"]), [a for a in tally["answers"] if a != "ok"][:3]
     stalls = [s.__class__(s.time_s, s.line - WAKE_UP_LINES, s.duration_s) for s in read_starvation_log(log)]
     return stalls, tally["seconds"]
-
-
-def poll_shadows(simulated, predicted, baud: int, seconds: float):
-    """Split the simulated starvations the prediction lacks into those a ``?`` can explain and the rest.
-
-    stream.py's once-a-second ``?`` is one byte on the wire at a wall-clock moment no
-    prediction can know; the line bytes behind it arrive one byte time (10 / baud s) later.
-    A starvation it causes is at most that long, and there are at most as many as ``?``s.
-    """
-    lines = {s.line for s in predicted}
-    missed = [s for s in simulated if s.line not in lines]
-    byte_s = 10.0 / baud
-    shadows = [s for s in missed if s.duration_s <= byte_s * 1.001]
-    rest = [s for s in missed if s.duration_s > byte_s * 1.001]
-    if len(shadows) > seconds + 2:
-        rest += shadows
-        shadows = []
-    return shadows, rest
 
 
 # ---------------------------------------------------------------- closed form
