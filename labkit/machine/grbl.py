@@ -862,7 +862,7 @@ class Grbl:
                 if gone():
                     raise
                 why = str(exc)
-                if "error:9" in why or "ALARM" in why:
+                if grbl_reply(ErrorCode.GCODE_LOCKED) in why or "ALARM" in why:
                     why += " (the controller is in alarm: the reset had already switched the beam off)"
                 rec.steps.append(f"M5 S0 sent, not confirmed: {why}")
         except MachineError as exc:              # a write failed: the link went during the stop
