@@ -7,17 +7,23 @@ byte and with the recorded pauses, against
 * ``firmware``: the host simulator ``firmware/build/host/labkit-fw-sim --pty
   --dialect grbl --realtime`` (built by ``make -C firmware sim``), a fresh process per
   transcript (its EEPROM lives in memory, so it starts from its defaults);
-* ``virtual``: :class:`labkit.machine.virtual.VirtualMachine` in real time, a
-  fresh machine per transcript;
+* ``virtual``: :class:`labkit.machine.virtual.VirtualMachine` in simulated time, a fresh
+  machine per transcript with GRBL's mechanics (DEFAULTS_GENERIC): each exchange is written at
+  the moment the recorder wrote it (its ``at_s``, seconds after the first write), and its replies
+  are what the machine wrote before the next exchange's moment (:meth:`VirtualMachine.advance`
+  runs the clock in between). GRBL's moves ran on the recorder's clock too, so a reply that
+  depends on whether something still moved (a ``$`` line's error:8, ``Run`` or ``Idle``) is
+  compared at the same moment of the same motion; the replay is deterministic and takes no
+  wall time for the recorder's waits.
 
-For a transcript in which GRBL reported a hold still decelerating (``Hold:1``) the simulator first
-takes GRBL's accelerations (``$120``-``$122``, as GRBL printed them in the recorded ``$$``:
-:data:`GRBL_ACCELERATION_SETTINGS`), so that its hold decelerates as long as GRBL's did: whether a
-report after ``!`` says ``Hold:1`` or ``Hold:0`` is then GRBL's behaviour, not a difference between
-two machines (the CBR-40 brakes at 500 mm/s², GRBL's defaults at 10). The other transcripts keep
-the machine's own: the replay paces its exchanges faster than the recorder did (it waits for
-GRBL's replies, not 0.35 s more), and at 10 mm/s² a move would still run where GRBL's, paced by
-the recorder, had ended (``line_length``'s first ``G0 X1`` and the ``$`` lines after it).
+The firmware replay runs in real time: it waits for each exchange's replies (not the recorder's
+further 0.35 s of silence) and the recorded ``pause_before_s`` before the next exchange, reading
+meanwhile (what comes then is still the earlier exchange's, as it was for the recorder). For a transcript in which GRBL
+reported a hold still decelerating (``Hold:1``) the simulator first takes GRBL's accelerations
+(``$120``-``$122``, as GRBL printed them in the recorded ``$$``: :data:`GRBL_ACCELERATION_SETTINGS`),
+so that its hold decelerates as long as GRBL's did: whether a report after ``!`` says ``Hold:1``
+or ``Hold:0`` is then GRBL's behaviour, not a difference between two machines (the CBR-40 brakes
+at 500 mm/s², GRBL's defaults at 10). The other transcripts keep the machine's own.
 
 Every exchange (the bytes sent, the lines that came back) is one test case
 comparing the replies with GRBL's, line by line. Exchanges that differ today
@@ -213,6 +219,8 @@ class _Firmware:
     """labkit-fw-sim on a pty, GRBL dialect (with the transcript's limit switches, if any), with
     ``settings`` written first (number -> value)."""
 
+    simulated = False
+
     def __init__(self, sim: str, switches: str = "", settings: dict | None = None):
         self.proc, pty = _start_sim(sim, "grbl", ["--switches", switches] if switches else [])
         self.fd = os.open(pty, os.O_RDWR | os.O_NOCTTY)
@@ -242,10 +250,13 @@ class _Firmware:
 
 
 class _Virtual:
-    """labkit's virtual machine in real time, read as a port is, with the transcript's limit
-    switches (the same spec as the simulator's --switches)."""
+    """labkit's virtual machine in simulated time (its clock moves only by :meth:`advance`),
+    read as a port is, with the transcript's limit switches (the same spec as the simulator's
+    --switches) and probe input (grbl-sim's GRBL_SIM_PROBE)."""
 
-    def __init__(self, switches: str = ""):
+    simulated = True
+
+    def __init__(self, switches: str = "", probe: str = ""):
         from labkit.machine.virtual import VirtualMachine
         from labkit.motion import load_machine
         # the GRBL that recorded the transcripts: DEFAULTS_GENERIC's mechanics and no settings of
@@ -253,21 +264,20 @@ class _Virtual:
         generic = load_machine("grbl-diode").replace(
             steps_per_mm=(250.0,) * 3, max_rate_mm_min=(500.0,) * 3, accel_mm_s2=(10.0,) * 3,
             travel_mm=(200.0,) * 3, grbl_settings=())
-        self.vm = VirtualMachine(generic, time_scale=1.0, switches=switches or None)
+        self.vm = VirtualMachine(generic, time_scale=0, tick_s=0.0, switches=switches or None,
+                                 probe=probe or None)
         self.vm.timeout = 0
 
     def send(self, data: bytes) -> None:
         self.vm.write(data)
 
-    def read(self, timeout_s: float) -> bytes:
-        end = time.monotonic() + timeout_s
-        while True:
-            waiting = self.vm.in_waiting
-            if waiting:
-                return self.vm.read(waiting)
-            if time.monotonic() >= end:
-                return b""
-            time.sleep(0.002)
+    def advance(self, seconds: float) -> None:
+        self.vm.advance(seconds)
+
+    def read(self, timeout_s: float = 0.0) -> bytes:
+        """What the machine has written; ``timeout_s`` of simulated time pass first."""
+        self.vm.advance(timeout_s)
+        return self.vm.read(self.vm.in_waiting)
 
     def close(self) -> None:
         self.vm.close()
@@ -285,7 +295,7 @@ def _open(target: str, sim: str | None, transcript: dict):
     """The target for ``transcript``: with its limit switches (grbl-sim's and labkit-fw-sim's
     --switches) and, where it :func:`brakes_as_grbl`, GRBL's accelerations."""
     if target != "firmware":
-        return _Virtual(transcript.get("switches", ""))
+        return _Virtual(transcript.get("switches", ""), transcript.get("probe", ""))
     settings = grbl_defaults(GRBL_ACCELERATION_SETTINGS) if brakes_as_grbl(transcript) else {}
     return _Firmware(sim, transcript.get("switches", ""), settings)
 
@@ -297,12 +307,14 @@ def _lines(data: bytes) -> tuple[list[str], bool]:
     return [ln.rstrip("\r") for ln in text.split("\n") if ln.strip("\r")], bare_lf
 
 
-def _collect(port, exchange) -> bytes:
-    """Read what the target answers to one exchange (see README: how long to wait)."""
+def _collect(port, exchange, ahead_s: float = 0.0) -> bytes:
+    """Read what the target answers to one exchange (see README: how long to wait); ``ahead_s``:
+    how much sooner than GRBL the replay sends it (it waits for replies, not the recorder's
+    0.35 s of silence), which an answer that waits for motion to end takes on top."""
     want = exchange["replies"]
     terminators = sum(1 for r in want if _TERMINATOR.match(r))
     t0 = time.monotonic()
-    deadline = t0 + max(1.0, 1.5 * exchange.get("elapsed_s", 0.0) + 0.5)
+    deadline = t0 + max(1.0, 1.5 * exchange.get("elapsed_s", 0.0) + 0.5) + max(0.0, ahead_s)
     out = b""
     if not want or exchange.get("answered", True) is False:
         # nothing (more) expected: make sure of it, as long as the recorder did where it waited
@@ -333,18 +345,60 @@ def _collect(port, exchange) -> bytes:
     return out
 
 
+#: The most a firmware replay allows for being ahead of GRBL's schedule, s (the longest
+#: motion a transcript waits for is 8 s).
+MAX_AHEAD_S = 12.0
+
+#: Simulated time a replay gives the last exchange's replies after GRBL's last one (its
+#: recorder waited 0.35 s of silence), s.
+LAST_REPLY_WAIT_S = 1.0
+
+
+def _windows(transcript: dict) -> list[tuple[float, float]]:
+    """When each exchange was written and when the next one was (the last: its last reply plus
+    :data:`LAST_REPLY_WAIT_S`), s on the recorder's clock: what GRBL wrote in between is that
+    exchange's replies."""
+    exchanges = transcript["exchanges"]
+    starts = [ex["at_s"] for ex in exchanges]
+    last = exchanges[-1]
+    ends = starts[1:] + [starts[-1] + last["elapsed_s"] + max(last.get("quiet_s", 0.0),
+                                                               LAST_REPLY_WAIT_S)]
+    return list(zip(starts, ends))
+
+
 def replay(target: str, transcript: dict, sim: str | None = None) -> list[dict]:
     """Replay one transcript; per exchange the lines got and what differs from GRBL."""
     port = _open(target, sim, transcript)
     results = []
     written: set = set()
+    windows = _windows(transcript) if port.simulated else None
+    clock = 0.0
     try:
         port.read(0.2)                                # a banner sent at start, before the replay
-        for ex in transcript["exchanges"]:
-            if ex.get("pause_before_s"):
-                time.sleep(ex["pause_before_s"])
-            port.send(ex["send"].encode("latin-1"))
-            data = _collect(port, ex)
+        exchanges = transcript["exchanges"]
+        for k, ex in enumerate(exchanges):
+            if port.simulated:
+                start, end = windows[k]
+                port.advance(max(0.0, start - clock))
+                port.send(ex["send"].encode("latin-1"))
+                data = port.read(max(0.0, end - max(start, clock)))
+                clock = max(end, clock)
+            else:
+                # how far the replay runs ahead of GRBL's schedule since they last met (a reply
+                # that took a while: both had waited for the same motion), at most a long move
+                if k == 0:
+                    met = (ex["at_s"], time.monotonic())
+                ahead = min(MAX_AHEAD_S, (ex["at_s"] - met[0]) - (time.monotonic() - met[1]))
+                sent = time.monotonic()
+                port.send(ex["send"].encode("latin-1"))
+                data = _collect(port, ex, ahead)
+                if time.monotonic() - sent >= 0.5:
+                    met = (ex["at_s"] + ex["elapsed_s"], time.monotonic())
+                # the recorder's pause before the next exchange: what comes meanwhile is this one's
+                pause = exchanges[k + 1].get("pause_before_s", 0.0) if k + 1 < len(exchanges) else 0.0
+                end = time.monotonic() + pause
+                while time.monotonic() < end:
+                    data += port.read(end - time.monotonic())
             got, bare_lf = _lines(data)
             diffs = differences(ex, got, written)
             if bare_lf:
@@ -448,6 +502,9 @@ def test_transcripts_cover_what_issue_26_asks():
         assert "bfb67f0c7963fe3ce4aaf8a97f9009ea5a8db36e" in tr["recorded_from"]["grbl"], topic
         assert tr["exchanges"][0]["send"] == "\x18", topic
         assert tr["exchanges"][0]["replies"] == ["Grbl 1.1h ['$' for help]"], topic
+        # GRBL's clock at every exchange, from 0 and in order (the simulated replay needs it)
+        at = [ex["at_s"] for ex in tr["exchanges"]]
+        assert at[0] == 0.0 and all(b >= a for a, b in zip(at, at[1:])), topic
     errors = [ex for tr in _TRANSCRIPTS.values() for ex in tr["exchanges"]
               if ex["send"].endswith("\n") and any(r.startswith("error:") for r in ex["replies"])]
     assert len(errors) >= 60
@@ -509,22 +566,6 @@ KNOWN_DIFFERENCES: dict[tuple[str, str, int], str] = {
                                   "$200-$209 are the firmware's settings in both dialects (ramps, laser maximum, "
                                   "planner, dialect; $208=0 is the way back to labkit-fw), so $200 exists and "
                                   "1 is out of its range, where GRBL has no $200)",
-    ('virtual', 'check_mode', 19): "?: line 1: fields ['MPos', 'FS'], GRBL ['MPos', 'FS', 'WCO']",
-    ('virtual', 'dollar_commands', 29): "?: line 1: fields ['MPos', 'FS', 'Ov'], GRBL ['MPos', 'FS', 'WCO']",
-    ('virtual', 'dollar_commands', 31): "?: line 1: fields ['MPos', 'FS'], GRBL ['MPos', 'FS', 'Ov']",
-    ('virtual', 'hold_resume', 18): "?: line 1: fields ['MPos', 'FS', 'Ov', 'A'], GRBL ['MPos', 'FS']",
-    ('virtual', 'hold_resume', 26): "?: line 1: fields ['MPos', 'FS', 'Ov', 'A'], GRBL ['MPos', 'FS']",
-    ('virtual', 'line_length', 14): "$I=000000000000000000000000000: line 1: 'error:8', GRBL 'ok'",
-    ('virtual', 'line_length', 15): "$I: line 1: 'error:8', GRBL '[VER:1.1h.20190830:0000000000000000000000000000000000000000000000000000",
-    ('virtual', 'line_length', 16): "$N0=G0X1.000000000000000000000: line 1: 'error:8', GRBL 'ok'",
-    ('virtual', 'line_length', 17): "$N: line 1: 'error:8', GRBL '$N0=G0X1.00000000000000000000000000000000000000000000000000000000000000",
-    ('virtual', 'line_length', 18): "$N0=: line 1: 'error:8', GRBL 'ok'",
-    ('virtual', 'offsets', 52): "?: line 1: fields ['MPos', 'FS'], GRBL ['MPos', 'FS', 'WCO']",
-    ('virtual', 'program_flow', 22): "?: line 1: fields ['MPos', 'FS', 'Ov'], GRBL ['MPos', 'FS', 'WCO']",
-    ('virtual', 'program_flow', 29): "?: line 1: fields ['MPos', 'FS'], GRBL ['MPos', 'FS', 'WCO']",
-    ('virtual', 'program_flow', 31): "?: line 1: fields ['MPos', 'FS'], GRBL ['MPos', 'FS', 'Ov']",
-    ('virtual', 'reset', 20): "?: line 1: fields ['MPos', 'FS', 'Ov'], GRBL ['MPos', 'FS']",
-    ('virtual', 'status_reports', 94): "?: line 1: fields ['MPos', 'FS'], GRBL ['MPos', 'FS', 'WCO']",
 }
 
 
