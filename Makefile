@@ -14,11 +14,11 @@ XDIST := -n $(TEST_JOBS) --dist loadfile
 
 .PHONY: lab test test-fast bench firmware firmware-all clean browser-deps student sheets book
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml constraints.txt
 	@$(PYTHON) -c 'import sys; assert sys.version_info >= (3, 11), "labkit needs Python >= 3.11, found " + sys.version.split()[0]'
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[lab,test]'
+	$(PY) -m pip install --quiet -c constraints.txt -e '.[lab,test]'
 	touch $(STAMP)
 
 ## make lab: set up (first time) and open JupyterLab on the index notebook.
@@ -51,7 +51,7 @@ sheets: $(STAMP)
 ## offline); open DIR/site/index.html (default build/book).
 BOOK_DIR ?= build/book
 book: $(STAMP)
-	$(PY) -m pip install --quiet -e '.[book]'
+	$(PY) -m pip install --quiet -c constraints.txt -e '.[book]'
 	$(PY) tools/course_book.py "$(BOOK_DIR)"
 
 ## make firmware-all: what CI adds to make test: the ARM images (sizes printed), the job
@@ -65,7 +65,7 @@ test-fast: $(STAMP)
 
 ## make bench: install the peer libraries and run every benchmark, printing ratios.
 bench: $(STAMP)
-	$(PY) -m pip install --quiet -e '.[bench]'
+	$(PY) -m pip install --quiet -c constraints.txt -e '.[bench]'
 	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
 
 ## The browser test needs Debian's chromium and chromedriver; install them when we can.

@@ -71,7 +71,7 @@ from labkit.vector import read_svg
 tol = float(sys.argv[1])
 for f in job_units(sys.argv[2:]):          # the batch declared: the rule projects from file 1
     d = read_svg(f, tol_mm=tol, arcs=True, warn=False)
-    vector_job(d.paths, default=LayerSettings(feed_mm_min=300, power_s=1000), tol_mm=tol).gcode()
+    vector_job(d.paths, default=LayerSettings(feed_mm_min=300, s_word=1000), tol_mm=tol).gcode()
 """
 
 

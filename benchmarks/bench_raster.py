@@ -171,7 +171,7 @@ def py_job(mask, mode):
 
 
 def labkit_job(mask, mode):
-    job = mask_job(mask, pixel_mm=PIXEL_MM, mode=mode, feed_mm_min=FEED, power_s=POWER)
+    job = mask_job(mask, pixel_mm=PIXEL_MM, mode=mode, feed_mm_min=FEED, s_word=POWER)
     return emit(job.moves), job
 
 
@@ -310,7 +310,7 @@ def bench_preview():
 
     rng = np.random.default_rng(3)
     mask = rng.random((700, 700)) < 0.5
-    job = mask_job(mask, pixel_mm=0.1, mode="zigzag", feed_mm_min=FEED, power_s=POWER)
+    job = mask_job(mask, pixel_mm=0.1, mode="zigzag", feed_mm_min=FEED, s_word=POWER)
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "p.png"
         save_job_preview(job, out)                       # loads matplotlib and the kernels

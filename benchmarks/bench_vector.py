@@ -38,7 +38,7 @@ from labkit.vector import read_svg, svg_reference_samples
 ROOT = os.path.join(os.path.dirname(__file__), "..")
 FILES = sorted(f for f in glob.glob(os.path.join(ROOT, "data", "svg", "*", "*.svg"))
                if "em-values" not in f)
-SETTINGS = LayerSettings(feed_mm_min=300, power_s=1000)
+SETTINGS = LayerSettings(feed_mm_min=300, s_word=1000)
 
 
 def _best_of(fn, repeat=3):

@@ -28,20 +28,20 @@ says solid (so a uniformly pale burn is found only when the solid darkness is gi
    area, the area difference per millimetre of burning path (a line's width change), and the mean
    darkness over the predicted burn, predicted and scanned.
 
-``labkit burncheck compare -o REPORT.json`` writes the numbers in this format (version 1)::
+``labkit burncheck compare -o REPORT.json`` writes the numbers in this format (version 2)::
 
     {
       "format": "labkit-burncheck",       # exactly this
-      "version": 1,                       # a later version changes these keys
+      "version": 2,                       # a later version changes these keys (1 named s_word power_s)
       "program": "label.gcode", "scan": "scan.png", "dpi": 600.0,
       "model": "dose model w0 … mm, F_th … mJ/mm² (fit fit.json)", "tolerance": 0.15,
       "shift_mm": [x, y], "turn_deg": 0.5,   # where the prediction lies in the scan, its turn (CCW)
       "in_scan": true, "pixel_mm": 0.0423,
       "predicted_mm2": …, "scanned_mm2": …, "solid_darkness": 0.63, "solid_darkness_given": false,
-      "layers": [{"power_s": 300.0, "length_mm": …, "predicted_mm2": …, "scanned_mm2": …,
+      "layers": [{"s_word": 300.0, "length_mm": …, "predicted_mm2": …, "scanned_mm2": …,
                   "missing_mm2": …, "extra_mm2": …, "width_change_mm": …, "predicted_darkness": …,
                   "scanned_darkness": …, "shift_mm": [x, y]}, …],
-      "part": {… the same keys, power_s null, shift_mm [0, 0] …},
+      "part": {… the same keys, s_word null, shift_mm [0, 0] …},
       "defects": [{"kind": "missing" | "extra" | "light" | "dark", "area_mm2": …,
                    "bbox_mm": [x0, y0, x1, y1], "layer_s": 300.0 | null, "darkness": …}, …]
     }
@@ -69,7 +69,7 @@ __all__ = ["FORMAT", "VERSION", "BurnDefect", "LayerCheck", "BurnCheck", "predic
 
 #: The report's format and version (``labkit burncheck compare -o``).
 FORMAT = "labkit-burncheck"
-VERSION = 1
+VERSION = 2
 
 _MM_PER_INCH = 25.4
 # Burn.scan draws paper at 0.9 and a solid burn at 0.1: the predicted scan's darkness is read back
@@ -106,14 +106,14 @@ class BurnDefect:
 
 @dataclass
 class LayerCheck:
-    """Numbers for one layer (``power_s`` its S) or, with ``power_s`` None, for the whole part.
+    """Numbers for one layer (``s_word`` its S) or, with ``s_word`` None, for the whole part.
 
     Areas in mm², ``length_mm`` the burning path's length, ``width_change_mm`` the burned-area
     difference (scanned − predicted) per mm of that path, darkness means over the predicted
     burn (1 = a solid burn) and ``shift_mm`` the layer's shift against the rest of the part.
     """
 
-    power_s: float | None
+    s_word: float | None
     length_mm: float
     predicted_mm2: float
     scanned_mm2: float
@@ -167,11 +167,11 @@ class BurnCheck:
             lines.append("  layer    path mm  pred mm²  scan mm²  missing  extra  width Δ mm  dark pred  scan"
                          "     shift mm")
             for L in self.layers + [self.part]:
-                name = "part" if L.power_s is None else f"S{L.power_s:g}"
+                name = "part" if L.s_word is None else f"S{L.s_word:g}"
                 lines.append(f"  {name:<7}{L.length_mm:9.1f}{L.predicted_mm2:10.2f}{L.scanned_mm2:10.2f}"
                              f"{L.missing_mm2:9.2f}{L.extra_mm2:7.2f}{L.width_change_mm:+11.3f}"
                              f"{L.predicted_darkness:11.2f}{L.scanned_darkness:6.2f}"
-                             + ("" if L.power_s is None else f"  ({L.shift_mm[0]:+.3f}, {L.shift_mm[1]:+.3f})"))
+                             + ("" if L.s_word is None else f"  ({L.shift_mm[0]:+.3f}, {L.shift_mm[1]:+.3f})"))
         for d in self.defects:
             x0, y0, x1, y1 = d.bbox_mm
             lines.append(f"  {d.kind:<7} {d.area_mm2:7.3f} mm² at x {x0:.2f}…{x1:.2f}, y {y0:.2f}…{y1:.2f} mm"
@@ -412,7 +412,7 @@ class _Grid:
         key = np.round(b.power_mw[blk], 6)
         self.keys = np.unique(key)
         if moves is not None and len(moves) and b.move.max() < len(moves):
-            s_of = {float(k): float(moves.power_s[b.move[blk][key == k][0]]) for k in self.keys}
+            s_of = {float(k): float(moves.s_word[b.move[blk][key == k][0]]) for k in self.keys}
         else:
             s_of = {float(k): None for k in self.keys}
         self.label = [s_of[float(k)] for k in self.keys]

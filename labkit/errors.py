@@ -41,6 +41,7 @@ __all__ = [
     "ErrorCode",
     "AlarmCode",
     "Feedback",
+    "name_list",
 ]
 
 
@@ -216,3 +217,14 @@ class BudgetError(LabkitError, ValueError):
 class EmitError(LabkitError, ValueError):
     """Moves that cannot be written as G-code: a coordinate, feed, power or dwell that is not
     finite, out of range, or too large to write exactly at the requested resolution."""
+
+
+def name_list(names, most: int = 10) -> str:
+    """The names a message shows: the first ``most`` joined by commas, `` …`` after them
+    when there are more (a warning about 3,000 skipped entities names ten).
+
+    >>> name_list(["rect#a", "circle#b", "path#c"], most=2)
+    'rect#a, circle#b …'
+    """
+    names = list(names)
+    return ", ".join(names[:most]) + (" …" if len(names) > most else "")

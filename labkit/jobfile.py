@@ -252,7 +252,7 @@ class ComposedJob:
     moves : Moves
         Every layer, in burning order, placed.
     layers : list of dict
-        Per layer in burning order: ``index``, ``source``, ``operation``, ``power_mw``, ``power_s``,
+        Per layer in burning order: ``index``, ``source``, ``operation``, ``power_mw``, ``s_word``,
         ``speed_mm_min``, ``passes``, ``kerf_mm``, ``line_interval_mm``, ``dynamic``, ``material``
         (spec or None), ``from_library`` (keys taken from it), ``moves`` (rows), ``bounds_mm``.
     tol_mm : float
@@ -303,7 +303,7 @@ def _settings(job: JobFile, layer: JobLayer, machine) -> dict:
     return values
 
 
-def _vector_moves(job: JobFile, layer: JobLayer, s: dict, power_s: float):
+def _vector_moves(job: JobFile, layer: JobLayer, s: dict, s_word: float):
     import warnings
 
     from labkit.toolpath.build import LayerSettings
@@ -335,7 +335,7 @@ def _vector_moves(job: JobFile, layer: JobLayer, s: dict, power_s: float):
         raise InputError(f"{job.path}: layer {layer.index}: nothing to {layer.operation} in {layer.source.name}"
                          + (f" with select {layer.select} (its layers: {have})" if layer.select else ""))
     laser = LaserMode.DYNAMIC if s["dynamic"] else LaserMode.CONSTANT
-    settings = LayerSettings(feed_mm_min=s["speed_mm_min"], power_s=power_s, passes=int(s["passes"]), laser=laser)
+    settings = LayerSettings(feed_mm_min=s["speed_mm_min"], s_word=s_word, passes=int(s["passes"]), laser=laser)
     fill = layer.operation == "fill"
     if layer.tabs or layer.perforate:
         return _gapped_moves(job, layer, paths, s, settings), said
@@ -366,7 +366,7 @@ def _gapped_moves(job: JobFile, layer: JobLayer, paths, s: dict, settings):
     return build_moves(pieces, settings, default=settings, s_max=job.s_max)
 
 
-def _image_moves(job: JobFile, layer: JobLayer, s: dict, power_s: float):
+def _image_moves(job: JobFile, layer: JobLayer, s: dict, s_word: float):
     from labkit.raster.io import read_image
 
     if layer.source.suffix.lower() == ".svg":          # the bitmaps it embeds, where it places them
@@ -379,13 +379,13 @@ def _image_moves(job: JobFile, layer: JobLayer, s: dict, power_s: float):
     else:
         items = [(read_image(layer.source), layer.width_mm, None, layer.at_mm)]
     moves = engrave_images(items, mode=layer.mode, line_interval_mm=s["line_interval_mm"],
-                           feed_mm_min=s["speed_mm_min"], power_s=power_s, s_max=job.s_max, dynamic=s["dynamic"],
+                           feed_mm_min=s["speed_mm_min"], s_word=s_word, s_max=job.s_max, dynamic=s["dynamic"],
                            where=f"{job.path}: layer {layer.index}: {layer.source.name}")
     passes = int(s["passes"])
     return moves if passes == 1 else _chain([moves] * passes)
 
 
-def engrave_images(items, *, mode: str, line_interval_mm: float, feed_mm_min: float, power_s: float,
+def engrave_images(items, *, mode: str, line_interval_mm: float, feed_mm_min: float, s_word: float,
                    s_max: float, dynamic: bool = False, where: str = "image"):
     """Bitmaps engraved through :mod:`labkit.raster`, each at its size and place, one after another.
 
@@ -399,7 +399,7 @@ def engrave_images(items, *, mode: str, line_interval_mm: float, feed_mm_min: fl
         goes, mm (:attr:`labkit.vector.images.PlacedImage.engraving_item` for an SVG's bitmaps).
     mode : str
         :data:`labkit.raster.engrave.MODES`.
-    line_interval_mm, feed_mm_min, power_s, s_max : float
+    line_interval_mm, feed_mm_min, s_word, s_max : float
         Line interval (mm), speed (mm/min), power S of full black and S of full power.
     dynamic : bool
         M4 (power follows speed).
@@ -426,7 +426,7 @@ def engrave_images(items, *, mode: str, line_interval_mm: float, feed_mm_min: fl
     for img, width_mm, pixel_aspect, at in items:
         settings = RasterSettings(mode=mode, beam_mm=line_interval_mm, width_mm=width_mm,
                                   pixel_aspect=pixel_aspect, feed_mm_min=feed_mm_min, s_max=s_max,
-                                  power_s=power_s, max_power=min(power_s / s_max, 1.0),
+                                  s_word=s_word, max_power=min(s_word / s_max, 1.0),
                                   laser=LaserMode.DYNAMIC if dynamic else None)
         moves = image_to_job(img, settings).moves
         if not len(moves):
@@ -470,7 +470,7 @@ def compose_job(job: JobFile) -> ComposedJob:
     """
     import numpy as np
 
-    from labkit.motion.machine import load_machine
+    from labkit.motion.spec import load_machine
     from labkit.units import mw_to_s
 
     machine = load_machine(job.machine)
@@ -478,18 +478,18 @@ def compose_job(job: JobFile) -> ComposedJob:
     parts, info, warned = [], [], []
     for layer in order:
         s = _settings(job, layer, machine)
-        power_s = float(mw_to_s(s["power_mw"], s_max=job.s_max, max_power_mw=machine.laser_max_power_mw))
+        s_word = float(mw_to_s(s["power_mw"], s_max=job.s_max, max_power_mw=machine.laser_max_power_mw))
         if s["power_mw"] > machine.laser_max_power_mw:
             raise InputError(f"{job.path}: layer {layer.index}: power {s['power_mw']:g} mW is above the machine's "
                              f"{machine.laser_max_power_mw:g} mW")
         if layer.operation == "image":
-            moves = _image_moves(job, layer, s, power_s)
+            moves = _image_moves(job, layer, s, s_word)
         else:
-            moves, said = _vector_moves(job, layer, s, power_s)
+            moves, said = _vector_moves(job, layer, s, s_word)
             warned += [w for w in said if w not in warned]
         parts.append(moves)
         info.append(dict(index=layer.index, source=os.fspath(layer.source), operation=layer.operation,
-                         power_mw=s["power_mw"], power_s=round(power_s, 3), speed_mm_min=s["speed_mm_min"],
+                         power_mw=s["power_mw"], s_word=round(s_word, 3), speed_mm_min=s["speed_mm_min"],
                          passes=int(s["passes"]), kerf_mm=s["kerf_mm"], line_interval_mm=s["line_interval_mm"],
                          dynamic=bool(s["dynamic"]), material=s["material"], from_library=s["from_library"],
                          moves=len(moves)))

@@ -553,7 +553,7 @@ def apply_material(args, kind: str, *, raster_mode: str | None = None) -> str:
             if hasattr(args, f):
                 setattr(args, f, _plain(getattr(args, f)))
         return ""
-    from labkit.motion.machine import load_machine
+    from labkit.motion.spec import load_machine
     from labkit.units import mw_to_s
 
     machine = load_machine(args.machine)
@@ -569,8 +569,8 @@ def apply_material(args, kind: str, *, raster_mode: str | None = None) -> str:
                          f"{machine.name!r}; expected --machine {lib.machine} or that machine's library")
     m, op, s = lib.get(name, op)
     s_max = float(args.s_max)
-    power_s = float(mw_to_s(s.power_mw, s_max=s_max, max_power_mw=machine.laser_max_power_mw))
-    offered = {"feed": s.speed_mm_min, "power": round(power_s, 3)}
+    s_word = float(mw_to_s(s.power_mw, s_max=s_max, max_power_mw=machine.laser_max_power_mw))
+    offered = {"feed": s.speed_mm_min, "power": round(s_word, 3)}
     if kind == "vector":
         offered["passes"] = s.passes
         if op == "cut" and s.kerf_mm is not None:
@@ -583,7 +583,7 @@ def apply_material(args, kind: str, *, raster_mode: str | None = None) -> str:
                 offered["fill_spacing"] = s.line_interval_mm
     else:
         if raster_mode in ("gray", "dither"):
-            offered["max_power"] = round(min(power_s / s_max, 1.0), 6)
+            offered["max_power"] = round(min(s_word / s_max, 1.0), 6)
         if s.line_interval_mm is not None:
             offered["beam"] = s.line_interval_mm
     used, typed = [], []
@@ -601,7 +601,7 @@ def apply_material(args, kind: str, *, raster_mode: str | None = None) -> str:
             setattr(args, f, _plain(value))
     source = {"fit": f"fit {s.fit.get('file')}" if s.fit else "fit", "typed": "typed by hand",
               "starting-point": "a starting point, not measured on this machine"}[s.origin]
-    text = (f"{m.name}:{op} from {Path(path).name} ({source}; {s.power_mw:g} mW = S{power_s:g})"
+    text = (f"{m.name}:{op} from {Path(path).name} ({source}; {s.power_mw:g} mW = S{s_word:g})"
             f": library {' '.join(used) or 'nothing'}")
     if typed:
         text += f"; typed {' '.join(typed)}"

@@ -87,7 +87,7 @@ def _material(args) -> dict | None:
     if not spec:
         return None
     from labkit.materials import default_library_path, parse_material_spec, read_library
-    from labkit.motion.machine import load_machine
+    from labkit.motion.spec import load_machine
 
     path = getattr(args, "library", None) or default_library_path(load_machine(args.machine).name)
     lib = read_library(path)
@@ -131,7 +131,7 @@ def program_record(command: str, args, *, inputs: list, program, extra_outputs: 
         In the format of the module docstring, ``kind = "program"``.
     """
     from labkit import __version__
-    from labkit.motion.machine import load_machine
+    from labkit.motion.spec import load_machine
 
     text = Path(program).read_text("ascii")
     options = {k: _plain(v) for k, v in sorted(vars(args).items())
@@ -159,7 +159,7 @@ def stream_record(args, report, *, started: str, ended: str, machine_name: str, 
     command : list of str
         The command line that runs the job again.
     """
-    from labkit.motion.machine import load_machine
+    from labkit.motion.spec import load_machine
 
     stream = dict(started=started, ended=ended, ok=bool(report.ok), lines_total=report.lines_total,
                   lines_acknowledged=report.lines_acknowledged, elapsed_s=float(report.elapsed_s),

@@ -4,7 +4,7 @@ Lengths are millimetres inside labkit, feeds mm/min, times seconds, laser
 power either the controller's S value, milliwatts or a duty fraction 0…1.
 This module is the one home of the S ↔ duty ↔ mW conversions; the laser's power at
 full duty is stated once, in the machine description
-(``laser_max_power_mw`` of :mod:`labkit.motion.machine` and its TOML files), and passed in.
+(``laser_max_power_mw`` of :mod:`labkit.motion.spec` and its TOML files), and passed in.
 
 >>> inch_to_mm(1.0)
 25.4

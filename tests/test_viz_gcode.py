@@ -87,7 +87,7 @@ def test_big_jobs_are_drawn_as_an_image_small_ones_as_lines():
     n = IMAGE_ABOVE_MOVES // 2 + 1
     y = np.arange(n) * 0.1
     m = Moves.from_cuts(np.stack([np.zeros(n), y], 1), np.stack([np.full(n, 20.0), y], 1),
-                        feed_mm_min=3000, power_s=500)
+                        feed_mm_min=3000, s_word=500)
     assert len(m) > IMAGE_ABOVE_MOVES
     ax = plot_moves(m, colorbar=False)
     assert len(ax.images) == 2 and not ax.collections

@@ -79,7 +79,7 @@ def _jsdc_svg_with_arcs():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         drawing = read_svg(ROOT / "data" / "svg" / "cncjs" / "jsdc.svg", tol_mm=0.01)
-    return vector_job(drawing.paths, default=LayerSettings(feed_mm_min=1000, power_s=600), arcs=True,
+    return vector_job(drawing.paths, default=LayerSettings(feed_mm_min=1000, s_word=600), arcs=True,
                       tol_mm=0.01).moves
 
 

@@ -17,6 +17,7 @@ void SysTick_Handler(void);
 void TIM2_IRQHandler(void);
 void USART1_IRQHandler(void);
 void USART2_IRQHandler(void);
+void EXTI15_10_IRQHandler(void);
 
 #define NVIC_IRQS 82
 
@@ -36,6 +37,7 @@ void (*const vectors[16 + NVIC_IRQS])(void) = {
     [16 + 28] = TIM2_IRQHandler,
     [16 + 37] = USART1_IRQHandler,
     [16 + 38] = USART2_IRQHandler,
+    [16 + 40] = EXTI15_10_IRQHandler,   /* limit switches PB12-PB14 (hard limits) */
 };
 
 void Reset_Handler(void) {

@@ -23,8 +23,10 @@
   one port, read with one shift; PA7 is the Nucleo's D11 on the Arduino
   header). Inputs with pull-ups, GRBL's wiring: a normally open switch to
   ground reads low when pressed ($5 / $6 invert in limits.c). Limits are read
-  by homing in the main loop, the probe also in the step interrupt while a
-  G38.x runs. The QEMU build reads them as nothing pressed (below).
+  by homing in the main loop, and their change (a press or a release) raises
+  EXTI15_10, GRBL's hard-limit interrupt ($21=1, protocol_limit_pin_change);
+  the probe is also read in the step interrupt while a G38.x runs. The QEMU
+  build reads them as nothing pressed (below).
 
   Trace port (netduinoplus2 only): one byte per step tick on USART2,
   bits 0-2 steps X Y Z, bits 3-5 directions, bit 6 laser on. QEMU's
@@ -92,6 +94,16 @@
 #define TIM_ARR(t) REG((t) + 0x2C)
 #define TIM_CCR1(t) REG((t) + 0x34)
 
+/* SYSCFG (EXTI line routing) and EXTI: the limit pins' change interrupt (hard limits) */
+#define SYSCFG_EXTICR4 REG(0x40013800u + 0x14)
+#define EXTI_BASE 0x40013C00u
+#define EXTI_IMR REG(EXTI_BASE + 0x00)
+#define EXTI_RTSR REG(EXTI_BASE + 0x08)
+#define EXTI_FTSR REG(EXTI_BASE + 0x0C)
+#define EXTI_PR REG(EXTI_BASE + 0x14)
+#define LIMIT_LINES (7u << 12)     /* EXTI12..14: PB12..PB14 */
+#define EXTI15_10_IRQ 40
+
 /* Cortex-M */
 #define NVIC_ISER(n) REG(0xE000E100u + 4u * (n))
 #define NVIC_IPR(n) (*(volatile uint8_t *)(0xE000E400u + (n)))
@@ -150,7 +162,7 @@ static void clocks_init(void) {
 #endif
   RCC_AHB1ENR |= 0x7u;                           /* GPIO A B C */
   RCC_APB1ENR |= (1u << 0) | (1u << 1) | (1u << 17);   /* TIM2 TIM3 USART2 */
-  RCC_APB2ENR |= 1u << 4;                        /* USART1 */
+  RCC_APB2ENR |= (1u << 4) | (1u << 14);        /* USART1, SYSCFG */
 }
 
 static void gpio_init(void) {
@@ -167,6 +179,13 @@ static void gpio_init(void) {
   GPIO_PUPDR(GPIOB) = (GPIO_PUPDR(GPIOB) & ~(0x3Fu << 24)) | (0x15u << 24);
   GPIO_MODER(GPIOA) &= ~(3u << 14);
   GPIO_PUPDR(GPIOA) = (GPIO_PUPDR(GPIOA) & ~(3u << 14)) | (1u << 14);
+  /* GRBL's limit pin-change interrupt: EXTI12..14 from port B, on both edges (a press and a
+     release are both changes); protocol_limit_pin_change() decides ($21, the state) */
+  SYSCFG_EXTICR4 = (SYSCFG_EXTICR4 & ~0xFFFu) | 0x111u;
+  EXTI_RTSR |= LIMIT_LINES;
+  EXTI_FTSR |= LIMIT_LINES;
+  EXTI_PR = LIMIT_LINES;
+  EXTI_IMR |= LIMIT_LINES;
 }
 
 static void uart_init(uint32_t u, uint32_t clk_hz, int rx_irq) {
@@ -200,6 +219,10 @@ void board_init(void) {
   NVIC_IPR(28) = 0x00;                           /* step timer above everything */
   REG(0xE000ED20u) &= ~(0xFFu << 24);            /* SysTick priority 0 as well */
   NVIC_IPR(HOST_IRQ) = 0x40;
+  /* the limit pins at the step timer's priority: neither interrupts the other, so the beam the
+     pin interrupt switches off is not switched on again by a step interrupt it cut into */
+  NVIC_IPR(EXTI15_10_IRQ) = 0x00;
+  NVIC_ISER(EXTI15_10_IRQ / 32) = 1u << (EXTI15_10_IRQ % 32);
   NVIC_ISER(28 / 32) = 1u << (28 % 32);
   NVIC_ISER(HOST_IRQ / 32) = 1u << (HOST_IRQ % 32);
 #ifdef TRACE_UART
@@ -245,6 +268,13 @@ void SysTick_Handler(void) {
 #else
 void SysTick_Handler(void) { millis++; }
 #endif
+
+void EXTI15_10_IRQHandler(void) {
+  uint32_t pr = EXTI_PR & LIMIT_LINES;
+  EXTI_PR = pr;                                  /* write 1 to clear */
+  if (pr)
+    protocol_limit_pin_change();
+}
 
 static void host_uart_irq(void) {
   uint32_t sr = US_SR(HOST_UART);

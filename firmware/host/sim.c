@@ -49,8 +49,10 @@
   sign names; it reads pressed at or beyond that point (counted from the
   step pulses, whatever the core believes its position to be). "X:stuck" is
   a switch that is always pressed; an axis not named has none. The same
-  spec is what grbl-sim was given for the homing transcripts
+  spec is what grbl-sim was given for the homing and hard-limit transcripts
   (tests/vectors/grbl/README.md). Without the option no switch is wired.
+  A step that presses or releases a switch is the limit pins' change
+  interrupt (protocol_limit_pin_change): with $21=1, hard limits.
 
   Paced link (--baud N): the bytes the host writes reach the controller as
   over a UART at N baud, 8N1: one byte every 10/N s of SIMULATED time, each
@@ -131,6 +133,8 @@ static uint8_t tick_dwell;
 /* limit switches (--switches) */
 static uint8_t switch_wired, switch_stuck;
 static double switch_mm[3];
+static uint8_t switch_seen;       /* the pins as the last step left them */
+static uint8_t switch_changed;    /* a step changed them: the pin-change interrupt is pending */
 
 /* paced link (--baud) */
 static uint32_t baud;             /* 0: bytes reach the core as soon as they are read */
@@ -176,6 +180,15 @@ void hal_step_pulse(uint8_t step_bits) {
     if (step_bits & (1u << i)) {
       s[i] = (dir_bits & (1u << i)) ? -1 : 1;
       pos_steps[i] += s[i];
+    }
+  }
+  if (switch_wired & step_bits) {
+    /* the step that pressed or released a switch: the pins' change interrupt follows the step
+       interrupt (hal_poll), as on the board where both have the same priority */
+    uint8_t pins = hal_limits_read();
+    if (pins != switch_seen) {
+      switch_seen = pins;
+      switch_changed = 1;
     }
   }
   if (trace && !tick_dwell) {    /* a dwell has no ticks in labkit's step trace */
@@ -618,6 +631,10 @@ void hal_poll(void) {
     cycles += ((uint64_t)period_reg + 1u) * ((uint64_t)m->prescaler + 1u);
     ticks++;
     st_tick();
+    if (switch_changed) {        /* the limit pins' change interrupt (hard limits) */
+      switch_changed = 0;
+      protocol_limit_pin_change();
+    }
     /* the main loop keeps up with the interrupt (it must refill within
        ST_PREP_LEAD_MS): top the ticks up while the stepper runs */
     if ((i & 3) == 3 && timer_on)
@@ -777,6 +794,7 @@ int main(int argc, char **argv) {
     hal_storage_write(&s, sizeof s);
   }
   protocol_startup();
+  switch_seen = hal_limits_read();
   if (baud) {
     double hz = (double)plan_machine()->timer_clock_hz;
     byte_cycles = (uint64_t)(hz * 10.0 / baud + 0.5);

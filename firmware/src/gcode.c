@@ -427,7 +427,7 @@ uint8_t gc_execute_line(char *line)
 
   double scale = inches_new ? 25.4 : 1.0;
   double feed_new = gc.feed_mm_min;
-  float power_new = gc.power_s;
+  float power_new = gc.s_word;
   double dwell_s = 0.0, lookahead_p = 0.0;
   int axis_words = present[L_X] || present[L_Y] || present[L_Z];
   int motion_mode = motion_new >= 0 ? motion_new : gc.motion;
@@ -723,7 +723,7 @@ uint8_t gc_execute_line(char *line)
     settings_store_coord(nonmodal == 281 ? SET_N_COORD : SET_N_COORD + 1, gc.pos_mm);
   gc.line = present[L_N] ? (uint32_t)val[L_N] : gc_line_count;
   gc.feed_mm_min = feed_new;
-  gc.power_s = power_new;
+  gc.s_word = power_new;
   gc.laser = laser_new;
   if (coolant >= 0) {
     if (coolant == 7) gc.air |= 1;

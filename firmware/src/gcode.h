@@ -52,7 +52,7 @@ typedef struct {
   uint8_t air;           /* bit 0 M7, bit 1 M8 */
   uint8_t program_flow;  /* GC_FLOW_* of the last M0 M1 M2 M30 */
   double feed_mm_min;    /* 0 = no feed yet */
-  float power_s;         /* S word (float32, as labkit.gcode keeps it) */
+  float s_word;         /* S word (float32, as labkit.gcode keeps it) */
   double pos_mm[3];      /* where the last accepted move ends */
   uint32_t line;         /* N number of the last line, else lines counted */
   uint32_t lookahead;    /* last G5 P */

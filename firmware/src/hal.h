@@ -71,7 +71,10 @@ void hal_air_set(uint8_t bits);
    switch to ground, pull-up on: a low pin is a pressed switch); the core
    applies $5 / $6. limits.c gives defaults for a hal without them: nothing
    pressed. */
-uint8_t hal_limits_read(void);   /* (main) bit i: limit switch of axis i pressed */
+uint8_t hal_limits_read(void);   /* (main) bit i: limit switch of axis i pressed. A hal with
+                                    limit pins also calls protocol_limit_pin_change() (shell,
+                                    protocol.h) from the pins' change interrupt, on both edges,
+                                    never from inside st_tick(): GRBL's hard limits */
 uint8_t hal_probe_read(void);    /* 1: the probe touches. Also called from st_tick() while a
                                     probe cycle runs (GRBL reads it in its step interrupt):
                                     one pin read, nothing more */

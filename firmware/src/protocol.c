@@ -50,6 +50,32 @@ static uint8_t program_pause;
    write) only when every move before it has ended; no line is read meanwhile. */
 static uint8_t sync_ok;
 
+/* A line's ok is owed (grbl dialect): it comes when the line's wait ends (sync_ok: the moves
+   before it have ended; M0: '~') or, at the latest, at the reset that cuts the wait short,
+   after the reset's ALARM:3 and before its banner, as GRBL answers a line whose wait a reset
+   ended. Also the line that hit a soft limit and a line a hard limit caught waiting: their
+   ok comes with the reset. */
+static uint8_t ok_owed;
+
+/* The main loop's work runs inside a line's wait in gc_execute_line (a probe line waiting for
+   rest, the second block of a G28/G30): there a reset stops the motion at once and is
+   finished (banner, start-up lines) only after the line's reply, as GRBL's is. */
+static uint8_t in_wait;
+static uint8_t reset_pending;
+
+/* GRBL ends a program (M2, M30) once the moves before it have ended, or a reset has cut them
+   short: the overrides go back to 100 % and "[MSG:Pgm End]" comes before the line's ok. */
+static uint8_t program_end;
+
+static void end_program(void) {
+  if (!program_end)
+    return;
+  program_end = 0;
+  plan_set_overrides(100, 100);
+  laser_set_override(100);
+  report_feedback(MSG_PROGRAM_END);
+}
+
 uint8_t protocol_program_paused(void) { return program_pause; }
 
 /* A G38.x probe move (grbl dialect): 2..5 while it runs (its ok waits with
@@ -64,18 +90,22 @@ static double probe_hit_mm[3];
 /* G38.4 / G38.5 move until the probe stops touching. */
 static uint8_t probe_reached(uint8_t kind) { return limits_probe_touching() != (kind >= 4); }
 
-/* GRBL's critical event (a soft limit, grbl dialect): after "ALARM:2" and
-   "[MSG:Reset to continue]" nothing is read or reported until a reset, and
-   the line that hit the limit gets its ok then. */
+/* GRBL's critical events (a soft or hard limit, grbl dialect): after "ALARM:2" or "ALARM:1"
+   and "[MSG:Reset to continue]" nothing is read or reported until a reset; a line that was
+   waiting (the one that hit the soft limit, one a hard limit caught) gets its ok then. */
 static uint8_t critical;
 
-static void soft_limit_alarm(void) {
-  protocol_alarm(ALARM_SOFT_LIMIT);
+static void critical_alarm(uint8_t alarm) {
+  protocol_alarm(alarm);
   if (settings.dialect == GC_DIALECT_GRBL) {
     report_feedback(MSG_RESET_TO_CONTINUE);
     critical = 1;
   }
 }
+
+/* Hard limits ($21=1): the hal's limit pin-change interrupt (protocol_limit_pin_change) stops
+   the step timer and the beam at once and leaves the rest to the main loop (ALARM:1). */
+static volatile uint8_t limit_tripped;
 
 uint8_t protocol_hold_requested(void) { return hold_req; }
 
@@ -191,7 +221,8 @@ static void sync_positions(void) {
   gc_sync_position();
 }
 
-/* Stop everything now: motion, laser, queued blocks. */
+/* Stop everything now: motion, laser, queued blocks. Inside a line's wait the stepper's
+   abort is left for that wait to take: it gives the line up (gc_execute_line). */
 static void stop_all(void) {
   hold_req = 0;
   program_pause = 0;
@@ -199,7 +230,8 @@ static void stop_all(void) {
   laser_off();
   menu_focus_off();
   plan_reset();
-  (void)st_take_abort();
+  if (!in_wait)
+    (void)st_take_abort();
   sync_positions();
 }
 
@@ -224,6 +256,19 @@ void protocol_estop(void) {
   protocol_events |= EV_SYSTEM;
 }
 
+void protocol_limit_pin_change(void) {
+  /* GRBL's limit pin-change interrupt: any change, a press or a release, with hard limits on
+     ($21=1), except in an alarm (the machine is stopped and locked already) or while homing
+     (the cycle reads the switches itself, GRBL disables the interrupt for it) */
+  if (!(settings.flags & SET_FLAG_HARD_LIMITS) || state == PROTO_ALARM || state == PROTO_HOME ||
+      limit_tripped)
+    return;
+  hal_timer_stop();
+  laser_off();
+  limit_tripped = 1;
+  protocol_events |= EV_SYSTEM;
+}
+
 /* The soft-limit envelope in machine coordinates: GRBL's machine space is
    -$13x .. 0 (homing sets 0 at the switch end, whichever side $23 homes to);
    labkit-fw's is 0 .. travel. */
@@ -238,6 +283,19 @@ static uint8_t outside_envelope(const double mm[3]) {
   return 0;
 }
 
+static uint8_t jog(const char *p);
+static void startup_checks(void);
+
+/* A start-up line as GRBL runs it: its G-code parser takes a line that begins with '$' for a
+   jog and reads it from the fourth character on ("$J=G91X1F100": G91X1F100), whatever the
+   two before; a shorter one is error 1 there (the parser reads the '=' or a digit of "$Nn="
+   that GRBL's line buffer still holds past the shifted line's end). */
+static uint8_t startup_line_execute(char *line) {
+  if (line[0] != '$')
+    return gc_execute_line(line);
+  return strlen(line) < 3 ? STATUS_EXPECTED_LETTER : jog(line + 3);
+}
+
 /* GRBL runs the $N lines after a reset into Idle (never into an alarm) and
    echoes each with its verdict: ">G20G91:ok". */
 static void run_startup_lines(void) {
@@ -246,7 +304,7 @@ static void run_startup_lines(void) {
       continue;
     char line[LINE_BUFFER_SIZE];
     strcpy(line, settings.startup[i]);
-    uint8_t st = gc_execute_line(line);
+    uint8_t st = startup_line_execute(line);
     serial_putc('>');
     serial_write(settings.startup[i]);
     serial_putc(':');
@@ -255,16 +313,70 @@ static void run_startup_lines(void) {
   }
 }
 
-static void soft_reset(void) {
-  /* a reset in a finished hold loses no position: no alarm (GRBL) */
-  uint8_t at_rest_in_hold = st_state() == ST_HELD || (hold_req && st_is_idle());
-  uint8_t was_moving = !at_rest_in_hold && (!st_is_idle() || !plan_is_empty());
-  if (program_pause || critical || sync_ok)
-    report_status_message(STATUS_OK);
-  sync_ok = 0;   /* GRBL: the line held (M0, a soft limit) is answered now */
+/* Does a reset now cut a motion short (GRBL's ALARM:3)? Not in a finished hold (no position
+   is lost), nor in a dwell of the grbl dialect: GRBL dwells with its planner empty, in Idle. */
+static uint8_t reset_cuts_motion(void) {
+  if (st_state() == ST_HELD || (hold_req && st_is_idle()))
+    return 0;
+  if (settings.dialect == GC_DIALECT_GRBL && st_state() == ST_DWELL)
+    return 0;
+  return !st_is_idle() || !plan_is_empty();
+}
+
+/* The line GRBL would hold in its hands (grbl dialect): a G-code line that waits only for a
+   free planner slot. GRBL's parser has checked it and waits in mc_line for the slot; a reset
+   or a hard limit ends that wait, and the line is answered then. */
+static uint8_t pending_in_hand(void) {
+  return have_pending && !in_wait && settings.dialect == GC_DIALECT_GRBL && pending[0] != '$' &&
+         (state == PROTO_IDLE || state == PROTO_CHECK) && !sync_ok && !program_pause && !critical;
+}
+
+/* That line's verdict, taken on the stopped machine (GRBL's parser checked it before its wait;
+   what it queues never runs). */
+static uint8_t pending_verdict(char *line) {
+  have_pending = 0;
+  uint8_t st = gc_execute_line(line);
+  stop_all();
+  return st;
+}
+
+/* The first half of a reset (GRBL's mc_reset and what its main loop reports before the line
+   in hand is answered): ALARM:3 when a motion is cut short, motion and beam stopped at once,
+   the input dropped. The line waiting for a planner slot is answered now. */
+static uint8_t reset_was_moving;
+
+static void reset_stop(void) {
+  reset_was_moving = reset_cuts_motion();
+  if (reset_was_moving)
+    report_alarm(ALARM_ABORT_CYCLE);
+  char held[LINE_BUFFER_SIZE];
+  uint8_t in_hand = pending_in_hand();
+  if (in_hand)
+    memcpy(held, pending, LINE_BUFFER_SIZE);
   probe_cycle = 0;
   st_probe_disarm();
+  stop_all();
+  serial_rx_flush();
+  line_asm_reset(&rx_line);
+  have_pending = 0;
+  if (in_hand) {
+    ok_owed = 0;
+    report_status_message(pending_verdict(held));
+  }
+}
+
+/* The second half: the reply still owed (GRBL: the line whose wait the reset ended, M0, a
+   soft limit's line), then a fresh machine, the banner and the start-up lines. */
+static void reset_finish(void) {
+  uint8_t was_moving = reset_was_moving;
+  reset_pending = 0;
+  end_program();
+  if (ok_owed)
+    report_status_message(STATUS_OK);
+  ok_owed = 0;
+  sync_ok = 0;
   critical = 0;
+  limit_tripped = 0;
   stop_all();
   serial_rx_flush();
   line_asm_reset(&rx_line);
@@ -280,19 +392,15 @@ static void soft_reset(void) {
   (void)settings_apply();
   line_asm_set_dialect(&rx_line, settings.dialect);
   sync_positions();
-  if (was_moving || state == PROTO_ALARM || state == PROTO_SLEEP) {
-    if (was_moving)
-      report_alarm(ALARM_ABORT_CYCLE);
-    state = PROTO_ALARM;
-  } else {
-    state = PROTO_IDLE;
-  }
+  state = was_moving || state == PROTO_ALARM || state == PROTO_SLEEP ? PROTO_ALARM : PROTO_IDLE;
   flushed = 1;
   report_banner();
-  if (state == PROTO_ALARM)
-    report_feedback(MSG_ALARM_LOCK);
-  else
-    run_startup_lines();
+  startup_checks();
+}
+
+static void soft_reset(void) {
+  reset_stop();
+  reset_finish();
 }
 
 /* ------------------------------------------------------- $ commands */
@@ -409,10 +517,13 @@ static uint8_t store_startup_line(const char *p) {
   if (text[0]) {
     char run[LINE_BUFFER_SIZE];
     strcpy(run, text);
-    uint8_t st = run[0] == '$' ? STATUS_EXPECTED_LETTER : gc_execute_line(run);
+    uint8_t st = startup_line_execute(run);   /* a jog moves now, as GRBL's does */
     if (st != STATUS_OK)
       return st;
   }
+  /* GRBL writes its EEPROM only once the moves have ended (FORCE_BUFFER_SYNC_DURING_EEPROM_WRITE):
+     after a start-up jog the ok comes when the jog has ended */
+  uint8_t after_jog = state == PROTO_JOG && settings.dialect == GC_DIALECT_GRBL;
   /* GRBL accepts (and loses) a higher or a negative index; compared as a double, since a
      cast of a negative or huge one to an unsigned integer is undefined */
   double n = trunc(index);
@@ -424,6 +535,11 @@ static uint8_t store_startup_line(const char *p) {
        checksum and reads empty (tests/vectors/grbl/dollar_commands.json, $N2= then $I) */
     settings.build_info[0] = 0;
     settings_store();
+  }
+  if (after_jog) {
+    sync_ok = 1;
+    ok_owed = 1;
+    return REPLY_DONE;
   }
   return STATUS_OK;
 }
@@ -593,6 +709,7 @@ static void start_probe(uint8_t kind) {
   st_probe_arm(limits_probe_pin_at(kind < 4));   /* G38.4 / G38.5 wait for the touch to end */
   plan_flush();
   sync_ok = 1;
+  ok_owed = 1;
 }
 
 /* The probe move has ended (touched and stopped, or run out): GRBL's alarm
@@ -619,9 +736,10 @@ static void finish_probe(void) {
 
 /* Does the line need an idle machine (empty planner, stopped stepper)? */
 static uint8_t needs_idle(const char *line) {
-  if (line[0] != '$')            /* G-code waits for a jog to end (a probe line is checked at
-                                     once and waits for rest in gc_execute_line, as GRBL's) */
-    return state == PROTO_JOG;
+  if (line[0] != '$')            /* labkit-fw: G-code waits for a jog to end (GRBL refuses it; a
+                                     probe line is checked at once and waits for rest in
+                                     gc_execute_line, as GRBL's) */
+    return state == PROTO_JOG && settings.dialect != GC_DIALECT_GRBL;
   if (settings.dialect == GC_DIALECT_GRBL)
     return 0;                     /* GRBL answers at once: error:8 when not idle */
   const char *p = line + 1;
@@ -642,8 +760,8 @@ void protocol_execute_line(char *line) {
     st = system_command(line);
     if (st == REPLY_DONE)
       return;
-  } else if (state == PROTO_ALARM) {
-    st = STATUS_GCODE_LOCKED;
+  } else if (state == PROTO_ALARM || (state == PROTO_JOG && settings.dialect == GC_DIALECT_GRBL)) {
+    st = STATUS_GCODE_LOCKED;     /* GRBL refuses G-code during a jog too */
   } else if (state == PROTO_CHECK) {
     st = gc_execute_line(line);
     plan_reset();                 /* checked, never run */
@@ -652,12 +770,21 @@ void protocol_execute_line(char *line) {
       report_feedback(MSG_PROGRAM_END);
   } else {
     st = gc_execute_line(line);
+    if (reset_pending) {          /* a reset ended the line's wait: its reply, then the banner */
+      report_status_message(st);
+      return;
+    }
+    if (critical) {               /* a hard limit ended the wait: the ok comes with the reset */
+      ok_owed = 1;
+      return;
+    }
     if (st == STATUS_OK) {
       const gc_state_t *g = gc_state();
       if (settings.soft_limits && outside_envelope(g->pos_mm)) {
         if (settings.dialect != GC_DIALECT_GRBL)
           report_status_message(STATUS_OUT_OF_BOUNDS);
-        soft_limit_alarm();
+        critical_alarm(ALARM_SOFT_LIMIT);
+        ok_owed = critical;         /* GRBL: the line's ok comes with the reset */
         return;
       }
       if (g->probe_now && settings.dialect == GC_DIALECT_GRBL) {
@@ -666,21 +793,19 @@ void protocol_execute_line(char *line) {
       }
       if (g->stop_now == GC_FLOW_END) {
         plan_flush();
-        if (settings.dialect == GC_DIALECT_GRBL) {
-          plan_set_overrides(100, 100);  /* GRBL: a program end restores the overrides */
-          laser_set_override(100);
-          report_feedback(MSG_PROGRAM_END);
-        }
+        program_end = settings.dialect == GC_DIALECT_GRBL;   /* once the moves have ended */
       }
       protocol_events |= EV_RUNNER;
       if (g->stop_now == GC_FLOW_PAUSED && settings.dialect == GC_DIALECT_GRBL) {
         plan_flush();
         program_pause = 1;          /* the ok comes with '~' */
+        ok_owed = 1;
         return;
       }
       if (g->sync_now && settings.dialect == GC_DIALECT_GRBL) {
         plan_flush();
         sync_ok = 1;                /* the ok comes when the moves have ended */
+        ok_owed = 1;
         return;
       }
     }
@@ -706,15 +831,48 @@ static void apply_override_bytes(void) {
   laser_set_override((uint8_t)p);
 }
 
+/* A hard limit tripped (protocol_limit_pin_change has stopped the timer and the beam): GRBL's
+   critical alarm. A line GRBL would hold in its hands gets its verdict, an ok with the reset. */
+static void hard_limit_alarm(void) {
+  char held[LINE_BUFFER_SIZE];
+  uint8_t in_hand = pending_in_hand();
+  if (in_hand)
+    memcpy(held, pending, LINE_BUFFER_SIZE);
+  critical_alarm(ALARM_HARD_LIMIT);
+  limit_tripped = 0;                /* the alarm state keeps further changes out */
+  if (in_hand) {
+    uint8_t st = pending_verdict(held);
+    if (st == STATUS_OK)
+      ok_owed = 1;
+    else
+      report_status_message(st);
+  }
+}
+
 static void system_task(void) {
+  if (reset_pending && !in_wait)
+    reset_finish();               /* the reply of the line whose wait the reset ended has gone */
   uint16_t f = serial_take_flags(RT_RESET | RT_ESTOP | RT_HOLD | RT_DOOR | RT_RESUME |
                                  RT_JOG_CANCEL | RT_STATUS | RT_OVERRIDE);
+  if (limit_tripped)
+    hard_limit_alarm();
   if (f & RT_ESTOP) {
     report_feedback("E-stop");
     protocol_alarm(ALARM_ABORT_CYCLE);
+    if (ok_owed && !sync_ok && !critical) {
+      ok_owed = 0;                /* the M0 it ended */
+      report_status_message(STATUS_OK);
+    }
   }
   if (f & RT_RESET) {
-    soft_reset();
+    if (critical)
+      f &= (uint16_t)~RT_STATUS;  /* GRBL's critical wait answers no '?': its reset drops it */
+    if (in_wait) {
+      reset_stop();               /* the waiting line is answered first, then the banner */
+      reset_pending = 1;
+    } else {
+      soft_reset();
+    }
     f &= RT_STATUS;
   }
   if (f & RT_OVERRIDE)           /* before a status report asked for in the same pass */
@@ -745,14 +903,17 @@ static void system_task(void) {
       gc_state()->laser)
     report_overrides_next();
   was_held = held;
-  if (sync_ok && st_is_idle() && plan_is_empty() && !hold_req) {
+  if (sync_ok && !critical && st_is_idle() && plan_is_empty() && !hold_req) {
     sync_ok = 0;
+    ok_owed = 0;
     if (probe_cycle)
       finish_probe();
+    end_program();
     report_status_message(STATUS_OK);
   }
   if ((f & RT_RESUME) && program_pause && st_is_idle() && plan_is_empty()) {
     program_pause = 0;            /* M0 ends: its ok, then the next lines */
+    ok_owed = 0;
     report_status_message(STATUS_OK);
     f &= (uint16_t)~RT_RESUME;
   }
@@ -787,17 +948,17 @@ static void system_task(void) {
     for (int i = 0; i < 3; i++)
       d[i] = mm[i];
     if (outside_envelope(d))
-      soft_limit_alarm();
+      critical_alarm(ALARM_SOFT_LIMIT);
   }
   if ((f & RT_STATUS) && !critical)
     report_status_report();
 }
 
 static void parser_task(void) {
-  if (state == PROTO_SLEEP || program_pause || critical || sync_ok ||
-      (hold_req && settings.dialect == GC_DIALECT_GRBL))
-    return;                       /* asleep until a reset; M0 and GRBL's holds: until '~' */
   for (uint8_t n = 0; n < 8; n++) {     /* a few lines per pass, then let the others run */
+    if (state == PROTO_SLEEP || program_pause || critical || sync_ok || reset_pending ||
+        (hold_req && settings.dialect == GC_DIALECT_GRBL))
+      return;                     /* asleep until a reset; M0 and GRBL's holds: until '~' */
     if (have_pending) {
       if (needs_idle(pending) && (!plan_is_empty() || !st_is_idle())) {
         if (!flushed) {
@@ -843,7 +1004,9 @@ static void runner_task(void) {
 
 static void wait_hook(void) {
   hal_poll();
+  in_wait = 1;
   system_task();
+  in_wait = 0;
 }
 
 void protocol_init(void) {
@@ -855,13 +1018,32 @@ void protocol_init(void) {
   hold_req = 0;
   program_pause = 0;
   sync_ok = 0;
+  ok_owed = 0;
+  program_end = 0;
   critical = 0;
+  limit_tripped = 0;
+  reset_pending = 0;
+  in_wait = 0;
   probe_cycle = 0;
   flushed = 1;
   last_rx_ms = hal_millis();
   empty_slots = plan_free_slots();
   gc_set_wait_hook(wait_hook);
   protocol_events = EV_SYSTEM | EV_PARSER | EV_RUNNER | EV_MENU;
+}
+
+/* After the banner (power-up and reset): GRBL's CHECK_LIMITS_AT_INIT (hard limits on and a
+   switch pressed: locked, "[MSG:Check Limits]"), then the alarm lock's message, or the
+   start-up lines. */
+static void startup_checks(void) {
+  if ((settings.flags & SET_FLAG_HARD_LIMITS) && limits_pressed()) {
+    state = PROTO_ALARM;
+    report_feedback(MSG_CHECK_LIMITS);
+  }
+  if (state == PROTO_ALARM)
+    report_feedback(MSG_ALARM_LOCK);
+  else
+    run_startup_lines();
 }
 
 void protocol_startup(void) {
@@ -881,12 +1063,10 @@ void protocol_startup(void) {
   report_banner();                           /* readiness: the host waits for it */
   if (!good)
     report_feedback("settings restored");
-  if (settings.dialect == GC_DIALECT_GRBL && (settings.flags & SET_FLAG_HOMING)) {
-    state = PROTO_ALARM;                     /* GRBL (HOMING_INIT_LOCK): at power-up with homing on, */
-    report_feedback(MSG_ALARM_LOCK);  /* the position is unknown until $H (or $X) */
-    return;
-  }
-  run_startup_lines();
+  /* GRBL (HOMING_INIT_LOCK): at power-up with homing on the position is unknown until $H (or $X) */
+  if (settings.dialect == GC_DIALECT_GRBL && (settings.flags & SET_FLAG_HOMING))
+    state = PROTO_ALARM;
+  startup_checks();
 }
 
 void protocol_poll(void) {

@@ -85,6 +85,12 @@ void protocol_execute_line(char *line);
 void protocol_alarm(uint8_t alarm);
 /* Emergency stop input (board pin, simulator escape): call from any context. */
 void protocol_estop(void);
+/* Hard limits: the hal calls this from its limit pins' change interrupt, on every change (a
+   press or a release, both edges), as GRBL's pin-change interrupt fires. With $21=1, outside
+   an alarm and a homing cycle, it stops the step timer and the beam at once; the main loop
+   then raises ALARM:1 (grbl dialect: "[MSG:Reset to continue]", nothing more is read until a
+   reset). Any context. */
+void protocol_limit_pin_change(void);
 
 uint8_t protocol_state(void);
 uint8_t protocol_hold_requested(void);   /* '!' given and not yet resumed */

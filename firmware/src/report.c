@@ -161,8 +161,9 @@ const char *report_state_name(void) {
   switch (st_state()) {
   case ST_HOLDING: return "Hold:1";
   case ST_HELD: return "Hold:0";
-  case ST_RUN:
-  case ST_DWELL: return "Run";
+  case ST_RUN: return "Run";
+  case ST_DWELL:                 /* GRBL dwells (G4) with its planner empty, in Idle */
+    return settings.dialect == GC_DIALECT_GRBL ? "Idle" : "Run";
   default: break;
   }
   return plan_is_empty() ? "Idle" : "Run";
@@ -228,7 +229,7 @@ void report_status_report(void) {
   serial_putc(',');
   /* spindle mode ($32=0): the programmed S while M3/M4 is on (GRBL); laser mode: the beam now */
   uint8_t spindle = g->laser && !settings.laser_mode;
-  double s = spindle ? (double)g->power_s
+  double s = spindle ? (double)g->s_word
                      : (double)laser_current_duty() / (double)LK_LASER_PWM_TOP * gc_get_s_max();
   report_float(s, 0);
   uint8_t pins = limits_pressed();
@@ -321,7 +322,7 @@ void report_gcode_modes(void) {
     f /= 60.0;                    /* labkit-fw: F in mm/s */
   report_float(f, labkit ? 3 : 0);
   serial_write(" S");
-  report_float(g->power_s, labkit ? 1 : 0);
+  report_float(g->s_word, labkit ? 1 : 0);
   serial_write("]\r\n");
 }
 

@@ -342,6 +342,10 @@ void st_prep_buffer(void)
     t.flags = prep.k == 0 ? TICK_NEW_BLOCK : 0;
     if (b->kind == PLAN_BLOCK_DWELL) {
       if (prep.dwell_left == 0) {
+        /* a dwell of no time (G4 P0) queues no tick: the interrupt never loads it, so its slot
+           of the stepper's block ring is given back here (else four of them filled the ring
+           and no block could start again until a reset) */
+        if (prep.k == 0) blk_head--;
         end_block();
         continue;
       }

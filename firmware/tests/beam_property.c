@@ -20,6 +20,7 @@
 #include "protocol.h"
 #include "report.h"
 #include "serial.h"
+#include "settings.h"
 #include "status_codes.h"
 #include "stepper.h"
 
@@ -39,11 +40,18 @@ static uint8_t panel_last[3];      /* the last three panel events, newest last *
    counters, not the head), and a limit switch per axis BEAM_SWITCH_MM on its + side. */
 static uint8_t dir_now;
 static int32_t head_steps[3];
+static uint8_t pins_seen;          /* the switches as the last step left them */
+static uint8_t pins_changed;       /* the limit pins' change interrupt is pending */
 void hal_set_dir(uint8_t bits) { dir_now = bits; }
 void hal_step_pulse(uint8_t bits) {
   for (int a = 0; a < 3; a++)
     if (bits & (1u << a))
       head_steps[a] += (dir_now & (1u << a)) ? -1 : 1;
+  uint8_t pins = hal_limits_read();
+  if (pins != pins_seen) {
+    pins_seen = pins;
+    pins_changed = 1;
+  }
 }
 uint8_t hal_limits_read(void) {
   uint8_t pressed = 0;
@@ -80,6 +88,24 @@ void hal_laser_set(uint16_t duty) {
 
 uint16_t beam_output_duty(void) { return out_duty; }
 
+/* The limit pins' change interrupt (after the step interrupt that moved the head, as on the
+   board and in the simulator): with hard limits on ($21=1), outside an alarm and a homing
+   cycle, the step timer and the beam are off when it returns; the main loop's next pass then
+   finds the machine in alarm with nothing queued (beam_after_pass). */
+static uint8_t hard_limit_tripped;
+static void limit_pin_change(void) {
+  pins_changed = 0;
+  uint8_t armed = (settings.flags & SET_FLAG_HARD_LIMITS) && protocol_state() != PROTO_ALARM &&
+                  protocol_state() != PROTO_HOME;
+  protocol_limit_pin_change();
+  if (!armed)
+    return;
+  stats.hard_limits++;
+  hard_limit_tripped = 1;
+  if (out_duty || timer_on)
+    fail_fn("the beam or the step timer still on after a hard limit tripped");
+}
+
 /* The simulator's timer (host/sim.c): up to 32 ticks per pass, the
    buffer topped up as the main loop does; past the budget the host's
    Ctrl-X ends the input's motion (the parser's wait gives up with it). */
@@ -94,6 +120,8 @@ static void tick_work(void) {
     if (protocol_state() == PROTO_HOME)
       stats.ticks_homing++;
     st_tick();
+    if (pins_changed)
+      limit_pin_change();
     if (out_duty)
       stats.ticks_burning++;
     beam_check("step tick");
@@ -327,6 +355,9 @@ void beam_power_on(void) {
   focus_fired = 0;
   dir_now = 0;
   memset(head_steps, 0, sizeof head_steps);
+  pins_seen = 0;
+  pins_changed = 0;
+  hard_limit_tripped = 0;
   memset(panel_last, 0, sizeof panel_last);
   fuzz_set_poll(tick_work);
   fuzz_power_on();
@@ -336,6 +367,11 @@ void beam_power_on(void) {
 static void pass(const char *where) {
   protocol_poll();
   beam_check(where);
+  if (hard_limit_tripped) {        /* the pass after a hard limit: alarm, nothing queued */
+    hard_limit_tripped = 0;
+    if (protocol_state() != PROTO_ALARM || !st_is_idle() || !plan_is_empty() || out_duty)
+      failf("after a hard limit", "no alarm, motion queued or the beam on after a hard limit");
+  }
 }
 
 /* After a soft reset the beam is off and nothing is queued. A hold is taken

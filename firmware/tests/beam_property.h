@@ -15,7 +15,10 @@
       two OKs, at its focus duty, on a machine at rest (idle, nothing queued,
       no alarm, check mode or hold).
   After a soft reset (0x18) or an e-stop the beam is off and nothing is
-  queued. The core's own notion of the duty (laser_current_duty) always
+  queued; when a hard limit trips ($21=1: a step presses or releases a
+  limit switch) the beam and the step timer are off as the limit pins'
+  interrupt returns, and after the main loop's next pass the machine is in
+  alarm with nothing queued. The core's own notion of the duty (laser_current_duty) always
   equals the output. It is checked at every change of the duty, after every
   step-timer tick and after every main-loop pass. Reports are not read: the
   beam is the hal's output, the state the core's.
@@ -25,6 +28,8 @@
   Each axis has a limit switch BEAM_SWITCH_MM on the + side of where the head
   was at power-on (the head counted from the step pulses), so that $H runs
   GRBL's homing cycle to the end (with $22=1); the beam is off while homing.
+  A step that presses or releases one calls protocol_limit_pin_change()
+  after the step interrupt, as the board's pin interrupt does (hard limits).
   Programs linking this file are built with
     -Wl,--wrap=gc_execute_line -Wl,--wrap=gc_init
   so that the property sees every line the shell hands the parser.
@@ -76,6 +81,7 @@ typedef struct {
   uint64_t ticks_homing;             /* step ticks of homing cycles ($H) */
   uint32_t lines_ok, lines_burning;  /* accepted lines; of them, lines that command burning */
   uint32_t focus_fires, resets, estops, holds_burning;   /* hold taken while burning */
+  uint32_t hard_limits;              /* hard-limit trips ($21=1, a switch pressed or released) */
 } beam_stats_t;
 const beam_stats_t *beam_stats(void);
 

@@ -4,7 +4,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <stdio.h>
+
+#include "gcode.h"
 #include "hal.h"
+#include "laser.h"
 #include "planner.h"
 
 rec_t rec;
@@ -86,6 +90,22 @@ void hal_irq_enable(void) {}
 void hal_record_run(void)
 {
   while (rec.running) st_tick();
+}
+
+void hal_record_start_core(uint8_t dialect)
+{
+  st_init();
+  laser_init();
+  gc_init();
+  gc_set_dialect(dialect);
+  gc_set_wait_hook(hal_record_run);
+}
+
+uint8_t hal_record_line(const char *text)
+{
+  char buf[256];
+  snprintf(buf, sizeof buf, "%s", text);
+  return gc_execute_line(buf);
 }
 
 void hal_record_pump(void)

@@ -46,4 +46,10 @@ void hal_record_reset(void);
 void hal_record_run(void);        /* st_tick() while the timer runs */
 void hal_record_pump(void);       /* st_prep_buffer + run until nothing moves */
 
+/* The core started on this hal, after plan_init() and any planner settings: stepper, laser,
+   the parser in `dialect` (GC_DIALECT_*), its waits for a planner slot running the timer. */
+void hal_record_start_core(uint8_t dialect);
+/* One line through the parser, from a writable copy (gc_execute_line edits its line). */
+uint8_t hal_record_line(const char *text);
+
 #endif

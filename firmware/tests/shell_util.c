@@ -39,8 +39,12 @@ void shell_storage_clear(void) { storage_erase(); }
 
 uint32_t hal_millis(void) { return now_ms; }
 void shell_advance_ms(uint32_t ms) { now_ms += ms; }
+void (*shell_poll_hook)(void);
+
 /* The step timer of the recording hal ticks here (nothing without it). */
 void hal_poll(void) {
+  if (shell_poll_hook)
+    shell_poll_hook();
 #ifdef HAVE_REC
   for (int i = 0; i < 128 && rec.running; i++) {
     st_tick();

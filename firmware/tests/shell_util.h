@@ -10,5 +10,7 @@ void shell_send(const char *bytes); /* bytes through the RX interrupt, then poll
 void shell_advance_ms(uint32_t ms); /* move the fake clock */
 uint8_t *shell_storage(uint32_t *len);  /* the RAM storage area (tests corrupt it) */
 void shell_storage_clear(void);
+/* Called at every hal_poll (also inside the parser's waits): a test's input arriving there. */
+extern void (*shell_poll_hook)(void);
 
 #endif

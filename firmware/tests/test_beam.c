@@ -96,7 +96,7 @@ static size_t random_stream(uint8_t *buf, size_t cap) {
   static const char *const words[] = {"G0", "G1", "G1", "G1", "G2", "G3", "G80", "M3", "M3", "M4",
                                       "M5", "M2", "M30", "G4P1", "G91", "G90", "G20", "G21", "M8"};
   static const char *const system[] = {"$C\n", "$X\n", "$H\n", "$J=G91X1F600\n", "$$\n", "$G\n",
-                                       "$20=1\n", "$I\n", "$LCD\n", "$22=1\n"};
+                                       "$20=1\n", "$I\n", "$LCD\n", "$22=1\n", "$21=1\n", "$21=0\n"};
   static const char *const realtime[] = {"!", "~", "?", "\x18", "\x84", "\x85", "\x90", "\x91",
                                          "\x99", "\x9A", "\x9B", "\x95"};
   static const char *const text[] = {"(mm\xc2\xb2)", "\xc2\xb2", "\xb2\xb2", "\xb0\xb2\xb2",
@@ -107,13 +107,16 @@ static size_t random_stream(uint8_t *buf, size_t cap) {
      default: F in mm/s (labkit-fw) or mm/min (GRBL) */
   int grbl = (int)rnd(2);
   size_t k = put(buf, 0, cap, grbl ? "$208=1\n" : "$208=0\n");
+  if (rnd(4) == 0)                            /* hard limits on: the switches 5 mm out trip */
+    k = put(buf, k, cap, "$21=1\n");
   int lines = 5 + (int)rnd(25);
   char num[48];
   for (int l = 0; l < lines && k + 64 < cap; l++) {
     uint32_t kind = rnd(24);
     if (kind >= 20) {                         /* a cut, then maybe a pause and a hold */
-      snprintf(num, sizeof num, "G1X%uY%u.%uF%uS%uM%c\n", rnd(3), rnd(2), rnd(10), (5 + rnd(60)) * (grbl ? 60u : 1u),
-               1 + rnd(255), rnd(2) ? '3' : '4');
+      /* one in eight runs out to the switch 5 mm out on X (a hard limit with $21=1) */
+      snprintf(num, sizeof num, "G1X%uY%u.%uF%uS%uM%c\n", rnd(8) ? rnd(3) : 6 + rnd(2), rnd(2), rnd(10),
+               (5 + rnd(60)) * (grbl ? 60u : 1u), 1 + rnd(255), rnd(2) ? '3' : '4');
       k = put(buf, k, cap, num);
       if (rnd(2) && k + 2 < cap) {
         buf[k++] = BEAM_PANEL_ESCAPE;
@@ -299,18 +302,20 @@ int main(int argc, char **argv) {
   }
   CHECK(violations == 0);
   printf("test_beam: %d random streams, %llu ticks (%llu burning), %u of %u lines burn, "
-         "%u focus fires, %u holds while burning, %u resets, %u e-stops, %llu ticks homing\n",
+         "%u focus fires, %u holds while burning, %u resets, %u e-stops, %u hard-limit trips, "
+         "%llu ticks homing\n",
          streams, (unsigned long long)(st->ticks - zero.ticks),
          (unsigned long long)(st->ticks_burning - zero.ticks_burning),
          st->lines_burning - zero.lines_burning, st->lines_ok - zero.lines_ok,
          st->focus_fires - zero.focus_fires, st->holds_burning - zero.holds_burning,
-         st->resets - zero.resets, st->estops - zero.estops,
+         st->resets - zero.resets, st->estops - zero.estops, st->hard_limits - zero.hard_limits,
          (unsigned long long)(st->ticks_homing - zero.ticks_homing));
   /* not vacuous: the streams burned, held burning cuts, fired the focus beam, reset, e-stopped */
   CHECK(st->ticks_burning - zero.ticks_burning > 10000);
   CHECK(st->holds_burning > zero.holds_burning);
   CHECK(st->focus_fires > zero.focus_fires);
   CHECK(st->estops > zero.estops);
+  CHECK(st->hard_limits > zero.hard_limits);
   CHECK(st->ticks_homing > zero.ticks_homing);
   TEST_DONE("test_beam");
 }

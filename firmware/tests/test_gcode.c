@@ -184,26 +184,15 @@ static int failures, checks;
     }                                                      \
   } while (0)
 
-static void wait_hook(void) { hal_record_run(); }
-
 static void reset(uint8_t dialect)
 {
   hal_record_reset();
   settings_defaults(&settings);   /* no G54..G59 offsets left by an earlier G10 */
   plan_init();
-  st_init();
-  laser_init();
-  gc_init();
-  gc_set_dialect(dialect);
-  gc_set_wait_hook(wait_hook);
+  hal_record_start_core(dialect);
 }
 
-static uint8_t run(const char *text)
-{
-  char buf[256];
-  snprintf(buf, sizeof buf, "%s", text);
-  return gc_execute_line(buf);
-}
+static uint8_t run(const char *text) { return hal_record_line(text); }
 
 /* the block at the head of the planner, planned as the stepper would see it */
 static const plan_block_t *first_block(void)

@@ -54,8 +54,6 @@ static double urand(double lo, double hi)
   return lo + (hi - lo) * (double)(rng >> 8) / 16777216.0;
 }
 
-static void wait_hook(void) { hal_record_run(); }
-
 static void reset(uint8_t mode, uint8_t law, uint32_t depth)
 {
   hal_record_reset();
@@ -63,19 +61,10 @@ static void reset(uint8_t mode, uint8_t law, uint32_t depth)
   plan_set_mode(mode);
   plan_set_law(law);
   plan_set_depth(depth);
-  st_init();
-  laser_init();
-  gc_init();
-  gc_set_dialect(GC_DIALECT_LABKIT);
-  gc_set_wait_hook(wait_hook);
+  hal_record_start_core(GC_DIALECT_LABKIT);
 }
 
-static uint8_t run(const char *text)
-{
-  char buf[200];
-  snprintf(buf, sizeof buf, "%s", text);
-  return gc_execute_line(buf);
-}
+static uint8_t run(const char *text) { return hal_record_line(text); }
 
 /* a random job: lines, rapids, arcs, dwells, power changes; returns its end in mm */
 static void random_job(int n, int with_arcs, double end_mm[3], int pump_each_line)

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "gcode.h"
+#include "hal.h"
 #include "laser.h"
 #include "planner.h"
 #include "stepper.h"
@@ -18,9 +19,13 @@
 #include "shell_util.h"
 #include "status_codes.h"
 
+static uint8_t switch_seen;         /* the limit switch as the tests last saw it (below) */
+uint8_t hal_limits_read(void);
+
 static const char *run(const char *bytes) {
   shell_out_clear();
   shell_send(bytes);
+  switch_seen = hal_limits_read();   /* run() plays no pin interrupt: moves here trip nothing */
   return shell_out();
 }
 
@@ -142,6 +147,195 @@ static void test_probe(void) {
   probe_touch_x = INT32_MIN;
   o = run("$X\n");
   CHECK_HAS(o, "ok");
+}
+
+/* The limit switch of these tests: pressed once X is at or beyond switch_x steps; passes()
+   plays the limit pins' change interrupt after each pass (the test hal ticks 128 a pass). */
+static int32_t switch_x = INT32_MAX;
+uint8_t hal_limits_read(void) {
+  int32_t p[3];
+  st_get_position(p);
+  return p[0] >= switch_x ? HAL_AXIS_X : 0u;
+}
+static void passes(int n) {
+  for (int i = 0; i < n; i++) {
+    protocol_poll();
+    uint8_t now = hal_limits_read();
+    if (now != switch_seen) {
+      switch_seen = now;
+      protocol_limit_pin_change();
+    }
+  }
+}
+/* Bytes as a host sends them (passes while the RX ring fills), then n passes after the host
+   has gone quiet (the look-ahead is flushed). */
+static const char *feed(const char *bytes, int n) {
+  shell_out_clear();
+  for (const char *p = bytes; *p; p++) {
+    serial_rx_isr((uint8_t)*p);
+    if (serial_rx_count() > 100)
+      passes(4);
+  }
+  passes(20);                       /* the parser takes 8 bytes a pass */
+  shell_advance_ms(100);
+  passes(n);
+  return shell_out();
+}
+
+#define BANNER "\r\nGrbl 1.1h ['$' for help]\r\n"
+#define LOCKED "[MSG:'$H'|'$X' to unlock]\r\n"
+
+/* The host's Ctrl-X once the head has passed X 5 mm (a shell_poll_hook). */
+static void reset_at_x5(void) {
+  int32_t p[3];
+  st_get_position(p);
+  if (p[0] >= (int32_t)lround(5.0 * plan_machine()->steps_per_mm[0])) {
+    serial_rx_isr(0x18);
+    shell_poll_hook = NULL;
+  }
+}
+
+/* GRBL answers a line whose wait a reset ends: ALARM:3 when the reset cut a move short, the
+   line's reply, then the banner (tests/vectors/grbl/reset_wait.json). */
+static void test_reset_while_waiting(void) {
+  run("$X\nG90 G0 X0 Y0\nG4 P0\n");
+  /* a dwell from rest: GRBL dwells in Idle, with its planner empty; the reset loses nothing */
+  const char *o = feed("G4 P100\n", 20);
+  CHECK(!strcmp(o, ""));
+  CHECK(st_state() == ST_DWELL);
+  o = feed("?", 2);
+  CHECK_HAS(o, "<Idle|");
+  o = feed("\x18", 2);
+  CHECK(!strcmp(o, "ok\r\n" BANNER));
+  CHECK(protocol_state() == PROTO_IDLE);
+  /* a G4, an M2, a probe behind a move */
+  static const char *const behind[] = {"G4 P0\n", "M2\n", "G38.2 Z-5 F100\n"};
+  static const char *const replies[] = {"ok\r\n", "[MSG:Pgm End]\r\nok\r\n", "ok\r\n"};
+  for (int k = 0; k < 3; k++) {
+    char line[64];
+    snprintf(line, sizeof line, "G1 X%d F600\n%s", 20 + k, behind[k]);
+    o = feed(line, 30);
+    CHECK(!strcmp(o, "ok\r\n"));
+    CHECK(!st_is_idle());
+    o = feed("\x18", 2);
+    char want[160];
+    snprintf(want, sizeof want, "ALARM:3\r\n%s" BANNER LOCKED, replies[k]);
+    CHECK(!strcmp(o, want));
+    run("$X\nG90 G0 X0\nG4 P0\n");
+    CHECK(st_is_idle() && plan_is_empty());
+  }
+  /* the reset while the probe line waits inside the parser (gc_execute_line's wait for rest):
+     the wait gives the line up, its ok, then the banner; the probe never runs */
+  int32_t at[3], z0;
+  st_get_position(at);
+  z0 = at[2];
+  shell_poll_hook = reset_at_x5;
+  o = feed("G1 X20 F600\nG38.2 Z-5 F100\n", 30);
+  shell_poll_hook = NULL;
+  CHECK(!strcmp(o, "ok\r\nALARM:3\r\nok\r\n" BANNER LOCKED));
+  st_get_position(at);
+  CHECK(at[2] == z0 && at[0] < (int32_t)lround(6.0 * plan_machine()->steps_per_mm[0]));
+  CHECK(st_is_idle() && plan_is_empty());
+  run("$X\nG90 G0 X0\nG4 P0\n");
+  /* dwells of no time (a sender's sync) one after another: the machine still moves after them */
+  o = run("G4 P0\nG4 P0\nG4 P0\nG4 P0\nG4 P0\nG4 P0\nG0 X1\nG4 P0\n");
+  CHECK(count_of(o, "ok\r\n") == 8);
+  st_get_position(at);
+  CHECK(at[0] == (int32_t)lround(plan_machine()->steps_per_mm[0]));
+  run("G0 X0\nG4 P0\n");
+  /* a line waiting for a planner slot (GRBL's line in hand, waiting in mc_line): answered at
+     the reset, its error if it has one, and nothing after it runs */
+  for (int bad = 0; bad < 2; bad++) {
+    shell_out_clear();
+    int sent = 0;
+    while (plan_free_slots() > 0 && sent < 3 * PLAN_BUFFER_SIZE) {
+      feed(sent % 2 ? "G1X0\n" : "G1X10F600\n", 2);
+      sent++;
+    }
+    CHECK(plan_free_slots() == 0);
+    o = feed(bad ? "G1Q1\nG1X5\n" : "G1X5\nG1X6\n", 4);
+    CHECK(!strcmp(o, ""));
+    o = feed("\x18", 2);
+    CHECK(!strcmp(o, bad ? "ALARM:3\r\nerror:20\r\n" BANNER LOCKED : "ALARM:3\r\nok\r\n" BANNER LOCKED));
+    CHECK(st_is_idle() && plan_is_empty() && serial_rx_count() == 0);
+    run("$X\nG90 G0 X0\nG4 P0\n");
+  }
+}
+
+/* Hard limits ($21=1): a switch at X 5 mm (tests/vectors/grbl/hard_limits.json). */
+static void test_hard_limits(void) {
+  run("G90 G0 X0\nG4 P0\n");
+  switch_x = (int32_t)lround(5.0 * plan_machine()->steps_per_mm[0]);
+  switch_seen = hal_limits_read();
+  CHECK(switch_seen == 0);
+  run("$21=1\n");
+  /* a cut into the switch: GRBL's critical alarm, the beam off, nothing read until a reset */
+  const char *o = feed("G1 X10 F600 S500 M3\n", 20000);
+  CHECK(!strcmp(o, "ok\r\nALARM:1\r\n[MSG:Reset to continue]\r\n"));
+  CHECK(protocol_state() == PROTO_ALARM);
+  CHECK(laser_current_duty() == 0 && st_is_idle() && plan_is_empty());
+  int32_t at[3];
+  st_get_position(at);
+  CHECK(at[0] >= switch_x && at[0] < switch_x + 200);   /* stopped within a pass of the switch */
+  o = feed("?G0 X0\n", 20);
+  CHECK(!strcmp(o, ""));
+  o = feed("?\x18", 2);                     /* the switch is still pressed: GRBL's check at reset;
+                                               a '?' of the critical wait is never answered */
+  CHECK(!strcmp(o, BANNER "[MSG:Check Limits]\r\n" LOCKED));
+  o = feed("$X\n", 2);
+  CHECK_HAS(o, "[MSG:Caution: Unlocked]");
+  /* moving off the switch releases it: a change of the pin, an alarm too */
+  o = feed("G0 X4\n", 20000);
+  CHECK(!strcmp(o, "ok\r\nALARM:1\r\n[MSG:Reset to continue]\r\n"));
+  o = feed("\x18", 2);
+  CHECK(!strcmp(o, BANNER LOCKED));
+  /* a G4 waiting for the move when the switch trips: its ok comes with the reset */
+  run("$X\n$21=0\nG0 X0\nG4 P0\n$21=1\n");
+  o = feed("G1 X10 F600\nG4 P0\n", 20000);
+  CHECK(!strcmp(o, "ok\r\nALARM:1\r\n[MSG:Reset to continue]\r\n"));
+  o = feed("\x18", 2);
+  CHECK(!strcmp(o, "ok\r\n" BANNER "[MSG:Check Limits]\r\n" LOCKED));
+  /* a jog into it; with $21=0 nothing trips */
+  run("$X\n$21=0\nG0 X0\nG4 P0\n$21=1\n");
+  o = feed("$J=G91 X10 F600\n", 20000);
+  CHECK(!strcmp(o, "ok\r\nALARM:1\r\n[MSG:Reset to continue]\r\n"));
+  feed("\x18", 2);
+  run("$X\n$21=0\nG0 X0\nG4 P0\n");
+  o = feed("G1 X10 F600\nG0 X0\nG4 P0\n", 40000);
+  CHECK(!strcmp(o, "ok\r\nok\r\nok\r\n"));
+  CHECK(protocol_state() == PROTO_IDLE);
+  switch_x = INT32_MAX;
+  switch_seen = 0;
+}
+
+/* A start-up line that is a jog, as GRBL takes it (tests/vectors/grbl/startup_jog.json), and
+   G-code during a jog. */
+static void test_startup_jog(void) {
+  run("G90 G0 X0\nG4 P0\n");
+  const double spm = plan_machine()->steps_per_mm[0];
+  const char *o = feed("$N0=$J=G91X5F600\n", 0);
+  CHECK(!strcmp(o, ""));                    /* GRBL writes its EEPROM once the jog has ended */
+  CHECK(protocol_state() == PROTO_JOG);
+
+  o = run("");
+  CHECK(!strcmp(o, "ok\r\n"));
+  int32_t at[3];
+  st_get_position(at);
+  CHECK(at[0] == (int32_t)lround(5.0 * spm));
+  o = run("$N\n");
+  CHECK_HAS(o, "$N0=$J=G91X5F600\r\n");
+  o = run("\x18");                          /* run after the banner, as a jog */
+  CHECK(!strcmp(o, BANNER ">$J=G91X5F600:ok\r\n"));
+  st_get_position(at);
+  CHECK(at[0] == 2 * (int32_t)lround(5.0 * spm));
+  CHECK(!strcmp(run("$N1=$J=X1\n"), "error:22\r\n"));
+  CHECK(!strcmp(run("$N1=$J\n"), "error:1\r\n"));   /* too short for GRBL's jog parser */
+  CHECK(!strcmp(run("$N1=$X\n"), "error:1\r\n"));
+  CHECK(!strcmp(run("$N0=\n"), "ok\r\n"));
+  o = feed("$J=G91X-5F600\nG0X0\n$N0=\n", 0);  /* G-code during a jog: GRBL's error 9 */
+  CHECK(!strcmp(o, "ok\r\nerror:9\r\nerror:8\r\n"));
+  run("");
+  CHECK(protocol_state() == PROTO_IDLE);
 }
 
 /* GRBL sends Ov: in at least one report of ten at rest: ask until it comes. */
@@ -360,6 +554,10 @@ int main(int argc, char **argv) {
   test_probe();
 
   test_overrides();
+
+  test_reset_while_waiting();
+  test_hard_limits();
+  test_startup_jog();
 
   /* $RST=* restores the defaults (dialect included): GRBL's message, ok, then the reset */
   run("$208=0\n");

@@ -11,7 +11,8 @@ from __future__ import annotations
 import argparse
 import math
 
-__all__ = ["number", "integer", "tolerance_option", "TOL_MIN_MM", "TOL_MAX_MM"]
+__all__ = ["number", "integer", "tolerance_option", "TOL_MIN_MM", "TOL_MAX_MM", "FEED", "add_dialect_option",
+           "add_cut_options", "add_line_grid_options", "add_machine_options", "check_fits"]
 
 #: The range of every tolerance option (``--tol``, ``--arc-tol``), mm. Below 0.1 µm no
 #: laser machine can tell the difference and flattening explodes; above 10 mm a circle
@@ -102,6 +103,42 @@ def integer(lo: int | None = None, hi: int | None = None):
 FEED = number(1, 1_000_000)
 
 
+def add_dialect_option(parser, *, reads: bool = False) -> None:
+    """``--dialect``, one of :data:`labkit.gcode.dialects.DIALECTS` (default grbl): the dialect a
+    command writes its program in, or (``reads``) the one it reads the program in."""
+    from labkit.gcode.dialects import DIALECTS
+
+    parser.add_argument("--dialect", choices=list(DIALECTS), default="grbl",
+                        help="how F, G4 P and S are read (default: grbl)" if reads
+                        else "G-code dialect (default grbl)")
+
+
+def add_cut_options(parser) -> None:
+    """``--feed`` (mm/min, default 600), ``--power`` (the S word, default 1000) and ``--dialect``
+    of a command that writes its program at one feed and power."""
+    parser.add_argument("--feed", type=FEED, default=600.0, metavar="MM_MIN",
+                        help="cutting feed, 1…1e6 mm/min (default 600)")
+    parser.add_argument("--power", type=number(0, 1000), default=1000.0, metavar="S",
+                        help="laser power word S, 0…1000 (default 1000)")
+    add_dialect_option(parser)
+
+
+def add_line_grid_options(parser, *, line_mm: float, pitch_mm: float, overscan_mm: float | None,
+                          shortest_line_mm: float = 0.1) -> None:
+    """``--line``, ``--pitch`` and ``--overscan`` of a test pattern of parallel burned lines
+    (:func:`labkit.laser.patterns.grid_pattern`), mm, with these defaults: each line's burned
+    length (at least ``shortest_line_mm``), the distance between rows and the beam-off run before
+    and after each line (``overscan_mm`` None: the pattern's own, what the machine needs to reach
+    the fastest feed)."""
+    parser.add_argument("--line", type=number(shortest_line_mm, 1000), default=line_mm, metavar="MM",
+                        help=f"burned length of each line, {shortest_line_mm:g}…1000 mm (default {line_mm:g})")
+    parser.add_argument("--pitch", type=number(0.05, 100), default=pitch_mm, metavar="MM",
+                        help=f"distance between rows, 0.05…100 mm (default {pitch_mm:g})")
+    shown = "what the machine needs to reach the fastest feed" if overscan_mm is None else f"{overscan_mm:g}"
+    parser.add_argument("--overscan", type=number(0, 100), default=overscan_mm, metavar="MM",
+                        help=f"beam-off run before and after each line, 0…100 mm (default {shown})")
+
+
 def add_machine_options(parser) -> None:
     """``--machine`` and ``--force``: the job is checked against the machine's travel."""
     parser.add_argument("--machine", default=None, metavar="NAME|TOML",
@@ -115,7 +152,7 @@ def check_fits(args, size_mm, what: str = "the job") -> None:
     """Refuse (or, with ``--force``, warn about) a job larger than ``--machine``'s travel."""
     import sys
 
-    from labkit.motion.machine import check_job_fits
+    from labkit.motion.spec import check_job_fits
 
     msg = check_job_fits(size_mm, args.machine, force=args.force, what=what)
     if msg:

@@ -20,8 +20,7 @@ import json
 
 
 def add_cutwidth_arguments(parser):
-    from labkit.commands._args import integer, number
-    from labkit.gcode.dialects import DIALECTS
+    from labkit.commands._args import add_dialect_option, add_line_grid_options, integer, number
 
     sub = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
 
@@ -34,17 +33,12 @@ def add_cutwidth_arguments(parser):
                    help="spacing of LO:HI:N ranges (default linear)")
     p.add_argument("-o", "--output", required=True, metavar="GRID.gcode",
                    help="G-code to write; the layout goes to the same name with .json")
-    p.add_argument("--line", type=number(0.1, 1000), default=10.0, metavar="MM",
-                   help="burned length of each line, 0.1…1000 mm (default 10)")
-    p.add_argument("--pitch", type=number(0.05, 100), default=2.0, metavar="MM",
-                   help="distance between rows, 0.05…100 mm (default 2)")
-    p.add_argument("--overscan", type=number(0, 100), default=3.0, metavar="MM",
-                   help="beam-off run before and after each line, 0…100 mm (default 3)")
+    add_line_grid_options(p, line_mm=10.0, pitch_mm=2.0, overscan_mm=3.0)
     p.add_argument("--repeats", type=integer(1, 100), default=1, metavar="N", help="copies of each line (default 1)")
     p.add_argument("--passes", type=integer(1, 100), default=1, metavar="N", help="passes per line (default 1)")
     p.add_argument("--max-power", type=number(1, 1e6), default=None, metavar="MW",
                    help="power at full S, mW (default the CBR-40's 2500)")
-    p.add_argument("--dialect", choices=list(DIALECTS), default="grbl", help="G-code dialect (default grbl)")
+    add_dialect_option(p)
 
     m = sub.add_parser("measure", help="measure every line's width in a scan of the burned grid")
     m.add_argument("scan", metavar="SCAN.png", help="scan or photograph (burn dark on light)")
@@ -158,7 +152,7 @@ def _measure(args) -> int:
 
     from labkit._files import atomic_output, check_output_file, figure_format, read_json
     from labkit.errors import InputError
-    from labkit.laser.measure import check_layout, measure_lines, register, scale_from_reference
+    from labkit.laser.measure import WIDTHS_HEADER, check_layout, measure_lines, register, scale_from_reference
     from labkit.raster.color import to_gray
     from labkit.raster.io import read_image
     from labkit.viz.laser import plot_scan_annotations
@@ -190,9 +184,10 @@ def _measure(args) -> int:
     turn = round(-float(np.degrees(tf.rotation)) / 90.0) * 90 % 360
     out = df.assign(material=args.material, thickness_mm=args.thickness, machine=args.machine,
                     beam_mm=args.beam, cut_through="", notes=args.notes or f"measured from {Path(args.scan).name}")
-    cols = ["material", "thickness_mm", "machine", "beam_mm", "power_mw", "power_s", "speed_mm_min",
+    cols = ["material", "thickness_mm", "machine", "beam_mm", "power_mw", "s_word", "speed_mm_min",
             "width_mm", "cut_through", "repeat", "notes", "row", "col", "width_sd_mm", "burned_fraction", "burned"]
     with atomic_output(args.output, newline="") as fh:
+        fh.write(WIDTHS_HEADER + "\n")
         out[cols].to_csv(fh, index=False, float_format="%.6g")
     _save(lambda ax: plot_scan_annotations(img, layout, df, ax, transform=tf), png,
            size=(9, 9 * img.shape[0] / img.shape[1]))

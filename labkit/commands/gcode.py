@@ -4,14 +4,12 @@ from __future__ import annotations
 
 import sys
 
-from labkit.commands._args import integer, number
-from labkit.gcode.dialects import DIALECTS
+from labkit.commands._args import add_dialect_option, integer, number
 
 
 def _add_common(parser):
     parser.add_argument("file", help="G-code file")
-    parser.add_argument("--dialect", choices=list(DIALECTS), default="grbl",
-                        help="how F, G4 P and S are read (default: grbl)")
+    add_dialect_option(parser, reads=True)
 
 
 def _read(path):

@@ -26,7 +26,7 @@ def run_job(args) -> int:
     from labkit.gcode import emit
     from labkit.gcode.simulate import summarize
     from labkit.jobfile import compose_job, read_job
-    from labkit.motion.machine import check_job_fits
+    from labkit.motion.spec import check_job_fits
     from labkit.record import default_record_path, program_record, write_record
 
     job = read_job(args.job)
@@ -62,7 +62,7 @@ def run_job(args) -> int:
     for d in composed.layers:
         lib = f", library: {' '.join(d['from_library'])}" if d["from_library"] else ""
         lines.append(f"layer {d['index']} {d['operation']} {Path(d['source']).name}: {d['power_mw']:g} mW = "
-                     f"S{d['power_s']:g}, {d['speed_mm_min']:g} mm/min, {d['passes']} pass(es)"
+                     f"S{d['s_word']:g}, {d['speed_mm_min']:g} mm/min, {d['passes']} pass(es)"
                      + (f", kerf {d['kerf_mm']:g} mm" if d["kerf_mm"] else "")
                      + (f", material {d['material']}{lib}" if d["material"] else ""))
     text = emit(moves, dialect=job.dialect, travel_beam_off=args.travel_beam_off or None,

@@ -69,7 +69,7 @@ def _open(args, *, create: bool = False):
     from pathlib import Path
 
     from labkit.materials import Library, default_library_path, read_library
-    from labkit.motion.machine import load_machine
+    from labkit.motion.spec import load_machine
 
     machine = load_machine(args.machine).name
     path = Path(args.library) if args.library else default_library_path(machine)
@@ -150,7 +150,7 @@ def _add(args) -> int:
 
 def _from_fit(args) -> int:
     from labkit.materials import setting_from_fit
-    from labkit.motion.machine import load_machine
+    from labkit.motion.spec import load_machine
 
     lib = _open(args, create=True)
     machine = load_machine(args.machine)

@@ -9,11 +9,9 @@ and after (:mod:`labkit.micromachining.feedschedule`).
 
 from __future__ import annotations
 
-from labkit.gcode.dialects import DIALECTS
-
 
 def add_millfeed_arguments(parser):
-    from labkit.commands._args import integer, number
+    from labkit.commands._args import add_dialect_option, integer, number
 
     parser.add_argument("file", metavar="FILE", help="micro-milling G-code program")
     parser.add_argument("-o", "--output", required=True, metavar="OUT.gcode", help="program to write")
@@ -41,7 +39,7 @@ def add_millfeed_arguments(parser):
                         help="stock thickness T, mm (default 1)")
     parser.add_argument("--cell", type=number(0.0001, 10), default=0.005, metavar="MM",
                         help="z-map cell size, 0.0001…10 mm (default 0.005)")
-    parser.add_argument("--dialect", choices=list(DIALECTS), default="grbl", help="G-code dialect (default grbl)")
+    add_dialect_option(parser)
 
 
 def run_millfeed(args) -> int:

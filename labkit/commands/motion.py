@@ -15,11 +15,10 @@ from __future__ import annotations
 import json
 import sys
 
-from labkit.gcode.dialects import DIALECTS
 
 
 def _add_common(parser):
-    from labkit.commands._args import integer, number, tolerance_option
+    from labkit.commands._args import add_dialect_option, integer, number, tolerance_option
     from labkit.motion.planner import PLANNERS
 
     parser.add_argument("file", help="G-code file")
@@ -36,8 +35,7 @@ def _add_common(parser):
     parser.add_argument("--arc-tol", **tolerance_option(
         "cut arcs into chords at this tolerance (GRBL $12) instead of walking them as octant "
         "Bresenham arcs", None))
-    parser.add_argument("--dialect", choices=list(DIALECTS), default="grbl",
-                        help="how F, G4 P and S are read (default: grbl)")
+    add_dialect_option(parser, reads=True)
     parser.add_argument("--lenient", action="store_true",
                         help="skip rejected lines (as a controller would) instead of failing")
 

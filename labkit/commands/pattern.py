@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 
-from labkit.gcode.dialects import DIALECTS
 
 #: coordinates and sizes, mm: a laser machine's table is far below a 10 m square
 _COORD = (-10_000.0, 10_000.0)
@@ -17,14 +16,10 @@ _SIZE = (0.001, 10_000.0)
 
 
 def _common(p):
-    from labkit.commands._args import FEED, number
+    from labkit.commands._args import add_cut_options
 
     p.add_argument("-o", "--output", required=True, metavar="OUT.gcode", help="G-code file to write")
-    p.add_argument("--feed", type=FEED, default=600.0, metavar="MM_MIN",
-                   help="cutting feed, 1…1e6 mm/min (default 600)")
-    p.add_argument("--power", type=number(0, 1000), default=1000.0, metavar="S",
-                   help="laser power word S, 0…1000 (default 1000)")
-    p.add_argument("--dialect", choices=list(DIALECTS), default="grbl", help="G-code dialect (default grbl)")
+    add_cut_options(p)
 
 
 def _centre(p, z_name="--z"):
@@ -42,10 +37,11 @@ def _sub(sub, name, help_text):
     return p
 
 
-def _size(help_text, default):
+def _size(help_text, default, lo=_SIZE[0]):
     from labkit.commands._args import number
 
-    return dict(type=number(*_SIZE), default=default, metavar="MM", help=f"{help_text}, 0.001…10000 mm (default {default:g})")
+    return dict(type=number(lo, _SIZE[1]), default=default, metavar="MM",
+                help=f"{help_text}, {lo:g}…{_SIZE[1]:g} mm (default {default:g})")
 
 
 def add_pattern_arguments(parser):
@@ -62,8 +58,7 @@ def add_pattern_arguments(parser):
 
     s = _sub(sub, "spiral", "Archimedean spiral r = a + b·θ closed by a full circle")
     s.add_argument("--radius", **_size("outer radius (closing circle)", 5.0))
-    s.add_argument("--inner", type=number(0, 10_000), default=0.0, metavar="MM",
-                   help="inner radius a, 0…10000 mm, below --radius (default 0)")
+    s.add_argument("--inner", **_size("inner radius a, below --radius", 0.0, lo=0))
     s.add_argument("--step", **_size("radial step per turn", 0.2))
     s.add_argument("--tol", **tol)
 
@@ -80,8 +75,7 @@ def add_pattern_arguments(parser):
     z.add_argument("--step", **_size("step-over", 0.5))
     z.add_argument("--along", choices=("x", "y", "z"), default="x", help="pass direction (default x)")
     z.add_argument("--plane", choices=("xy", "xz"), default="xy", help="face plane (default xy)")
-    z.add_argument("--lead", type=number(0, 10_000), default=0.0, metavar="MM",
-                   help="laser-off lead-in/out per pass, 0…10000 mm (default 0)")
+    z.add_argument("--lead", **_size("laser-off lead-in/out per pass", 0.0, lo=0))
     z.add_argument("--reverse", action="store_true", help="step-over towards the origin")
 
     c = _sub(sub, "cone", "cone as stacked spirals ([MicroCAM] eqs. 6.4-6.6)")
@@ -122,7 +116,7 @@ def _estimate(a) -> tuple[float, str, str]:
 def _build(a):
     from labkit.toolpath import patterns
 
-    kw = dict(feed_mm_min=a.feed, power_s=a.power)
+    kw = dict(feed_mm_min=a.feed, s_word=a.power)
     if a.pattern == "helix":
         return patterns.helix((a.x, a.y), a.radius, a.pitch, a.turns, z_start_mm=a.z, ccw=not a.cw, **kw)
     if a.pattern == "spiral":

@@ -146,7 +146,7 @@ def run_img2gcode(args) -> int:
         mode=args.mode, beam_mm=args.beam, **size, resample=args.resample, level=args.threshold,
         invert=args.invert, blur=args.blur, sharpen=args.sharpen, gamma=args.gamma, tone=tone,
         edge_operator=args.edge_operator, edge_threshold=args.edge_threshold, edge_path=args.edge_path,
-        feed_mm_min=args.feed, rapid_mm_min=args.rapid, s_max=args.s_max, power_s=args.power,
+        feed_mm_min=args.feed, rapid_mm_min=args.rapid, s_max=args.s_max, s_word=args.power,
         order=args.order, axis=args.axis, direction="unidirectional" if args.unidirectional else "bidirectional",
         min_power=args.min_power, max_power=args.max_power, overscan_mm=args.overscan,
         skip_white_mm=args.skip_white, dither=args.dither if args.mode == "dither" else None)
@@ -224,7 +224,7 @@ def _warn_if_link_starves(text: str, moves, args) -> None:
     import sys
 
     from labkit.errors import LabkitError
-    from labkit.motion.machine import load_machine
+    from labkit.motion.spec import load_machine
     from labkit.motion.stall import block_time_bounds, may_starve
 
     m = load_machine(args.machine)

@@ -14,8 +14,7 @@ __all__ = ["add_raster_test_arguments", "run_raster_test"]
 
 def add_raster_test_arguments(parser) -> None:
     """Options of ``labkit raster-test``."""
-    from labkit.commands._args import integer, number
-    from labkit.gcode.dialects import DIALECTS
+    from labkit.commands._args import add_dialect_option, add_line_grid_options, integer, number
 
     sub = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
 
@@ -25,10 +24,7 @@ def add_raster_test_arguments(parser) -> None:
                    help="optical power of every line, mW")
     p.add_argument("--pairs", type=integer(2, 50), default=3, metavar="N",
                    help="forward/backward row pairs per speed (default 3)")
-    p.add_argument("--line", type=number(1, 1000), default=8.0, metavar="MM", help="line length, mm (default 8)")
-    p.add_argument("--pitch", type=number(0.05, 100), default=1.0, metavar="MM", help="row spacing, mm (default 1)")
-    p.add_argument("--overscan", type=number(0, 100), default=None, metavar="MM",
-                   help="beam-off run each side, mm (default what the machine needs to reach the fastest feed)")
+    add_line_grid_options(p, line_mm=8.0, pitch_mm=1.0, overscan_mm=None, shortest_line_mm=1.0)
 
     w = sub.add_parser("wedge", help="a gray step wedge: patches of lines at rising S, with their layout JSON")
     w.add_argument("--steps", type=integer(2, 64), default=16, metavar="N", help="patches (default 16)")
@@ -46,7 +42,7 @@ def add_raster_test_arguments(parser) -> None:
                        help="G-code to write; the layout goes to the same name with .json")
         q.add_argument("--machine", default=None, metavar="NAME|TOML",
                        help="machine (rates, acceleration, power at full S; default cbr40-laser)")
-        q.add_argument("--dialect", choices=list(DIALECTS), default="grbl", help="G-code dialect (default grbl)")
+        add_dialect_option(q)
 
     m = sub.add_parser("measure-offset", help="fit the backward lines' offset against speed in a scan")
     t = sub.add_parser("measure-tone", help="fit a monotone tone curve to a scanned wedge")
@@ -62,7 +58,7 @@ def run_raster_test(args) -> int:
 
 
 def _machine(args):
-    from labkit.motion.machine import CBR40, load_machine
+    from labkit.motion.spec import CBR40, load_machine
 
     return CBR40 if args.machine is None else load_machine(args.machine)
 
@@ -134,12 +130,12 @@ def _measure_tone(args) -> int:
 
     img, layout = _scan_image(args)
     df = measure_wedge(img, layout)
-    curve = fit_tone(df.power_s, df.darkness, spread=df.darkness_sd, weights=df.pixels,
+    curve = fit_tone(df.s_word, df.darkness, spread=df.darkness_sd, weights=df.pixels,
                      s_max=float(layout.get("s_max", 1000.0)), feed_mm_min=float(layout["speeds_mm_min"][0]),
                      line_interval_mm=float(layout["pitch_mm"]))
     curve.save(args.output)
     for r, fitted in zip(df.itertuples(), curve.darkness[1:]):
-        print(f"step {r.step:2d}  S {r.power_s:7.1f}  darkness {r.darkness:.3f} ± {r.darkness_sd:.3f}"
+        print(f"step {r.step:2d}  S {r.s_word:7.1f}  darkness {r.darkness:.3f} ± {r.darkness_sd:.3f}"
               f"  fitted {fitted:.3f}")
     print(f"{args.output}: tone curve (img2gcode --mode gray --tone)")
     return 0

@@ -84,7 +84,7 @@ def run_safety_check(args) -> int:
         if not args.json:
             print(result.line(), flush=True)
 
-    report = check(port, sim=args.sim, machine=args.machine, power_s=args.power,
+    report = check(port, sim=args.sim, machine=args.machine, s_word=args.power,
                    cut_mode=args.cut_mode, scenarios=args.only, baud=args.baud, progress=show)
     if args.json:
         print(report.to_json())

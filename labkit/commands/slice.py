@@ -8,11 +8,9 @@ by inward offsets of the beam ([MicroCAM] §6.1.3.6,
 
 from __future__ import annotations
 
-from labkit.gcode.dialects import DIALECTS
-
 
 def add_slice_arguments(parser):
-    from labkit.commands._args import FEED, number, tolerance_option
+    from labkit.commands._args import add_cut_options, number, tolerance_option
 
     parser.add_argument("model", metavar="MODEL.stl", help="closed triangle mesh (STL, OBJ, PLY, OFF), mm")
     parser.add_argument("-o", "--output", required=True, metavar="OUT.gcode", help="G-code file to write")
@@ -26,11 +24,7 @@ def add_slice_arguments(parser):
     parser.add_argument("--tol", **tolerance_option("tolerance of simplification and offsets", 0.005))
     parser.add_argument("--z-top", type=number(-10_000, 10_000), default=None, metavar="MM",
                         help="machine Z of the model's top (default: the model's own Z)")
-    parser.add_argument("--feed", type=FEED, default=600.0, metavar="MM_MIN",
-                        help="cutting feed, 1…1e6 mm/min (default 600)")
-    parser.add_argument("--power", type=number(0, 1000), default=1000.0, metavar="S",
-                        help="laser power word S, 0…1000 (default 1000)")
-    parser.add_argument("--dialect", choices=list(DIALECTS), default="grbl", help="G-code dialect (default grbl)")
+    add_cut_options(parser)
 
 
 def run_slice(args) -> int:
@@ -51,7 +45,7 @@ def run_slice(args) -> int:
                  option="--step (or raise --beam)")
     moves, info = section_toolpath(mesh, args.step, args.beam, top_down=not args.bottom_up,
                                    max_deg=args.max_deg, tol_mm=args.tol, z_top_mm=args.z_top,
-                                   feed_mm_min=args.feed, power_s=args.power)
+                                   feed_mm_min=args.feed, s_word=args.power)
     lines = write_gcode(args.output, moves, dialect=args.dialect, comment=f"labkit slice {args.model}")
     cut = moves.laser_on
     print(f"{args.output}: {len(info)} levels, {sum(lv['rings'] for lv in info)} rings, {len(moves)} moves, "

@@ -9,11 +9,9 @@ alone, against the whole program before anything is written
 
 from __future__ import annotations
 
-from labkit.gcode.dialects import DIALECTS
-
 
 def add_split_arguments(parser):
-    from labkit.commands._args import integer
+    from labkit.commands._args import add_dialect_option, integer
 
     parser.add_argument("file", metavar="FILE", help="G-code program to split")
     parser.add_argument("--max-lines", type=integer(2, 1_000_000_000), default=None, metavar="N",
@@ -22,7 +20,7 @@ def add_split_arguments(parser):
                         help="most bytes per part, newlines included, 16…1e12")
     parser.add_argument("-o", "--output-dir", default=None, metavar="DIR",
                         help="folder for NAME.partNNN.gcode (default: the file's folder)")
-    parser.add_argument("--dialect", choices=list(DIALECTS), default="grbl", help="G-code dialect (default grbl)")
+    add_dialect_option(parser)
 
 
 def run_split(args) -> int:

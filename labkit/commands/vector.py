@@ -18,7 +18,7 @@ def parse_layer_option(text: str):
     """``NAME:FEED:POWER[:PASSES[:ZSTEP]]`` → (name, LayerSettings).
 
     >>> name, s = parse_layer_option("#ff0000:600:900:2")
-    >>> name, s.feed_mm_min, s.power_s, s.passes
+    >>> name, s.feed_mm_min, s.s_word, s.passes
     ('#ff0000', 600.0, 900.0, 2)
     """
     from labkit.errors import GeometryError
@@ -51,7 +51,7 @@ def parse_layer_option(text: str):
     if problems:
         raise GeometryError(f"--layer {text!r}: " + "; ".join(problems))
     passes = int(passes)
-    return name, LayerSettings(feed_mm_min=feed, power_s=power, passes=passes, z_step_mm=z_step)
+    return name, LayerSettings(feed_mm_min=feed, s_word=power, passes=passes, z_step_mm=z_step)
 
 
 def _common_arguments(parser: argparse.ArgumentParser, kind: str) -> None:
@@ -153,15 +153,15 @@ def _run(args, drawing, images=None) -> int:
         check_output_file(args.preview, args.input)
         preview_format(args.preview)
     laser = LaserMode.DYNAMIC if args.dynamic else LaserMode.CONSTANT
-    default = LayerSettings(feed_mm_min=args.feed, power_s=args.power, passes=args.passes,
+    default = LayerSettings(feed_mm_min=args.feed, s_word=args.power, passes=args.passes,
                             z_step_mm=args.z_step, laser=laser)
     per_layer = {}
     for text in args.layer:
         name, s = parse_layer_option(text)
-        per_layer[name] = LayerSettings(s.feed_mm_min, s.power_s, s.passes, s.z_step_mm, laser)
+        per_layer[name] = LayerSettings(s.feed_mm_min, s.s_word, s.passes, s.z_step_mm, laser)
     for name, layer in [("--power", default)] + [(f"--layer {n}", v) for n, v in per_layer.items()]:
-        if not s_within(layer.power_s, args.s_max):
-            raise InputError(f"{name}: power S{layer.power_s:g} is above --s-max {args.s_max:g}; "
+        if not s_within(layer.s_word, args.s_max):
+            raise InputError(f"{name}: power S{layer.s_word:g} is above --s-max {args.s_max:g}; "
                              f"expected a power within 0…{args.s_max:g}")
     try:
         with warnings.catch_warnings(record=True) as caught:     # e.g. a hole the kerf closes
@@ -271,7 +271,7 @@ def _svg_image_moves(args, drawing):
                          f"expected a power within 0…{args.s_max:g}")
     drawing.skipped[:] = [s for s in drawing.skipped if s not in {p.name for p in placed}]
     return engrave_images([p.engraving_item for p in placed], mode=args.images, line_interval_mm=args.fill_spacing,
-                          feed_mm_min=args.feed if args.image_feed is None else args.image_feed, power_s=power,
+                          feed_mm_min=args.feed if args.image_feed is None else args.image_feed, s_word=power,
                           s_max=args.s_max, dynamic=args.dynamic, where=args.input)
 
 

@@ -245,7 +245,7 @@ def _put_row_python(rows, i, k, p0, p1, c, plane, feed, power, laser, dwell, lin
     row[_ROW_AT["work_offset"]] = (offs[0], offs[1], offs[2])
     row[_ROW_AT["plane"]] = plane
     row[_ROW_AT["feed_mm_min"]] = feed if feed > 0 else np.nan
-    row[_ROW_AT["power_s"]] = power
+    row[_ROW_AT["s_word"]] = power
     row[_ROW_AT["laser"]] = laser
     row[_ROW_AT["dwell_s"]] = dwell
     row[_ROW_AT["line"]] = line
@@ -266,7 +266,7 @@ def _put_row(rows, i, k, p0, p1, c, plane, feed, power, laser, dwell, line, offs
         r.work_offset[a] = offs[a]
     r.plane = plane
     r.feed_mm_min = feed if feed > 0 else np.nan
-    r.power_s = power
+    r.s_word = power
     r.laser = laser
     r.dwell_s = dwell
     r.line = line
@@ -311,7 +311,7 @@ RECORD_ROW = np.dtype((np.record, [("line", np.int64), ("kind", np.int64), ("spa
 #: ``machine_coords`` (G53: its axis words are machine positions). A rejected line did nothing.
 TRACE_ROW = np.dtype((np.record, [("motion", np.float64), ("plane", np.float64), ("units", np.float64),
                       ("distance", np.float64), ("arc_distance", np.float64),
-                      ("feed_mm_min", np.float64), ("power_s", np.float64),
+                      ("feed_mm_min", np.float64), ("s_word", np.float64),
                       ("laser", np.float64), ("position", np.float64, (3,)),
                       ("coord_system", np.float64), ("coord_origins", np.float64, (6, 3)),
                       ("g92", np.float64, (3,)), ("tool_offset", np.float64),
@@ -351,7 +351,7 @@ def _put_state(t, motion, plane, inches, absolute, arc_absolute, feed, power, la
     t.distance = 90 if absolute else 91
     t.arc_distance = 90.1 if arc_absolute else 91.1
     t.feed_mm_min = feed if feed > 0 else np.nan
-    t.power_s = power
+    t.s_word = power
     t.laser = laser
     for a in range(3):
         t.position[a] = pos[a]
@@ -431,7 +431,7 @@ def interpret(buf, options, lenient, max_errors, trace):
     absolute = s0.distance == 90
     arc_absolute = s0.arc_distance == 90.1
     feed = s0.feed_mm_min if s0.feed_mm_min > 0 else 0.0   # mm/min; 0 = undefined
-    power = s0.power_s
+    power = s0.s_word
     laser = int(s0.laser)
     inverse = s0.feed_mode == 93  # G93 inverse time
     coord = int(s0.coord_system) - 54

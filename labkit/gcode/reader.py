@@ -65,8 +65,8 @@ from labkit.gcode import _kernel as K
 from labkit.gcode.dialects import Dialect, get_dialect
 from labkit.toolpath.moves import LaserMode, MoveKind, Moves, Record
 
-__all__ = ["parse", "parse_file", "check", "modal_trace", "ParseOptions", "grbl_system_verdict",
-           "Interpreter", "strip_comments"]
+__all__ = ["parse", "parse_file", "parse_with_states", "check", "modal_trace", "ParseOptions",
+           "grbl_system_verdict", "Interpreter", "strip_comments"]
 
 _COMMON_LETTERS = "FGIJKMNPRSXYZ"
 
@@ -145,6 +145,12 @@ def _as_bytes(text) -> bytes:
 _LONE_CR = re.compile(rb"\r(?!\n)")
 
 
+def _line_count(data: bytes) -> int:
+    """How many lines :func:`_text_lines` gives, without decoding them."""
+    n = data.count(b"\n") + 1
+    return n - 1 if n > 1 and data.endswith(b"\n") else n
+
+
 def _text_lines(data: bytes) -> list[str]:
     """The lines of :func:`_as_bytes` output as the interpreter numbers them (ends removed)."""
     lines = data.decode("utf-8", "replace").split("\n")
@@ -217,9 +223,48 @@ def parse(text, *, dialect: str | Dialect = "grbl", filename: str | None = None,
     ...
     labkit.errors.GcodeError: <string>:1:7: error 25: a word is repeated in one line (got 'X2'; expected each letter at most once per line)
     """
+    return _interpreted(text, dialect, filename, lenient, streaming, trace=False)[0]
+
+
+def parse_with_states(text, *, dialect: str | Dialect = "grbl", filename: str | None = None,
+                      lenient: bool = False, streaming: bool = False):
+    """:func:`parse` and :func:`labkit.gcode.state.line_states` from one reading of the text.
+
+    For a caller that needs the moves and what every line states (``labkit stream``'s job:
+    its plan, and which lines GRBL answers late): the interpreter runs once, writing its
+    trace as it goes.
+
+    Parameters
+    ----------
+    text, dialect, filename, lenient, streaming
+        As for :func:`parse`, which raises the same :class:`~labkit.errors.GcodeError` in
+        strict mode.
+
+    Returns
+    -------
+    moves : Moves
+        What :func:`parse` returns.
+    trace : ndarray of :data:`~labkit.gcode._kernel.TRACE_ROW`
+        What :func:`~labkit.gcode.state.line_states` returns: the modal state after every
+        line, one row per line (a rejected line keeps the state before it);
+        :meth:`~labkit.gcode.state.ModalState.at` reads a row.
+
+    Examples
+    --------
+    >>> moves, trace = parse_with_states("G1 X10 F600\\nG91\\nX5\\n")
+    >>> moves.end[:, 0].tolist(), trace["distance"].tolist()
+    ([10.0, 15.0], [90.0, 91.0, 91.0])
+    """
+    moves, data, out = _interpreted(text, dialect, filename, lenient, streaming, trace=True)
+    return moves, out.trace[:_line_count(data)]
+
+
+def _interpreted(text, dialect, filename, lenient, streaming, trace):
+    """(Moves, the text's bytes, the interpreter's :class:`~labkit.gcode._kernel.Interpretation`)
+    of :func:`parse`; strict mode raises the first error."""
     d = get_dialect(dialect)
     data = _as_bytes(text)
-    out = _run(data, d, lenient, trace=False, streaming=streaming)
+    out = _run(data, d, lenient, trace=trace, streaming=streaming)
     errors = [_make_error(data, filename, e) for e in out.errors]
     kept = out.records
     if d.grbl_verdicts and streaming and len(kept):     # $ lines as GRBL's system commands
@@ -228,8 +273,9 @@ def parse(text, *, dialect: str | Dialect = "grbl", filename: str | None = None,
         errors = sorted(errors + [e for e in refused if e is not None], key=lambda e: e.line)
     if errors and not lenient:
         raise errors[0]
-    return Moves.from_rows(out.moves, source=filename, s_max=d.s_max, records=_records(data, kept),
-                           diagnostics=errors, dropped_diagnostics=out.error_total - len(out.errors))
+    moves = Moves.from_rows(out.moves, source=filename, s_max=d.s_max, records=_records(data, kept),
+                            diagnostics=errors, dropped_diagnostics=out.error_total - len(out.errors))
+    return moves, data, out
 
 
 def _records(data: bytes, kept) -> list[Record]:
@@ -501,7 +547,7 @@ def modal_trace(text, *, dialect: str | Dialect = "grbl", filename: str | None =
         "distance": [f"G{int(v)}" for v in state["distance"][:n]],
         "arc_centres": ["G90.1" if v == 90.1 else "G91.1" for v in state["arc_distance"][:n]],
         "feed_mm_min": state["feed_mm_min"][:n],
-        "S": state["power_s"][:n],
+        "S": state["s_word"][:n],
         "laser": [laser_names[int(v)] for v in state["laser"][:n]],
         "x": state["position"][:n, 0], "y": state["position"][:n, 1],
         "z": state["position"][:n, 2],

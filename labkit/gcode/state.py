@@ -118,7 +118,7 @@ class ModalState:
                    coord_origins=tuple(_triple(o) for o in t["coord_origins"]),
                    g92=_triple(t["g92"]), tool_offset=float(t["tool_offset"]),
                    home28=_triple(t["home28"]), home30=_triple(t["home30"]),
-                   feed_mm_min=float(t["feed_mm_min"]), s_word=float(t["power_s"]),
+                   feed_mm_min=float(t["feed_mm_min"]), s_word=float(t["s_word"]),
                    laser=_LASER_WORDS[int(t["laser"])],
                    coolant=tuple(m for m in (7, 8) if cool & (1 << (m - 7))),
                    syncing=bool(t["syncing"]))
@@ -132,7 +132,7 @@ class ModalState:
         t["feed_mode"], t["coord_system"] = self.feed_mode, self.coord_system
         t["coord_origins"], t["g92"], t["tool_offset"] = self.coord_origins, self.g92, self.tool_offset
         t["home28"], t["home30"], t["feed_mm_min"] = self.home28, self.home30, self.feed_mm_min
-        t["power_s"] = self.s_word
+        t["s_word"] = self.s_word
         t["laser"] = {v: k for k, v in _LASER_WORDS.items()}[self.laser]
         t["coolant"] = sum(1 << (m - 7) for m in self.coolant)
         t["syncing"] = self.syncing

@@ -16,7 +16,7 @@ reproduces the program within the written resolution.
 Examples
 --------
 >>> from labkit.toolpath import MovesBuilder, LaserMode
->>> b = MovesBuilder(feed_mm_min=1200, power_s=300, laser=LaserMode.CONSTANT)
+>>> b = MovesBuilder(feed_mm_min=1200, s_word=300, laser=LaserMode.CONSTANT)
 >>> b.rapid(x=5, y=5); b.line(x=15); b.line(y=15); b.arc_ccw(x=5, y=15, i=-5, j=0)
 >>> print(emit(b.build(), header=False, footer=False))
 M3 S300
@@ -173,7 +173,7 @@ def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001
     Examples
     --------
     >>> from labkit.toolpath import MovesBuilder, LaserMode
-    >>> b = MovesBuilder(feed_mm_min=600, power_s=500, laser=LaserMode.CONSTANT)
+    >>> b = MovesBuilder(feed_mm_min=600, s_word=500, laser=LaserMode.CONSTANT)
     >>> b.line(x=10); b.rapid(x=20); b.line(x=30)
     >>> print(emit(b.build(), header=False, footer=False, travel_beam_off=True))
     M3 S500
@@ -182,8 +182,8 @@ def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001
     G0 X20
     M3 S500
     G1 X30
-    >>> b = MovesBuilder(feed_mm_min=600, power_s=500, laser=LaserMode.DYNAMIC)
-    >>> b.rapid(x=100.5, y=0.05); b.line(x=100.6); b.line(x=100.9, power_s=200); b.line(x=100.5, power_s=0)
+    >>> b = MovesBuilder(feed_mm_min=600, s_word=500, laser=LaserMode.DYNAMIC)
+    >>> b.rapid(x=100.5, y=0.05); b.line(x=100.6); b.line(x=100.9, s_word=200); b.line(x=100.5, s_word=0)
     >>> print(emit(b.build(), header=False, footer=False, compact=True))
     M4S500
     G91G0X100.5Y.05
@@ -254,7 +254,7 @@ def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001
                             centre=np.ascontiguousarray(centre[part]),
                             plane=moves.plane[part].astype(np.int64),
                             feed=_scaled(d.feed_from_mm_min(moves.feed_mm_min[part]), VALUE_DECIMALS),
-                            power=_scaled(moves.power_s[part].astype(np.float64) * (d.s_max / moves.s_max),
+                            power=_scaled(moves.s_word[part].astype(np.float64) * (d.s_max / moves.s_max),
                                           VALUE_DECIMALS),
                             laser=moves.laser[part].astype(np.int64),
                             dwell=_scaled(d.dwell_from_s(moves.dwell_s[part]), VALUE_DECIMALS),
@@ -314,7 +314,7 @@ def _refuse_unwritable(moves: Moves, d: Dialect, decimals: int) -> None:
                         f"{VALUE_DECIMALS} decimals and must not round to 0); set feed_mm_min")
     if not (moves.s_max > 0 and math.isfinite(moves.s_max)):
         raise EmitError(f"s_max must be a finite number > 0, got {moves.s_max!r}")
-    power = moves.power_s
+    power = moves.s_word
     if len(power) and not (s_within(float(power.min()), moves.s_max) and s_within(float(power.max()), moves.s_max)):
         power = power.astype(np.float64)
         bad = moves.is_motion & ~s_within(power, moves.s_max)

@@ -23,10 +23,17 @@ from skimage import filters, measure, transform
 from labkit.errors import InputError
 
 __all__ = ["render_scan", "register", "measure_lines", "scale_from_reference", "read_widths", "read_table",
-           "check_layout", "REQUIRED"]
+           "check_layout", "REQUIRED", "WIDTHS_FORMAT", "WIDTHS_VERSION", "WIDTHS_HEADER"]
 
 #: Columns a widths table must have to be fitted (the tidy format of ``data/cutwidth/README.md``).
 REQUIRED = ("power_mw", "speed_mm_min", "width_mm")
+#: The widths table's format and version, stated on its first line as ``# labkit-cutwidth-table
+#: version 2`` (:data:`WIDTHS_HEADER`). Version 2 names the S word column ``s_word``; version 1
+#: (a table without that line, as the files of ``data/cutwidth/``) named it ``power_s``.
+WIDTHS_FORMAT = "labkit-cutwidth-table"
+WIDTHS_VERSION = 2
+#: The first line of a widths table labkit writes.
+WIDTHS_HEADER = f"# {WIDTHS_FORMAT} version {WIDTHS_VERSION}"
 
 _MM_PER_INCH = 25.4
 
@@ -73,11 +80,15 @@ def _field_number(obj, key, name, where, *, lo=None, lo_open=False, whole=False)
 
 
 def check_layout(layout, *, source=None) -> dict:
-    """Return ``layout`` if it is a usable test-grid layout, else name the field that is not.
+    """Return ``layout`` in the current version if it is a usable test-grid layout, else name
+    the field that is not.
 
     A layout is written by :func:`labkit.laser.patterns.write_pattern`; a hand-edited
     one may miss fields, hold numbers as text, NaN or an empty line list: each is
-    refused here, before any of it is used.
+    refused here, before any of it is used. Both versions are read: version 2 (what
+    labkit writes, :data:`labkit.laser.patterns.LAYOUT_VERSION`) and version 1, whose lines
+    name the S word ``power_s`` (a layout without a version is version 1); a version 1
+    layout comes back as a version 2 copy, the file's dict untouched.
 
     Parameters
     ----------
@@ -89,7 +100,7 @@ def check_layout(layout, *, source=None) -> dict:
     Returns
     -------
     dict
-        ``layout`` itself.
+        ``layout`` itself (version 2), or its version 2 copy (version 1).
 
     Raises
     ------
@@ -110,6 +121,13 @@ def check_layout(layout, *, source=None) -> dict:
                          "write one with 'labkit cutwidth pattern'")
     if "lines" not in layout:
         raise InputError(f"{where}not a cut-width layout (no 'lines'); write one with 'labkit cutwidth pattern'")
+    from labkit.laser.patterns import LAYOUT_VERSION
+
+    version = layout.get("version", 1)
+    if version not in (1, LAYOUT_VERSION):
+        raise InputError(f"{where}layout version {_what(version)}; this labkit reads versions 1 and "
+                         f"{LAYOUT_VERSION}")
+    s_key = "s_word" if version == LAYOUT_VERSION else "power_s"      # version 1's name
     lines = layout["lines"]
     if not isinstance(lines, list):
         raise InputError(f"{where}lines is {_what(lines)}; expected a list of burned lines")
@@ -128,7 +146,7 @@ def check_layout(layout, *, source=None) -> dict:
                              "expected a line burned in +X")
         for key in ("power_mw", "speed_mm_min"):
             _field_number(d, key, f"{name}.{key}", where, lo=0, lo_open=True)
-        _field_number(d, "power_s", f"{name}.power_s", where, lo=0)
+        _field_number(d, s_key, f"{name}.{s_key}", where, lo=0)
         for key in ("row", "col", "repeat"):
             _field_number(d, key, f"{name}.{key}", where, lo=0, whole=True)
     _field_number(layout, "pitch_mm", "pitch_mm", where, lo=0, lo_open=True)
@@ -165,6 +183,9 @@ def check_layout(layout, *, source=None) -> dict:
         if lab.get("kind") not in ("row", "col"):
             raise InputError(f"{where}labels[{k}].kind is {_what(lab.get('kind'))}; expected 'row' or 'col' "
                              "(the numbers left of the rows, above the columns)")
+    if version != LAYOUT_VERSION:
+        layout = dict(layout, version=LAYOUT_VERSION,
+                      lines=[{("s_word" if k == "power_s" else k): v for k, v in d.items()} for d in lines])
     return layout
 
 
@@ -198,7 +219,7 @@ def render_scan(layout: dict, widths_mm, *, dpi: float = 600.0, rotation_deg: fl
     -------
     ndarray, shape (rows, cols), float in [0, 1]
     """
-    check_layout(layout)
+    layout = check_layout(layout)
     px = _MM_PER_INCH / dpi
     segs = _segments(layout, np.asarray(widths_mm, float), fiducial_width_mm)
     x_lo, y_lo, x_hi, y_hi = layout["bounds_mm"]
@@ -271,7 +292,7 @@ def register(image, layout: dict) -> transform.SimilarityTransform:
         at any turn (a mirrored scan, or another grid's). A layout without
         numbers (``label_mm`` 0) cannot be checked: its scan is taken as upright.
     """
-    check_layout(layout)
+    layout = check_layout(layout)
     img = np.asarray(image, float)
     fid = np.asarray(layout["fiducials_mm"], float)
     dark = img < filters.threshold_otsu(img)
@@ -433,7 +454,7 @@ def measure_lines(image, layout: dict, *, dpi: float | None = None, stations: in
         One row per line: its layout fields, ``width_mm`` (mean, 0 when not
         burned), ``width_sd_mm``, ``burned_fraction``, ``burned``.
     """
-    check_layout(layout)
+    layout = check_layout(layout)
     img = np.asarray(image, float)
     if img.ndim == 3:
         img = img[..., :3].mean(axis=2)
@@ -469,11 +490,22 @@ def measure_lines(image, layout: dict, *, dpi: float | None = None, stations: in
     return pd.DataFrame(rows)
 
 
+def _leading_comments(path) -> list[str]:
+    """The lines starting with ``#`` at the head of a text file."""
+    comments = []
+    with open(path, encoding="utf-8") as fh:
+        for line in fh:
+            if not line.startswith("#"):
+                break
+            comments.append(line.rstrip("\r\n"))
+    return comments
+
+
 def read_table(path, required, *, optional=(), what: str = "CSV"):
     """A CSV table whose ``required`` (and present ``optional``) columns must hold numbers.
 
     Leading lines starting with ``#`` are comments (the SYNTHETIC marks of
-    ``data/cutwidth/``); ``#`` elsewhere is data.
+    ``data/cutwidth/``, a table's format and version); ``#`` elsewhere is data.
 
     Raises
     ------
@@ -484,12 +516,7 @@ def read_table(path, required, *, optional=(), what: str = "CSV"):
     from labkit._files import check_input_file
 
     path = check_input_file(path, what=what)
-    with open(path, encoding="utf-8") as fh:
-        skip = 0
-        for line in fh:
-            if not line.startswith("#"):
-                break
-            skip += 1
+    skip = len(_leading_comments(path))
     try:
         df = pd.read_csv(path, skiprows=skip)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
@@ -509,12 +536,34 @@ def read_table(path, required, *, optional=(), what: str = "CSV"):
 
 
 def read_widths(path):
-    """A tidy widths CSV (``data/cutwidth/README.md``) as a DataFrame.
+    """A tidy widths CSV (``data/cutwidth/README.md``) as a DataFrame, in the current version.
+
+    Version 2 (:data:`WIDTHS_HEADER` on its first line, what ``labkit cutwidth measure`` writes)
+    and version 1 (no such line; its S word column ``power_s`` comes back as ``s_word``) are read.
 
     Raises
     ------
     InputError
         A required column (``power_mw``, ``speed_mm_min``, ``width_mm``) is
-        missing — named — or holds something other than numbers.
+        missing — named — or holds something other than numbers; a version this labkit
+        does not read.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> old = read_widths(Path(__file__).parents[2] / "data/cutwidth/synthetic_paperboard.csv")
+    >>> "s_word" in old.columns, "power_s" in old.columns       # a version 1 file
+    (True, False)
     """
-    return read_table(path, REQUIRED, what="widths CSV")
+    from labkit._files import check_input_file
+
+    path = check_input_file(path, what="widths CSV")
+    version = 1
+    for line in _leading_comments(path):
+        words = line.lstrip("#").split()
+        if words[:2] == [WIDTHS_FORMAT, "version"]:
+            version = int(words[2]) if len(words) > 2 and words[2].isdigit() else None
+            if version not in (1, WIDTHS_VERSION):
+                raise InputError(f"{path}: {line.lstrip('# ')}; this labkit reads versions 1 and {WIDTHS_VERSION}")
+    df = read_table(path, REQUIRED, what="widths CSV")
+    return df.rename(columns={"power_s": "s_word"}) if version == 1 else df

@@ -9,7 +9,15 @@ be read by eye, and four corner crosses give measurement something to register
 on. The crosses form a rectangle, which looks the same turned 180°; the numbers
 (rows on the left, columns on top) do not, and tell measurement which way up
 the piece lay on the scanner (:func:`labkit.laser.measure.register`). The layout (where every line is, its power and speed) is saved as JSON
-next to the G-code.
+next to the G-code (version 2)::
+
+    {"version": 2, "units": "mm", "direction": "+X", "powers_mw": [...], "speeds_mm_min": [...],
+     "pitch_mm": 2.0, "fiducial_mm": 2.0, "fiducials_mm": [[x, y], ...], "labels": [...], ...,
+     "lines": [{"row": 0, "col": 0, "repeat": 0, "power_mw": 500.0, "s_word": 200.0,
+                "speed_mm_min": 300.0, "x0_mm": 0.0, "x1_mm": 10.0, "y_mm": 0.0, "passes": 1}, ...]}
+
+Version 1 named a line's S word ``power_s``; :func:`labkit.laser.measure.check_layout` reads both
+and gives every reader the version 2 form.
 """
 
 from __future__ import annotations
@@ -29,7 +37,8 @@ from labkit.units import mw_to_s
 
 __all__ = ["GridPattern", "grid_pattern", "steps", "stroke_digits", "write_pattern"]
 
-LAYOUT_VERSION = 1
+#: The layout JSON's version (2: a line's S word is ``s_word``; 1 named it ``power_s``).
+LAYOUT_VERSION = 2
 
 # Digits as polylines on a 2 × 4 cell (x right, y up); one stroke list per digit.
 _DIGITS = {
@@ -120,7 +129,7 @@ class GridPattern:
         The whole job (lines, overscans with beam off, labels, fiducials).
     layout : dict
         JSON-ready description: ``lines`` (one dict per burned line with
-        ``row``, ``col``, ``repeat``, ``power_mw``, ``power_s``,
+        ``row``, ``col``, ``repeat``, ``power_mw``, ``s_word``,
         ``speed_mm_min``, ``x0_mm``, ``x1_mm``, ``y_mm``), ``fiducials_mm``,
         ``bounds_mm`` and the generating parameters.
     """
@@ -145,7 +154,7 @@ class GridPattern:
         """
         lines = self.layout["lines"]
         reps = max(d["repeat"] for d in lines) + 1
-        powers = {d["row"] // reps: (d["power_mw"], d["power_s"]) for d in lines}
+        powers = {d["row"] // reps: (d["power_mw"], d["s_word"]) for d in lines}
         speeds = {d["col"]: d["speed_mm_min"] for d in lines}
         rows = ", ".join(f"{i + 1} = {p:g} mW (S{s:g})" for i, (p, s) in sorted(powers.items()))
         cols = ", ".join(f"{j + 1} = {v:g} mm/min" for j, v in sorted(speeds.items()))
@@ -215,13 +224,13 @@ def grid_pattern(powers_mw, speeds_mm_min, *, line_mm: float = 10.0, gap_mm: flo
     Examples
     --------
     >>> g = grid_pattern([500, 1000], [300, 600, 1200], label_mm=0, fiducial_mm=0)
-    >>> len(g.layout["lines"]), g.layout["lines"][0]["power_s"]
+    >>> len(g.layout["lines"]), g.layout["lines"][0]["s_word"]
     (6, 200.0)
     """
     powers = _positive("powers_mw", powers_mw)
     speeds = _positive("speeds_mm_min", speeds_mm_min)
     if max_power_mw is None:
-        from labkit.motion.machine import CBR40
+        from labkit.motion.spec import CBR40
 
         max_power_mw = CBR40.laser_max_power_mw
     if np.any(powers > max_power_mw):
@@ -244,10 +253,10 @@ def grid_pattern(powers_mw, speeds_mm_min, *, line_mm: float = 10.0, gap_mm: flo
     label_v = float(speeds.max()) if label_speed_mm_min is None else float(label_speed_mm_min)
     to_s = dict(s_max=s_max, max_power_mw=max_power_mw)
 
-    starts, ends, feeds, power_s, lines = [], [], [], [], []
+    starts, ends, feeds, s_word, lines = [], [], [], [], []
 
     def cut(a, b, feed, s):
-        starts.append(a); ends.append(b); feeds.append(feed); power_s.append(s)
+        starts.append(a); ends.append(b); feeds.append(feed); s_word.append(s)
 
     col_x = np.arange(len(speeds)) * (line_mm + gap_mm)
     for i, p in enumerate(powers):
@@ -264,7 +273,7 @@ def grid_pattern(powers_mw, speeds_mm_min, *, line_mm: float = 10.0, gap_mm: flo
                     cut((x0, y), (x1, y), v, s)
                     if overscan_mm > 0:
                         cut((x1, y), (x1 + overscan_mm, y), v, 0.0)
-                lines.append(dict(row=row, col=j, repeat=r, power_mw=float(p), power_s=s,
+                lines.append(dict(row=row, col=j, repeat=r, power_mw=float(p), s_word=s,
                                   speed_mm_min=float(v), x0_mm=float(x0), x1_mm=float(x1),
                                   y_mm=float(y), passes=int(passes)))
     n_rows = len(powers) * int(repeats)
@@ -297,7 +306,7 @@ def grid_pattern(powers_mw, speeds_mm_min, *, line_mm: float = 10.0, gap_mm: flo
             cut((fx - h, fy), (fx + h, fy), label_v, s_label)
             cut((fx, fy - h), (fx, fy + h), label_v, s_label)
     moves = Moves.from_cuts(np.asarray(starts, float), np.asarray(ends, float), feed_mm_min=np.asarray(feeds),
-                            power_s=np.asarray(power_s), s_max=s_max)
+                            s_word=np.asarray(s_word), s_max=s_max)
     everything = np.vstack([np.asarray(starts), np.asarray(ends)])
     layout = dict(
         version=LAYOUT_VERSION, units="mm", direction="+X",

@@ -67,7 +67,7 @@ def scan_offset_pattern(speeds_mm_min, *, power_mw: float, pairs: int = 3, line_
     GridPattern
         Its layout has ``kind`` ``"scan-offset"`` and each line a ``direction`` (``"+X"`` or ``"-X"``).
     """
-    from labkit.motion.machine import CBR40
+    from labkit.motion.spec import CBR40
 
     m = CBR40 if machine is None else machine
     if int(pairs) != pairs or pairs < 2:
@@ -92,7 +92,7 @@ def scan_offset_pattern(speeds_mm_min, *, power_mw: float, pairs: int = 3, line_
     mv = g.moves
     cut = mv.kind != MoveKind.RAPID
     starts, ends = mv.start[cut, :2].copy(), mv.end[cut, :2].copy()
-    feed, power = mv.feed_mm_min[cut], mv.power_s[cut]
+    feed, power = mv.feed_mm_min[cut], mv.s_word[cut]
     # the grid's lines (and their overscans) on a backward row: traced the other way, right to left
     on_row = (np.isin(starts[:, 1], list(backward_y)) & (starts[:, 1] == ends[:, 1])
               & (np.minimum(starts[:, 0], ends[:, 0]) >= x_lo - 1e-9)
@@ -102,7 +102,7 @@ def scan_offset_pattern(speeds_mm_min, *, power_mw: float, pairs: int = 3, line_
         idx = np.flatnonzero(on_row & (starts[:, 1] == y))
         order[idx] = idx[::-1]
     starts[on_row], ends[on_row] = ends[on_row].copy(), starts[on_row].copy()
-    moves = Moves.from_cuts(starts[order], ends[order], feed_mm_min=feed[order], power_s=power[order],
+    moves = Moves.from_cuts(starts[order], ends[order], feed_mm_min=feed[order], s_word=power[order],
                             laser=int(mv.laser[cut][0]), s_max=s_max)
     layout.update(kind="scan-offset", direction="bidirectional", pairs=int(pairs))
     return GridPattern(moves=moves, layout=layout)
@@ -158,7 +158,7 @@ def measure_scan_offset(image, layout: dict) -> pd.DataFrame:
         When the layout is not a scan-offset pattern, the scan does not register, or a speed
         has fewer than two pairs with both lines seen.
     """
-    img, tf = registered_scan(image, layout, kind="scan-offset", maker="labkit raster-test scan-offset")
+    img, tf, layout = registered_scan(image, layout, kind="scan-offset", maker="labkit raster-test scan-offset")
     px_mm = 1.0 / tf.scale
     half = min(0.25 * float(layout["pitch_mm"]), 2 * px_mm)
     rows = []

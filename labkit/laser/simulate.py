@@ -7,7 +7,7 @@ A beam of power P(t) and 1/e² radius w0 at position X(t) leaves at point x the 
 and the material burns where F reaches its threshold F_th. The motion is
 :func:`labkit.motion.pipeline.plan`'s — its speed profiles, ramps and junctions —
 and the power at each instant follows the block's laser mode (M3 constant, M4
-scaled by speed, :func:`labkit.motion.laser.laser_power_mw`). The integral is a
+scaled by speed, :func:`labkit.motion.power.laser_power_mw`). The integral is a
 sum over instants spaced closely enough in time that the spot moves at most a
 tenth of w0 between them (a sampled Gaussian sums to its integral to far below
 a part in a million at that spacing), each evaluated exactly on the pixels

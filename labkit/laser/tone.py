@@ -17,6 +17,19 @@ for those S values.
 
 Darkness is ``1 − scan / paper``: 0 on unburned material, the scan's paper level measured beside
 the patches (where the head runs on with the beam off).
+
+``labkit raster-test measure-tone -o TONE.json`` (:meth:`ToneCurve.save`) writes the curve in
+this format (version 2)::
+
+    {
+      "format": "labkit-tone-curve",      # exactly this
+      "version": 2,                       # 1 named the knots' S "power_s"; both are read
+      "s_max": 1000.0, "feed_mm_min": 3000.0, "line_interval_mm": 0.1,   # null: not known
+      "s_word": [0.0, 62.5, …],           # the knots' S, increasing from 0
+      "darkness": [0.0, 0.04, …],         # the knots' darkness, non-decreasing
+      "measured": […], "spread": […],     # each patch's mean darkness and spread (null: none)
+      "fit": "isotonic (pool adjacent violators) then PCHIP"
+    }
 """
 
 from __future__ import annotations
@@ -33,10 +46,12 @@ from labkit.errors import InputError
 from labkit.laser._calibration import read_document, registered_scan, save_document
 from labkit.laser.patterns import GridPattern, grid_pattern
 
-__all__ = ["ToneCurve", "wedge_pattern", "measure_wedge", "fit_tone", "isotonic", "load_tone", "TONE_FORMAT"]
+__all__ = ["ToneCurve", "wedge_pattern", "measure_wedge", "fit_tone", "isotonic", "load_tone", "TONE_FORMAT",
+           "TONE_VERSION"]
 
 TONE_FORMAT = "labkit-tone-curve"
-_VERSION = 1
+#: The tone curve's version (2: the knots' S is ``s_word``; version 1 named it ``power_s``).
+TONE_VERSION = 2
 
 
 def wedge_pattern(steps: int = 16, *, s_max: float = 1000.0, machine=None,
@@ -75,7 +90,7 @@ def wedge_pattern(steps: int = 16, *, s_max: float = 1000.0, machine=None,
         raise InputError(f"steps must be a whole number >= 2, got {steps!r}")
     if int(patch_lines) != patch_lines or patch_lines < 3:
         raise InputError(f"patch_lines must be a whole number >= 3, got {patch_lines!r}")
-    from labkit.motion.machine import CBR40
+    from labkit.motion.spec import CBR40
 
     m = CBR40 if machine is None else machine
     max_power_mw = m.laser_max_power_mw
@@ -104,7 +119,7 @@ def measure_wedge(image, layout: dict, *, trim_mm: float | None = None) -> pd.Da
     Parameters
     ----------
     image : ndarray
-        Grey scan, 0…1 (paper light, burn dark), any turn on the scanner.
+        The scan, as :func:`labkit.laser.scanoffset.measure_scan_offset` takes it.
     layout : dict
         The wedge's layout (:func:`wedge_pattern`).
     trim_mm : float, optional
@@ -114,7 +129,7 @@ def measure_wedge(image, layout: dict, *, trim_mm: float | None = None) -> pd.Da
     Returns
     -------
     DataFrame
-        ``step``, ``power_s``, ``power_mw``, ``darkness`` (mean of 1 − scan/paper over the
+        ``step``, ``s_word``, ``power_mw``, ``darkness`` (mean of 1 − scan/paper over the
         patch), ``darkness_sd`` (its spread over the patch's pixels), ``pixels`` and
         ``paper`` (the scan's paper level).
 
@@ -124,7 +139,7 @@ def measure_wedge(image, layout: dict, *, trim_mm: float | None = None) -> pd.Da
         When the layout is not a step wedge, the scan does not register, or the paper
         beside the patches is not lighter than the darkest patch.
     """
-    img, tf = registered_scan(image, layout, kind="tone-wedge", maker="labkit raster-test wedge")
+    img, tf, layout = registered_scan(image, layout, kind="tone-wedge", maker="labkit raster-test wedge")
     px_mm = 1.0 / tf.scale
     lines = pd.DataFrame(layout["lines"])
     pitch = float(layout["pitch_mm"])
@@ -141,16 +156,16 @@ def measure_wedge(image, layout: dict, *, trim_mm: float | None = None) -> pd.Da
     X, Y = np.meshgrid(xs, ys)
     paper = float(np.median(_sample(img, tf, X, Y)))
     rows = []
-    for (row_power, s), patch in lines.groupby(["power_mw", "power_s"], sort=True):
+    for (row_power, s), patch in lines.groupby(["power_mw", "s_word"], sort=True):
         py0, py1 = patch.y_mm.min() - pitch / 2 + trim, patch.y_mm.max() + pitch / 2 - trim
         px0, px1 = patch.x0_mm.min() + trim, patch.x1_mm.max() - trim
         if not (py1 > py0 and px1 > px0):
             raise InputError(f"layout: the patch at S {s:g} is smaller than twice trim_mm ({trim:g} mm)")
         X, Y = np.meshgrid(np.arange(px0, px1, px_mm), np.arange(py0, py1, px_mm))
         d = 1.0 - _sample(img, tf, X, Y) / paper
-        rows.append(dict(power_s=float(s), power_mw=float(row_power), darkness=float(d.mean()),
+        rows.append(dict(s_word=float(s), power_mw=float(row_power), darkness=float(d.mean()),
                          darkness_sd=float(d.std(ddof=1)), pixels=int(d.size), paper=paper))
-    df = pd.DataFrame(rows).sort_values("power_s", ignore_index=True)
+    df = pd.DataFrame(rows).sort_values("s_word", ignore_index=True)
     df.insert(0, "step", np.arange(1, len(df) + 1))
     if not df.darkness.max() > 0:
         raise InputError("no patch is darker than the paper beside the wedge; expected a scan of the burned "
@@ -200,7 +215,7 @@ class ToneCurve:
 
     Attributes
     ----------
-    power_s : ndarray
+    s_word : ndarray
         Knots' S, increasing, starting at 0 (unburned).
     darkness : ndarray
         Knots' darkness, non-decreasing (0 … 1: 1 − scan / paper).
@@ -213,7 +228,7 @@ class ToneCurve:
         engravings at these (NaN: not known).
     """
 
-    power_s: np.ndarray
+    s_word: np.ndarray
     darkness: np.ndarray
     measured: np.ndarray
     spread: np.ndarray
@@ -223,16 +238,16 @@ class ToneCurve:
 
     @property
     def _curve(self):
-        return PchipInterpolator(self.power_s, self.darkness, extrapolate=False)
+        return PchipInterpolator(self.s_word, self.darkness, extrapolate=False)
 
-    def darkness_at(self, power_s):
-        """Darkness the material shows at ``power_s`` (clipped to the measured S range)."""
-        s = np.clip(np.asarray(power_s, float), self.power_s[0], self.power_s[-1])
+    def darkness_at(self, s_word):
+        """Darkness the material shows at ``s_word`` (clipped to the measured S range)."""
+        s = np.clip(np.asarray(s_word, float), self.s_word[0], self.s_word[-1])
         return self._curve(s)
 
     def s_for(self, darkness):
         """The lowest S giving ``darkness`` (clipped to the curve's range): the curve inverted."""
-        s = np.linspace(self.power_s[0], self.power_s[-1], 4097)
+        s = np.linspace(self.s_word[0], self.s_word[-1], 4097)
         d = np.maximum.accumulate(self._curve(s))
         first = np.concatenate([[True], np.diff(d) > 0])     # flat stretches: their lowest S
         return np.interp(np.asarray(darkness, float), d[first], s[first])
@@ -285,9 +300,9 @@ class ToneCurve:
         def known(x):          # JSON has no NaN: unknown is null
             return None if not math.isfinite(x) else float(x)
 
-        return dict(format=TONE_FORMAT, version=_VERSION, s_max=self.s_max,
+        return dict(format=TONE_FORMAT, version=TONE_VERSION, s_max=self.s_max,
                     feed_mm_min=known(self.feed_mm_min), line_interval_mm=known(self.line_interval_mm),
-                    power_s=self.power_s.tolist(), darkness=self.darkness.tolist(),
+                    s_word=self.s_word.tolist(), darkness=self.darkness.tolist(),
                     measured=self.measured.tolist(), spread=[known(x) for x in self.spread],
                     fit="isotonic (pool adjacent violators) then PCHIP")
 
@@ -296,13 +311,13 @@ class ToneCurve:
         save_document(path, self.to_dict())
 
 
-def fit_tone(power_s, darkness, *, spread=None, weights=None, s_max: float = 1000.0,
+def fit_tone(s_word, darkness, *, spread=None, weights=None, s_max: float = 1000.0,
              feed_mm_min: float = math.nan, line_interval_mm: float = math.nan) -> ToneCurve:
     """Fit a monotone tone curve to measured patches.
 
     Parameters
     ----------
-    power_s : array_like
+    s_word : array_like
         Each patch's S (> 0, distinct).
     darkness : array_like
         Each patch's mean darkness (1 − scan / paper).
@@ -326,7 +341,7 @@ def fit_tone(power_s, darkness, *, spread=None, weights=None, s_max: float = 100
     >>> c.darkness.round(3).tolist()
     [0.0, 0.2, 0.475, 0.475, 0.8]
     """
-    s = np.asarray(power_s, float)
+    s = np.asarray(s_word, float)
     d = np.asarray(darkness, float)
     if s.ndim != 1 or d.shape != s.shape or len(s) < 2:
         raise InputError(f"need at least two patches with one darkness each, got {s.shape} S and {d.shape} darkness")
@@ -346,23 +361,25 @@ def fit_tone(power_s, darkness, *, spread=None, weights=None, s_max: float = 100
 
 
 def load_tone(path) -> ToneCurve:
-    """Read a tone curve written by :meth:`ToneCurve.save`, or a clear :class:`InputError`."""
-    doc = read_document(path, what="tone curve", format=TONE_FORMAT, version=_VERSION,
+    """Read a tone curve written by :meth:`ToneCurve.save` (version 2, or 1), or a clear
+    :class:`InputError`."""
+    doc = read_document(path, what="tone curve", format=TONE_FORMAT, version=(1, TONE_VERSION),
                         maker="labkit raster-test measure-tone")
+    s_key = "s_word" if doc["version"] == TONE_VERSION else "power_s"      # version 1's name
     try:
-        s = np.asarray(doc["power_s"], float)
+        s = np.asarray(doc[s_key], float)
         d = np.asarray(doc["darkness"], float)
         s_max = float(doc["s_max"])
         measured = np.asarray(doc.get("measured", d[1:]), float)
         spread = np.array([math.nan if x is None else x for x in doc.get("spread") or [None] * (len(d) - 1)], float)
         feed, interval = (math.nan if doc.get(k) is None else float(doc[k]) for k in ("feed_mm_min", "line_interval_mm"))
     except (KeyError, TypeError, ValueError) as exc:
-        raise InputError(f"{path}: power_s, darkness and s_max must be numbers ({exc})") from None
+        raise InputError(f"{path}: {s_key}, darkness and s_max must be numbers ({exc})") from None
     if s.ndim != 1 or d.shape != s.shape or len(s) < 2:
-        raise InputError(f"{path}: power_s and darkness must be lists of the same length >= 2")
+        raise InputError(f"{path}: {s_key} and darkness must be lists of the same length >= 2")
     if not (np.all(np.isfinite(s)) and np.all(np.isfinite(d)) and np.all(np.diff(s) > 0)
             and np.all(np.diff(d) >= 0) and s[0] >= 0):
-        raise InputError(f"{path}: expected power_s increasing from >= 0 and darkness non-decreasing, "
+        raise InputError(f"{path}: expected {s_key} increasing from >= 0 and darkness non-decreasing, "
                          "all finite")
     if not (math.isfinite(s_max) and s_max > 0):
         raise InputError(f"{path}: s_max must be > 0, got {s_max!r}")

@@ -305,7 +305,7 @@ def check_drawable(moves, *, s_max: float | None = None) -> float:
             raise MachineError(f"{_where(moves, i)}: the Dobot draws in one plane (the arm's Z "
                                f"stays where the laser is focused); this move goes from Z{z0:g} "
                                f"to Z{z1:g} mm: remove the Z words from the program")
-        s = float(moves.power_s[i])
+        s = float(moves.s_word[i])
         if on[i] and not s_within(s, s_max):
             raise MachineError(f"{_where(moves, i)}: S{s:g} is above full laser power "
                                f"S{s_max:g}: it would be sent as a PWM duty of "
@@ -365,7 +365,7 @@ def job_commands(moves, *, origin=ORIGIN_MM, z_mm: float = 0.0, s_max: float | N
             out += [(CMD["laser"], laser_params(False), ln),
                     (CMD["ptp"], ptp_params(PTP_MOVJ, sx, sy, z_mm), ln)]
             beam = False
-        want_duty = float(moves.power_s[i]) * 100.0 / s_max if on[i] else 0.0
+        want_duty = float(moves.s_word[i]) * 100.0 / s_max if on[i] else 0.0
         if not on[i] and beam is not False:
             out.append((CMD["laser"], laser_params(False), ln))
             beam = False

@@ -706,8 +706,8 @@ class Grbl:
             raise MachineError(f"set_origin: axes must be a choice of X, Y, Z, got {axes!r}")
         self.command("G10 L20 P0 " + " ".join(f"{a}0" for a in axes))
 
-    def test_pulse(self, power_s: float, duration_s: float = 0.2, *, step_mm: float = 0.05) -> None:
-        """Fire the laser briefly at ``power_s`` where the head is, to find the focus or the beam.
+    def test_pulse(self, s_word: float, duration_s: float = 0.2, *, step_mm: float = 0.05) -> None:
+        """Fire the laser briefly at ``s_word`` where the head is, to find the focus or the beam.
 
         GRBL's laser mode (``$32=1``) with M4 keeps the beam off unless the machine moves (M3
         would leave it on at rest until M5 arrives), so the pulse is an M4 slow step of
@@ -717,7 +717,7 @@ class Grbl:
 
         Parameters
         ----------
-        power_s : float
+        s_word : float
             Laser power word S (0 < S ≤ ``$30``); keep it low (1–5 % of ``$30``).
         duration_s : float
             How long the beam is on, s (0.01…5).
@@ -725,8 +725,8 @@ class Grbl:
             Length of the step out and back, mm (a few motor steps).
         """
         s_max = self.setting(30, 1000.0)
-        if not s_within(power_s, s_max, positive=True):
-            raise MachineError(f"test pulse power S{power_s:g}: expected 0 < S ≤ $30 = {s_max:g}")
+        if not s_within(s_word, s_max, positive=True):
+            raise MachineError(f"test pulse power S{s_word:g}: expected 0 < S ≤ $30 = {s_max:g}")
         if not 0.01 <= duration_s <= 5.0:
             raise MachineError(f"test pulse of {duration_s:g} s: expected 0.01…5 s")
         state = self.parser_state().split()
@@ -734,7 +734,7 @@ class Grbl:
         feed = next((w[1:] for w in state if w.startswith("F")), "0")
         f = 60.0 * step_mm / (duration_s / 2.0)
         try:
-            self.command(f"G91 G1 X{step_mm:g} F{f:.4g} S{power_s:g} M4")
+            self.command(f"G91 G1 X{step_mm:g} F{f:.4g} S{s_word:g} M4")
             self.command(f"X{-step_mm:g}")
         finally:
             self.command(f"M5 {'G91' if relative else 'G90'}" + (f" F{feed}" if float(feed) > 0 else ""))

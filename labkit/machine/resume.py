@@ -123,12 +123,12 @@ def _refuse_unknown_origin(prefix: str, dialect, trace, line: int) -> None:
         f"job of their own placed where they belong")
 
 
-def frame_text(job: "Job", *, power_s: float = 0.0, feed_mm_min: float = 3000.0) -> list[str]:
+def frame_text(job: "Job", *, s_word: float = 0.0, feed_mm_min: float = 3000.0) -> list[str]:
     """Trace the job's bounding box with the beam off (or at a low visible power).
 
     Parameters
     ----------
-    power_s : float
+    s_word : float
         0 (default): beam off. A small S (about 1 % of ``$30``) shows the
         frame on the work without marking it.
     feed_mm_min : float
@@ -147,8 +147,8 @@ def frame_text(job: "Job", *, power_s: float = 0.0, feed_mm_min: float = 3000.0)
     if np.isnan(box).any():
         raise InputError("the job has no motion to frame")
     (x0, y0), (x1, y1) = box[0, :2], box[1, :2]
-    beam = ["M5 S0"] if power_s <= 0 else [f"M3 S{power_s:g}"]
-    cmd = "G1" if power_s > 0 else "G0"
+    beam = ["M5 S0"] if s_word <= 0 else [f"M3 S{s_word:g}"]
+    cmd = "G1" if s_word > 0 else "G0"
     return (["G21 G90", "M5 S0", f"G0 X{x0:.3f} Y{y0:.3f}"] + beam +
             [f"{cmd} X{x1:.3f} Y{y0:.3f} F{feed_mm_min:g}", f"{cmd} X{x1:.3f} Y{y1:.3f}",
              f"{cmd} X{x0:.3f} Y{y1:.3f}", f"{cmd} X{x0:.3f} Y{y0:.3f}", "M5 S0"])

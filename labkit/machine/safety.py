@@ -20,7 +20,7 @@ with the evidence otherwise. A scenario the controller cannot take part in (no
 door state) is NOT APPLICABLE.
 
 The cuts are short relative moves (``G91``) from where the head is, at a low
-power: 1 % of ``$30`` unless ``power_s`` says otherwise. GRBL 1.1 switches the
+power: 1 % of ``$30`` unless ``s_word`` says otherwise. GRBL 1.1 switches the
 laser off once a feed hold has stopped the head, M3 and M4 alike, but when its
 queue runs out (the end of a resumed cut, a lost link) M3's constant power stays
 on — only M4's PWM is switched off at the end of motion. So the cuts use ``M4``
@@ -116,7 +116,7 @@ class SafetyReport:
         ``virtual://``, ``sim:<path>`` or the port.
     controller : str
         The start-up banner.
-    power_s : float
+    s_word : float
         The S word the cuts used.
     cut_mode : str
         ``M4`` or ``M3``.
@@ -127,7 +127,7 @@ class SafetyReport:
 
     target: str
     controller: str = ""
-    power_s: float = 0.0
+    s_word: float = 0.0
     cut_mode: str = "M4"
     beam_observed: bool = False
     results: list = field(default_factory=list)
@@ -148,7 +148,7 @@ class SafetyReport:
         """The report as text: a header, one line per scenario, a summary line."""
         c = self.counts()
         head = (f"safety check of {self.target} ({self.controller or 'no banner'}), cuts with "
-                f"{self.cut_mode} S{self.power_s:g}; beam "
+                f"{self.cut_mode} S{self.s_word:g}; beam "
                 + ("watched on the simulator" if self.beam_observed else
                    "not watched: judged from the controller's reports only"))
         tail = (f"{'all applicable scenarios passed' if self.ok else 'UNSAFE or unproven'}: "
@@ -484,7 +484,7 @@ class _Run:
         for _attempt in range(2):
             dx = self.check.next_dx()
             answer = self.command(f"G21 G91 G1 X{dx:g} F{self.check.target.cut_feed_mm_min:g} "
-                                  f"S{self.check.power_s:g} {mode}")
+                                  f"S{self.check.s_word:g} {mode}")
             if answer != "ok":
                 return False
             t_ok = time.monotonic()
@@ -568,19 +568,19 @@ def _held(st) -> bool:
 
 
 class _Check:
-    def __init__(self, target: _Target, power_s, cut_mode: str, watch_s: float):
+    def __init__(self, target: _Target, s_word, cut_mode: str, watch_s: float):
         self.target = target
         self.g = target.open()
         self.controller = self.g.info.banner
         s_max = self.g.setting(30, 1000.0)
-        if power_s is None:
-            power_s = max(1.0, round(0.01 * s_max))
-        if not (isinstance(power_s, (int, float)) and math.isfinite(power_s)
-                and s_within(power_s, s_max, positive=True)):
-            raise InputError(f"power_s: expected 0 < S ≤ $30 = {s_max:g}, got {power_s!r}")
+        if s_word is None:
+            s_word = max(1.0, round(0.01 * s_max))
+        if not (isinstance(s_word, (int, float)) and math.isfinite(s_word)
+                and s_within(s_word, s_max, positive=True)):
+            raise InputError(f"s_word: expected 0 < S ≤ $30 = {s_max:g}, got {s_word!r}")
         if cut_mode not in ("M3", "M4"):
             raise InputError(f"cut_mode: expected 'M3' or 'M4', got {cut_mode!r}")
-        self.power_s = float(power_s)
+        self.s_word = float(s_word)
         self.cut_mode = cut_mode
         self.watch_s = watch_s
         self.shows_accessories = False      # the controller reported A: while its beam was on
@@ -709,8 +709,8 @@ class _Check:
             run.result.verdict = NOT_APPLICABLE
             run.result.reason = f"{how} raised no alarm on this controller ({st.raw})"
             return [run.result]
-        refused = [run.command(f"G1 X0.1 F{self.target.cut_feed_mm_min:g} S{self.power_s:g} M3", 5.0),
-                   run.command(f"M3 S{self.power_s:g}", 5.0)]
+        refused = [run.command(f"G1 X0.1 F{self.target.cut_feed_mm_min:g} S{self.s_word:g} M3", 5.0),
+                   run.command(f"M3 S{self.s_word:g}", 5.0)]
         st = run.status()
         run.judge(st, f"ALARM:{self.g.alarm} after {how}; beam-firing lines answered "
                   + ", ".join(refused))
@@ -740,7 +740,7 @@ class _Check:
         run.set_mark()
         dx = self.target.cut_mm
         answer = run.command(f"G91 G1 X{dx:g} X{-dx:g} F{self.target.cut_feed_mm_min:g} "
-                             f"S{self.power_s:g} M3")
+                             f"S{self.s_word:g} M3")
         st = run.status()
         gc = self.g.parser_state()
         run.result.reported.append(f"$G [GC:{gc}]")
@@ -779,7 +779,7 @@ class _Check:
 
     def _rapid(self, run: _Run) -> list:
         """A G0 with M3 S in effect; returns the status reports taken during the rapid."""
-        run.command(f"G91 G0 M3 S{self.power_s:g}")
+        run.command(f"G91 G0 M3 S{self.s_word:g}")
         run.set_mark()
         dx = self.next_dx()
         for k in range(self.target.rapids):
@@ -818,7 +818,7 @@ class _Check:
             run.fail("G0 with M3 S in effect in laser mode: " + "; ".join(bad))
         else:
             run.result.verdict = PASS
-            run.result.reason = (f"G0 with M3 S{self.power_s:g} in effect: off through "
+            run.result.reason = (f"G0 with M3 S{self.s_word:g} in effect: off through "
                                  f"{len(moving)} reports while moving")
         self.g.command("M5 S0")
         if self.target.beam.observed:          # the contrast, where no real beam burns a line
@@ -890,7 +890,7 @@ _ORDER = (("feed_hold", "feed_hold_and_resume"), ("resume", "feed_hold_and_resum
 
 
 def run_safety_check(port: str | None = None, *, sim=None, virtual=None, machine=None,
-                     power_s: float | None = None, cut_mode: str = "M4", scenarios=None,
+                     s_word: float | None = None, cut_mode: str = "M4", scenarios=None,
                      baud: int | None = None, time_scale: float = 5.0, watch_s: float = 0.3,
                      progress=None) -> SafetyReport:
     """Run the safety scenarios against a controller and report each one.
@@ -908,7 +908,7 @@ def run_safety_check(port: str | None = None, *, sim=None, virtual=None, machine
         new one of ``machine`` running ``time_scale`` times real time.
     machine : str, optional
         Machine description of the virtual machine (default ``grbl-diode``).
-    power_s : float, optional
+    s_word : float, optional
         The S word of the cuts, 0 < S ≤ ``$30`` (default 1 % of ``$30``): keep it low on a
         real machine.
     cut_mode : {"M4", "M3"}
@@ -976,8 +976,8 @@ def run_safety_check(port: str | None = None, *, sim=None, virtual=None, machine
             virtual = VirtualMachine(machine, time_scale=time_scale)
         target = _VirtualTarget(virtual)
     try:
-        check = _Check(target, power_s, cut_mode, watch_s)
-        report = SafetyReport(target.name, check.controller, check.power_s, cut_mode,
+        check = _Check(target, s_word, cut_mode, watch_s)
+        report = SafetyReport(target.name, check.controller, check.s_word, cut_mode,
                               target.beam.observed)
         done = set()
         for key, method in _ORDER:

@@ -129,10 +129,11 @@ class Job:
         InputError
             A line longer than the controller accepts.
         """
-        from labkit.gcode import parse
+        from labkit.gcode import parse_with_states
         from labkit.geometry.circle import grbl_segments
 
-        moves = parse(text, dialect=dialect, filename=filename)
+        # one reading gives the moves (to plan) and what each line states (trace, below)
+        moves, trace = parse_with_states(text, dialect=dialect, filename=filename)
         source = text.split("\n")
         if source and source[-1] == "":
             source.pop()
@@ -176,7 +177,6 @@ class Job:
             job_time = p.job_time_s
         except (LabkitError, ValueError) as exc:
             raise MachineError(f"cannot plan the job for its ETA: {exc}") from exc
-        trace, _ = line_states(text, dialect=dialect)
         rows = trace[[k - 1 for k, _ in send]]      # the interpreter numbers lines as split here
         return cls(source, send, moves, blocks, done_at, job_time, filename, dialect,
                    _syncing([t for _, t in send], rows), [bool(v) for v in rows["axis_words"]], rows)
@@ -1316,7 +1316,7 @@ def _virtual_machine(link):
 
 def _stall_notes(job: Job, spec) -> list[str]:
     """A warning when the machine's serial link will leave its planner empty (issue 30 §2)."""
-    from labkit.motion.machine import load_machine
+    from labkit.motion.spec import load_machine
     from labkit.motion.stall import predict_stalls, program_feeds, stall_free_feed
 
     text = "\n".join(job.source_lines) + "\n"
@@ -1446,7 +1446,7 @@ def preflight_check(grbl: Grbl, job: Job, *, machine=None, status=None) -> tuple
     burning = np.asarray(m.laser_on, bool)
     s30 = grbl.setting(30)
     if burning.any() and math.isfinite(s30) and s30 > 0:
-        powers = np.asarray(m.power_s, float)[burning]
+        powers = np.asarray(m.s_word, float)[burning]
         k = int(np.argmax(powers))
         s_job, ln = float(powers[k]), int(np.asarray(m.line)[burning][k])
         if s_job > s30 * (1 + 1e-6):
@@ -1480,7 +1480,7 @@ def preflight_check(grbl: Grbl, job: Job, *, machine=None, status=None) -> tuple
     if spec is None and vm is not None:
         spec = vm.machine
     if spec is not None:
-        from labkit.motion.machine import check_job_fits
+        from labkit.motion.spec import check_job_fits
 
         try:
             msg = check_job_fits(hi.max(axis=0) - lo.min(axis=0), spec, force=True)

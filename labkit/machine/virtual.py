@@ -1789,7 +1789,7 @@ class VirtualMachine:
                                   constant=True))
                 continue
             rapid = bool(rows.rapid[r])
-            beam = 0.0 if rapid else self._beam_fraction(int(chords.laser[i]), float(chords.power_s[i]))
+            beam = 0.0 if rapid else self._beam_fraction(int(chords.laser[i]), float(chords.s_word[i]))
             out.append(_Block(self.lines_accepted, n_word, text, a, b, float(rows.cap_mm_s[r]), 0.0,
                               beam, rapid, accel_mm_s2=float(rows.accel_mm_s2[r]),
                               constant=int(chords.laser[i]) == 3 and not rapid, row=rows[r],

@@ -32,7 +32,7 @@ import numpy as np
 
 from labkit.errors import GeometryError
 from labkit.micromachining.chipvolume import ChipVolumes, ZMap, chip_volumes
-from labkit.motion.machine import CBR40, MachineSpec
+from labkit.motion.spec import CBR40, MachineSpec
 from labkit.toolpath.moves import MoveKind, Moves
 
 __all__ = ["MICRO_MILL", "optimal_feed_per_tooth", "moving_average", "FeedSchedule", "schedule_feeds",

@@ -1,12 +1,12 @@
 """Motion: what a laser controller does between ``G1 X10`` and the step pulses.
 
 The readable, exact reference the labkit firmware is checked against step for
-step: the machine description (:mod:`~labkit.motion.machine`), Bresenham
+step: the machine description (:mod:`~labkit.motion.spec`), Bresenham
 lines and arcs on the step lattice (:mod:`~labkit.motion.bresenham`), blocks
 and their FIFO (:mod:`~labkit.motion.blocks`), per-block speed profiles
 (:mod:`~labkit.motion.profile`), multi-block look-ahead — [CBR40]'s three
 MBLA modes and GRBL's junction-deviation planner (:mod:`~labkit.motion.planner`),
-laser power that follows speed (:mod:`~labkit.motion.laser`), the step timer
+laser power that follows speed (:mod:`~labkit.motion.power`), the step timer
 (:mod:`~labkit.motion.timer`) and the whole chain (:func:`plan`).
 """
 
@@ -20,11 +20,11 @@ from labkit.motion.bresenham import (
     lines_points,
     steps_from_points,
 )
-from labkit.motion.laser import dose_mj_per_mm, laser_power_mw, power_ratio
-from labkit.motion.planner import PLANNERS, Lookahead, junction_speed_caps, lookahead
-from labkit.motion.machine import AXES, CBR40, MACHINES_DIR, MachineSpec, load_machine, machine_files
 from labkit.motion.pipeline import Plan, PlanSummary, default_law, plan
+from labkit.motion.planner import PLANNERS, Lookahead, junction_speed_caps, lookahead
+from labkit.motion.power import dose_mj_per_mm, laser_power_mw, power_ratio
 from labkit.motion.profile import RAMP_LAWS, Profiles, block_profiles, ramp_distance, ramp_time, reach_speed
+from labkit.motion.spec import AXES, CBR40, MACHINES_DIR, MachineSpec, load_machine, machine_files
 from labkit.motion.timer import (
     StepBlocks,
     StepTrace,

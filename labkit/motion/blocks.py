@@ -39,7 +39,7 @@ import numpy as np
 
 from labkit.errors import MotionError
 from labkit.motion.bresenham import arc_lattice_points, direction_bits
-from labkit.motion.machine import MachineSpec, load_machine
+from labkit.motion.spec import MachineSpec, load_machine
 from labkit.toolpath.moves import PLANE_AXES, LaserMode, MoveKind, Moves, check_moves
 
 __all__ = ["BlockKind", "Blocks", "BlockFifo", "build_blocks", "to_steps", "expand_arcs"]
@@ -338,7 +338,7 @@ def build_blocks(moves: Moves, machine: MachineSpec | str | None = None, *,
     Examples
     --------
     >>> from labkit.toolpath import MovesBuilder, LaserMode
-    >>> b = MovesBuilder(feed_mm_min=600, power_s=400, laser=LaserMode.DYNAMIC)
+    >>> b = MovesBuilder(feed_mm_min=600, s_word=400, laser=LaserMode.DYNAMIC)
     >>> b.line(x=3, y=4)
     >>> blk = build_blocks(b.build())
     >>> blk.steps[0].tolist(), int(blk.ticks[0]), round(float(blk.length_mm[0]), 6)

@@ -15,9 +15,9 @@ import numpy as np
 
 from labkit.errors import MotionError
 from labkit.motion.blocks import BlockKind, Blocks, build_blocks
-from labkit.motion.laser import laser_power_mw
+from labkit.motion.power import laser_power_mw
 from labkit.motion.planner import PLANNERS, Lookahead, lookahead
-from labkit.motion.machine import MachineSpec, load_machine
+from labkit.motion.spec import MachineSpec, load_machine
 from labkit.motion import _ramp
 from labkit.motion.profile import RAMP_LAWS, Profiles, block_profiles
 from labkit.toolpath.moves import Moves

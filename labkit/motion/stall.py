@@ -390,13 +390,13 @@ def predict_stalls(text: str, machine=None, *, line_bytes=None, dialect: str = "
     starvation of 23.6 ms. The third waits for the quiet-input flush, with no line left
     to come: not a starvation.
 
-    >>> from labkit.motion.machine import CBR40
+    >>> from labkit.motion.spec import CBR40
     >>> m = CBR40.replace(link_baud=1200, buffer_blocks=1)
     >>> p = predict_stalls("G1X.1F1200\\nG1X.2\\nG1X.3\\n", m)
     >>> [(s.line, round(s.duration_s, 3)) for s in p.stalls]
     [(2, 0.024)]
     """
-    from labkit.motion.machine import load_machine
+    from labkit.motion.spec import load_machine
 
     m = load_machine(machine)
     nbytes = sent_line_bytes(text) if line_bytes is None else np.asarray(line_bytes, dtype=np.int64)
@@ -485,14 +485,14 @@ def block_time_bounds(moves, machine=None):
     Examples
     --------
     >>> from labkit.toolpath.moves import Moves
-    >>> from labkit.motion.machine import CBR40
-    >>> m = Moves.from_cuts([(1, 0)], [(7, 0)], feed_mm_min=600, power_s=500)  # a rapid, a cut
+    >>> from labkit.motion.spec import CBR40
+    >>> m = Moves.from_cuts([(1, 0)], [(7, 0)], feed_mm_min=600, s_word=500)  # a rapid, a cut
     >>> rows, t = block_time_bounds(m, CBR40)
     >>> rows.tolist(), float(t[1].round(3))                # 6 mm at 600 mm/min: 0.6 s
     ([0, 1], 0.6)
     """
     from labkit.motion.blocks import to_steps
-    from labkit.motion.machine import load_machine
+    from labkit.motion.spec import load_machine
     from labkit.toolpath.moves import MoveKind
 
     m = load_machine(machine)
@@ -558,12 +558,12 @@ def may_starve(line_bytes, block_line, block_min_s, machine=None) -> bool:
     Sixty 0.1 mm cuts at 600 mm/min (10 ms each) in 7-byte lines: 7.3 ms a line at 9600
     baud keeps ahead of them; at 4800 baud (14.6 ms a line) the link may fall behind.
 
-    >>> from labkit.motion.machine import CBR40
+    >>> from labkit.motion.spec import CBR40
     >>> cuts = (np.full(60, 7), np.arange(1, 61), np.full(60, 0.010))
     >>> may_starve(*cuts, CBR40.replace(link_baud=9600)), may_starve(*cuts, CBR40.replace(link_baud=4800))
     (False, True)
     """
-    from labkit.motion.machine import load_machine
+    from labkit.motion.spec import load_machine
 
     m = load_machine(machine)
     nbytes = np.asarray(line_bytes, dtype=np.int64)
@@ -838,7 +838,7 @@ def stall_free_feed(text: str, machine=None, *, line_bytes=None, dialect: str = 
     MotionError
         The program has no F word.
     """
-    from labkit.motion.machine import load_machine
+    from labkit.motion.spec import load_machine
 
     m = load_machine(machine)
     feeds = program_feeds(text)

@@ -44,7 +44,7 @@ def _spans(row, skip_px, starts, stops):
 
 
 @jit
-def _put(k, x0, x1, y, s, pixel_mm, last, fill, kind, start, end, power_s):
+def _put(k, x0, x1, y, s, pixel_mm, last, fill, kind, start, end, s_word):
     """Append the cut x0 → x1 (pixel units) at height y (mm) with power S, preceded by a
     rapid from the last end point when it starts elsewhere. Returns the next row."""
     sx = x0 * pixel_mm
@@ -60,7 +60,7 @@ def _put(k, x0, x1, y, s, pixel_mm, last, fill, kind, start, end, power_s):
             end[k, 0] = sx
             end[k, 1] = y
             end[k, 2] = 0.0
-            power_s[k] = s
+            s_word[k] = s
         k += 1
     if fill:
         kind[k] = _LINE
@@ -70,14 +70,14 @@ def _put(k, x0, x1, y, s, pixel_mm, last, fill, kind, start, end, power_s):
         end[k, 0] = ex
         end[k, 1] = y
         end[k, 2] = 0.0
-        power_s[k] = s
+        s_word[k] = s
     last[0] = ex
     last[1] = y
     return k + 1
 
 
 @jit(python_below=150_000)  # pixels: up to ~7 µs each as Python (a photo), ~1 s at 150,000
-def scan_moves(power, bidirectional, skip_px, overscan_px, pixel_mm, fill, kind, start, end, power_s):
+def scan_moves(power, bidirectional, skip_px, overscan_px, pixel_mm, fill, kind, start, end, s_word):
     """Moves rows along the image rows, bottom row first (x at pixel edges, y at row centres).
 
     Per burn span: an overscan lead-in at S 0, one cut per run of equal S (S 0 where a
@@ -107,16 +107,16 @@ def scan_moves(power, bidirectional, skip_px, overscan_px, pixel_mm, fill, kind,
             # lead-in, runs, lead-out; reversed spans are walked from b down to a
             if lead:
                 if backwards:
-                    k = _put(k, b + overscan_px, b, y, 0, pixel_mm, last, fill, kind, start, end, power_s)
+                    k = _put(k, b + overscan_px, b, y, 0, pixel_mm, last, fill, kind, start, end, s_word)
                 else:
-                    k = _put(k, a - overscan_px, a, y, 0, pixel_mm, last, fill, kind, start, end, power_s)
+                    k = _put(k, a - overscan_px, a, y, 0, pixel_mm, last, fill, kind, start, end, s_word)
             if backwards:
                 c = b
                 while c > a:
                     e = c - 1
                     while e > a and row[e - 1] == row[c - 1]:
                         e -= 1
-                    k = _put(k, c, e, y, row[c - 1], pixel_mm, last, fill, kind, start, end, power_s)
+                    k = _put(k, c, e, y, row[c - 1], pixel_mm, last, fill, kind, start, end, s_word)
                     c = e
             else:
                 c = a
@@ -124,11 +124,11 @@ def scan_moves(power, bidirectional, skip_px, overscan_px, pixel_mm, fill, kind,
                     e = c + 1
                     while e < b and row[e] == row[c]:
                         e += 1
-                    k = _put(k, c, e, y, row[c], pixel_mm, last, fill, kind, start, end, power_s)
+                    k = _put(k, c, e, y, row[c], pixel_mm, last, fill, kind, start, end, s_word)
                     c = e
             if lead:
                 if backwards:
-                    k = _put(k, a, a - overscan_px, y, 0, pixel_mm, last, fill, kind, start, end, power_s)
+                    k = _put(k, a, a - overscan_px, y, 0, pixel_mm, last, fill, kind, start, end, s_word)
                 else:
-                    k = _put(k, b, b + overscan_px, y, 0, pixel_mm, last, fill, kind, start, end, power_s)
+                    k = _put(k, b, b + overscan_px, y, 0, pixel_mm, last, fill, kind, start, end, s_word)
     return k

@@ -47,7 +47,7 @@ def burn_map(moves: Moves, shape, pixel_mm: float, *, tol_mm: float = 1e-6):
 
     Examples
     --------
-    >>> m = Moves.from_cuts([[0.0, 0.5]], [[3.0, 0.5]], feed_mm_min=600, power_s=200)
+    >>> m = Moves.from_cuts([[0.0, 0.5]], [[3.0, 0.5]], feed_mm_min=600, s_word=200)
     >>> count, power = burn_map(m, (1, 4), 1.0)
     >>> count.tolist(), power.tolist()
     ([[1, 1, 1, 0]], [[200.0, 200.0, 200.0, 0.0]])
@@ -78,7 +78,7 @@ def _burn_chunk(moves, all_idx, first_move, stop, rows, cols, pixel_mm, tol_mm, 
     inner = stop - first_move
     a = moves.start[idx, :2] / pixel_mm - 0.5   # in pixel-centre coordinates: centre c at c
     b = moves.end[idx, :2] / pixel_mm - 0.5
-    s = moves.power_s[idx].astype(np.float64)
+    s = moves.s_word[idx].astype(np.float64)
     tol = tol_mm / pixel_mm
     # corners: consecutive laser-on moves meeting at a pixel centre share that pixel
     joined = (idx[1:] == idx[:-1] + 1) & np.all(np.abs(b[:-1] - a[1:]) <= tol, axis=1)

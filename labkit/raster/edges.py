@@ -169,14 +169,12 @@ def sobel(gray, *, pseudo: bool = False, border: str = "reflect", cval: float = 
     Parameters
     ----------
     gray : array_like, 2-D
-        labkit gray (0…255) or uint8.
+        As for :func:`roberts`.
     pseudo : bool
         False: sqrt(Gx² + Gy²) from the two 3×3 kernels (:data:`WINDOW_WEIGHTS`).
         True: [LaserApp] eq. (4) with a = 2, which equals |Gx| + |Gy|.
-    border : {"reflect", "nearest", "constant"}
-        Values beyond the edges (see the module docstring).
-    cval : float
-        Outside value for ``border="constant"``.
+    border, cval
+        As for :func:`roberts`, but beyond all four edges (see the module docstring).
 
     Returns
     -------

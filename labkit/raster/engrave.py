@@ -144,7 +144,7 @@ def summarize(moves: Moves, *, feed_mm_min: float, rapid_mm_min: float | None = 
 
     Examples
     --------
-    >>> m = Moves.from_cuts([[0, 0], [5, 0]], [[3, 0], [9, 0]], feed_mm_min=600, power_s=800)
+    >>> m = Moves.from_cuts([[0, 0], [5, 0]], [[3, 0], [9, 0]], feed_mm_min=600, s_word=800)
     >>> s = summarize(m, feed_mm_min=600)
     >>> s.cut_length_mm, s.travel_length_mm, s.estimated_time_s, s.cut_moves, s.counts["rapid"]
     (7.0, 2.0, 0.9, 2, 1)
@@ -162,24 +162,24 @@ def _check_positive(name, value):
         raise RasterError(f"{name} must be a finite number > 0, got {value!r}")
 
 
-def segments_to_moves(segments: Segments, *, pixel_mm: float, feed_mm_min: float, power_s: float,
+def segments_to_moves(segments: Segments, *, pixel_mm: float, feed_mm_min: float, s_word: float,
                       laser=LaserMode.CONSTANT, s_max: float = 1000.0) -> Moves:
     """Cuts along the segments in their order, joined by rapids (image corner at X0 Y0).
 
     Examples
     --------
     >>> s = zigzag_segments(np.array([[True, True, False, True]]), axis="rows")
-    >>> m = segments_to_moves(s, pixel_mm=0.5, feed_mm_min=900, power_s=1000)
+    >>> m = segments_to_moves(s, pixel_mm=0.5, feed_mm_min=900, s_word=1000)
     >>> [MoveKind(k).name for k in m.kind], m.end[:, 0].tolist()
     (['RAPID', 'LINE', 'RAPID', 'LINE'], [0.0, 1.0, 1.5, 2.0])
     """
     _check_positive("pixel_mm", pixel_mm)
     _check_positive("feed_mm_min", feed_mm_min)
-    if not s_within(power_s, s_max, positive=True):
-        raise RasterError(f"power_s must be in (0, {s_max:g}], got {power_s!r}")
+    if not s_within(s_word, s_max, positive=True):
+        raise RasterError(f"s_word must be in (0, {s_max:g}], got {s_word!r}")
     a, b = segments.cuts()
     scale = 0.5 * float(pixel_mm)
-    return Moves.from_cuts(a * scale, b * scale, feed_mm_min=feed_mm_min, power_s=power_s,
+    return Moves.from_cuts(a * scale, b * scale, feed_mm_min=feed_mm_min, s_word=s_word,
                            laser=laser, s_max=s_max)
 
 
@@ -199,7 +199,7 @@ def _report(mode, moves, *, shape, pixel_mm, marked, before, segments, feed_mm_m
 
 
 def mask_job(mask, *, pixel_mm: float, mode: str = "zigzag", feed_mm_min: float = 1000.0,
-             power_s: float = 1000.0, order: str = "indexed", axis: str = "auto",
+             s_word: float = 1000.0, order: str = "indexed", axis: str = "auto",
              direction: str = "bidirectional", ends: str = "edge", laser=LaserMode.CONSTANT,
              s_max: float = 1000.0, rapid_mm_min: float | None = None,
              size_error_mm=(0.0, 0.0), report_mode: str | None = None) -> RasterJob:
@@ -216,7 +216,7 @@ def mask_job(mask, *, pixel_mm: float, mode: str = "zigzag", feed_mm_min: float 
         :func:`~labkit.raster.pathing.spiral_segments`).
     feed_mm_min : float
         Cutting feed, mm/min.
-    power_s : float
+    s_word : float
         Laser power word S for the cuts (0 < S ≤ ``s_max``).
     order : {"indexed", "reference", "scan"}
         Segment connection (:func:`~labkit.raster.pathing.connect`).
@@ -259,7 +259,7 @@ def mask_job(mask, *, pixel_mm: float, mode: str = "zigzag", feed_mm_min: float 
         raise RasterError(f"mode must be 'zigzag' or 'spiral' for a mask, got {mode!r}")
     conn = connect(segs, method=order)
     ordered = segs.reordered(conn)
-    moves = segments_to_moves(ordered, pixel_mm=pixel_mm, feed_mm_min=feed_mm_min, power_s=power_s,
+    moves = segments_to_moves(ordered, pixel_mm=pixel_mm, feed_mm_min=feed_mm_min, s_word=s_word,
                               laser=laser, s_max=s_max)
     report = _report(report_mode or mode, moves, shape=m.shape, pixel_mm=pixel_mm, marked=m.sum(),
                      before=before, segments=len(segs), feed_mm_min=feed_mm_min,
@@ -355,7 +355,7 @@ def gray_job(gray, *, pixel_mm: float, feed_mm_min: float = 3000.0, s_max: float
     >>> g = np.array([[255.0, 0.0, 127.5, 255.0, 255.0, 0.0]])
     >>> job = gray_job(g, pixel_mm=1.0, overscan_mm=1.0, skip_white_mm=1.0)
     >>> [(float(a), float(b), float(s)) for a, b, s in
-    ...  zip(job.moves.start[:, 0], job.moves.end[:, 0], job.moves.power_s)]   # doctest: +NORMALIZE_WHITESPACE
+    ...  zip(job.moves.start[:, 0], job.moves.end[:, 0], job.moves.s_word)]   # doctest: +NORMALIZE_WHITESPACE
     [(0.0, 0.0, 0.0), (0.0, 1.0, 0.0), (1.0, 2.0, 1000.0), (2.0, 3.0, 500.0), (3.0, 4.0, 0.0),
      (4.0, 5.0, 0.0), (5.0, 6.0, 1000.0), (6.0, 7.0, 0.0)]
     """
@@ -404,12 +404,12 @@ def _scan_moves(power, bidirectional, skip_px, overscan_px, pixel_mm, *, feed_mm
     check_budget("moves", n, cause=cause, option="the size (width, height, dpi) or raise the beam diameter")
     check_budget("raster_bytes", n * BYTES_PER_GRAY_MOVE, cause=cause,
                  option="the size (width, height, dpi) or raise the beam diameter")
-    kind, start, end, power_s = _move_columns(n)
-    _scanlines.scan_moves(*args, True, kind, start, end, power_s)
+    kind, start, end, s_word = _move_columns(n)
+    _scanlines.scan_moves(*args, True, kind, start, end, s_word)
     # Columns that are one value for every row are read-only views of that value (no memory
     # a row): a photo's 2.26 M moves hold 33 B less each (what Moves.copy() copies is writable).
     return Moves(kind=kind, start=start, end=end, feed_mm_min=_same(float(feed_mm_min), n),
-                 power_s=power_s, laser=_same(np.int8(int(laser)), n),
+                 s_word=s_word, laser=_same(np.int8(int(laser)), n),
                  centre=_same(np.full(3, np.nan), n), plane=_same(np.int8(17), n), s_max=s_max)
 
 
@@ -519,7 +519,7 @@ class RasterSettings:
         S meaning full power.
     rapid_mm_min : float, optional
         Travel speed for the time estimate.
-    power_s, order, axis, direction, ends
+    s_word, order, axis, direction, ends
         Binary modes: S of the cuts and how runs are connected and scanned
         (:func:`mask_job`).
     min_power, max_power, white_level, dither, serpentine, overscan_mm, skip_white_mm, bidirectional
@@ -550,7 +550,7 @@ class RasterSettings:
     laser: LaserMode | None = None
     s_max: float = 1000.0
     rapid_mm_min: float | None = None
-    power_s: float = 1000.0
+    s_word: float = 1000.0
     order: str = "indexed"
     axis: str = "auto"
     direction: str = "bidirectional"
@@ -601,7 +601,7 @@ class RasterSettings:
                         white_level=self.white_level, dither=dither, serpentine=self.serpentine,
                         overscan_mm=self.overscan_mm, skip_white_mm=self.skip_white_mm,
                         bidirectional=self.bidirectional)
-        return dict(common, power_s=self.power_s, order=self.order, axis=self.axis,
+        return dict(common, s_word=self.s_word, order=self.order, axis=self.axis,
                     direction=self.direction, ends=self.ends)
 
 

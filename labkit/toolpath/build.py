@@ -40,7 +40,7 @@ class LayerSettings:
     ----------
     feed_mm_min : float
         Cutting feed, mm/min.
-    power_s : float
+    s_word : float
         Laser power word S (0…``s_max``).
     passes : int
         How many times the layer is cut.
@@ -51,7 +51,7 @@ class LayerSettings:
     """
 
     feed_mm_min: float = 1000.0
-    power_s: float = 1000.0
+    s_word: float = 1000.0
     passes: int = 1
     z_step_mm: float = 0.0
     laser: LaserMode = LaserMode.CONSTANT
@@ -59,8 +59,8 @@ class LayerSettings:
     def __post_init__(self):
         if not self.feed_mm_min > 0:
             raise GeometryError(f"feed_mm_min must be > 0 mm/min, got {self.feed_mm_min!r}")
-        if not self.power_s >= 0:
-            raise GeometryError(f"power_s must be >= 0, got {self.power_s!r}")
+        if not self.s_word >= 0:
+            raise GeometryError(f"s_word must be >= 0, got {self.s_word!r}")
         if int(self.passes) != self.passes or self.passes < 1:
             raise GeometryError(f"passes must be an integer >= 1, got {self.passes!r}")
         if not math.isfinite(self.z_step_mm) or self.z_step_mm < 0:
@@ -135,7 +135,7 @@ def build_moves(paths: Sequence[Path], settings: LayerSettings | Mapping[str, La
     Examples
     --------
     >>> sq = Path.rectangle(0, 0, 10, 10)
-    >>> m = build_moves([sq, Path.circle((30, 5), 5)], LayerSettings(feed_mm_min=600, power_s=800))
+    >>> m = build_moves([sq, Path.circle((30, 5), 5)], LayerSettings(feed_mm_min=600, s_word=800))
     >>> [MoveKind(k).name for k in m.kind]            # the circle: one full-turn G3
     ['LINE', 'LINE', 'LINE', 'LINE', 'RAPID', 'ARC_CCW']
     >>> round(float(m.lengths_mm()[m.laser_on].sum()), 4), bool(m.laser_on[4])
@@ -157,7 +157,7 @@ def build_moves(paths: Sequence[Path], settings: LayerSettings | Mapping[str, La
                 if np.linalg.norm(start - pos) > rapid_tol_mm:
                     chunks.append(dict(kind=np.array([MoveKind.RAPID]), start=pos[None].copy(),
                                        end=start[None], centre=np.full((1, 3), np.nan),
-                                       feed=np.array([ls.feed_mm_min]), power=np.array([ls.power_s]),
+                                       feed=np.array([ls.feed_mm_min]), power=np.array([ls.s_word]),
                                        laser=np.array([int(ls.laser)])))
                 verts, centres, sweeps = _merged_circles(p)
                 n = len(sweeps)
@@ -168,14 +168,14 @@ def build_moves(paths: Sequence[Path], settings: LayerSettings | Mapping[str, La
                 centre[sweeps == 0] = np.nan
                 chunks.append(dict(kind=kind, start=np.hstack([verts[:-1], zc]),
                                    end=np.hstack([verts[1:], zc]), centre=centre,
-                                   feed=np.full(n, ls.feed_mm_min), power=np.full(n, ls.power_s),
+                                   feed=np.full(n, ls.feed_mm_min), power=np.full(n, ls.s_word),
                                    laser=np.full(n, int(ls.laser))))
                 pos = np.array([p.end[0], p.end[1], z])
     if not chunks:
         return Moves.empty(s_max=s_max)
     cat = {k: np.concatenate([c[k] for c in chunks]) for k in chunks[0]}
     return Moves(kind=cat["kind"].astype(np.int8), start=cat["start"], end=cat["end"],
-                 centre=cat["centre"], feed_mm_min=cat["feed"], power_s=cat["power"],
+                 centre=cat["centre"], feed_mm_min=cat["feed"], s_word=cat["power"],
                  laser=cat["laser"].astype(np.int8), s_max=s_max)
 
 

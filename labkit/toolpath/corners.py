@@ -161,7 +161,7 @@ def add_corner_loops(moves: Moves, *, accel_mm_s2: float, split_deg: float = 45.
     loop with r1 = 0.8 mm, and a 0.4 mm lead at each end.
 
     >>> from labkit.toolpath import MovesBuilder
-    >>> b = MovesBuilder(feed_mm_min=1200, power_s=500, laser=LaserMode.CONSTANT)
+    >>> b = MovesBuilder(feed_mm_min=1200, s_word=500, laser=LaserMode.CONSTANT)
     >>> b.line(x=10); b.line(y=10)
     >>> looped, rep = add_corner_loops(b.build(), accel_mm_s2=500)
     >>> rep["triangle_loops"], rep["arc_loops"], rep["leads"], int(looped.laser_on.sum())

@@ -103,8 +103,8 @@ def vector_job(paths: Sequence[Path], *, default: LayerSettings = LayerSettings(
     tolerance_budget(tol_mm, arcs=arcs)          # refuses a tolerance that is not a length
     layers = dict(layers or {})
     for name, layer in [("default", default)] + list(layers.items()):
-        if not s_within(layer.power_s, s_max):      # LayerSettings refused S < 0
-            raise GeometryError(f"layer {name}: power S{layer.power_s:g} is above s_max {s_max:g}; "
+        if not s_within(layer.s_word, s_max):      # LayerSettings refused S < 0
+            raise GeometryError(f"layer {name}: power S{layer.s_word:g} is above s_max {s_max:g}; "
                                 f"expected a power within 0…{s_max:g}")
     paths = list(paths)
     if not arcs and any(p.is_arc.any() for p in paths):

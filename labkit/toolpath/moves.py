@@ -13,7 +13,7 @@ start, end      float64 n×3  X Y Z in mm (machine coordinates, absolute)
 centre          float64 n×3  arc centre in mm (NaN for non-arcs)
 plane           int8         17, 18 or 19 (G17 XY, G18 ZX, G19 YZ) of an arc
 feed_mm_min     float64      feed in effect, mm/min (NaN if never set)
-power_s         float32      laser power word S in effect (0…``s_max``)
+s_word          float32      laser power word S in effect (0…``s_max``)
 laser           int8         :class:`LaserMode` in effect: 0 off, 3 M3, 4 M4
 dwell_s         float64      dwell time in s (DWELL rows only, else 0)
 line            int32        1-based source line (0 for generated moves)
@@ -103,7 +103,7 @@ _COLUMNS = {
     "centre": (np.float64, (3,), np.nan),
     "plane": (np.int8, (), 17),
     "feed_mm_min": (np.float64, (), np.nan),
-    "power_s": (np.float32, (), 0.0),
+    "s_word": (np.float32, (), 0.0),
     "laser": (np.int8, (), 0),
     "dwell_s": (np.float64, (), 0.0),
     "line": (np.int32, (), 0),
@@ -129,7 +129,7 @@ class Moves:
 
     Parameters
     ----------
-    kind, start, end, centre, plane, feed_mm_min, power_s, laser, dwell_s, line, work_offset
+    kind, start, end, centre, plane, feed_mm_min, s_word, laser, dwell_s, line, work_offset
         Column arrays of equal length; missing columns take their defaults
         (``centre`` NaN, ``plane`` 17, ``feed_mm_min`` NaN, others 0).
     source : str, optional
@@ -147,7 +147,7 @@ class Moves:
     --------
     >>> m = Moves(kind=[MoveKind.RAPID, MoveKind.LINE],
     ...           start=[[0, 0, 0], [10, 0, 0]], end=[[10, 0, 0], [10, 5, 0]],
-    ...           feed_mm_min=[np.nan, 600], power_s=[0, 500], laser=[3, 3])
+    ...           feed_mm_min=[np.nan, 600], s_word=[0, 500], laser=[3, 3])
     >>> len(m), m.lengths_mm().tolist(), m.laser_on.tolist()
     (2, [10.0, 5.0], [False, True])
     """
@@ -222,7 +222,7 @@ class Moves:
                    diagnostics=[d for p in parts for d in p.diagnostics], **cols)
 
     @classmethod
-    def from_cuts(cls, starts, ends, *, feed_mm_min, power_s, laser=LaserMode.CONSTANT,
+    def from_cuts(cls, starts, ends, *, feed_mm_min, s_word, laser=LaserMode.CONSTANT,
                   origin=(0.0, 0.0, 0.0), s_max=1000.0, rapid_tol_mm=1e-9) -> "Moves":
         """Straight cuts in the given order, joined by rapids where they do not touch.
 
@@ -232,7 +232,7 @@ class Moves:
             Start and end of each cut in mm (Z = 0 when 2-D).
         feed_mm_min : float or array_like
             Cutting feed per cut, mm/min.
-        power_s : float or array_like
+        s_word : float or array_like
             Laser power word per cut (0…``s_max``).
         laser : LaserMode
             M3 (constant) or M4 (dynamic) for the cuts.
@@ -247,7 +247,7 @@ class Moves:
 
         Examples
         --------
-        >>> m = Moves.from_cuts([[0, 0], [5, 0]], [[2, 0], [9, 0]], feed_mm_min=1200, power_s=800)
+        >>> m = Moves.from_cuts([[0, 0], [5, 0]], [[2, 0], [9, 0]], feed_mm_min=1200, s_word=800)
         >>> [MoveKind(k).name for k in m.kind]
         ['LINE', 'RAPID', 'LINE']
         """
@@ -259,7 +259,7 @@ class Moves:
         prev_end = np.vstack([np.asarray(origin, dtype=float)[None, :], ends[:-1]]) if n else ends
         gap = np.linalg.norm(starts - prev_end, axis=1) > rapid_tol_mm
         feed = np.broadcast_to(np.asarray(feed_mm_min, dtype=float), (n,))
-        power = np.broadcast_to(np.asarray(power_s, dtype=np.float32), (n,))
+        power = np.broadcast_to(np.asarray(s_word, dtype=np.float32), (n,))
         # Row layout: every cut takes one row, plus one rapid row before it when there is a gap.
         rows_per_cut = 1 + gap.astype(np.int64)
         cut_row = np.cumsum(rows_per_cut) - 1
@@ -279,7 +279,7 @@ class Moves:
         power_col = np.zeros(total, np.float32)
         power_col[cut_row] = power
         power_col[rapid_row] = power[gap]
-        return cls(kind=kind, start=start, end=end, feed_mm_min=feed_col, power_s=power_col,
+        return cls(kind=kind, start=start, end=end, feed_mm_min=feed_col, s_word=power_col,
                    laser=np.full(total, int(laser), np.int8), s_max=s_max)
 
     # -- container protocol -----------------------------------------------------------
@@ -394,18 +394,18 @@ class Moves:
     @property
     def laser_on(self) -> np.ndarray:
         """Rows during which the beam burns: feed moves with M3/M4 and S > 0."""
-        return self.is_feed & (self.laser != LaserMode.OFF) & (self.power_s > 0)
+        return self.is_feed & (self.laser != LaserMode.OFF) & (self.s_word > 0)
 
     def power_fraction(self) -> np.ndarray:
         """Programmed power as a fraction 0…1 of full power (0 when the beam is off)."""
-        return np.where(self.laser_on, np.clip(self.power_s / self.s_max, 0.0, 1.0), 0.0)
+        return np.where(self.laser_on, np.clip(self.s_word / self.s_max, 0.0, 1.0), 0.0)
 
     def power_mw(self, max_power_mw: float) -> np.ndarray:
         """Programmed optical power per move, mW (linear in S; 0 when off); ``max_power_mw``
         is the machine's power at full duty (its description's ``laser_max_power_mw``)."""
         from labkit.units import s_to_mw
 
-        return np.where(self.laser_on, s_to_mw(self.power_s, s_max=self.s_max,
+        return np.where(self.laser_on, s_to_mw(self.s_word, s_max=self.s_max,
                                                max_power_mw=max_power_mw), 0.0)
 
     def plane_coords(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -526,7 +526,7 @@ class Moves:
                 data[f"{name}_{ax}"] = getattr(self, name)[:, i]
         for i, ax in enumerate("xyz"):
             data[f"work_offset_{ax}"] = self.work_offset[:, i]
-        for name in ("plane", "feed_mm_min", "power_s", "laser", "dwell_s"):
+        for name in ("plane", "feed_mm_min", "s_word", "laser", "dwell_s"):
             data[name] = getattr(self, name)
         data["laser_on"] = self.laser_on
         data["length_mm"] = self.lengths_mm()
@@ -547,10 +547,9 @@ def check_moves(value, *, name: str = "moves", finite: bool = True, error: type 
 
     Parameters
     ----------
-    value : object
-        What the caller was given.
-    name : str
-        The argument's name, for the message.
+    value, name
+        What the caller was given and the argument's name, as for
+        :func:`labkit.geometry.path.check_paths`.
     finite : bool
         Also require finite positions on motion rows, finite arc centres, finite
         powers on motion rows and finite dwells on dwell rows.
@@ -585,7 +584,7 @@ def check_moves(value, *, name: str = "moves", finite: bool = True, error: type 
     checks = [("start", value.start, "motion", "a position", "finite coordinates in mm"),
               ("end", value.end, "motion", "a position", "finite coordinates in mm"),
               ("centre", value.centre, "arc", "an arc centre", "finite coordinates in mm"),
-              ("power_s", value.power_s[:, None], "motion", "a power", "a finite S"),
+              ("s_word", value.s_word[:, None], "motion", "a power", "a finite S"),
               ("dwell_s", value.dwell_s[:, None], "dwell", "a dwell", "a finite dwell in s")]
     for column, data, rows, what, expected in checks:
         # a sum is NaN or inf when any term is: one pass and no temporaries for a sound program
@@ -621,7 +620,7 @@ class MovesBuilder:
 
     Examples
     --------
-    >>> b = MovesBuilder(feed_mm_min=1200, power_s=300, laser=LaserMode.CONSTANT)
+    >>> b = MovesBuilder(feed_mm_min=1200, s_word=300, laser=LaserMode.CONSTANT)
     >>> b.rapid(x=5, y=5)
     >>> b.line(x=15)
     >>> b.arc_cw(x=15, y=-5, i=0, j=-5)
@@ -630,11 +629,11 @@ class MovesBuilder:
     (['RAPID', 'LINE', 'ARC_CW'], 15.708)
     """
 
-    def __init__(self, *, origin=(0.0, 0.0, 0.0), feed_mm_min=math.nan, power_s=0.0,
+    def __init__(self, *, origin=(0.0, 0.0, 0.0), feed_mm_min=math.nan, s_word=0.0,
                  laser=LaserMode.OFF, plane=17, s_max=1000.0, source=None):
         self.position = np.asarray(origin, dtype=float).copy()
         self.feed_mm_min = float(feed_mm_min)
-        self.power_s = float(power_s)
+        self.s_word = float(s_word)
         self.laser = LaserMode(laser)
         self.plane = int(plane)
         self.s_max = s_max
@@ -657,19 +656,19 @@ class MovesBuilder:
         row["centre"] = centre
         row["plane"] = self.plane
         row["feed_mm_min"] = self.feed_mm_min
-        row["power_s"] = self.power_s
+        row["s_word"] = self.s_word
         row["laser"] = int(self.laser)
         row["dwell_s"] = dwell_s
         row["line"] = line
         self._rows.append(row)
         self.position = np.asarray(end, float).copy()
 
-    def set(self, *, feed_mm_min=None, power_s=None, laser=None, plane=None):
+    def set(self, *, feed_mm_min=None, s_word=None, laser=None, plane=None):
         """Change modal settings for the following moves."""
         if feed_mm_min is not None:
             self.feed_mm_min = float(feed_mm_min)
-        if power_s is not None:
-            self.power_s = float(power_s)
+        if s_word is not None:
+            self.s_word = float(s_word)
         if laser is not None:
             self.laser = LaserMode(laser)
         if plane is not None:

@@ -32,7 +32,7 @@ def _positive(name, value, unit):
 
 
 def helix(centre=(0.0, 0.0), radius_mm=1.0, pitch_mm=0.5, turns=2.0, *, z_start_mm=0.0,
-          feed_mm_min=600.0, power_s=1000.0, laser=LaserMode.CONSTANT, ccw=True) -> Moves:
+          feed_mm_min=600.0, s_word=1000.0, laser=LaserMode.CONSTANT, ccw=True) -> Moves:
     """A helix for holes, (x, y, z) = (a·cos t, a·sin t, b·t), descending, then a full circle.
 
     Parameters
@@ -47,7 +47,7 @@ def helix(centre=(0.0, 0.0), radius_mm=1.0, pitch_mm=0.5, turns=2.0, *, z_start_
         Number of turns (> 0; fractional allowed).
     z_start_mm : float
         Z at the start point (x + a, y), mm; the helix ends ``turns·pitch`` lower.
-    feed_mm_min, power_s, laser
+    feed_mm_min, s_word, laser
         Cutting feed (mm/min), power word S and laser mode.
     ccw : bool
         Counter-clockwise (G3, t increasing) or clockwise (G2).
@@ -77,7 +77,7 @@ def helix(centre=(0.0, 0.0), radius_mm=1.0, pitch_mm=0.5, turns=2.0, *, z_start_
     n_arcs = max(1, math.ceil(2 * n_turns - 1e-9))
     t = sign * 2 * math.pi * n_turns * np.linspace(0, 1, n_arcs + 1)
     z = z0 - p * np.abs(t) / (2 * math.pi)
-    b = MovesBuilder(feed_mm_min=feed_mm_min, power_s=power_s, laser=laser)
+    b = MovesBuilder(feed_mm_min=feed_mm_min, s_word=s_word, laser=laser)
     b.rapid(x=cx + a, y=cy, z=z0)
     arc = b.arc_ccw if ccw else b.arc_cw
     for k in range(1, n_arcs + 1):
@@ -105,7 +105,7 @@ def _spiral_path(centre, a, b, r_end, tol_mm, ccw):
 
 
 def archimedean_spiral(centre=(0.0, 0.0), outer_radius_mm=5.0, step_mm=0.2, *, inner_radius_mm=0.0,
-                       tol_mm=0.005, z_mm=0.0, feed_mm_min=600.0, power_s=1000.0,
+                       tol_mm=0.005, z_mm=0.0, feed_mm_min=600.0, s_word=1000.0,
                        laser=LaserMode.CONSTANT, ccw=True, head=(0.0, 0.0, 0.0)) -> Moves:
     """The Archimedean spiral r = a + b·θ closed by a full circle ([MicroCAM] eq. 6.3).
 
@@ -123,7 +123,7 @@ def archimedean_spiral(centre=(0.0, 0.0), outer_radius_mm=5.0, step_mm=0.2, *, i
         Largest distance between the arcs and the spiral, mm, > 0.
     z_mm : float
         Z of the whole spiral, mm.
-    feed_mm_min, power_s, laser
+    feed_mm_min, s_word, laser
         Cutting feed (mm/min), power word S and laser mode.
     ccw : bool
         Turning direction.
@@ -154,18 +154,18 @@ def archimedean_spiral(centre=(0.0, 0.0), outer_radius_mm=5.0, step_mm=0.2, *, i
     c = np.array([float(v) for v in centre])
     spiral, theta_end = _spiral_path(c, a, step / (2 * math.pi), R, tol, ccw)
     circle = Path.arc(c, R, theta_end, 2 * math.pi if ccw else -2 * math.pi)
-    settings = LayerSettings(feed_mm_min=feed_mm_min, power_s=power_s, laser=laser)
+    settings = LayerSettings(feed_mm_min=feed_mm_min, s_word=s_word, laser=laser)
     start = (c[0] + a, c[1], float(z_mm))
     moves = build_moves([spiral, circle], settings, origin=start)   # build_moves cuts at origin's Z
     if np.allclose(head, start, rtol=0, atol=1e-9):
         return moves
-    travel = MovesBuilder(origin=head, feed_mm_min=feed_mm_min, power_s=power_s, laser=laser)
+    travel = MovesBuilder(origin=head, feed_mm_min=feed_mm_min, s_word=s_word, laser=laser)
     travel.rapid(*start)
     return Moves.concat([travel.build(), moves])
 
 
 def square_spiral(centre=(0.0, 0.0), size_mm=10.0, step_mm=0.5, *, z_mm=0.0, feed_mm_min=600.0,
-                  power_s=1000.0, laser=LaserMode.CONSTANT, accel_mm_s2=500.0, loops=True):
+                  s_word=1000.0, laser=LaserMode.CONSTANT, accel_mm_s2=500.0, loops=True):
     """A square spiral at a constant step, outward from the centre, with corner loops.
 
     Legs of length s, s, 2s, 2s, 3s, 3s, … (s = ``step_mm``) turning left, until the
@@ -183,7 +183,7 @@ def square_spiral(centre=(0.0, 0.0), size_mm=10.0, step_mm=0.5, *, z_mm=0.0, fee
         Distance between neighbouring passes, mm, > 0.
     z_mm : float
         Z of the spiral, mm.
-    feed_mm_min, power_s, laser
+    feed_mm_min, s_word, laser
         Cutting feed (mm/min), power word S and laser mode.
     accel_mm_s2 : float
         Machine acceleration for the loops' size (r = v²/a), mm/s².
@@ -220,7 +220,7 @@ def square_spiral(centre=(0.0, 0.0), size_mm=10.0, step_mm=0.5, *, z_mm=0.0, fee
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     pts += np.asarray(centre, float) - (lo + hi) / 2
     pts3 = np.c_[pts, np.full(len(pts), float(z_mm))]
-    moves = Moves.from_cuts(pts3[:-1], pts3[1:], feed_mm_min=feed_mm_min, power_s=power_s,
+    moves = Moves.from_cuts(pts3[:-1], pts3[1:], feed_mm_min=feed_mm_min, s_word=s_word,
                             laser=laser)
     if not loops:
         return moves, {"arc_loops": 0, "triangle_loops": 0, "leads": 0, "added_length_mm": 0.0}
@@ -232,7 +232,7 @@ _PLANE_AXES = {"xy": (0, 1), "xz": (0, 2)}
 
 
 def zigzag(origin=(0.0, 0.0, 0.0), width_mm=10.0, height_mm=5.0, step_mm=0.5, *, along="x", plane="xy",
-           lead_mm=0.0, reverse=False, feed_mm_min=600.0, power_s=1000.0,
+           lead_mm=0.0, reverse=False, feed_mm_min=600.0, s_word=1000.0,
            laser=LaserMode.CONSTANT) -> Moves:
     """Zig-zag face machining of a rectangle ([MicroCAM] §6.1.3.4).
 
@@ -254,7 +254,7 @@ def zigzag(origin=(0.0, 0.0, 0.0), width_mm=10.0, height_mm=5.0, step_mm=0.5, *,
     reverse : bool
         Step from the far side of the rectangle back to the origin side
         (direction of the step-over) instead of away from it.
-    feed_mm_min, power_s, laser
+    feed_mm_min, s_word, laser
         Cutting feed (mm/min), power word S and laser mode.
 
     Returns
@@ -292,7 +292,7 @@ def zigzag(origin=(0.0, 0.0, 0.0), width_mm=10.0, height_mm=5.0, step_mm=0.5, *,
     if reverse:
         offsets = extent[cross] - offsets
     o = np.asarray(origin, float)
-    b = MovesBuilder(feed_mm_min=feed_mm_min, power_s=power_s, laser=LaserMode.OFF)
+    b = MovesBuilder(feed_mm_min=feed_mm_min, s_word=s_word, laser=LaserMode.OFF)
 
     def point(u, v):
         p = o.copy()
@@ -358,7 +358,7 @@ def cone_sections(d1_mm, d2_mm, height_mm, levels):
 
 
 def cone(centre=(0.0, 0.0), d1_mm=10.0, d2_mm=4.0, height_mm=2.0, levels=4, beam_mm=0.2, *,
-         z_start_mm=0.0, tol_mm=0.005, feed_mm_min=600.0, power_s=1000.0,
+         z_start_mm=0.0, tol_mm=0.005, feed_mm_min=600.0, s_word=1000.0,
          laser=LaserMode.CONSTANT) -> Moves:
     """A cone as stacked Archimedean spirals ([MicroCAM] §6.1.3.5).
 
@@ -380,7 +380,7 @@ def cone(centre=(0.0, 0.0), d1_mm=10.0, d2_mm=4.0, height_mm=2.0, levels=4, beam
     beam_mm : float
         Beam diameter: the spirals' step and the edge compensation, mm; smaller
         than every section diameter.
-    z_start_mm, tol_mm, feed_mm_min, power_s, laser
+    z_start_mm, tol_mm, feed_mm_min, s_word, laser
         Start Z (mm), arc-fit tolerance (mm), feed (mm/min), power S, laser mode.
 
     Returns
@@ -402,7 +402,7 @@ def cone(centre=(0.0, 0.0), d1_mm=10.0, d2_mm=4.0, height_mm=2.0, levels=4, beam
     parts, head = [], (0.0, 0.0, 0.0)
     for dz, D in zip(depth, dia):
         part = archimedean_spiral(centre, D / 2 - beam / 2, beam, tol_mm=tol_mm, z_mm=z_start_mm - dz,
-                                  feed_mm_min=feed_mm_min, power_s=power_s, laser=laser, head=head)
+                                  feed_mm_min=feed_mm_min, s_word=s_word, laser=laser, head=head)
         parts.append(part)
         head = part.end[-1]
     return Moves.concat(parts)

@@ -306,7 +306,7 @@ def _pocket(loops, beam_mm, tol_mm):
 
 def section_toolpath(mesh, step_mm: float, beam_mm: float, *, top_down: bool = True,
                      max_deg: float = 5.0, tol_mm: float = 0.005, z_top_mm: float | None = None,
-                     feed_mm_min: float = 600.0, power_s: float = 1000.0,
+                     feed_mm_min: float = 600.0, s_word: float = 1000.0,
                      laser=LaserMode.CONSTANT) -> tuple[Moves, list[dict]]:
     """A planar-section job: each section of the model pocketed, level by level.
 
@@ -329,7 +329,7 @@ def section_toolpath(mesh, step_mm: float, beam_mm: float, *, top_down: bool = T
     z_top_mm : float, optional
         Z of the machine at the model's top (default: the model's own Z): each level
         is cut at its own Z, shifted so the top of the model is at ``z_top_mm``.
-    feed_mm_min, power_s, laser
+    feed_mm_min, s_word, laser
         Cutting feed (mm/min), power S and laser mode.
 
     Returns
@@ -361,7 +361,7 @@ def section_toolpath(mesh, step_mm: float, beam_mm: float, *, top_down: bool = T
     lo, hi = m.bounds
     z_levels = section_levels(float(lo[2]), float(hi[2]), step_mm, top_down=top_down)
     shift = 0.0 if z_top_mm is None else float(z_top_mm) - float(hi[2])
-    settings = LayerSettings(feed_mm_min=feed_mm_min, power_s=power_s, laser=laser)
+    settings = LayerSettings(feed_mm_min=feed_mm_min, s_word=s_word, laser=laser)
     parts, info = [], []
     head = np.zeros(3)
     for z in z_levels:
@@ -376,7 +376,7 @@ def section_toolpath(mesh, step_mm: float, beam_mm: float, *, top_down: bool = T
             level.start[0] = head                 # the rapid also changes Z, from the last level
         else:
             level = Moves.concat([Moves(kind=[MoveKind.RAPID], start=[head], end=[level.start[0]],
-                                        feed_mm_min=feed_mm_min, power_s=power_s, laser=int(laser)),
+                                        feed_mm_min=feed_mm_min, s_word=s_word, laser=int(laser)),
                                   level])
         head = level.end[-1].copy()
         parts.append(level)

@@ -50,7 +50,7 @@ import numpy as np
 from labkit._files import check_input_file
 from labkit._jit import job_units
 from labkit.budget import check_budget
-from labkit.errors import GeometryError, LabkitError
+from labkit.errors import GeometryError, LabkitError, name_list
 from labkit.geometry import transform as tf
 from labkit.geometry.arcfit import coordinate_limit_mm, fit_arcs, sampling_share, tolerance_budget
 from labkit.geometry.ellipse import ellipse_arc_to_arcs
@@ -661,16 +661,14 @@ def read_dxf(source, *, tol_mm=0.01, units=None, warn=True, arcs=True) -> Drawin
         kinds = Counter(s.split("#")[0] for s in skipped)
         listed = ", ".join(f"{n} {kind}" for kind, n in kinds.most_common())
         warnings.warn(f"{name}: skipped {len(skipped)} entities labkit does not cut ({listed}): "
-                      f"{', '.join(skipped[:10])}{' …' if len(skipped) > 10 else ''}", stacklevel=2)
+                      f"{name_list(skipped)}", stacklevel=2)
     if sink.unusable and warn:
         warnings.warn(f"{name}: skipped {len(sink.unusable)} entities that cannot be cut: "
-                      f"{', '.join(sink.unusable[:10])}{' …' if len(sink.unusable) > 10 else ''}",
-                      stacklevel=2)
+                      f"{name_list(sink.unusable)}", stacklevel=2)
     wiped = list(dict.fromkeys(sink.wiped))
     if wiped and warn:
         warnings.warn(f"{name}: {len(wiped)} entities lie partly under a WIPEOUT drawn after "
-                      f"them; only their visible parts are cut: {', '.join(wiped[:10])}"
-                      f"{' …' if len(wiped) > 10 else ''}", stacklevel=2)
+                      f"them; only their visible parts are cut: {name_list(wiped)}", stacklevel=2)
     if units is None and paths and warn:
         _check_extents(paths, k, name)
     if not arcs:                # exact arcs read at read_mm become chords within chords_mm

@@ -48,7 +48,7 @@ import numpy as np
 
 from labkit._files import check_input_file
 from labkit._jit import job_units
-from labkit.errors import GeometryError
+from labkit.errors import GeometryError, name_list
 from labkit.geometry import transform as tf
 from labkit.budget import check_budget
 from labkit.geometry.arcfit import coordinate_limit_mm, cubics_to_arcs, sampling_share, tolerance_budget
@@ -720,27 +720,23 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
             raise GeometryError(f"{name}: {label} has degenerate numbers "
                                 f"({type(exc).__name__}: {exc})") from None
         add(el, label, new)
-    if skipped and warn:
-        warnings.warn(f"{name}: not cut: {len(skipped)} element(s) that are not vector shapes: "
-                      f"{', '.join(skipped)} — engrave bitmaps with svg2gcode --images MODE or labkit job (a "
-                      f"layer with operation \"image\" on this SVG); convert flowed text and text on a path to "
-                      f"paths in the drawing program (Inkscape: Path › Object to Path)", stacklevel=2)
-    if invisible and warn:
-        warnings.warn(f"{name}: skipped {len(invisible)} shape(s) a renderer paints nothing for "
-                      f"(no fill and no stroke, opacity 0, or a fill of zero area): {', '.join(invisible[:10])}"
-                      f"{' …' if len(invisible) > 10 else ''}", stacklevel=2)
-    if clips.unsupported and warn:
-        warnings.warn(f"{name}: clip-path is not applied where its clipPath holds what is neither a shape "
-                      f"nor text, or is missing; {len(clips.unsupported)} shape(s) are cut whole where a renderer "
-                      f"shows only their clipped part: {', '.join(clips.unsupported[:10])}"
-                      f"{' …' if len(clips.unsupported) > 10 else ''} — clip them in the drawing "
-                      f"program (Inkscape: Path › Intersection)", stacklevel=2)
-    if masked and warn:
-        warnings.warn(f"{name}: mask is not applied; {len(masked)} shape(s) under a mask are cut "
-                      f"whole where a renderer shows only what the mask lets through: "
-                      f"{', '.join(masked[:10])}{' …' if len(masked) > 10 else ''} — apply the "
-                      f"mask in the drawing program (Inkscape: Object › Mask › Release, then "
-                      f"Path › Intersection)", stacklevel=2)
+    notes = [  # (the shapes a note is about, what it says of them): each said once when there are any
+        (skipped, f"not cut: {len(skipped)} element(s) that are not vector shapes: {', '.join(skipped)} — "
+                  f"engrave bitmaps with svg2gcode --images MODE or labkit job (a layer with operation \"image\" "
+                  f"on this SVG); convert flowed text and text on a path to paths in the drawing program "
+                  f"(Inkscape: Path › Object to Path)"),
+        (invisible, f"skipped {len(invisible)} shape(s) a renderer paints nothing for (no fill and no stroke, "
+                    f"opacity 0, or a fill of zero area): {name_list(invisible)}"),
+        (clips.unsupported, f"clip-path is not applied where its clipPath holds what is neither a shape nor "
+                            f"text, or is missing; {len(clips.unsupported)} shape(s) are cut whole where a "
+                            f"renderer shows only their clipped part: {name_list(clips.unsupported)} — clip "
+                            f"them in the drawing program (Inkscape: Path › Intersection)"),
+        (masked, f"mask is not applied; {len(masked)} shape(s) under a mask are cut whole where a renderer "
+                 f"shows only what the mask lets through: {name_list(masked)} — apply the mask in the "
+                 f"drawing program (Inkscape: Object › Mask › Release, then Path › Intersection)")]
+    for shapes, said in notes if warn else ():
+        if shapes:
+            warnings.warn(f"{name}: {said}", stacklevel=2)
     width = float(doc.width) * MM_PER_PX if doc.width is not None else math.nan
     height = float(doc.height) * MM_PER_PX if doc.height is not None else math.nan
     if paths and width > 0 and height > 0:
@@ -771,8 +767,8 @@ def _page_check(paths, width, height, name, tol_mm, arcs, clip_to_page, warn, cl
     if warn:
         warnings.warn(f"{name}: {len(names)} shape(s) reach outside the {width:g} × {height:g} mm "
                       f"page, up to {beyond.max():.3g} mm beyond its edge ({removed:.1f} mm of "
-                      f"path outside, which a renderer does not show): {', '.join(names[:10])}"
-                      f"{' …' if len(names) > 10 else ''} — they are cut whole; clip_to_page=True "
+                      f"path outside, which a renderer does not show): {name_list(names)}"
+                      f" — they are cut whole; clip_to_page=True "
                       f"(--clip-to-page) cuts only what lies on the page", stacklevel=3)
     return paths
 

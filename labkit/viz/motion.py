@@ -354,18 +354,18 @@ def lookahead_explorer(make_moves, machine=None):
 
 def laser_explorer(make_moves, machine=None):
     """Widget: power, feed, laser mode, planner and corner loops on a job made by
-    ``make_moves(power_s, feed_mm_min, mode)``; power and dose along the burned path."""
+    ``make_moves(s_word, feed_mm_min, mode)``; power and dose along the burned path."""
     import ipywidgets as w
     import matplotlib.pyplot as plt
 
     from labkit.motion import load_machine, plan
-    from labkit.motion.laser import dose_uniformity
+    from labkit.motion.power import dose_uniformity
     from labkit.toolpath.corners import add_corner_loops
 
     m = load_machine(machine)
 
-    def show(power_s, feed_mm_min, mode, planner, loops):
-        moves = make_moves(power_s, feed_mm_min, 3 if mode == "M3 constant" else 4)
+    def show(s_word, feed_mm_min, mode, planner, loops):
+        moves = make_moves(s_word, feed_mm_min, 3 if mode == "M3 constant" else 4)
         if loops:
             moves, _ = add_corner_loops(moves, accel_mm_s2=min(m.accel_mm_s2))
         p = plan(moves, m, planner=planner)
@@ -382,8 +382,8 @@ def laser_explorer(make_moves, machine=None):
         fig.tight_layout()
         return fig
 
-    return interact_figure(show, power_s=w.IntSlider(value=500, min=50, max=1000, step=50,
-                                                      description="power (S of 1000)", style=_WIDE),
+    return interact_figure(show, s_word=w.IntSlider(value=500, min=50, max=1000, step=50,
+                                                     description="power (S of 1000)", style=_WIDE),
                          feed_mm_min=w.IntSlider(value=1200, min=120, max=1500, step=60,
                                                  description="feed (mm/min)", style=_WIDE),
                          mode=w.ToggleButtons(options=["M3 constant", "M4 dynamic"], description="laser mode",

@@ -354,15 +354,51 @@ MAX_AHEAD_S = 12.0
 LAST_REPLY_WAIT_S = 1.0
 
 
-def _windows(transcript: dict) -> list[tuple[float, float]]:
-    """When each exchange was written and when the next one was (the last: its last reply plus
-    :data:`LAST_REPLY_WAIT_S`), s on the recorder's clock: what GRBL wrote in between is that
-    exchange's replies."""
+#: The recorder's wait for silence after an exchange's last reply, s (record.py's default).
+RECORDER_QUIET_S = 0.35
+
+
+def send_times(transcript: dict) -> list[float]:
+    """When GRBL received each exchange, s after the first: its ``at_s``, or for a transcript
+    recorded without GRBL's clock (README: no ``at_s``) the recorder's steps added up: the
+    previous exchange's ``elapsed_s`` and its wait for silence (``quiet_s``, 0.35 s by default),
+    then this one's ``pause_before_s``.
+
+    >>> send_times({"exchanges": [{"elapsed_s": 0.03}, {"elapsed_s": 0.5, "quiet_s": 1.5},
+    ...                           {"pause_before_s": 0.3, "elapsed_s": 0.0}]})
+    [0.0, 0.38, 2.68]
+    """
     exchanges = transcript["exchanges"]
-    starts = [ex["at_s"] for ex in exchanges]
+    if all("at_s" in ex for ex in exchanges):
+        return [ex["at_s"] for ex in exchanges]
+    times, t = [], 0.0
+    for k, ex in enumerate(exchanges):
+        if k:
+            prev = exchanges[k - 1]
+            t += (prev.get("elapsed_s", 0.0) + prev.get("quiet_s", RECORDER_QUIET_S)
+                  + ex.get("pause_before_s", 0.0))
+        times.append(round(t, 4))
+    return times
+
+
+def pause_is_next(transcript: dict) -> bool:
+    """Whether what GRBL wrote during a ``pause_before_s`` is the next exchange's replies: so
+    in a transcript recorded without GRBL's clock (no ``at_s``: that recorder slept through its
+    pauses and read afterwards); with ``at_s`` it is the exchange before the pause's."""
+    return not all("at_s" in ex for ex in transcript["exchanges"])
+
+
+def _windows(transcript: dict) -> list[tuple[float, float]]:
+    """When each exchange was written and when the target's output stops being its replies
+    (the next write, or where :func:`pause_is_next` the start of the pause before it; the last:
+    its last reply plus :data:`LAST_REPLY_WAIT_S`), s on the recorder's clock."""
+    exchanges = transcript["exchanges"]
+    starts = send_times(transcript)
     last = exchanges[-1]
     ends = starts[1:] + [starts[-1] + last["elapsed_s"] + max(last.get("quiet_s", 0.0),
                                                                LAST_REPLY_WAIT_S)]
+    if pause_is_next(transcript):
+        ends = [e - ex.get("pause_before_s", 0.0) for e, ex in zip(ends, exchanges[1:])] + ends[-1:]
     return list(zip(starts, ends))
 
 
@@ -372,6 +408,8 @@ def replay(target: str, transcript: dict, sim: str | None = None) -> list[dict]:
     results = []
     written: set = set()
     windows = _windows(transcript) if port.simulated else None
+    at = send_times(transcript)
+    pause_next = pause_is_next(transcript)
     clock = 0.0
     try:
         port.read(0.2)                                # a banner sent at start, before the replay
@@ -386,16 +424,20 @@ def replay(target: str, transcript: dict, sim: str | None = None) -> list[dict]:
             else:
                 # how far the replay runs ahead of GRBL's schedule since they last met (a reply
                 # that took a while: both had waited for the same motion), at most a long move
+                if pause_next and ex.get("pause_before_s"):
+                    time.sleep(ex["pause_before_s"])    # what comes meanwhile is this one's
                 if k == 0:
-                    met = (ex["at_s"], time.monotonic())
-                ahead = min(MAX_AHEAD_S, (ex["at_s"] - met[0]) - (time.monotonic() - met[1]))
+                    met = (at[k], time.monotonic())
+                ahead = min(MAX_AHEAD_S, (at[k] - met[0]) - (time.monotonic() - met[1]))
                 sent = time.monotonic()
                 port.send(ex["send"].encode("latin-1"))
                 data = _collect(port, ex, ahead)
                 if time.monotonic() - sent >= 0.5:
-                    met = (ex["at_s"] + ex["elapsed_s"], time.monotonic())
+                    met = (at[k] + ex["elapsed_s"], time.monotonic())
                 # the recorder's pause before the next exchange: what comes meanwhile is this one's
                 pause = exchanges[k + 1].get("pause_before_s", 0.0) if k + 1 < len(exchanges) else 0.0
+                if pause_next:
+                    pause = 0.0
                 end = time.monotonic() + pause
                 while time.monotonic() < end:
                     data += port.read(end - time.monotonic())
@@ -502,8 +544,10 @@ def test_transcripts_cover_what_issue_26_asks():
         assert "bfb67f0c7963fe3ce4aaf8a97f9009ea5a8db36e" in tr["recorded_from"]["grbl"], topic
         assert tr["exchanges"][0]["send"] == "\x18", topic
         assert tr["exchanges"][0]["replies"] == ["Grbl 1.1h ['$' for help]"], topic
-        # GRBL's clock at every exchange, from 0 and in order (the simulated replay needs it)
-        at = [ex["at_s"] for ex in tr["exchanges"]]
+        # GRBL's clock at every exchange or at none, from 0 and in order (the simulated replay
+        # needs it)
+        assert len({"at_s" in ex for ex in tr["exchanges"]}) == 1, topic
+        at = send_times(tr)
         assert at[0] == 0.0 and all(b >= a for a, b in zip(at, at[1:])), topic
     errors = [ex for tr in _TRANSCRIPTS.values() for ex in tr["exchanges"]
               if ex["send"].endswith("\n") and any(r.startswith("error:") for r in ex["replies"])]
@@ -566,6 +610,34 @@ KNOWN_DIFFERENCES: dict[tuple[str, str, int], str] = {
                                   "$200-$209 are the firmware's settings in both dialects (ramps, laser maximum, "
                                   "planner, dialect; $208=0 is the way back to labkit-fw), so $200 exists and "
                                   "1 is out of its range, where GRBL has no $200)",
+    # hard_limits: the virtual machine raises no ALARM:1 when a switch is released with $21=1,
+    # prints no [MSG:Check Limits] at a reset with a switch pressed, and no [MSG:Caution: Unlocked]
+    # after $X there
+    ('virtual', 'hard_limits', 5): '\'\\x18\': line 2: "[MSG:\'$H\'|\'$X\' to unlock]", GRBL \'[MSG:Check Limits]\'',
+    ('virtual', 'hard_limits', 10): "G0 X4: missing lines ['ALARM:1', '[MSG:Reset to continue]']",
+    ('virtual', 'hard_limits', 11): "?: extra lines ['<Idle|MPos:4.000,0.000,0.000|FS:0,0>']",
+    ('virtual', 'hard_limits', 12): '\'\\x18\': missing lines ["[MSG:\'$H\'|\'$X\' to unlock]"]',
+    ('virtual', 'hard_limits', 13): "?: line 1: state 'Idle', GRBL 'Alarm'",
+    ('virtual', 'hard_limits', 14): "$X: line 1: 'ok', GRBL '[MSG:Caution: Unlocked]'",
+    ('virtual', 'hard_limits', 22): '\'\\x18\': line 3: "[MSG:\'$H\'|\'$X\' to unlock]", GRBL \'[MSG:Check Limits]\'',
+    ('virtual', 'hard_limits', 31): '\'\\x18\': line 2: "[MSG:\'$H\'|\'$X\' to unlock]", GRBL \'[MSG:Check Limits]\'',
+    ('virtual', 'hard_limits', 33): "$J=G91 X-2 F300: missing lines ['ALARM:1', '[MSG:Reset to continue]']",
+    ('virtual', 'hard_limits', 34): "?: extra lines ['<Idle|MPos:3.000,0.000,0.000|FS:0,0|WCO:0.000,0.000,0.000>']",
+    ('virtual', 'hard_limits', 35): '\'\\x18\': missing lines ["[MSG:\'$H\'|\'$X\' to unlock]"]',
+    ('virtual', 'hard_limits', 36): "$X: line 1: 'ok', GRBL '[MSG:Caution: Unlocked]'",
+    ('virtual', 'hard_limits', 55): '\'\\x18\': line 2: "[MSG:\'$H\'|\'$X\' to unlock]", GRBL \'[MSG:Check Limits]\'',
+    # reset_wait: a G10 L20 waiting behind a move is not written at the reset as GRBL does
+    ('virtual', 'reset_wait', 29): "$#: line 1: '[G54:0.000,0.000,0.000]', GRBL '[G54:10.000,0.000,0.000]'",
+    # startup_jog: the virtual machine neither runs a start-up line that is a jog as GRBL does (when
+    # stored and after a reset) nor refuses G-code during a jog (error:9)
+    ('virtual', 'startup_jog', 2): '?: line 1: MPos:0.000,0.000,0.000, GRBL MPos:2.000,0.000,0.000',
+    ('virtual', 'startup_jog', 6): '?: line 1: MPos:2.000,0.000,0.000, GRBL MPos:4.000,0.000,0.000',
+    ('virtual', 'startup_jog', 13): "$N1=$XYG91X1F100: line 1: 'error:1', GRBL 'ok'",
+    ('virtual', 'startup_jog', 14): '?: line 1: MPos:2.000,0.000,0.000, GRBL MPos:5.000,0.000,0.000',
+    ('virtual', 'startup_jog', 15): "$N: line 2: '$N1=', GRBL '$N1=$XYG91X1F100'",
+    ('virtual', 'startup_jog', 19): "G0X0: line 1: 'ok', GRBL 'error:9'",
+    ('virtual', 'startup_jog', 23): '?: line 1: MPos:0.000,0.000,0.000, GRBL MPos:8.000,0.000,0.000',
+    ('virtual', 'startup_jog', 27): '?: line 1: MPos:0.000,0.000,0.000, GRBL MPos:8.000,0.000,0.000',
 }
 
 

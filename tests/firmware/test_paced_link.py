@@ -27,7 +27,7 @@ import pytest
 
 from labkit.cli import main
 from labkit.machine.safety import end_process
-from labkit.motion.machine import CBR40
+from labkit.motion.spec import CBR40
 from labkit.motion.stall import predict_stalls, read_starvation_log, stall_free_feed, with_feed
 
 ROOT = Path(__file__).resolve().parents[2]

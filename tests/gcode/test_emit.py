@@ -33,12 +33,12 @@ def test_decimals_for_tolerance_and_errors():
 
 
 def simple_job():
-    b = MovesBuilder(feed_mm_min=1200, power_s=300, laser=LaserMode.CONSTANT)
+    b = MovesBuilder(feed_mm_min=1200, s_word=300, laser=LaserMode.CONSTANT)
     b.rapid(x=5, y=5)
     b.line(x=15)
     b.line(y=15)
     b.line(x=5, feed_mm_min=600)
-    b.line(y=5, power_s=500)
+    b.line(y=5, s_word=500)
     b.arc_cw(x=5, y=5, i=5, j=0)       # full circle
     b.dwell(0.25)
     return b.build()
@@ -75,7 +75,7 @@ def test_dialects_convert_units():
     numbers = [int(line.split()[0][1:]) for line in marlin]
     assert numbers == list(range(1, len(marlin) + 1))
     # Marlin does not turn the beam off on G0 by itself: M5 before travel, M3 with S after.
-    job = Moves.from_cuts([[0, 0], [10, 10]], [[5, 0], [15, 10]], feed_mm_min=600, power_s=1000)
+    job = Moves.from_cuts([[0, 0], [10, 10]], [[5, 0], [15, 10]], feed_mm_min=600, s_word=1000)
     lines = [line.split(" ", 1)[1].split("*")[0] for line in
              emit(job, dialect="marlin", header=False, footer=False).splitlines()]
     assert lines == ["M3 S255", "G1 X5 F600", "M5", "G0 X10 Y10", "M3 S255", "G1 X15"]
@@ -84,7 +84,7 @@ def test_dialects_convert_units():
 def test_marlin_motion_lines_carry_their_g_word():
     """Stock Marlin (GCODE_MOTION_MODES off) ignores a line of axis words alone, so every
     motion line repeats its G0-G3; GRBL continues the last motion and gets the short form."""
-    b = MovesBuilder(feed_mm_min=1200, power_s=300, laser=LaserMode.CONSTANT)
+    b = MovesBuilder(feed_mm_min=1200, s_word=300, laser=LaserMode.CONSTANT)
     b.rapid(x=5, y=5); b.line(x=15); b.line(y=15); b.line(x=5); b.arc_ccw(x=5, y=5, i=0, j=-5)
     m = b.build()
     marlin = [line.split(" ", 1)[1].split("*")[0] for line in
@@ -137,7 +137,7 @@ def test_emitted_arcs_pass_grbl_radius_check_even_at_coarse_tolerance():
 
 @st.composite
 def jobs(draw):
-    b = MovesBuilder(feed_mm_min=draw(st.integers(60, 9000)), power_s=draw(st.integers(0, 1000)),
+    b = MovesBuilder(feed_mm_min=draw(st.integers(60, 9000)), s_word=draw(st.integers(0, 1000)),
                      laser=draw(st.sampled_from(list(LaserMode))))
     for _ in range(draw(st.integers(1, 30))):
         op = draw(st.sampled_from(["rapid", "line", "arc", "dwell", "set"]))
@@ -149,7 +149,7 @@ def jobs(draw):
         elif op == "dwell":
             b.dwell(draw(st.integers(0, 5000)) / 1000)
         elif op == "set":
-            b.set(feed_mm_min=draw(st.integers(60, 9000)), power_s=draw(st.integers(0, 1000)),
+            b.set(feed_mm_min=draw(st.integers(60, 9000)), s_word=draw(st.integers(0, 1000)),
                   laser=draw(st.sampled_from(list(LaserMode))))
         else:
             plane = draw(st.sampled_from([17, 18, 19]))

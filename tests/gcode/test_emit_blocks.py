@@ -24,7 +24,7 @@ def _programs():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         drawing = read_svg(ROOT / "data" / "svg" / "cncjs" / "jsdc.svg", tol_mm=0.01)
-    yield "jsdc.svg arcs", vector_job(drawing.paths, default=LayerSettings(feed_mm_min=900, power_s=700),
+    yield "jsdc.svg arcs", vector_job(drawing.paths, default=LayerSettings(feed_mm_min=900, s_word=700),
                                       arcs=True, tol_mm=0.01).moves
     yield "records", parse("G21 G90\n$H\nM3 S300\nG1 X1 F100\nM0\nG2 X3 I1\nG4 P0.5\nM2\nG0 X0\nM30\n")
 

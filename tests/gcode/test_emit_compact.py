@@ -19,10 +19,10 @@ from labkit.toolpath import LaserMode, MovesBuilder
 
 def _scan(xs, ss, y=0.05, feed=1000):
     """A raster row: a rapid to its start, then lines at power S (hand-made, like a gray row)."""
-    b = MovesBuilder(feed_mm_min=feed, power_s=0, laser=LaserMode.DYNAMIC)
+    b = MovesBuilder(feed_mm_min=feed, s_word=0, laser=LaserMode.DYNAMIC)
     b.rapid(x=xs[0], y=y)
     for x, s in zip(xs[1:], ss):
-        b.line(x=x, power_s=s)
+        b.line(x=x, s_word=s)
     return b.build()
 
 
@@ -38,7 +38,7 @@ def test_hand_worked_row():
         emit(m, header=False, footer=False).replace(" ", ""))     # spaces alone are not the gain
     back = parse(text)
     np.testing.assert_allclose(back.end, m.end, atol=1e-9)
-    np.testing.assert_array_equal(back.power_s, m.power_s)
+    np.testing.assert_array_equal(back.s_word, m.s_word)
 
 
 def test_marlin_is_refused():
@@ -47,7 +47,7 @@ def test_marlin_is_refused():
 
 
 def _lines_program(data):
-    b = MovesBuilder(feed_mm_min=600, power_s=0, laser=LaserMode.CONSTANT)
+    b = MovesBuilder(feed_mm_min=600, s_word=0, laser=LaserMode.CONSTANT)
     for kind, x, y in data:
         (b.rapid if kind == 0 else b.line)(x=x / 20, y=y / 20)
     return b.build()
@@ -82,7 +82,7 @@ def test_compact_reads_back_as_the_spaced_text_and_is_never_longer(data, dialect
     assert a.diagnostics == () and b.diagnostics == ()
     np.testing.assert_array_equal(a.kind, b.kind)
     np.testing.assert_allclose(a.end, b.end, atol=1e-9)
-    np.testing.assert_array_equal(a.power_s, b.power_s)
+    np.testing.assert_array_equal(a.s_word, b.s_word)
     np.testing.assert_array_equal(a.feed_mm_min, b.feed_mm_min)
 
 
@@ -95,7 +95,7 @@ def test_blocks_of_any_size_write_the_same_program(monkeypatch):
         monkeypatch.setattr(writer, "EMIT_ROWS", rows)
         back = parse(emit(m, compact=True))
         np.testing.assert_allclose(back.end, whole.end, atol=1e-9)
-        np.testing.assert_array_equal(back.power_s, whole.power_s)
+        np.testing.assert_array_equal(back.s_word, whole.s_word)
 
 
 def _random_block(rng, n, scale):
@@ -138,7 +138,7 @@ def test_a_zigzag_job_writes_compact_gcode_without_loading_numba(tmp_path):
         "import sys, numpy as np\n"
         "from labkit.toolpath import LaserMode, MovesBuilder\n"
         "from labkit.gcode import emit\n"
-        "b = MovesBuilder(feed_mm_min=1000, power_s=1000, laser=LaserMode.CONSTANT)\n"
+        "b = MovesBuilder(feed_mm_min=1000, s_word=1000, laser=LaserMode.CONSTANT)\n"
         "rng = np.random.default_rng(0)\n"
         "for r in range(2519):\n"
         "    x0, x1 = sorted(rng.integers(0, 4096, 2) / 10)\n"

@@ -119,7 +119,7 @@ def test_marlin_printer_files_parse():
     assert machine(m) == [[0, 0, 0], [0, 0, 0.3], [10, 5, 0.3], [12, 5, 0.3], [0, 5, 0.3]]
     assert work(m)[3] == [2, 5, 0.3]
     # Temperatures are not laser power; M106 S128 is (the fan output used as a laser).
-    assert m.power_s.tolist() == [0, 0, 0, 128, 128]
+    assert m.s_word.tolist() == [0, 0, 0, 128, 128]
 
 
 def test_emitted_programs_carry_machine_positions_and_read_back():

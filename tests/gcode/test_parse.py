@@ -116,7 +116,7 @@ def test_feed_per_second_in_labkit_fw():
 def test_laser_words_and_power():
     m = parse("M3 S300\nG1 X1 F100\nM4 S500\nG1 X2\nM5\nG1 X3\nG0 X0")
     assert m.laser.tolist() == [3, 4, 0, 0]
-    assert m.power_s.tolist() == [300, 500, 500, 500]
+    assert m.s_word.tolist() == [300, 500, 500, 500]
     assert m.laser_on.tolist() == [True, True, False, False]
     m = parse("M106 S128\nG1 X1 F100\nM107\nG1 X2", dialect="marlin")
     assert m.laser.tolist() == [LaserMode.CONSTANT, LaserMode.OFF]

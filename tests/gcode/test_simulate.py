@@ -103,7 +103,7 @@ def test_raster_and_gcode_summaries_are_one_type_and_agree():
     from labkit.toolpath import Moves
 
     m = Moves.from_cuts([[0, 0], [5, 0], [5, 3]], [[3, 0], [9, 0], [0, 3]], feed_mm_min=600,
-                        power_s=800)
+                        s_word=800)
     r = raster_summarize(m, feed_mm_min=600, rapid_mm_min=3000)
     g = summarize(m, rapid_mm_min=3000)
     assert type(r) is JobSummary and r == g

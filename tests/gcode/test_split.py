@@ -36,7 +36,7 @@ def _same_motion(a, b):
     assert np.array_equal(a.kind, b.kind)
     for col in ("start", "end", "centre", "work_offset"):
         assert np.allclose(getattr(a, col), getattr(b, col), atol=POSITION_ATOL_MM, rtol=0, equal_nan=True)
-    for col in ("feed_mm_min", "power_s", "laser", "plane", "dwell_s"):
+    for col in ("feed_mm_min", "s_word", "laser", "plane", "dwell_s"):
         assert np.array_equal(getattr(a, col), getattr(b, col), equal_nan=True), col
 
 

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from dataclasses import replace
 
 from labkit.errors import InputError
-from labkit.gcode import Interpreter, ModalState, get_dialect, modal_trace, parse, restate
+from labkit.gcode import Interpreter, ModalState, get_dialect, modal_trace, parse, parse_with_states, restate
 from labkit.gcode.state import line_states
 from labkit.toolpath import Moves
 
@@ -168,7 +168,7 @@ def test_interpreter_line_by_line_gives_the_parse_of_the_whole_text(name):
         got.append(moves)
     joined = Moves.concat(got)
     assert len(joined) == len(whole)
-    for col in ("kind", "start", "end", "centre", "work_offset", "feed_mm_min", "power_s", "laser",
+    for col in ("kind", "start", "end", "centre", "work_offset", "feed_mm_min", "s_word", "laser",
                 "plane", "dwell_s"):
         assert np.array_equal(getattr(joined, col), getattr(whole, col), equal_nan=True), col
 
@@ -197,3 +197,24 @@ def test_trace_as_python_equals_compiled():
     for name in a.dtype.names:
         assert np.array_equal(a[name], b[name], equal_nan=a[name].dtype.kind == "f"), name
     assert a["states_units"].any() and a["machine_coords"].any() and a["sets_offsets"].any()
+
+
+@pytest.mark.parametrize("text, lenient", [
+    ((DATA / "jsdc-laser.gcode").read_text(), False),
+    ((DATA / "Circle_Diamond_Square_Calibration.gcode").read_text(), True),   # a line GRBL refuses
+    ("G21\r\nG1 X1 F100\rG91 X2\n\nG1 X1 X2\nM5", True),                       # CRLF, lone CR, no last end
+    ("", False),
+])
+def test_one_reading_gives_the_parse_and_the_line_states(text, lenient):
+    """parse_with_states (labkit stream's one reading) equals parse and line_states run apart."""
+    moves, trace = parse_with_states(text, lenient=lenient)
+    alone = parse(text, lenient=lenient)
+    states, lines = line_states(text)
+    assert len(trace) == len(lines) == len(states)
+    for name in trace.dtype.names:
+        assert np.array_equal(trace[name], states[name], equal_nan=trace[name].dtype.kind == "f"), name
+    assert len(moves) == len(alone) and len(moves.diagnostics) == len(alone.diagnostics)
+    for col in Moves.column_names():
+        assert np.array_equal(getattr(moves, col), getattr(alone, col), equal_nan=True), col
+    if lenient:
+        assert moves.diagnostics

@@ -69,7 +69,7 @@ def test_a_machine_that_is_not_one_is_named(machine, said):
 
 
 def _program():
-    b = MovesBuilder(feed_mm_min=600, power_s=500, laser=3)
+    b = MovesBuilder(feed_mm_min=600, s_word=500, laser=3)
     b.rapid(x=1, y=1)
     b.line(x=10)
     b.arc_ccw(x=10, y=11, i=0, j=5)
@@ -82,7 +82,7 @@ def _program():
     ("end", 1, 0, r"move 1 has a position that is not finite \(end X = nan\)"),
     ("start", 4, 1, r"move 4 has a position that is not finite \(start Y = nan\)"),
     ("centre", 2, 1, r"move 2 has an arc centre that is not finite \(centre Y = nan\)"),
-    ("power_s", 1, None, r"move 1 has a power that is not finite \(power_s = nan\)"),
+    ("s_word", 1, None, r"move 1 has a power that is not finite \(s_word = nan\)"),
     ("dwell_s", 3, None, r"move 3 has a dwell that is not finite \(dwell_s = nan\)"),
 ])
 def test_plan_of_moves_with_nan_columns_names_the_move_and_column(column, row, axis, message):

@@ -55,7 +55,7 @@ def test_gcode_reader(lines):
         moves = parse(text)
     except LabkitError:
         return
-    assert all_finite(moves.start, moves.end, moves.power_s)
+    assert all_finite(moves.start, moves.end, moves.s_word)
 
 
 SHAPES = ['<rect x="{0}" y="{1}" width="{2}" height="{3}" stroke="#000"/>',
@@ -203,7 +203,7 @@ def test_numeric_option(inputs, tmp_path, command, option):
             assert check(text) == [], (argv, check(text)[:3])
             moves = parse(text)
             cutting = moves.kind != MoveKind.RAPID            # a rapid has no feed (NaN)
-            assert all_finite(moves.start, moves.end, moves.feed_mm_min[cutting], moves.power_s)
+            assert all_finite(moves.start, moves.end, moves.feed_mm_min[cutting], moves.s_word)
             s_values = [float(w[1:]) for w in text.split() if w[:1] == "S" and w[1:2].isdigit()]
             assert all(0 <= s <= 1000 or option == "--s-max" for s in s_values)
     one()

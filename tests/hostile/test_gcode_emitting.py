@@ -16,7 +16,7 @@ DATA = Path(__file__).resolve().parents[2] / "data" / "gcode" / "cncjs"
 
 
 def _cut(x_end, **kw):
-    b = MovesBuilder(feed_mm_min=600, power_s=500, laser=LaserMode.CONSTANT, **kw)
+    b = MovesBuilder(feed_mm_min=600, s_word=500, laser=LaserMode.CONSTANT, **kw)
     b.rapid(x=1)
     b.line(x=x_end)
     return b.build()
@@ -44,7 +44,7 @@ def test_large_but_exact_coordinates_round_trip():
     (-1.0, r"power S -1\.0 is outside 0…1000"), (math.nan, r"power S nan is outside"),
     (5000.0, r"power S 5000\.0 is outside 0…1000 \(s_max\)"), (math.inf, "power S inf")])
 def test_power_outside_the_laser_range_is_refused(power, message):
-    b = MovesBuilder(feed_mm_min=600, power_s=power, laser=LaserMode.CONSTANT)
+    b = MovesBuilder(feed_mm_min=600, s_word=power, laser=LaserMode.CONSTANT)
     b.line(x=5)
     with pytest.raises(EmitError, match=message):
         emit(b.build())
@@ -72,7 +72,7 @@ def _beam_on_during_rapids(text: str, dialect: str) -> int:
     """Rapids read back with M3/M4 and S > 0 in effect (they burn on GRBL with $32=0)."""
     m = parse(text, dialect=dialect)
     rapid = m.kind == MoveKind.RAPID
-    return int((rapid & (m.laser != LaserMode.OFF) & (m.power_s > 0)).sum())
+    return int((rapid & (m.laser != LaserMode.OFF) & (m.s_word > 0)).sum())
 
 
 def test_grbl_header_says_rapids_rely_on_laser_mode():
@@ -90,7 +90,7 @@ def test_travel_beam_off_writes_no_rapid_with_the_beam_on(dialect):
     src = parse_file(DATA / "jsdc-laser.gcode")
     cut = src.laser_on
     m = Moves.from_cuts(src.start[cut], src.end[cut], feed_mm_min=src.feed_mm_min[cut],
-                        power_s=src.power_s[cut], s_max=src.s_max)
+                        s_word=src.s_word[cut], s_max=src.s_max)
     assert (m.kind == MoveKind.RAPID).sum() == 5                 # its five travels
     assert _beam_on_during_rapids(emit(m, dialect="grbl"), "grbl") == 5
     safe = emit(m, dialect=dialect, travel_beam_off=True)
@@ -99,5 +99,5 @@ def test_travel_beam_off_writes_no_rapid_with_the_beam_on(dialect):
     # The same cuts, at the same power, in the same order.
     ref = parse(emit(m, dialect=dialect), dialect=dialect)
     np.testing.assert_allclose(back.end[back.laser_on], ref.end[ref.laser_on], atol=1e-3)
-    np.testing.assert_allclose(back.power_s[back.laser_on], ref.power_s[ref.laser_on])
+    np.testing.assert_allclose(back.s_word[back.laser_on], ref.s_word[ref.laser_on])
     assert "M5 before every rapid" in safe.splitlines()[1]

@@ -163,7 +163,7 @@ def test_a_clean_scan_is_found_and_shows_nothing(label_prediction):
     assert res.solid_darkness == pytest.approx(1 - SOLID / PAPER, abs=0.01)
     px = 25.4 / DPI                                   # the prediction lies on the 3 mm of paper, to a pixel
     assert res.shift_mm[0] == pytest.approx(3.0, abs=px) and res.shift_mm[1] == pytest.approx(3.0, abs=px)
-    assert [L.power_s for L in res.layers] == [250, 300, 800]
+    assert [L.s_word for L in res.layers] == [250, 300, 800]
     for L in res.layers:
         assert L.scanned_mm2 == pytest.approx(L.predicted_mm2, rel=0.03)
         assert abs(L.darkness_change) < 0.03 and np.hypot(*L.shift_mm) < 0.025
@@ -185,7 +185,7 @@ def test_a_missing_score_line_is_found_with_its_numbers(label_prediction):
     assert d.kind == "missing" and d.layer_s == 300 and d.darkness < -0.8
     x0, y0, x1, y1 = d.bbox_mm
     assert x0 == pytest.approx(2, abs=0.2) and x1 == pytest.approx(12, abs=0.2) and 3.8 < y0 <= y1 < 4.2
-    score = next(L for L in res.layers if L.power_s == 300)
+    score = next(L for L in res.layers if L.s_word == 300)
     # one line of three: a third of the layer's burn is missing, and its darkness falls by a third
     assert score.missing_mm2 == pytest.approx(score.predicted_mm2 / 3, rel=0.1)
     assert score.scanned_darkness == pytest.approx(score.predicted_darkness * 2 / 3, rel=0.1)
@@ -214,9 +214,9 @@ def test_a_region_too_light_or_over_burned_is_found_by_its_darkness(label_predic
 def test_one_layer_a_tenth_of_a_millimetre_off_the_rest_is_measured(label_prediction):
     moves, burn = label_prediction
     res = check_scan(burn, scanned(label(cut_dx=0.1)), dpi=DPI, moves=moves)
-    cut = next(L for L in res.layers if L.power_s == 800)
+    cut = next(L for L in res.layers if L.s_word == 800)
     assert cut.shift_mm == pytest.approx((0.1, 0.0), abs=0.01)
-    assert all(np.hypot(*L.shift_mm) < 0.025 for L in res.layers if L.power_s != 800)
+    assert all(np.hypot(*L.shift_mm) < 0.025 for L in res.layers if L.s_word != 800)
     assert res.defects == []                           # the shift is undone before the areas compare
     row = next(r for r in res.summary().splitlines() if r.strip().startswith("S800"))
     assert row.endswith(f"({cut.shift_mm[0]:+.3f}, {cut.shift_mm[1]:+.3f})") and ("+0.09" in row or "+0.10" in row)

@@ -54,7 +54,7 @@ def test_a_line_painted_over_is_reported_missing(files, capsys):
                "--fth", str(FTH), "-o", str(files / "report.json"), "--overlay", str(files / "overlay.png")])
     assert rc == 1
     doc = json.loads((files / "report.json").read_text())
-    assert doc["format"] == "labkit-burncheck" and doc["version"] == 1
+    assert doc["format"] == "labkit-burncheck" and doc["version"] == 2          # 2: a layer's S is s_word
     (d,) = doc["defects"]
     assert d["kind"] == "missing" and d["layer_s"] == 300
     assert d["bbox_mm"][0] == pytest.approx(2, abs=0.2) and d["bbox_mm"][2] == pytest.approx(12, abs=0.2)

@@ -86,10 +86,10 @@ def _burns(moves):
     on = np.flatnonzero(moves.laser_on)
     runs, start = [], on[0]
     for a, b in zip(on, on[1:]):
-        if moves.power_s[b] != moves.power_s[a]:
-            runs.append((start, a, float(moves.power_s[a]), float(moves.feed_mm_min[a])))
+        if moves.s_word[b] != moves.s_word[a]:
+            runs.append((start, a, float(moves.s_word[a]), float(moves.feed_mm_min[a])))
             start = b
-    runs.append((start, on[-1], float(moves.power_s[on[-1]]), float(moves.feed_mm_min[on[-1]])))
+    runs.append((start, on[-1], float(moves.s_word[on[-1]]), float(moves.feed_mm_min[on[-1]])))
     return runs
 
 

@@ -5,12 +5,11 @@ import json
 import re
 
 import numpy as np
-import pandas as pd
 import pytest
 from PIL import Image
 
 from labkit.cli import main
-from labkit.laser.measure import render_scan
+from labkit.laser.measure import read_widths, render_scan
 from labkit.laser.models import dose_width
 
 W0, FTH = 0.12, 200.0          # the "material" the synthetic scan is burned into
@@ -70,8 +69,8 @@ def test_pattern_writes_gcode_layout_and_reports_job_time(burned, capsys):
 
 def test_measure_writes_tidy_csv_and_annotated_image(burned):
     tmp, layout, truth = burned
-    df = pd.read_csv(tmp / "WIDTHS.csv")
-    for col in ("material", "thickness_mm", "machine", "beam_mm", "power_mw", "power_s", "speed_mm_min",
+    df = read_widths(tmp / "WIDTHS.csv")
+    for col in ("material", "thickness_mm", "machine", "beam_mm", "power_mw", "s_word", "speed_mm_min",
                 "width_mm", "cut_through", "repeat", "notes"):
         assert col in df.columns
     assert (df.burned.to_numpy() == (truth > 0)).all()
@@ -171,7 +170,7 @@ def test_measure_with_a_reference_length_instead_of_dpi(burned, tmp_path, capsys
                           10, 20, 10 + n, 20, 50, "-o", tmp_path / "w.csv")
     assert code == 0, err
     assert "450 dpi" in out
-    df = pd.read_csv(tmp_path / "w.csv")
+    df = read_widths(tmp_path / "w.csv")
     assert np.abs(df.width_mm.to_numpy() - truth).max() < 25.4 / 450
     assert (tmp_path / "w.png").exists()
 
@@ -182,7 +181,7 @@ def test_a_scan_turned_upside_down_is_measured_in_its_own_cells(burned, tmp_path
     code, out, err = _run(capsys, "measure", scan, "--layout", tmp / "GRID.json", "-o", tmp_path / "w.csv")
     assert code == 0, err
     assert "turned 180° (upside down)" in out and "measured in its own cell" in out
-    df = pd.read_csv(tmp_path / "w.csv")
+    df = read_widths(tmp_path / "w.csv")
     assert np.abs(df.width_mm.to_numpy() - truth).max() < 25.4 / 600
     mirrored = tmp_path / "mirrored.png"
     Image.open(scan).transpose(Image.Transpose.FLIP_LEFT_RIGHT).save(mirrored, dpi=(600, 600))

@@ -30,7 +30,7 @@ def test_gcode_burns_exactly_the_layout_lines(dialect):
     g = grid_pattern(powers, speeds, line_mm=8, overscan_mm=2, gap_mm=5, repeats=2,
                      label_mm=0, fiducial_mm=0)
     back = parse(g.gcode(dialect), dialect=dialect)
-    on = np.flatnonzero((back.kind == MoveKind.LINE) & (back.power_s > 0))
+    on = np.flatnonzero((back.kind == MoveKind.LINE) & (back.s_word > 0))
     # every burning move is one layout line, at S = P/2500·1000 and the programmed feed
     assert len(on) == len(powers) * len(speeds) * 2
     lines = sorted(g.layout["lines"], key=lambda d: (d["y_mm"], d["x0_mm"]))
@@ -39,12 +39,12 @@ def test_gcode_burns_exactly_the_layout_lines(dialect):
         assert back.start[k, :2] == pytest.approx([d["x0_mm"], d["y_mm"]], abs=1e-3)
         assert back.end[k, :2] == pytest.approx([d["x1_mm"], d["y_mm"]], abs=1e-3)
         assert back.feed_mm_min[k] == pytest.approx(d["speed_mm_min"])
-        assert back.power_s[k] * 2500 / back.s_max == pytest.approx(d["power_mw"], rel=1e-3)
+        assert back.s_word[k] * 2500 / back.s_max == pytest.approx(d["power_mw"], rel=1e-3)
         # the approach is a beam-off move on the same row at the same feed, overscan long
         prev = k - 1
         while back.kind[prev] != MoveKind.LINE:
             prev -= 1
-        assert back.power_s[prev] == 0
+        assert back.s_word[prev] == 0
         assert back.end[prev, :2] == pytest.approx(back.start[k, :2], abs=1e-3)
         assert back.end[prev, 0] - back.start[prev, 0] == pytest.approx(2.0, abs=1e-3)
         assert back.feed_mm_min[prev] == pytest.approx(d["speed_mm_min"])
@@ -52,7 +52,7 @@ def test_gcode_burns_exactly_the_layout_lines(dialect):
 
 def test_passes_repeat_each_burn():
     g = grid_pattern([1000.0], [600.0], passes=3, label_mm=0, fiducial_mm=0)
-    burn = (g.moves.kind == MoveKind.LINE) & (g.moves.power_s > 0)
+    burn = (g.moves.kind == MoveKind.LINE) & (g.moves.s_word > 0)
     assert burn.sum() == 3
 
 

@@ -10,7 +10,7 @@ from labkit.laser.measure import measure_lines
 from labkit.laser.models import dose_width
 from labkit.laser.patterns import grid_pattern
 from labkit.laser.simulate import simulate_burn
-from labkit.motion.machine import CBR40
+from labkit.motion.spec import CBR40
 from labkit.toolpath import MovesBuilder
 from labkit.units import mw_to_s
 
@@ -20,7 +20,7 @@ SLOW = dataclasses.replace(CBR40, accel_mm_s2=(100.0,) * 3)
 
 
 def _program(mode, *, corner=True, power_mw=1000.0, feed=1200.0, length=6.0):
-    b = MovesBuilder(feed_mm_min=feed, power_s=mw_to_s(power_mw, max_power_mw=2500), laser=mode)
+    b = MovesBuilder(feed_mm_min=feed, s_word=mw_to_s(power_mw, max_power_mw=2500), laser=mode)
     b.rapid(x=0, y=0)
     b.line(x=length)
     if corner:
@@ -85,7 +85,7 @@ def test_bad_parameters_are_named():
 
 def _short_segment_arc(mode):
     """Three quarters of a 3 mm circle as 36 lines of 0.39 mm: the short blocks of CAM output."""
-    b = MovesBuilder(feed_mm_min=1800.0, power_s=mw_to_s(1000.0, max_power_mw=2500), laser=mode)
+    b = MovesBuilder(feed_mm_min=1800.0, s_word=mw_to_s(1000.0, max_power_mw=2500), laser=mode)
     angle = np.linspace(0.0, 1.5 * np.pi, 37)
     b.rapid(x=3.0, y=0.0)
     for a in angle[1:]:

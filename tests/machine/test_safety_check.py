@@ -30,7 +30,7 @@ def _verdicts(report):
 def test_every_scenario_passes_on_the_virtual_machine():
     report = run_safety_check()
     assert _verdicts(report) == {k: "PASS" for k in SCENARIOS}, report.format()
-    assert report.ok and report.beam_observed and report.power_s == 10   # 1 % of $30 = 1000
+    assert report.ok and report.beam_observed and report.s_word == 10   # 1 % of $30 = 1000
     # the evidence names what was sent, what came back and what the beam did
     hold = report.results[0]
     assert "!" in hold.sent and any(r.startswith("<Hold:0") for r in hold.reported)
@@ -186,8 +186,8 @@ def test_a_controller_that_stops_answering_is_stopped_safely(monkeypatch):
 def test_bad_arguments_are_named():
     with pytest.raises(InputError, match="scenarios: unknown"):
         run_safety_check(scenarios=["hold"])
-    with pytest.raises(InputError, match=r"power_s: expected 0 < S ≤ \$30 = 1000"):
-        run_safety_check(power_s=5000, scenarios=["m5"])
+    with pytest.raises(InputError, match=r"s_word: expected 0 < S ≤ \$30 = 1000"):
+        run_safety_check(s_word=5000, scenarios=["m5"])
     with pytest.raises(InputError, match="cut_mode"):
         run_safety_check(cut_mode="M7", scenarios=["m5"])
 

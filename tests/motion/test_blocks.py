@@ -54,11 +54,11 @@ def test_caps_follow_feed_and_axis_limits():
 
 
 def test_power_and_ratio():
-    b = MovesBuilder(feed_mm_min=1200, power_s=400, laser=LaserMode.DYNAMIC)
+    b = MovesBuilder(feed_mm_min=1200, s_word=400, laser=LaserMode.DYNAMIC)
     b.line(x=1)
     b.rapid(x=2)
     b.line(x=3, laser=LaserMode.OFF)
-    b.line(x=4, laser=LaserMode.CONSTANT, power_s=2000)     # S above s_max clips to full power
+    b.line(x=4, laser=LaserMode.CONSTANT, s_word=2000)     # S above s_max clips to full power
     blk = build_blocks(b.build())
     assert blk.power_mw.tolist() == [1000.0, 0.0, 0.0, 2500.0]
     assert blk.power_ratio.tolist() == [50.0, 0.0, 0.0, 125.0]
@@ -83,7 +83,7 @@ def test_arc_block_matches_its_octant_walk():
 
 
 def test_expand_arcs_is_grbl_chords():
-    b = MovesBuilder(feed_mm_min=600, power_s=100, laser=LaserMode.CONSTANT)
+    b = MovesBuilder(feed_mm_min=600, s_word=100, laser=LaserMode.CONSTANT)
     b.rapid(x=5, y=0)
     b.arc_cw(x=-5, y=0, i=-5, j=0, line=7)                 # half circle, r = 5 mm
     moves = expand_arcs(b.build(), 0.002)

@@ -165,7 +165,7 @@ def test_mbla_modes_on_a_zigzag_follow_cbr40_fig17():
 
 
 def test_fast_mode_gives_one_acceleration_and_one_deceleration_per_super_block():
-    b = MovesBuilder(feed_mm_min=600, power_s=300, laser=LaserMode.DYNAMIC)
+    b = MovesBuilder(feed_mm_min=600, s_word=300, laser=LaserMode.DYNAMIC)
     b.line(x=5)
     b.line(x=10, feed_mm_min=1500)         # fastest block of the set
     b.line(x=10, y=5, feed_mm_min=300)     # a right-angle corner
@@ -183,7 +183,7 @@ def test_fast_mode_gives_one_acceleration_and_one_deceleration_per_super_block()
 
 
 def test_rapid_feed_changes_and_dwells_split_super_blocks():
-    b = MovesBuilder(feed_mm_min=600, power_s=300, laser=LaserMode.CONSTANT)
+    b = MovesBuilder(feed_mm_min=600, s_word=300, laser=LaserMode.CONSTANT)
     b.line(x=5)
     b.line(x=10)
     b.rapid(x=20)
@@ -240,7 +240,7 @@ def test_job_time_matches_fine_step_integration(planner, law):
 
 
 def test_summary_and_trace():
-    b = MovesBuilder(feed_mm_min=600, power_s=500, laser=LaserMode.DYNAMIC)
+    b = MovesBuilder(feed_mm_min=600, s_word=500, laser=LaserMode.DYNAMIC)
     b.line(x=10, line=1)
     b.rapid(x=20, line=2)
     b.dwell(0.25, line=3)

@@ -87,7 +87,7 @@ def test_step_trace_reaches_every_target_and_keeps_time():
 
 
 def test_lines_and_arcs_in_the_trace_are_the_bresenham_walks():
-    b = MovesBuilder(feed_mm_min=900, power_s=300, laser=LaserMode.CONSTANT)
+    b = MovesBuilder(feed_mm_min=900, s_word=300, laser=LaserMode.CONSTANT)
     b.line(x=0.4, y=0.13)
     b.arc_cw(x=0.4, y=-0.27, i=0.0, j=-0.2, z=0.05)         # half a helix turn, r = 0.2 mm
     p = plan(b.build(), planner="normal")

@@ -53,7 +53,7 @@ def test_plan_plots_and_super_block_lines():
 
 
 def test_step_rates_follow_the_trace():
-    b = MovesBuilder(feed_mm_min=600, power_s=300, laser=LaserMode.DYNAMIC)
+    b = MovesBuilder(feed_mm_min=600, s_word=300, laser=LaserMode.DYNAMIC)
     b.line(x=0.2, y=0.1)
     tr = step_trace(plan(b.build(), planner="hq"))
     ax = vm.plot_step_rates(tr)
@@ -74,15 +74,15 @@ def test_compare_planners_table():
     (vm.profile_explorer, {"length_mm", "cap_mm_s", "entry_mm_s", "exit_mm_s", "up", "down", "law"}),
     (lambda: vm.lookahead_explorer(lambda r, s: zigzag_moves(rows=r, segments_per_row=s)),
      {"rows", "segments", "buffer_blocks", "law"}),
-    (lambda: vm.laser_explorer(lambda p, f, m: zigzag_moves(rows=2, power_s=p, feed_mm_min=f, laser=m)),
-     {"power_s", "feed_mm_min", "mode", "planner", "loops"}),
+    (lambda: vm.laser_explorer(lambda p, f, m: zigzag_moves(rows=2, s_word=p, feed_mm_min=f, laser=m)),
+     {"s_word", "feed_mm_min", "mode", "planner", "loops"}),
 ])
 def test_widgets_build_with_their_controls(factory, controls):
     widget = factory()
     assert set(widget.controls) == controls
     shown = widget.children[-1].outputs
     assert any("image/png" in o.get("data", {}) for o in shown)      # drawn on creation
-    # labels are words for students (with units), not Python names such as power_s
+    # labels are words for students (with units), not Python names such as s_word
     for name, control in widget.controls.items():
         label = control.description
         assert label and "_" not in label, f"{name}: label {label!r}"

@@ -20,7 +20,7 @@ from labkit.laser.scanoffset import (ScanOffset, apply_scan_offset, fit_scan_off
                                      measure_scan_offset, scan_offset_pattern)
 from labkit.laser.simulate import simulate_burn
 from labkit.laser.tone import fit_tone, isotonic, load_tone, measure_wedge, wedge_pattern
-from labkit.motion.machine import load_machine
+from labkit.motion.spec import load_machine
 from labkit.toolpath.moves import Moves
 
 DIODE = load_machine("grbl-diode")      # 6000 mm/min: fast enough for a delay to show
@@ -71,7 +71,7 @@ def test_apply_scan_offset_hand_worked():
     # a forward row at y 0, a link, a backward row at y 1, both at 3000 mm/min (50 mm/s)
     starts = [[-1, 0], [0, 0], [10, 0], [11, 0], [11, 1], [10, 1], [0, 1]]
     ends = [[0, 0], [10, 0], [11, 0], [11, 1], [10, 1], [0, 1], [-1, 1]]
-    m = Moves.from_cuts(starts, ends, feed_mm_min=3000, power_s=[0, 500, 0, 0, 0, 500, 0], origin=(-1, 0, 0))
+    m = Moves.from_cuts(starts, ends, feed_mm_min=3000, s_word=[0, 500, 0, 0, 0, 500, 0], origin=(-1, 0, 0))
     assert len(m) == 7                                 # no rapid: one contiguous path
     out = apply_scan_offset(m, ScanOffset(slope_s=0.004, intercept_mm=0.01))
     shift = 0.004 * 50 + 0.01                          # 0.21 mm
@@ -105,7 +105,7 @@ def test_corrected_gray_job_lands_aligned():
 
 
 def test_apply_scan_offset_refuses_column_scans():
-    m = Moves.from_cuts([[0, 0], [1, 10]], [[0, 10], [1, 0]], feed_mm_min=3000, power_s=500)
+    m = Moves.from_cuts([[0, 0], [1, 10]], [[0, 10], [1, 0]], feed_mm_min=3000, s_word=500)
     with pytest.raises(InputError, match="scans along Y"):
         apply_scan_offset(m, ScanOffset(slope_s=0.004, intercept_mm=0.0))
 
@@ -163,7 +163,7 @@ def _known_darkness(s, pitch):
 @pytest.fixture(scope="module")
 def wedge_scan():
     g = wedge_pattern(12)
-    s = np.array([ln["power_s"] for ln in g.layout["lines"]])
+    s = np.array([ln["s_word"] for ln in g.layout["lines"]])
     img = render_scan(g.layout, _known_width(s, g.layout["pitch_mm"]), dpi=1200, noise=0.02, rotation_deg=2.0)
     return g, img
 
@@ -172,10 +172,10 @@ def test_wedge_measured_and_fitted_to_the_known_curve(wedge_scan):
     g, img = wedge_scan
     pitch = g.layout["pitch_mm"]
     df = measure_wedge(img, g.layout)
-    assert len(df) == 12 and df.power_s.tolist() == pytest.approx(1000 * np.arange(1, 13) / 12)
-    assert df.darkness.to_numpy() == pytest.approx(_known_darkness(df.power_s, pitch), abs=0.01)
+    assert len(df) == 12 and df.s_word.tolist() == pytest.approx(1000 * np.arange(1, 13) / 12)
+    assert df.darkness.to_numpy() == pytest.approx(_known_darkness(df.s_word, pitch), abs=0.01)
     assert (df.darkness_sd > 0).all()
-    curve = fit_tone(df.power_s, df.darkness, spread=df.darkness_sd, weights=df.pixels)
+    curve = fit_tone(df.s_word, df.darkness, spread=df.darkness_sd, weights=df.pixels)
     between = np.linspace(40, 1000, 50)                 # between the knots too
     assert curve.darkness_at(between) == pytest.approx(_known_darkness(between, pitch), abs=0.015)
     assert np.all(np.diff(curve.darkness_at(np.linspace(0, 1000, 500))) >= 0)
@@ -200,8 +200,8 @@ def test_wedge_burned_by_the_dose_simulator_follows_the_dose_model():
         return 0.8 / 0.9 * dose_width(2500 * np.asarray(s) / 1000, v, w0, fth) / 0.2
 
     # within 0.025 (5 % of the darkest patch): the scan's pixels average the simulated edges
-    assert df.darkness.to_numpy() == pytest.approx(model(df.power_s), abs=0.025)
-    curve = fit_tone(df.power_s, df.darkness, weights=df.pixels)
+    assert df.darkness.to_numpy() == pytest.approx(model(df.s_word), abs=0.025)
+    curve = fit_tone(df.s_word, df.darkness, weights=df.pixels)
     s = np.linspace(125, 1000, 200)
     assert curve.darkness_at(s) == pytest.approx(model(s), abs=0.025)
 
@@ -252,8 +252,8 @@ def test_img2gcode_tone_and_scan_offset(tmp_path, capsys):
     plain = parse((tmp_path / "plain.gcode").read_text())
     tone = parse((tmp_path / "tone.gcode").read_text())
     # gray 128 asks for darkness share w = 1 - 128/255 = 0.498: S 498 plain, 1000·w² = 248 on the square-root material
-    assert sorted(set(plain.power_s[plain.laser_on].tolist())) == pytest.approx([247, 498, 1000], abs=1)
-    assert sorted(set(tone.power_s[tone.laser_on].tolist())) == pytest.approx([61, 248, 1000], abs=3)
+    assert sorted(set(plain.s_word[plain.laser_on].tolist())) == pytest.approx([247, 498, 1000], abs=1)
+    assert sorted(set(tone.s_word[tone.laser_on].tolist())) == pytest.approx([61, 248, 1000], abs=3)
     # backward rows moved by 0.004 s × 50 mm/s = 0.2 mm in +X
     back = tone.laser_on & (tone.end[:, 0] < tone.start[:, 0])
     back_plain = plain.laser_on & (plain.end[:, 0] < plain.start[:, 0])

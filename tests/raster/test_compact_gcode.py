@@ -39,7 +39,7 @@ def test_compact_burns_what_the_spaced_text_burns(crop, mode, pitch):
     assert a.diagnostics == () and b.diagnostics == ()
     np.testing.assert_array_equal(a.kind, b.kind)
     np.testing.assert_allclose(a.end, b.end, atol=1e-9)
-    np.testing.assert_array_equal(a.power_s, b.power_s)
+    np.testing.assert_array_equal(a.s_word, b.s_word)
     np.testing.assert_array_equal(a.laser_on, b.laser_on)
     tol = 1e-6 if pitch == 0.1 else 1e-3     # 0.127 mm: centres at 0.0635 k, written to 1 µm
     count_a, power_a = burn_map(a, job.target.shape, pitch, tol_mm=tol)
@@ -88,7 +88,7 @@ def test_img2gcode_writes_compact_unless_asked(tmp_path, capsys):
     assert "G1 X" in texts["--dialect marlin"]           # Marlin: the spaced form
     a, b = parse(readable), parse(compact)
     np.testing.assert_allclose(a.end, b.end, atol=1e-9)
-    np.testing.assert_array_equal(a.power_s, b.power_s)
+    np.testing.assert_array_equal(a.s_word, b.s_word)
     # every header line fits a counting sender's view of GRBL's line buffer
     assert max(len(line) for line in compact.splitlines()) <= 79
 

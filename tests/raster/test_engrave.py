@@ -123,7 +123,7 @@ def test_report_figures_zigzag_vs_spiral():
 
 def test_gcode_round_trip_and_line_count():
     mask = ~data.horse()[::4, ::4]
-    job = mask_job(mask, pixel_mm=0.5, mode="spiral", feed_mm_min=1000, power_s=800)
+    job = mask_job(mask, pixel_mm=0.5, mode="spiral", feed_mm_min=1000, s_word=800)
     text = emit(job.moves)
     report = job.report.with_gcode(text)
     assert report.gcode_lines == text.count("\n") > job.report.moves
@@ -169,8 +169,8 @@ def test_engrave_errors():
         gray_job(g, pixel_mm=0.1, dither="ordered")
     with pytest.raises(RasterError, match="pixel_mm must be"):
         gray_job(g, pixel_mm=0)
-    with pytest.raises(RasterError, match="power_s must be in"):
-        mask_job(g < 1, pixel_mm=0.1, power_s=0)
+    with pytest.raises(RasterError, match="s_word must be in"):
+        mask_job(g < 1, pixel_mm=0.1, s_word=0)
     with pytest.raises(RasterError, match="feed_mm_min and rapid_mm_min must be > 0"):
         summarize(mask_job(g < 1, pixel_mm=0.1).moves, feed_mm_min=0)
     with pytest.raises(RasterError, match="method must be one of"):
@@ -192,7 +192,7 @@ def test_settings_are_one_record_with_named_fields():
     assert set(a.moves.feed_mm_min[a.moves.laser_on]) == {2400.0}
     # the mode's defaults where a field is None: gray scans with M4, binary cuts with M3
     assert s.burn_options().get("laser") is None and "dither" in s.burn_options()
-    assert "power_s" in RasterSettings(mode="zigzag").burn_options()
+    assert "s_word" in RasterSettings(mode="zigzag").burn_options()
     with pytest.raises(RasterError, match=r"unknown setting\(s\) feed; expected fields of RasterSettings: mode, beam_mm"):
         image_to_job(img, mode="gray", beam_mm=0.5, pixel_mm=0.5, feed=2400)
     for bad, msg in ((dict(beam_mm=0), "beam_mm must be"), (dict(gamma=0), "gamma must be"),

@@ -67,7 +67,7 @@ def reference_moves(power, *, pixel_mm, feed, bidirectional, skip_px, overscan_p
     x0, x1, row, s = (np.array([c[k] for c in cuts], dtype=float) for k in range(4))
     y = (rows - row - 0.5) * pixel_mm
     return Moves.from_cuts(np.stack([x0 * pixel_mm, y], axis=1), np.stack([x1 * pixel_mm, y], axis=1),
-                           feed_mm_min=feed, power_s=s, laser=laser, s_max=s_max)
+                           feed_mm_min=feed, s_word=s, laser=laser, s_max=s_max)
 
 
 def _gray(rng, shape):

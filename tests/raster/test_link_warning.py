@@ -30,7 +30,7 @@ def _image(tmp_path):
 
 def _machine_file(tmp_path, baud, name="grbl-diode"):
     """A shipped machine description with another link speed, as a user would copy and edit it."""
-    from labkit.motion.machine import MACHINES_DIR
+    from labkit.motion.spec import MACHINES_DIR
 
     text = (MACHINES_DIR / f"{name}.toml").read_text()
     assert "link_baud = 115200" in text

@@ -22,7 +22,7 @@ def _random_masks(seed=0, n=12):
 
 
 def _assert_exact_cover(segs, mask, pixel_mm=0.25):
-    moves = segments_to_moves(segs, pixel_mm=pixel_mm, feed_mm_min=1000, power_s=700)
+    moves = segments_to_moves(segs, pixel_mm=pixel_mm, feed_mm_min=1000, s_word=700)
     count, power = burn_map(moves, mask.shape, pixel_mm)
     assert np.array_equal(count, mask.astype(np.int64))       # every marked pixel once, nothing else
     assert np.array_equal(power, 700.0 * mask)
@@ -228,4 +228,4 @@ def test_empty_mask():
         assert len(segs) == 0
         c = connect(segs)
         assert len(c.order) == 0
-        assert len(segments_to_moves(segs, pixel_mm=0.1, feed_mm_min=100, power_s=10)) == 0
+        assert len(segments_to_moves(segs, pixel_mm=0.1, feed_mm_min=100, s_word=10)) == 0

@@ -26,7 +26,7 @@ def _cut_paths(moves):
 
 def test_cut_length_equals_path_length_and_geometry_survives():
     paths = [Path.rectangle(0, 0, 20, 10), Path.circle((40, 5), 4), Path.arc((60, 0), 5, 0, 2.0)]
-    m = build_moves(paths, LayerSettings(feed_mm_min=900, power_s=500))
+    m = build_moves(paths, LayerSettings(feed_mm_min=900, s_word=500))
     assert m.lengths_mm()[m.laser_on].sum() == pytest.approx(total_length(paths))
     assert hausdorff(_cut_paths(m), paths) < 1e-9
     assert not m.laser_on[m.kind == MoveKind.RAPID].any()
@@ -36,8 +36,8 @@ def test_cut_length_equals_path_length_and_geometry_survives():
 def test_per_layer_settings_and_passes_with_z_steps():
     red = Path.rectangle(0, 0, 10, 10, layer="red")
     blue = Path.circle((30, 5), 3, layer="blue")
-    settings = {"red": LayerSettings(feed_mm_min=300, power_s=1000, passes=3, z_step_mm=0.5),
-                "blue": LayerSettings(feed_mm_min=2000, power_s=200, laser=LaserMode.DYNAMIC)}
+    settings = {"red": LayerSettings(feed_mm_min=300, s_word=1000, passes=3, z_step_mm=0.5),
+                "blue": LayerSettings(feed_mm_min=2000, s_word=200, laser=LaserMode.DYNAMIC)}
     m = build_moves([blue, red], settings)
     cut = m.laser_on
     red_rows = cut & (m.feed_mm_min == 300)
@@ -45,7 +45,7 @@ def test_per_layer_settings_and_passes_with_z_steps():
     assert sorted(set(m.start[red_rows, 2])) == [-1.0, -0.5, 0.0]
     assert m.lengths_mm()[red_rows].sum() == pytest.approx(3 * 40)
     blue_rows = cut & (m.feed_mm_min == 2000)
-    assert set(m.laser[blue_rows]) == {LaserMode.DYNAMIC} and set(m.power_s[blue_rows]) == {200}
+    assert set(m.laser[blue_rows]) == {LaserMode.DYNAMIC} and set(m.s_word[blue_rows]) == {200}
     assert np.flatnonzero(blue_rows).max() < np.flatnonzero(red_rows).min()   # blue came first
 
 
@@ -59,7 +59,7 @@ def test_emitted_gcode_parses_back_to_the_same_cuts():
     from labkit.gcode import emit, parse
 
     paths = [Path.rectangle(0, 0, 20, 10), Path.circle((40, 5), 4)]
-    m = build_moves(paths, LayerSettings(feed_mm_min=1200, power_s=700))
+    m = build_moves(paths, LayerSettings(feed_mm_min=1200, s_word=700))
     back = parse(emit(m, tol_mm=1e-4))
     assert back.lengths_mm()[back.laser_on].sum() == pytest.approx(total_length(paths), abs=1e-3)
     assert hausdorff(_cut_paths(back), paths) < 1e-3
@@ -93,8 +93,8 @@ def test_errors():
         LayerSettings(passes=0)
     with pytest.raises(GeometryError, match="z_step_mm must be >= 0"):
         LayerSettings(z_step_mm=-1)
-    with pytest.raises(GeometryError, match="power_s must be >= 0"):
-        LayerSettings(power_s=-5)
+    with pytest.raises(GeometryError, match="s_word must be >= 0"):
+        LayerSettings(s_word=-5)
     with pytest.raises(GeometryError, match="origin must be"):
         build_moves([Path.rectangle(0, 0, 1, 1)], origin=(0, 0))
     with pytest.raises(GeometryError, match="kerf_mm must be >= 0"):

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from labkit.errors import GeometryError
 from labkit.motion import plan
-from labkit.motion.laser import dose_uniformity
+from labkit.motion.power import dose_uniformity
 from labkit.toolpath import LaserMode, MoveKind, MovesBuilder
 from labkit.toolpath.corners import add_corner_loops, turn_angles
 
@@ -18,7 +18,7 @@ FEED = 1200.0      # mm/min = 20 mm/s → v²/a = 0.8 mm
 
 
 def polyline(points, feed=FEED, laser=LaserMode.CONSTANT):
-    b = MovesBuilder(feed_mm_min=feed, power_s=500, laser=laser)
+    b = MovesBuilder(feed_mm_min=feed, s_word=500, laser=laser)
     b.rapid(x=points[0][0], y=points[0][1])
     for x, y in points[1:]:
         b.line(x=x, y=y)

@@ -12,7 +12,7 @@ from labkit.toolpath import LaserMode, MoveKind, Moves, MovesBuilder
 
 def test_from_cuts_joins_with_rapids_only_where_needed():
     m = Moves.from_cuts([[0, 0], [2, 0], [5, 5]], [[2, 0], [3, 0], [6, 5]],
-                        feed_mm_min=[100, 200, 300], power_s=[1, 2, 3], origin=(0, 0, 0))
+                        feed_mm_min=[100, 200, 300], s_word=[1, 2, 3], origin=(0, 0, 0))
     assert [MoveKind(k).name for k in m.kind] == ["LINE", "LINE", "RAPID", "LINE"]
     np.testing.assert_array_equal(m.start[2], [3, 0, 0])
     np.testing.assert_array_equal(m.end[2], [5, 5, 0])
@@ -23,9 +23,9 @@ def test_from_cuts_joins_with_rapids_only_where_needed():
 
 def test_from_cuts_validates_shapes():
     with pytest.raises(ValueError, match=r"shape \(n, 2\) or \(n, 3\)"):
-        Moves.from_cuts([0, 1], [1, 2], feed_mm_min=1, power_s=1)
+        Moves.from_cuts([0, 1], [1, 2], feed_mm_min=1, s_word=1)
     with pytest.raises(ValueError, match="starts and ends differ in shape"):
-        Moves.from_cuts([[0, 0]], [[1, 1], [2, 2]], feed_mm_min=1, power_s=1)
+        Moves.from_cuts([[0, 0]], [[1, 1], [2, 2]], feed_mm_min=1, s_word=1)
 
 
 def test_columns_are_checked():

@@ -59,6 +59,6 @@ def test_errors_are_one_line(tmp_path, capsys):
 
 def test_layer_option():
     name, s = parse_layer_option("a:b:100:200:3:0.5")
-    assert (name, s.feed_mm_min, s.power_s, s.passes, s.z_step_mm) == ("a:b", 100, 200, 3, 0.5)
+    assert (name, s.feed_mm_min, s.s_word, s.passes, s.z_step_mm) == ("a:b", 100, 200, 3, 0.5)
     with pytest.raises(GeometryError, match="expected NAME:FEED:POWER"):
         parse_layer_option("100:200")

@@ -36,8 +36,8 @@ def test_images_are_engraved_where_placed_before_the_cut(art, tmp_path, capsys):
     assert "image#photo" not in capsys.readouterr().err
     m = parse(out.read_text())
     on = m.laser_on
-    image = on & (m.power_s == 300)
-    cut = on & (m.power_s == 900)
+    image = on & (m.s_word == 300)
+    cut = on & (m.s_word == 900)
     # the black 20 × 10 mm bitmap at SVG (10, 5): lines x 10…30 at y 25.25 … 34.75 every 0.5 mm
     xs = np.c_[m.start[image, 0], m.end[image, 0]]
     assert xs.min() == pytest.approx(10) and xs.max() == pytest.approx(30)
@@ -53,7 +53,7 @@ def test_without_images_the_bitmap_is_named_not_burned(art, tmp_path, capsys):
     assert main(["svg2gcode", str(art), "-o", str(out), "--power", "900"]) == 0
     assert "not cut: 1 element(s) that are not vector shapes: image#photo" in capsys.readouterr().err
     m = parse(out.read_text())
-    assert set(m.power_s[m.laser_on]) == {900.0}
+    assert set(m.s_word[m.laser_on]) == {900.0}
     assert m.bounds(m.laser_on)[0][:2].tolist() == pytest.approx([2, 2])
 
 

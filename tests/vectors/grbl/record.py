@@ -23,7 +23,7 @@ that must finish or stop first); it is recorded so that a replay can pause
 the same way. What GRBL writes during that pause came before the step's
 bytes: it is the previous exchange's. Every exchange also keeps ``at_s``: when GRBL received its first
 byte, on GRBL's own clock (grbl-sim's simulated seconds, which its motion runs
-on; patch 9 of README.md logs every byte's arrival on stderr), counted from the
+on; patch 12 of README.md logs every byte's arrival on stderr), counted from the
 first exchange's. It is the time GRBL had between two exchanges, its motion
 running meanwhile, which a replay in simulated time gives the virtual machine.
 """
@@ -319,9 +319,10 @@ def _homing_limits():
 SWITCHES = {
     "homing": "X:+5,Y:+5,Z:+5",
     "homing_stuck": "X:stuck,Y:+5,Z:+5",
+    "hard_limits": "X:+5,Y:+5,Z:+5",
 }
 
-#: The probe input per topic (grbl-sim patch 8), in the same form; no entry, no contact ever.
+#: The probe input per topic (grbl-sim patch 11), in the same form; no entry, no contact ever.
 PROBES = {
     "probe": "Z:-2",
 }
@@ -494,6 +495,82 @@ def _soft_limit_moving():
     ]
 
 
+def _reset_wait():
+    return "A reset while a line waits: a dwell from rest (GRBL dwells in Idle), and a G4, M0, M2, " \
+           "G10 L20 and G38.2 waiting for the move before them", [
+        line("G4 P3", answered=False, note="a dwell from rest: GRBL dwells with its planner empty"),
+        rt("?", pause_before_s=0.3, note="the state during the dwell"),
+        rt(RESET, pause_before_s=0.3, quiet_s=1.5, note="a reset during the dwell: nothing moves"),
+        rt("?"),
+        line("G1 X10 F300"),
+        line("G4 P0.01", answered=False, note="waits for the move"), rt("?", pause_before_s=0.5),
+        rt(RESET, quiet_s=1.5, note="a reset while the G4 waits for the move"),
+        rt("?", timed=("MPos",), note="where the reset stopped the move"), line("$X"),
+        line("G0 X0"), _sync(),
+        line("G1 X10 F300"), line("M0", answered=False, note="M0 behind a move waits for it"),
+        rt(RESET, pause_before_s=0.5, quiet_s=1.5), line("$X"),
+        line("G0 X0"), _sync(),
+        line("G1 X10 F300"), line("M2", answered=False, note="M2 behind a move: the program ends once the move has"),
+        rt(RESET, pause_before_s=0.5, quiet_s=1.5, note="a reset while the M2 waits"), line("$X"),
+        line("G0 X0"), _sync(),
+        line("G1 X10 F300"), line("G10 L20 P1 X0", answered=False, note="an offset write waits for the move"),
+        rt(RESET, pause_before_s=0.5, quiet_s=1.5), line("$X"),
+        line("$#", note="was the offset written? (G10 L20 takes the parser's position: the move's end)"),
+        line("G10 L2 P1 X0"), line("G0 X0"), _sync(),
+        line("G1 X10 F300"), line("G38.2 Z-5 F100", answered=False, note="a probe cycle starts from rest: it waits"),
+        rt(RESET, pause_before_s=0.5, quiet_s=1.5, note="a reset while the probe line waits for the move"),
+        rt("?", timed=("MPos",)), line("$X"), line("G0 X0"), _sync(), rt("?"),
+    ]
+
+
+def _hard_limits():
+    return "Hard limits ($21=1) with limit switches 5 mm from power-up on +X +Y +Z: a move, a job and " \
+           "a jog into a switch, moving off it, the reset with a switch pressed, homing with hard limits on", [
+        line("$21=1"),
+        line("G1 X10 F300", note="X's switch is pressed at X5: GRBL's limit pin-change interrupt"),
+        rt("?", pause_before_s=6.0, quiet_s=1.5, note="the alarm came; nothing is reported until a reset"),
+        line("G0 X0", answered=False, note="nothing is read until the reset"),
+        rt(RESET, quiet_s=1.5, note="a reset with the switch still pressed"),
+        rt("?", timed=("MPos",), note="where the alarm stopped the move"), line("G0 X0"), line("$X"),
+        rt("?", timed=("MPos",)),
+        line("G0 X4", quiet_s=1.5, note="moving off the switch releases it: a change of the pin too"),
+        rt("?", pause_before_s=1.0), rt(RESET, quiet_s=1.5), rt("?", timed=("MPos",)), line("$X"),
+        line("$21=0"), line("G0 X0"), _sync(), line("$21=1"),
+        raw("G1X1F300\nG1X2\nG1X3\nG1X4\nG1X6\nG0X7\n", note="a job that runs into the switch"),
+        line("G4 P0.01", answered=False, note="waits for the job"),
+        rt("?", pause_before_s=8.0, quiet_s=1.5, note="the job ran into the switch"),
+        rt(RESET, quiet_s=1.5, note="the reset answers the G4 that waited"), rt("?", timed=("MPos",)),
+        line("$X"), line("$21=0"), line("G0 X0"), _sync(), line("$21=1"),
+        line("$J=G91 X10 F300", note="a jog into the switch"),
+        rt("?", pause_before_s=6.0, quiet_s=1.5), rt(RESET, quiet_s=1.5), line("$X"),
+        line("$J=G91 X-2 F300", quiet_s=1.5, note="a jog off the switch"),
+        rt("?", pause_before_s=1.0), rt(RESET, quiet_s=1.5), line("$X"),
+        line("$21=0"), line("G0 X0 Y0"), _sync(), line("$21=1"),
+        line("$130=20"), line("$131=20"), line("$132=20"), line("$25=200"), line("$24=100"),
+        line("$27=3"), line("$22=1"),
+        line("$H", wait_s=120.0, quiet_s=6.0, note="homing with hard limits on: the cycle meets the switches"),
+        rt("?"), line("G0 X-1"), _sync(), rt("?"),
+        line("G0 X1", note="machine X0 is the switch"), rt("?", pause_before_s=4.0, quiet_s=1.5),
+        rt(RESET, quiet_s=1.5), line("$X"), line("$21=0"), line("$22=0"), rt("?", timed=("MPos",)),
+    ]
+
+
+def _startup_jog():
+    return "A start-up line that is a jog ($N0=$J=...): checked and run as a jog when stored and after " \
+           "each reset; a bad one; G-code during a jog", [
+        line("$N0=$J=G91X2F60", note="a jog as a start-up line: GRBL checks it by running it"),
+        rt("?"), line("$N"),
+        rt(RESET, note="the start-up jog runs after the banner"), rt("?"), rt("?", pause_before_s=5.0),
+        line("$N1=$J=X1", note="a jog without a feed rate"), line("$N1=$J=G0X1F100"),
+        line("$N1=$J=G91X1F100M3"), line("$N1=$J="), line("$N1=$J"), line("$N1=$X"),
+        line("$N1=$XYG91X1F100", note="what GRBL reads of a start-up line that begins with $"),
+        rt("?", pause_before_s=4.0), line("$N"), line("$N1="), line("$N10=$J"),
+        line("$J=G91X3F100"), line("G0X0", note="G-code during a jog"), line("$G"),
+        line("$N0=", note="a start-up line during a jog"), line("$C"), rt("?", pause_before_s=5.0),
+        line("$N0="), line("$N"), rt(RESET), rt("?"),
+    ]
+
+
 TOPICS = {
     "dollar_commands": _dollar_commands,
     "settings": _settings,
@@ -512,6 +589,9 @@ TOPICS = {
     "planner_sync": _planner_sync,
     "probe": _probe,
     "soft_limit_moving": _soft_limit_moving,
+    "reset_wait": _reset_wait,
+    "hard_limits": _hard_limits,
+    "startup_jog": _startup_jog,
 }
 
 
@@ -520,7 +600,7 @@ TOPICS = {
 class GrblSim:
     """grbl-sim on pipes, in its own empty directory (a blank EEPROM).
 
-    Its stderr (patch 9, README.md) tells GRBL's own clock (simulated seconds, the time its
+    Its stderr (patch 12, README.md) tells GRBL's own clock (simulated seconds, the time its
     motion runs on): ``t SECONDS`` every 10 ms, ``rx HH SECONDS`` when it received a byte,
     ``tx SECONDS`` when a piece of its output left. The recorder waits on that clock, so a
     transcript is the same on a loaded host, where grbl-sim runs slower than the wall clock.
@@ -590,7 +670,7 @@ class GrblSim:
                 last_sign = time.monotonic()
             elif time.monotonic() - last_sign > self.FROZEN_S:
                 raise RuntimeError(f"grbl-sim's clock stood still for {self.FROZEN_S:g} s at "
-                                   f"{self.clock:.3f}: is it frozen, or built without patch 9?")
+                                   f"{self.clock:.3f}: is it frozen, or built without patch 12?")
         while self._pump(0.0):       # what it wrote before that moment is in the pipe by now
             pass
         out, self._out = self._out, b""
@@ -602,7 +682,7 @@ class GrblSim:
         while len(self.arrivals) <= k:
             if time.monotonic() > deadline:
                 raise RuntimeError(f"grbl-sim logged no arrival of byte {k} within "
-                                   f"{self.FROZEN_S:g} s: is it built with patch 9 (README.md)?")
+                                   f"{self.FROZEN_S:g} s: is it built with patch 12 (README.md)?")
             self._pump(0.2)
         return self.arrivals[k]
 

@@ -94,7 +94,7 @@ def test_steps_per_rev_and_lead(tmp_path):
 
 def test_laser_maximum_is_stated_only_in_the_machine_description():
     """No function defaults a laser maximum of its own: the figure lives in the machine
-    description (labkit/motion/machine.py and its TOML files) and is passed in."""
+    description (labkit/motion/spec.py and its TOML files) and is passed in."""
     import inspect
     import re
     from pathlib import Path
@@ -105,7 +105,7 @@ def test_laser_maximum_is_stated_only_in_the_machine_description():
     root = Path(labkit.__file__).parent
     offenders = []
     for path in root.rglob("*.py"):
-        if path.relative_to(root).as_posix() == "motion/machine.py":
+        if path.relative_to(root).as_posix() == "motion/spec.py":
             continue
         for k, line in enumerate(path.read_text("utf-8").splitlines(), 1):
             if re.search(r"max_power_mw\w*\s*(:\s*float\s*)?=\s*\d", line) and ">>>" not in line \
