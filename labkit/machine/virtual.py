@@ -132,6 +132,12 @@ def _grbl_number(value: float, decimals: int) -> str:
     return f"{sign}{whole}.{frac:0{decimals}d}"
 
 
+def _startup_jog(line: str) -> str:
+    """A start-up line that begins with ``$`` as GRBL runs it: a jog, read from its fourth
+    character on (``$XYG91X1F100`` is ``$J=G91X1F100``)."""
+    return "$J=" + line[3:]
+
+
 def _grbl_line(text: str) -> tuple[str, bool]:
     """A line as GRBL's serial reader keeps it, and whether it overflowed the line buffer:
     comments, spaces, control characters and the block-delete ``/`` dropped, letters upper case.
@@ -408,6 +414,12 @@ class VirtualMachine:
             self.state, self.alarm_code = "Alarm", 0
         if banner:
             self._emit("\r\nGrbl 1.1h ['$' for help]")
+            if self._flag(21) and self._pressed().any():
+                # GRBL checks the limit inputs after a reset with hard limits on: one pressed
+                # locks it in Alarm
+                if self.state != "Alarm":
+                    self.state, self.alarm_code = "Alarm", 0
+                self._emit(grbl_reply(Feedback.CHECK_LIMITS))
             if self.state == "Alarm":
                 self._emit(grbl_reply(Feedback.ALARM_LOCK))
 
@@ -464,17 +476,26 @@ class VirtualMachine:
         self.pos[axis] = value_mm
 
     def _stop_at_switch(self, start: np.ndarray) -> bool:
-        """Whether the motion from ``start`` to here tripped GRBL's hard limit: an input changed
-        (its pin-change interrupt) while one reads pressed. If so the head is put back where the
-        first input changed (the step is a straight line)."""
-        now = self._pressed()
-        hit = now != self._pressed(start)
-        if not (hit.any() and now.any()):
+        """Whether the motion from ``start`` to here tripped GRBL's hard limit: an input changed,
+        pressed or released (its pin-change interrupt; GRBL 1.1h as built does not check which,
+        HARD_LIMIT_FORCE_STATE_CHECK is off). If so the head is put back at the first whole step
+        (``$100``-``$102``) where an input changed (the step is a straight line): a switch is
+        pressed at its position, released one step off it."""
+        before = self._pressed(start)
+        hit = self._pressed() != before
+        if not hit.any():
             return False
         travel = self.pos - start
         with np.errstate(divide="ignore", invalid="ignore"):
             where = np.where(travel != 0, (self._switch_mm - start) / travel, 0.0)
-        self.pos = start + travel * float(np.clip(where[hit], 0.0, 1.0).min())
+        spm = np.array([float(self.settings[100 + a]) for a in range(3)])
+        first = math.inf
+        for a in np.flatnonzero(hit):
+            f = float(np.clip(where[a], 0.0, 1.0))
+            if self._pressed(start + travel * f)[a] == before[a]:   # still as before: a release
+                f += 1.0 / (spm[a] * abs(travel[a]))   # (may end a step past this tick's end)
+            first = min(first, f)
+        self.pos = start + travel * first
         return True
 
     def _probe_touching(self, pos=None) -> bool:
@@ -1041,6 +1062,12 @@ class VirtualMachine:
             elif self.state != "Alarm":
                 self.state = "Idle"
             self._emit("\r\nGrbl 1.1h ['$' for help]")
+            if self._flag(21) and self._pressed().any():
+                # GRBL checks the limit inputs after a reset with hard limits on: one pressed
+                # locks it in Alarm
+                if self.state != "Alarm":
+                    self.state, self.alarm_code = "Alarm", 0
+                self._emit(grbl_reply(Feedback.CHECK_LIMITS))
             if self.state == "Alarm":
                 self._emit(grbl_reply(Feedback.ALARM_LOCK))
             else:
@@ -1064,7 +1091,13 @@ class VirtualMachine:
                 return (grbl_reply(ErrorCode.LINE_OVERFLOW),)
             saved = self._parser.state
             _, error = self._parser.feed(line) if line else (None, None)
-            self._parser.state = saved
+            after, self._parser.state = self._parser.state, saved
+            if error is None:
+                # GRBL leaves its wait and finishes the line: what it writes to EEPROM (G10
+                # L2/L20, G28.1, G30.1) is written, from the parser's position (the end of the
+                # move the reset cut short); the rest goes with the reset
+                self._parser.state = replace(saved, coord_origins=after.coord_origins,
+                                             home28=after.home28, home30=after.home30)
             return (grbl_reply(ErrorCode.OK if error is None else ErrorCode(error.code)),)
         if self._admitting:
             return self._admit_replies + self._admitting[-1].replies
@@ -1074,7 +1107,8 @@ class VirtualMachine:
         """GRBL's start-up lines (``$N0=``, ``$N1=``), each answered ``>line:ok`` (or its error)."""
         for startup in self.startup_lines:
             if startup:
-                err = self._gcode(startup, jog=False)
+                jog = startup.startswith("$")
+                err = self._gcode(_startup_jog(startup) if jog else startup, jog=jog)
                 if err == _DEFERRED:            # answered here, not when it has run
                     (self._admitting or self._blocks)[-1].replies = ()
                 code = ErrorCode.OK if err in (None, _DEFERRED) else ErrorCode(err)
@@ -1385,7 +1419,7 @@ class VirtualMachine:
             self._system(line)
             return
         self.lines_run += 0 if self.check_mode else 1
-        if self.state == "Alarm":
+        if self.state in ("Alarm", "Jog"):           # GRBL takes no G-code while it jogs either
             self._emit(grbl_reply(ErrorCode.GCODE_LOCKED))
             return
         err = self._gcode(line, jog=False, text=text)
@@ -1510,8 +1544,21 @@ class VirtualMachine:
         number, _, value = line[2 if cmd == "N" else 1:].partition("=")
         key = int(float(number))
         if cmd == "N":
-            if cmd == "N" and self.state != "Idle":
+            if self.state != "Idle":
                 return ErrorCode.NOT_IDLE
+            if value.startswith("$") and key < len(self.startup_lines):
+                # GRBL checks a start-up line by running it: one that begins with '$' is a
+                # jog from its fourth character on, and its ok waits for the jog's end (GRBL
+                # writes the line to EEPROM with its planner empty)
+                err = self._gcode(_startup_jog(value), jog=True, text=line)
+                if err is not None:
+                    return ErrorCode(err)
+                self.startup_lines[key] = value
+                queue = self._admitting or self._blocks
+                if queue:
+                    queue[-1].replies = (grbl_reply(ErrorCode.OK),)
+                    return None
+                return ErrorCode.OK
             if key < len(self.startup_lines):
                 self.startup_lines[key] = value
             elif key == len(self.startup_lines):    # GRBL's EEPROM: the build info's place
@@ -1656,7 +1703,7 @@ class VirtualMachine:
         verdict, self._wco_preview = False, None
         reasons = set()
         if not (overflow or not line or line.startswith("$") or self.check_mode
-                or self.state == "Alarm"):
+                or self.state in ("Alarm", "Jog")):
             reasons = self._sync_reasons(line)
         if reasons:
             saved = self._parser.state           # a trial parse: does GRBL accept it?

@@ -14,11 +14,13 @@ byte and with the recorded pauses, against
   runs the clock in between). GRBL's moves ran on the recorder's clock too, so a reply that
   depends on whether something still moved (a ``$`` line's error:8, ``Run`` or ``Idle``) is
   compared at the same moment of the same motion; the replay is deterministic and takes no
-  wall time for the recorder's waits.
+  wall time for the recorder's waits. A transcript recorded without GRBL's clock (no ``at_s``)
+  is scheduled by :func:`send_times` from the recorder's steps.
 
 The firmware replay runs in real time: it waits for each exchange's replies (not the recorder's
 further 0.35 s of silence) and the recorded ``pause_before_s`` before the next exchange, reading
-meanwhile (what comes then is still the earlier exchange's, as it was for the recorder). For a transcript in which GRBL
+meanwhile (what comes then is still the earlier exchange's, as it was for the recorder; in a
+transcript without ``at_s`` it is the next one's, :func:`pause_is_next`). For a transcript in which GRBL
 reported a hold still decelerating (``Hold:1``) the simulator first takes GRBL's accelerations
 (``$120``-``$122``, as GRBL printed them in the recorded ``$$``: :data:`GRBL_ACCELERATION_SETTINGS`),
 so that its hold decelerates as long as GRBL's did: whether a report after ``!`` says ``Hold:1``
@@ -610,34 +612,6 @@ KNOWN_DIFFERENCES: dict[tuple[str, str, int], str] = {
                                   "$200-$209 are the firmware's settings in both dialects (ramps, laser maximum, "
                                   "planner, dialect; $208=0 is the way back to labkit-fw), so $200 exists and "
                                   "1 is out of its range, where GRBL has no $200)",
-    # hard_limits: the virtual machine raises no ALARM:1 when a switch is released with $21=1,
-    # prints no [MSG:Check Limits] at a reset with a switch pressed, and no [MSG:Caution: Unlocked]
-    # after $X there
-    ('virtual', 'hard_limits', 5): '\'\\x18\': line 2: "[MSG:\'$H\'|\'$X\' to unlock]", GRBL \'[MSG:Check Limits]\'',
-    ('virtual', 'hard_limits', 10): "G0 X4: missing lines ['ALARM:1', '[MSG:Reset to continue]']",
-    ('virtual', 'hard_limits', 11): "?: extra lines ['<Idle|MPos:4.000,0.000,0.000|FS:0,0>']",
-    ('virtual', 'hard_limits', 12): '\'\\x18\': missing lines ["[MSG:\'$H\'|\'$X\' to unlock]"]',
-    ('virtual', 'hard_limits', 13): "?: line 1: state 'Idle', GRBL 'Alarm'",
-    ('virtual', 'hard_limits', 14): "$X: line 1: 'ok', GRBL '[MSG:Caution: Unlocked]'",
-    ('virtual', 'hard_limits', 22): '\'\\x18\': line 3: "[MSG:\'$H\'|\'$X\' to unlock]", GRBL \'[MSG:Check Limits]\'',
-    ('virtual', 'hard_limits', 31): '\'\\x18\': line 2: "[MSG:\'$H\'|\'$X\' to unlock]", GRBL \'[MSG:Check Limits]\'',
-    ('virtual', 'hard_limits', 33): "$J=G91 X-2 F300: missing lines ['ALARM:1', '[MSG:Reset to continue]']",
-    ('virtual', 'hard_limits', 34): "?: extra lines ['<Idle|MPos:3.000,0.000,0.000|FS:0,0|WCO:0.000,0.000,0.000>']",
-    ('virtual', 'hard_limits', 35): '\'\\x18\': missing lines ["[MSG:\'$H\'|\'$X\' to unlock]"]',
-    ('virtual', 'hard_limits', 36): "$X: line 1: 'ok', GRBL '[MSG:Caution: Unlocked]'",
-    ('virtual', 'hard_limits', 55): '\'\\x18\': line 2: "[MSG:\'$H\'|\'$X\' to unlock]", GRBL \'[MSG:Check Limits]\'',
-    # reset_wait: a G10 L20 waiting behind a move is not written at the reset as GRBL does
-    ('virtual', 'reset_wait', 29): "$#: line 1: '[G54:0.000,0.000,0.000]', GRBL '[G54:10.000,0.000,0.000]'",
-    # startup_jog: the virtual machine neither runs a start-up line that is a jog as GRBL does (when
-    # stored and after a reset) nor refuses G-code during a jog (error:9)
-    ('virtual', 'startup_jog', 2): '?: line 1: MPos:0.000,0.000,0.000, GRBL MPos:2.000,0.000,0.000',
-    ('virtual', 'startup_jog', 6): '?: line 1: MPos:2.000,0.000,0.000, GRBL MPos:4.000,0.000,0.000',
-    ('virtual', 'startup_jog', 13): "$N1=$XYG91X1F100: line 1: 'error:1', GRBL 'ok'",
-    ('virtual', 'startup_jog', 14): '?: line 1: MPos:2.000,0.000,0.000, GRBL MPos:5.000,0.000,0.000',
-    ('virtual', 'startup_jog', 15): "$N: line 2: '$N1=', GRBL '$N1=$XYG91X1F100'",
-    ('virtual', 'startup_jog', 19): "G0X0: line 1: 'ok', GRBL 'error:9'",
-    ('virtual', 'startup_jog', 23): '?: line 1: MPos:0.000,0.000,0.000, GRBL MPos:8.000,0.000,0.000',
-    ('virtual', 'startup_jog', 27): '?: line 1: MPos:0.000,0.000,0.000, GRBL MPos:8.000,0.000,0.000',
 }
 
 

@@ -12,7 +12,7 @@ import pytest
 
 from labkit.machine.virtual import VirtualMachine
 
-from .test_virtual_homing import BANNER, LOCK, TICK_S, generic, talk
+from .test_virtual_homing import BANNER, CHECK, LOCK, TICK_S, generic, talk
 
 ALARM_2 = ["ALARM:2", "[MSG:Reset to continue]"]
 
@@ -77,7 +77,7 @@ def test_a_hard_limit_waits_for_the_reset_too_and_owes_no_ok_when_no_line_was_in
     assert talk(vm, b"G0 X-10\n", 3.0) == ["ok", "ALARM:1", "[MSG:Reset to continue]"]
     assert vm.pos[0] == pytest.approx(-3.0)
     assert talk(vm, b"?$X\n", 0.5) == []
-    assert talk(vm, b"\x18") == [BANNER, LOCK]
+    assert talk(vm, b"\x18") == [BANNER, CHECK, LOCK]      # the switch still pressed
 
 
 def test_a_hard_limit_answers_the_line_waiting_on_a_dwell_at_the_reset():
@@ -87,7 +87,7 @@ def test_a_hard_limit_answers_the_line_waiting_on_a_dwell_at_the_reset():
     vm.timeout = 0
     assert talk(vm, b"$21=1\n") == ["ok"]
     assert talk(vm, b"G0 X-10\nG4 P0.01\n", 3.0) == ["ok", "ALARM:1", "[MSG:Reset to continue]"]
-    assert talk(vm, b"\x18") == ["ok", BANNER, LOCK]
+    assert talk(vm, b"\x18") == ["ok", BANNER, CHECK, LOCK]
 
 
 # -- probing (G38.2-G38.5) ---------------------------------------------------------------------
