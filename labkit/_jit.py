@@ -25,6 +25,10 @@ Every kernel is written once, as plain Python over numpy arrays, and decorated w
   A job switched late has paid for what it ran as Python before: the projection starts
   once :data:`JOB_SAMPLE` of its units are done or it has spent that share of
   :data:`LOAD_COST_S`, so a job near the crossover pays about a tenth of a load extra.
+  Work a job knows it will do later in kernels it has not called yet (a dithered image's
+  moves, written once the dots are made) is declared with :func:`expecting` and added to
+  every projection until those kernels run, so the first kernel of the job decides for
+  the whole of it.
   One-dimensional ``uint8`` arguments are handed to Python as ``memoryview``
   objects: indexing them gives Python ints, which is both faster than numpy scalars and
   keeps numba's integer arithmetic (numpy 2 keeps ``uint8 - 48`` a wrapping ``uint8``,
@@ -63,7 +67,7 @@ import time
 import types
 from pathlib import Path
 
-__all__ = ["Kernel", "jit", "compile_all", "mode", "forced", "job_units", "LOAD_COST_S",
+__all__ = ["Kernel", "jit", "compile_all", "mode", "forced", "job_units", "expecting", "LOAD_COST_S",
            "cache_folders", "warm"]
 
 # Depth of kernels running as Python. Shared by threads on purpose (a plain list is the
@@ -90,6 +94,7 @@ JOB_SAMPLE = 0.1
 MODULE_LOAD_COST_S = 0.03
 _spent = [0.0]                      # CPU s this process has spent in kernels run as Python
 _jobs: list["_Job"] = []            # the open jobs, innermost last
+_ahead: list[dict] = []             # work declared by open expecting() blocks: Kernel → elements
 _cpu_clock = time.process_time      # the clock of the tally (tests set their own)
 _hooks_installed = False
 
@@ -189,6 +194,8 @@ class Kernel:
         how = mode()
         if how == "python":
             return self.run_python(*args)
+        for declared in _ahead:                    # from now on its calls count themselves
+            declared.pop(self, None)
         if how == "auto" and runs_as_python(_elements(args), self.python_below,
                                             self.spent_since_load):
             return self.run_python(*args, tally=True)
@@ -256,6 +263,10 @@ def runs_as_python(n: int, python_below: int, spent_since_load: float = 0.0) -> 
     inner = _jobs[1:] + [None]
     projected = max([n / python_below * LOAD_COST_S]
                     + [j.projected_rest(k) for j, k in zip(_jobs, inner)])
+    for declared in _ahead:                        # kernels the job will call later
+        for kernel, elements in declared.items():
+            projected += (elements / kernel.python_below * LOAD_COST_S if kernel.python_below
+                          else LOAD_COST_S)        # always compiled: numba will be loaded
     return _spent[0] + projected < LOAD_COST_S
 
 
@@ -307,6 +318,39 @@ def job_units(items):
             current.done += 1
     finally:
         _jobs.remove(current)
+
+
+@contextlib.contextmanager
+def expecting(work):
+    """Declare work the job will do after the block, in kernels it has not called yet.
+
+    Inside the block the rule of the module docstring adds each declared kernel's
+    ``elements / python_below`` loads to every projection, so a job whose later work would
+    pay for numba runs compiled from its first kernel on, instead of running that kernel
+    as Python and loading numba for the next one anyway. A declaration ends when its
+    kernel is called (its calls then count themselves) or when the block ends.
+
+    Parameters
+    ----------
+    work : dict
+        ``{kernel: array elements}``, the elements as the kernel will be called with them
+        (in all, when it is called in parts); e.g.
+        :func:`labkit.gcode.writer.emit_work` for the program the job will write.
+
+    Examples
+    --------
+    >>> @jit(python_below=1000, cache=False)
+    ... def later(a):
+    ...     return a.sum()
+    >>> with expecting({later: 10_000}):     # ten loads' worth of later work
+    ...     pass                                # a kernel called here would run compiled
+    """
+    declared = {kernel: int(n) for kernel, n in dict(work).items() if n > 0}
+    _ahead.append(declared)
+    try:
+        yield
+    finally:
+        _ahead.remove(declared)
 
 
 @contextlib.contextmanager

@@ -204,6 +204,57 @@ def test_the_tally_carries_over_from_one_job_to_the_next(fresh_process, monkeypa
     assert all(j == ["nb"] * 4 for j in per_job[3:])
 
 
+@pytest.mark.parametrize("later_units", range(0, 31))
+def test_work_declared_ahead_decides_the_first_kernel_for_the_whole_job(fresh_process, monkeypatch,
+                                                                        later_units):
+    """A job that runs kernel A (3,000 elements, 0.3 s as Python) and then kernel B on
+    ``later_units`` units (1,000 elements and 0.1 s as Python each); both declare
+    python_below 10,000 (what their elements cost), LOAD_COST_S = 1 s, compiled runs take 5 %
+    of Python's time. With B's work declared while A runs, A runs compiled exactly when the
+    whole job would pay for numba (0.3 s + B's units ≥ 1 s: from 7 units on), and the job
+    costs within 20 % of the better of all-Python and all-compiled at every size;
+    undeclared, A runs as Python and B then loads numba anyway: more than 1.2 × the better
+    path from 7 units on."""
+    load, a_s, b_s, fast = 1.0, 0.3, 0.1, 0.05
+    monkeypatch.setattr(_jit, "LOAD_COST_S", load)
+    costs = {}
+    for declared in (True, False):
+        monkeypatch.setattr(_jit, "_numba_loaded", [False])
+        monkeypatch.setattr(_jit, "_spent", [0.0])
+        a, a_calls = _recording_kernel(monkeypatch, python_below=10_000)
+        b, b_calls = _recording_kernel(monkeypatch, python_below=10_000)
+        fresh_process.step = a_s                     # what a run as Python takes
+        with _jit.expecting({b: 1000 * later_units} if declared else {}):
+            a(np.ones(3000))
+        assert _jit._ahead == []                    # the declaration ends with its block
+        fresh_process.step = b_s * later_units
+        if later_units:
+            b(np.ones(1000 * later_units))
+        cost = sum(t * (fast if c == "nb" else 1.0) for t, calls in ((a_s, a_calls), (b_s * later_units, b_calls))
+                   for c in calls) + (load if "nb" in a_calls + b_calls else 0.0)
+        costs[declared] = cost
+        whole = 3000 / 10_000 * load + 1000 * later_units / 10_000 * load     # the job's Python, projected
+        if declared:
+            assert a_calls == (["nb"] if whole >= load else ["py"])
+            assert b_calls == (["nb"] if whole >= load else ["py"]) if later_units else b_calls == []
+    better = min(a_s + b_s * later_units, load + fast * (a_s + b_s * later_units))
+    assert costs[True] <= 1.2 * better + 1e-12
+    if later_units >= 7:
+        assert costs[False] > 1.2 * better
+
+
+def test_a_declaration_ends_when_its_kernel_runs(fresh_process, monkeypatch):
+    """Declared work stands for calls not made yet: once the kernel runs, its calls count
+    themselves (a small first part no longer carries the whole declaration)."""
+    b, calls = _recording_kernel(monkeypatch, python_below=10_000)
+    with _jit.expecting({b: 50_000}):
+        assert _jit._ahead == [{b: 50_000}]
+        b(np.ones(10))                               # its own 10 elements: Python
+        assert _jit._ahead == [{}]
+        b(np.ones(10))
+    assert calls == ["py", "py"] and _jit._ahead == []
+
+
 def test_kernels_call_kernels_in_both_modes():
     @_jit.jit
     def twice(x):

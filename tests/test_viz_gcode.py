@@ -159,3 +159,41 @@ def test_numpy_twin_draws_the_pixels_the_compiled_kernel_draws(monkeypatch):
         np.testing.assert_array_equal(py_power, nb_power)
         np.testing.assert_array_equal(py_travel, nb_travel)
         assert np.isfinite(py_power).sum() > 10_000 and py_travel.sum() > 5_000
+def test_numpy_twin_draws_pieces_along_the_axes_as_the_kernel_steps_them():
+    """Travel, and burning pieces of one power, along X or Y (every piece of a raster job) are
+    drawn by the twin as whole runs of pixels; where the kernel's steps of one pixel could
+    skip a pixel (a whole number of pixels long, halves rounding to even) the twin walks
+    them as the kernel does. The same grids on pieces at half and whole pixels, crossing
+    the border, of several powers and of one."""
+    from labkit._jit import forced
+    from labkit.viz import _gcode_draw
+
+    rng = np.random.default_rng(11)
+    runs = whole = 0
+    for trial in range(120):
+        n = int(rng.integers(1, 300))
+        shape = (int(rng.integers(1, 50)), int(rng.integers(1, 50)))
+        pieces = rng.uniform(-8, 60, (n, 2, 2))
+        if trial % 3 == 0:
+            pieces = np.round(pieces * 2) / 2                    # halves: ties of the rounding
+        elif trial % 3 == 1:
+            pieces = np.round(pieces)                            # whole lengths
+        along = rng.random(n)
+        pieces[along < 0.45, 1, 1] = pieces[along < 0.45, 0, 1]                          # along X
+        pieces[(along >= 0.45) & (along < 0.9), 1, 0] = pieces[(along >= 0.45) & (along < 0.9), 0, 0]
+        burning = rng.random(n) < 0.6
+        unbroken = _gcode_draw._spans_along_axes(pieces[:, 0, 0], pieces[:, 0, 1], pieces[:, 1, 0],
+                                                 pieces[:, 1, 1])[0]
+        runs += int(unbroken.sum())
+        lengths = np.abs(pieces[:, 1] - pieces[:, 0]).max(axis=1)
+        whole += int(((lengths == np.round(lengths)) & (lengths > 0) & (along < 0.9)).sum())
+        for value in (rng.uniform(0, 100, n), np.full(n, 55.0)):
+            with forced("python"):
+                py_power, py_travel = _gcode_draw.draw(pieces, value, burning, shape)
+            with forced("compiled"):
+                nb_power, nb_travel = _gcode_draw.draw(pieces, value, burning, shape)
+            np.testing.assert_array_equal(py_power, nb_power)
+            np.testing.assert_array_equal(py_travel, nb_travel)
+    assert runs > 5000 and whole > 2000
+
+

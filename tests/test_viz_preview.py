@@ -33,6 +33,22 @@ def test_power_colours_are_matplotlibs_plasma():
     assert preview.power_colours([np.nan]).tolist() == [[255, 255, 255]]
 
 
+def test_power_colours_of_a_grid_are_each_pixels_own():
+    """The colours of a picture's grid are worked out for its drawn pixels only, and once
+    when they are all one power: each pixel gets what it alone would get."""
+    rng = np.random.default_rng(2)
+    grid = rng.uniform(-0.5, 1.5, (30, 40))
+    grid[rng.random(grid.shape) < 0.4] = np.nan
+    grid[0, :3] = (np.inf, -np.inf, 1.0)
+    one = np.where(np.isnan(grid), np.nan, 0.37)
+    for values in (grid, one):
+        for low, high in ((0.0, 0.8), (1.0, 0.0)):
+            rgb = preview.power_colours(values, low=low, high=high)
+            assert rgb.shape == values.shape + (3,) and rgb.dtype == np.uint8
+            for r, c in zip(*np.nonzero(np.ones(values.shape, bool))):
+                assert rgb[r, c].tolist() == preview.power_colours([values[r, c]], low=low, high=high)[0].tolist()
+
+
 def _matplotlib_burn(moves, extent, shape, *, show_travel=False):
     """Drawn pixels of matplotlib's vector drawing (plot_moves) of ``extent`` on ``shape``
     pixels, row 0 at the bottom."""

@@ -5,7 +5,7 @@
     labkit-fw-sim [--pty] [--dialect grbl|labkit-fw] [--trace FILE]
                   [--eeprom FILE] [--panel PATH] [--beam-log PATH] [--stats]
                   [--realtime] [--switches SPEC]
-                  [--baud N [--parse-us US] [--starvation-log FILE]]
+                  [--baud N [--parse-us US] [--starvation-log FILE] [--expect FILE]]
 
   Serial: stdin/stdout by default; --pty creates a pseudo-terminal and
   prints its path on stderr ("labkit-fw-sim: pty /dev/pts/N"); open it with
@@ -61,7 +61,23 @@
   to answer at once: after an "ok"/"error" the simulated clock waits (up to
   0.25 s of wall time) for the host's next line whenever the host still has
   room for one by GRBL's character counting (128-byte buffer) and nothing
-  is on the wire. While the motors stand, the clock jumps to the next byte's
+  is on the wire (a status poll, '?', does not count as the host's activity).
+  A host later than that while blocks are queued (a loaded machine) makes the
+  clock run on without it: at exit the simulator prints on stderr how many
+  times the host's line then came before another answer ("the host was late
+  N times"); stops from such a moment on may be the host's, not the link's.
+  --expect FILE (with --baud) gives the simulator the line bytes the host
+  will write, in order (real-time bytes such as '?' left out): it then knows
+  the host's next line instead of guessing it from the last one, holds the
+  clock whenever a counting host has room for it and waits for it up to 10 s
+  of wall time instead of 0.25 s, so a loaded host machine does not make
+  starvations the link would not, while a link too slow for the job still
+  does (its bytes arrive at the baud rate's pace whatever the host does).
+  Nothing is waited for once the host has written the whole file. A host
+  byte that differs from the file ends this at that byte (the guess and the
+  0.25 s apply from there) and is reported on stderr at exit.
+  A byte due during a tick is read at its arrival, not at the tick's end.
+  While the motors stand, the clock jumps to the next byte's
   arrival; with nothing on the wire it follows the wall clock. The
   firmware's millisecond clock (hal_millis: the quiet-input flush) is the
   simulated clock. --parse-us US charges each received line US microseconds
@@ -71,11 +87,12 @@
   Starvation log (--starvation-log FILE, with --baud): a CSV with the header
     time_s,line,duration_s
   and one row, flushed at once, every time the motors stood still between
-  two blocks while line bytes arrived over the link (the job had lines
-  left): time_s when they stopped, line the source line of the block they
-  resumed with, duration_s how long they stood. The wait for the first
-  block and the final quiet-input flush (no line arriving) are not
-  starvations. labkit.motion.stall reads it (Starvation records).
+  two blocks while the job had lines left: line bytes were on the wire
+  (--parse-us included) or in the RX buffer when they stopped, or arrived
+  while they stood. time_s is when they stopped, line the source line of
+  the block they resumed with, duration_s how long they stood. The wait for
+  the first block and the final quiet-input flush (nothing left to arrive)
+  are not starvations. labkit.motion.stall reads it (Starvation records).
 
   At the end of stdin (stdin mode) the look-ahead is flushed, the job runs
   out and the simulator exits; SIGINT/SIGTERM end it at once. --stats
@@ -117,6 +134,7 @@ static uint8_t dir_bits;
 static int32_t pos_steps[3];
 static uint32_t period_reg;
 static int timer_on;
+static uint64_t tick_end;         /* paced: when the tick in progress ends (0: none started) */
 static int realtime;              /* --realtime: ticks wait for the wall clock */
 static double rt_host_s;          /* wall time and simulated cycles when the timer last started */
 static uint64_t rt_cycles;
@@ -148,6 +166,7 @@ static uint64_t wire_last_due;        /* arrival of the last byte put on the wir
 static uint64_t parse_done;
 static int wire_after_cr;             /* the last line byte on the wire was '\r' */           /* the end of the last line's parsing (--parse-us) */
 static uint64_t line_bytes_delivered; /* non-real-time bytes that reached the core */
+static uint64_t line_bytes_wired;     /* non-real-time bytes put on the wire */
 /* GRBL's character counting as the simulator sees it: lines received and not yet answered */
 #define OWED_SIZE 1024u
 static uint16_t owed_len[OWED_SIZE];
@@ -156,12 +175,20 @@ static uint32_t owed_bytes, rx_line_len, last_line_len;
 static int host_turn;                 /* an answer went out; the host may send a line */
 static double host_turn_since;
 #define HOST_ANSWER_S 0.25
+#define HOST_EXPECT_S 10.0            /* the wait when the host's bytes are known (--expect) */
+static uint8_t *expect_buf;           /* --expect: the host's line bytes, in order */
+static size_t expect_len;
+static int expect_on;                 /* the host has written what the file says so far */
+static uint64_t expect_off_at;        /* the first host byte that differed (with !expect_on) */
+static int host_waited_out;           /* the wait for the host's line ran out while moving */
+static unsigned long host_late;       /* ... and its line came before another answer */
 static char tx_line[8];               /* the start of the line being written to the host */
 static size_t tx_line_len;
 static double idle_wall_s;            /* wall time when the idle clock last advanced */
 /* starvations (--starvation-log) */
 static FILE *starve_log;
 static int motors_stopped;            /* stopped after having run */
+static int stop_lines_pending;        /* line bytes were on the wire or in the RX ring at the stop */
 static uint64_t stop_cycles, stop_line_bytes;
 
 /* storage */
@@ -213,8 +240,10 @@ void hal_timer_set_period(uint32_t p) {
 static double host_seconds(void);
 void hal_timer_start(void) {
   if (!timer_on && motors_stopped) {
-    /* a starvation when line bytes arrived while the motors stood (the job had lines left) */
-    if (starve_log && line_bytes_delivered != stop_line_bytes && cycles > stop_cycles) {
+    /* a starvation when the job had lines left: line bytes were on the wire or waiting in
+       the RX ring when the motors stopped, or arrived while they stood */
+    if (starve_log && (stop_lines_pending || line_bytes_delivered != stop_line_bytes) &&
+        cycles > stop_cycles) {
       double hz = (double)plan_machine()->timer_clock_hz;
       fprintf(starve_log, "%.9f,%u,%.9f\n", (double)stop_cycles / hz, (unsigned)tick_line,
               (double)(cycles - stop_cycles) / hz);
@@ -222,6 +251,8 @@ void hal_timer_start(void) {
     }
     motors_stopped = 0;
   }
+  if (!timer_on)
+    tick_end = 0;
   if (!timer_on && realtime) {
     rt_host_s = host_seconds();
     rt_cycles = cycles;
@@ -241,6 +272,7 @@ void hal_timer_stop(void) {
     motors_stopped = 1;
     stop_cycles = cycles;
     stop_line_bytes = line_bytes_delivered;
+    stop_lines_pending = line_bytes_wired != line_bytes_delivered || serial_rx_count() > 0;
   }
   timer_on = 0;
 }
@@ -336,6 +368,7 @@ static void tx_watch(const uint8_t *p, size_t n) {
         if (owed_tail < owed_head)
           owed_bytes -= owed_len[owed_tail++ % OWED_SIZE];
         host_turn = 1;
+        host_waited_out = 0;           /* a new answer: the host has new room */
         host_turn_since = host_seconds();
       }
       tx_line_len = 0;
@@ -495,6 +528,11 @@ static void wire_put(const uint8_t *p, size_t n) {
     uint64_t due = (wire_last_due > cycles ? wire_last_due : cycles) + byte_cycles;
     wire_last_due = due;
     if (!is_rt(b)) {
+      if (expect_on && (line_bytes_wired >= expect_len || expect_buf[line_bytes_wired] != b)) {
+        expect_on = 0;
+        expect_off_at = line_bytes_wired + 1;
+      }
+      line_bytes_wired++;
       /* line ends as the core's line assembler counts them: '\r' and '\n' each end a
          line, but in the labkit-fw dialect the '\n' of an empty "\r\n" does not */
       int crlf_tail = b == '\n' && wire_after_cr && rx_line_len == 0 &&
@@ -534,15 +572,38 @@ static void wire_deliver(void) {
   }
 }
 
+/* The bytes of the host's next line still to write, as --expect gives them: through
+   the next '\n' (0 once it has written the whole file). */
+static size_t expected_line_rest(void) {
+  static size_t from = (size_t)-1, rest;
+  if (line_bytes_wired != from) {
+    from = (size_t)line_bytes_wired;
+    const uint8_t *nl = from < expect_len ? memchr(expect_buf + from, '\n', expect_len - from) : 0;
+    rest = from >= expect_len ? 0 : nl ? (size_t)(nl - expect_buf) - from + 1 : expect_len - from;
+  }
+  return rest;
+}
+
 /* The host owes a line: it has been answered since it last fell silent, it has
-   room for a line like its last by GRBL's character counting, and nothing it
-   sent is still on the wire. Silence for HOST_ANSWER_S of wall time ends the
+   room for its next line by GRBL's character counting (stream.py: fewer than
+   127 bytes in flight with it), and nothing it sent is still on the wire. The
+   next line is known with --expect, else taken to be as long as the last.
+   Silence for HOST_ANSWER_S of wall time (HOST_EXPECT_S with --expect) ends the
    wait until the next answer (the job has ended, or its next line is longer). */
 static int waiting_for_host(void) {
-  if (!host_turn || wire_tail < wire_head || input_eof || owed_bytes + last_line_len >= 127u)
+  if (!host_turn || wire_tail < wire_head || input_eof)
     return 0;
-  if (host_seconds() - host_turn_since > HOST_ANSWER_S) {
+  if (expect_on) {
+    size_t rest = expected_line_rest();
+    /* a line begun is finished; a new one needs room */
+    if (rest == 0 || (rx_line_len == 0 && owed_bytes + rest >= 127u))
+      return 0;
+  } else if (owed_bytes + last_line_len >= 127u) {
+    return 0;
+  }
+  if (host_seconds() - host_turn_since > (expect_on ? HOST_EXPECT_S : HOST_ANSWER_S)) {
     host_turn = 0;
+    host_waited_out = !plan_is_empty() || !st_is_idle();
     return 0;
   }
   return 1;
@@ -560,7 +621,19 @@ static void poll_paced(int wait_ms) {
     uint8_t buf[512];
     ssize_t n = read(fd_in, buf, room < sizeof buf ? room : sizeof buf);
     if (n > 0) {
-      host_turn_since = host_seconds();   /* the host is active: keep waiting for it */
+      for (ssize_t k = 0; k < n; k++)
+        if (!is_rt(buf[k])) {
+          /* the host sends lines: keep waiting for it (a status poll alone, '?', is not a
+             line on its way and must not hold the clock) */
+          host_turn_since = host_seconds();
+          if (host_waited_out) {
+            /* it could have sent this line before the wait ran out: the simulated clock ran
+               on meanwhile, so stops from here on may be the host's, not the link's */
+            host_late++;
+            host_waited_out = 0;
+          }
+          break;
+        }
       wire_put(buf, (size_t)n);
       wire_deliver();
     } else if (n == 0 || (errno != EAGAIN && errno != EINTR && errno != EIO)) {
@@ -628,7 +701,16 @@ void hal_poll(void) {
   uint64_t next_due = baud && wire_tail < wire_head ? wire_due[wire_tail % WIRE_SIZE] : UINT64_MAX;
   for (int i = 0; i < TICKS_PER_POLL && timer_on && !hold_clock && !ahead_of_wall_clock() &&
                   cycles < next_due; i++) {
-    cycles += ((uint64_t)period_reg + 1u) * ((uint64_t)m->prescaler + 1u);
+    if (!tick_end)
+      tick_end = cycles + ((uint64_t)period_reg + 1u) * ((uint64_t)m->prescaler + 1u);
+    if (tick_end > next_due) {
+      /* a byte arrives during this tick (a slow tick can span many bytes): the clock goes
+         to its arrival and the main loop reads it, as the RX interrupt lets it on a board */
+      cycles = next_due;
+      break;
+    }
+    cycles = tick_end;
+    tick_end = 0;
     ticks++;
     st_tick();
     if (switch_changed) {        /* the limit pins' change interrupt (hard limits) */
@@ -672,16 +754,49 @@ static int open_pty(void) {
   return m;
 }
 
+/* --expect FILE: the whole file, the host's line bytes in order. */
+static int read_expect(const char *path) {
+  FILE *f = fopen(path, "rb");
+  if (!f) {
+    perror(path);
+    return 0;
+  }
+  size_t cap = 1 << 16;
+  expect_buf = malloc(cap);
+  size_t n;
+  while (expect_buf && (n = fread(expect_buf + expect_len, 1, cap - expect_len, f)) > 0) {
+    expect_len += n;
+    if (expect_len == cap) {
+      uint8_t *more = realloc(expect_buf, cap * 2);
+      if (!more)
+        break;
+      expect_buf = more;
+      cap *= 2;
+    }
+  }
+  int full = expect_buf && expect_len == cap;   /* realloc failed: not all of it read */
+  int bad = ferror(f) || !expect_buf || full;
+  fclose(f);
+  if (bad) {
+    fprintf(stderr, "labkit-fw-sim: --expect: cannot read %s\n", path);
+    return 0;
+  }
+  expect_on = 1;
+  return 1;
+}
+
 static void usage(void) {
   fprintf(stderr, "usage: labkit-fw-sim [--pty] [--dialect grbl|labkit-fw] [--trace FILE] "
                   "[--eeprom FILE] [--panel PATH] [--beam-log PATH] [--stats] [--realtime] "
-                  "[--switches SPEC] [--baud N [--parse-us US] [--starvation-log FILE]]\n");
+                  "[--switches SPEC] [--baud N [--parse-us US] [--starvation-log FILE] "
+                  "[--expect FILE]]\n");
   exit(2);
 }
 
 int main(int argc, char **argv) {
   int use_pty = 0, stats = 0, dialect = -1;
   const char *trace_path = 0, *beam_log_path = 0, *panel_path = 0, *starve_path = 0;
+  const char *expect_path = 0;
   double parse_us = 0.0;
   for (int i = 1; i < argc; i++) {
     if (!strcmp(argv[i], "--pty"))
@@ -711,6 +826,8 @@ int main(int argc, char **argv) {
       }
     } else if (!strcmp(argv[i], "--starvation-log") && i + 1 < argc)
       starve_path = argv[++i];
+    else if (!strcmp(argv[i], "--expect") && i + 1 < argc)
+      expect_path = argv[++i];
     else if (!strcmp(argv[i], "--beam-log") && i + 1 < argc)
       beam_log_path = argv[++i];
     else if (!strcmp(argv[i], "--panel") && i + 1 < argc)
@@ -765,10 +882,12 @@ int main(int argc, char **argv) {
   }
   if (panel_path)
     open_panel(panel_path);
-  if ((starve_path || parse_us > 0) && !baud) {
-    fprintf(stderr, "labkit-fw-sim: --starvation-log and --parse-us need --baud\n");
+  if ((starve_path || parse_us > 0 || expect_path) && !baud) {
+    fprintf(stderr, "labkit-fw-sim: --starvation-log, --parse-us and --expect need --baud\n");
     return 2;
   }
+  if (expect_path && !read_expect(expect_path))
+    return 1;
   if (baud && realtime) {
     fprintf(stderr, "labkit-fw-sim: --baud runs on simulated time; leave out --realtime\n");
     return 2;
@@ -822,6 +941,14 @@ int main(int argc, char **argv) {
     fclose(beam_log);
   if (starve_log)
     fclose(starve_log);
+  if (expect_path && !expect_on)
+    fprintf(stderr, "labkit-fw-sim: --expect: the host's line byte %llu differs from %s (or the "
+                    "file has fewer bytes); the host's next line was guessed from there\n",
+            (unsigned long long)expect_off_at, expect_path);
+  free(expect_buf);
+  if (baud && host_late)
+    fprintf(stderr, "labkit-fw-sim: the host was late %lu times (a line it had room for came more "
+                    "than %.2f s of wall time after its answer)\n", host_late, HOST_ANSWER_S);
   if (stats) {
     double host = host_seconds() - t0;
     double sim = (double)cycles / (double)plan_machine()->timer_clock_hz;

@@ -200,22 +200,6 @@ def run_img2gcode(args) -> int:
     return 0
 
 
-def _motion_line_rows(text: str, n_moves: int):
-    """The source line (1-based) of each move of a program emit wrote from ``n_moves`` moves:
-    the lines with an axis word, none a comment; None when they are not one a move."""
-    import numpy as np
-
-    from labkit.motion.stall import sent_line_bytes
-
-    nbytes = sent_line_bytes(text)
-    raw = np.frombuffer(text.encode("ascii", "replace"), dtype=np.uint8)
-    axis = np.flatnonzero((raw == ord("X")) | (raw == ord("Y")) | (raw == ord("Z")))
-    lines = np.searchsorted(np.flatnonzero(raw == ord("\n")), axis)     # 0-based, in order
-    lines = lines[np.concatenate([[True], lines[1:] != lines[:-1]])] if len(lines) else lines
-    lines = lines[nbytes[lines] > 0]
-    return (lines + 1, nbytes) if len(lines) == n_moves else (None, nbytes)
-
-
 def _warn_if_link_starves(text: str, moves, args) -> None:
     """Warn on stderr when the machine's link cannot deliver the job at its feed, and say what
     feed or pixel pitch it can (issue 30 §3). A cheap necessary condition first
@@ -225,13 +209,19 @@ def _warn_if_link_starves(text: str, moves, args) -> None:
 
     from labkit.errors import LabkitError
     from labkit.motion.spec import load_machine
-    from labkit.motion.stall import block_time_bounds, may_starve
+    from labkit.motion.stall import block_time_bounds, may_starve, motion_line_numbers
 
     m = load_machine(args.machine)
-    line, nbytes = _motion_line_rows(text, len(moves))
+    line, nbytes = motion_line_numbers(text, len(moves))
     bounds = block_time_bounds(moves, m) if line is not None else None
-    if bounds is not None and not may_starve(nbytes, line[bounds[0]], bounds[1], m):
-        return
+    if bounds is not None:
+        rows, least_s = bounds
+        del bounds
+        block_line = line if len(rows) == len(line) else line[rows]    # every move a block: as is
+        del rows, line
+        if not may_starve(nbytes, block_line, least_s, m):
+            return
+        del block_line, least_s, nbytes
     from labkit.gcode import parse
     from labkit.motion.pipeline import plan
     from labkit.motion.stall import predict_stalls, stall_free_feed

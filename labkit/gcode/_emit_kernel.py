@@ -315,7 +315,7 @@ def _end_line(out, used, line_start, numbered, checksums, number):
 
 # column elements (14 a move): 8-9.5 µs a move as Python (the 4096² zig-zag, a gray and a dithered
 # photo), so 100,000 moves take about LOAD_COST_S, what loading numba and this module costs
-@jit(python_below=1_400_000)
+@jit(python_below=1_400_000, views=True)
 def write_moves(rows, state, fmt, first_number, records, row0, relative):
     """Write a block of the program body: ``rows`` an :data:`EmitRows` (program rows ``row0``
     on), ``state`` the writer's modal state before them (see :data:`STATE_SIZE`; updated in

@@ -35,6 +35,7 @@ import numpy as np
 
 from labkit import __version__
 from labkit.errors import EmitError
+from labkit._jit import expecting
 from labkit.gcode import _emit_kernel as EK
 from labkit.gcode.dialects import DIALECTS, Dialect, get_dialect
 from labkit.toolpath.moves import MoveKind, Moves, check_moves
@@ -248,26 +249,40 @@ def emit(moves: Moves, *, dialect: str | Dialect = "grbl", tol_mm: float = 0.001
     text = bytearray(_number_lines(pre, d, 1).encode("ascii"))
     centre = np.nan_to_num(moves.centre) if is_arc.any() else moves.centre   # only arcs read it
     rows = EMIT_ROWS if n > EMIT_ROWS else max(n, 1)
-    for lo in range(0, max(n, 1), rows):
-        part = slice(lo, lo + rows)
-        block = EK.EmitRows(kind=moves.kind[part].astype(np.int64), end=_scaled(moves.end[part], decimals),
-                            centre=np.ascontiguousarray(centre[part]),
-                            plane=moves.plane[part].astype(np.int64),
-                            feed=_scaled(d.feed_from_mm_min(moves.feed_mm_min[part]), VALUE_DECIMALS),
-                            power=_scaled(moves.s_word[part].astype(np.float64) * (d.s_max / moves.s_max),
-                                          VALUE_DECIMALS),
-                            laser=moves.laser[part].astype(np.int64),
-                            dwell=_scaled(d.dwell_from_s(moves.dwell_s[part]), VALUE_DECIMALS),
-                            r_mode=r_mode[part].astype(np.int64))
-        relative = (EK.choose_relative(block.kind, block.end, state[:3], state[10], decimals,
-                                        lo + rows >= n) if compact
-                    else np.zeros(len(block.kind), np.int8))
-        body, number = EK.write_moves(block, state, fmt, number, records, lo, relative)
-        text += memoryview(body)                 # (numpy would read += as its own addition)
-        del block, body
+    # write_moves declared: the G90/G91 choice before it decides Python or compiled for both
+    with expecting(emit_work(n)):
+        for lo in range(0, max(n, 1), rows):
+            part = slice(lo, lo + rows)
+            block = EK.EmitRows(kind=moves.kind[part].astype(np.int64), end=_scaled(moves.end[part], decimals),
+                                centre=np.ascontiguousarray(centre[part]),
+                                plane=moves.plane[part].astype(np.int64),
+                                feed=_scaled(d.feed_from_mm_min(moves.feed_mm_min[part]), VALUE_DECIMALS),
+                                power=_scaled(moves.s_word[part].astype(np.float64) * (d.s_max / moves.s_max),
+                                              VALUE_DECIMALS),
+                                laser=moves.laser[part].astype(np.int64),
+                                dwell=_scaled(d.dwell_from_s(moves.dwell_s[part]), VALUE_DECIMALS),
+                                r_mode=r_mode[part].astype(np.int64))
+            relative = (EK.choose_relative(block.kind, block.end, state[:3], state[10], decimals,
+                                            lo + rows >= n) if compact
+                        else np.zeros(len(block.kind), np.int8))
+            body, number = EK.write_moves(block, state, fmt, number, records, lo, relative)
+            text += memoryview(body)                 # (numpy would read += as its own addition)
+            del block, body
     post = (["G90"] if state[10] else []) + (["M5", "M2"] if footer else [])
     text += _number_lines(post, d, number).encode("ascii")
     return text.decode("ascii")
+
+
+def emit_work(n_moves: int) -> dict:
+    """The compiled kernels :func:`emit` runs on a program of ``n_moves`` rows and the array
+    elements it hands them (14 a row: the 13 columns of a block and its G90/G91 choice), as
+    :func:`labkit._jit.expecting` takes them: a job that will write its moves declares the
+    work before its first kernel, so that kernel decides Python or compiled for all of it.
+
+    >>> [(k.name.rsplit(".", 1)[-1], n) for k, n in emit_work(1000).items()]
+    [('write_moves', 14000)]
+    """
+    return {EK.write_moves: 14 * int(n_moves)}
 
 
 def _where(moves: Moves, i: int) -> str:

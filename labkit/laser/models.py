@@ -25,7 +25,7 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize, stats
+from scipy import optimize, special, stats
 
 from labkit.errors import InputError
 from labkit.units import mm_min_to_mm_s
@@ -572,11 +572,25 @@ def fit_cut_through(power_mw, speed_mm_min, cut, *, penalty: float = 1e-3) -> di
     xm, xs = x.mean(), x.std() or 1.0
     z = (x - xm) / xs
 
+    design = np.column_stack([np.ones_like(z), z])
+    ridge = np.diag([0.0, 2.0 * penalty])
+
     def nll(beta):
-        eta = beta[0] + beta[1] * z
+        eta = design @ beta
         return float(np.sum(np.logaddexp(0.0, eta) - y * eta) + penalty * beta[1] ** 2)
 
-    beta = optimize.minimize(nll, [0.0, 1.0], method="BFGS").x
+    def gradient(beta):
+        return design.T @ (special.expit(design @ beta) - y) + ridge @ beta
+
+    def hessian(beta):
+        q = special.expit(design @ beta)
+        return (design.T * (q * (1.0 - q))) @ design + ridge
+
+    # Exact derivatives and a tight tolerance: the convex optimum to ~1e-12, so the fitted
+    # coefficients (and every speed derived from them) do not depend on finite-difference
+    # steps or the platform's last bits, as a numerical-gradient BFGS stopped at 1e-5 did.
+    beta = optimize.minimize(nll, [0.0, 1.0], jac=gradient, hess=hessian, method="trust-exact",
+                             options=dict(gtol=1e-12)).x
     b1 = beta[1] / xs
     b0 = beta[0] - b1 * xm
     ratio50 = float(np.exp(-b0 / b1)) if b1 > 0 else float("nan")

@@ -19,11 +19,17 @@ motion reference (:func:`labkit.motion.plan`) gives it. A block starts when the
 one before has ended and it is ready: on GRBL when it is in the planner; on the
 labkit firmware (``waits_for_lookahead``) when its whole look-ahead window has
 arrived, or the input has gone quiet for 30 ms (``FLUSH_QUIET_MS`` in
-``firmware/src/protocol.c``). The sender answers at once (no USB latency). On the
-labkit firmware a block's speed profile does not depend on when it arrives (the
-window is always complete), so the prediction is exact up to the step timer's
-ticks; on GRBL a shallow buffer also slows the motion down, which the
-prediction leaves out (it sees only where the buffer empties).
+``firmware/src/protocol.c``). The sender answers at once (no USB latency). A
+starvation is a stop between two blocks while the job has lines left — before the
+last line has been parsed, whether its bytes are still on the wire or already
+wait in the receive buffer for a parser that cannot keep up. On the labkit
+firmware a block's speed profile does not depend on when it arrives (the window
+is always complete), so the prediction is exact up to the step timer's ticks: the
+firmware runs each block as its ticks (``labkit steps``), never faster than the
+plan's continuous time and, with few steps a block, a few per cent slower (8 steps
+a 0.1 mm pixel on ``labkit-diode``: about 2 %), so the prediction errs towards
+stalls. On GRBL a shallow buffer also slows the motion down, which the prediction
+leaves out (it sees only where the buffer empties).
 """
 
 from __future__ import annotations
@@ -39,7 +45,7 @@ from labkit.motion._stall import stream_lines
 
 __all__ = ["Starvation", "LinkPrediction", "StallFreeFeed", "predict_stalls", "stall_free_feed",
            "sent_line_bytes", "with_feed", "program_feeds", "read_starvation_log", "may_starve",
-           "block_time_bounds",
+           "block_time_bounds", "motion_line_numbers",
            "FLUSH_QUIET_S"]
 
 #: Quiet input after which the labkit firmware runs what its look-ahead holds back, s
@@ -151,34 +157,103 @@ def _plain_line_bytes(text: str):
     """:func:`sent_line_bytes` of a text as programs are written (printable ASCII, tabs, \\n
     line ends, comments only as whole lines starting with ``;``) with numpy over its bytes,
     else None. A program writer's output, as long as a photo's, takes a few ms."""
-    raw = np.frombuffer(text.encode("latin-1", "replace"), dtype=np.uint8)
-    if not len(raw) or raw.max() > 126 or ((raw < 32) & (raw != 10) & (raw != 9)).any():
+    lines = _plain_lines(text.encode("latin-1", "replace"))
+    return None if lines is None else lines[0]
+
+
+def _plain_lines(encoded: bytes, axes: bool = False):
+    """(bytes each line sends, and with ``axes`` whether it holds an X, Y or Z) of a program
+    ``encoded`` as bytes and written plainly (see :func:`_plain_line_bytes`), else None.
+
+    A line sends its length less its spaces and tabs, plus its newline; what is rare in a
+    written program (spaces in compact text, comments) is counted before it is looked for.
+    Read a block of about :data:`_COUNT_BLOCK_BYTES` bytes (whole lines) at a time: the
+    temporaries stay a few MB whatever the length of the program; only the per-line results
+    are as long as it.
+    """
+    if not encoded:
         return None
-    ends = np.flatnonzero(raw == 10)
-    if raw[-1] != 10:                                       # the last line has no newline
-        ends = np.append(ends, len(raw))
-    starts = np.concatenate([[0], ends[:-1] + 1])
-    comment = raw[np.minimum(starts, len(raw) - 1)] == 59
-    comment &= starts < ends                                # an empty line is no comment
-    special = np.flatnonzero((raw == 40) | (raw == 59))     # ( and ;
-    if len(special) and not comment[np.searchsorted(ends, special)].all():
-        return None
-    # kept bytes per line, counted a block of lines at a time (a running count over the whole
-    # text would cost 8 B a byte: 150 MB on a photo's program)
-    n = np.empty(len(ends), dtype=np.int64)
-    for a in range(0, len(ends), _COUNT_BLOCK_LINES):
-        b = min(a + _COUNT_BLOCK_LINES, len(ends))
-        lo, hi = int(starts[a]), int(ends[b - 1])
+    raw = np.frombuffer(encoded, dtype=np.uint8)
+    n_lines = encoded.count(b"\n") + (raw[-1] != 10)
+    nbytes = np.empty(n_lines, dtype=np.int64)
+    has_axis = np.empty(n_lines, dtype=bool) if axes else None
+    first_line = 0
+    lo = 0
+    while lo < len(raw):
+        hi = encoded.find(b"\n", min(lo + _COUNT_BLOCK_BYTES, len(raw)) - 1)
+        hi = len(raw) if hi < 0 else hi + 1                 # past the block's last newline
         part = raw[lo:hi]
-        kept = np.zeros(hi - lo + 1, dtype=np.int64)
-        np.cumsum((part != 32) & (part != 9), out=kept[1:])
-        n[a:b] = kept[ends[a:b] - lo] - kept[starts[a:b] - lo]
-    n[comment] = 0
-    return np.where(n > 0, n + 1, 0)
+        newline = part == 10
+        tabs = np.count_nonzero(part == 9)
+        if part.max() > 126 or np.count_nonzero(part < 32) != np.count_nonzero(newline) + tabs:
+            return None                                     # a control character
+        ends = np.flatnonzero(newline)
+        del newline
+        if part[-1] != 10:                                  # the last line has no newline
+            ends = np.append(ends, len(part))
+        starts = np.concatenate([[0], ends[:-1] + 1])
+        comment = part[np.minimum(starts, len(part) - 1)] == 59
+        comment &= starts < ends                            # an empty line is no comment
+        if np.count_nonzero(part == 40) or np.count_nonzero(part == 59):
+            special = np.flatnonzero((part == 40) | (part == 59))     # ( and ;
+            if not comment[np.searchsorted(ends, special)].all():
+                return None
+        n = ends - starts
+        spaces = np.count_nonzero(part == 32) + tabs
+        if spaces:
+            blank = (part == 32) | (part == 9)
+            if spaces < len(part) // 64:                    # a few: counted where they are
+                n -= np.bincount(np.searchsorted(ends, np.flatnonzero(blank)), minlength=len(n))
+            else:
+                count = np.zeros(len(part) + 1, dtype=np.int64)
+                np.cumsum(blank, out=count[1:])
+                n -= count[ends] - count[starts]
+            del blank
+        n[comment] = 0
+        nbytes[first_line:first_line + len(n)] = np.where(n > 0, n + 1, 0)
+        if axes:
+            # X, Y or Z (88-90) in each line's bytes with its newline: never an empty stretch
+            has_axis[first_line:first_line + len(n)] = np.logical_or.reduceat(part - np.uint8(88) < 3, starts)
+        first_line += len(n)
+        lo = hi
+    return nbytes, has_axis
 
 
-#: Lines counted at a time by :func:`_plain_line_bytes` (bounds its memory, not its result).
-_COUNT_BLOCK_LINES = 1 << 16
+def motion_line_numbers(text: str, n_moves: int):
+    """The source line (1-based) of each move of a program written one move a line, and the
+    bytes each line sends (:func:`sent_line_bytes`).
+
+    The motion lines are the sent lines with an X, Y or Z word, in order; when there are
+    not ``n_moves`` of them (a move without an axis word, two on a line) the first is None.
+
+    Returns
+    -------
+    (ndarray of int or None, ndarray of int)
+        Line numbers (one a move), bytes sent per line (one a line).
+
+    Examples
+    --------
+    >>> motion_line_numbers("G21\\nG0X1\\n;X\\nG1Y2F600\\nM5\\n", 2)[0].tolist()
+    [2, 4]
+    """
+    lines = _plain_lines(text.encode("ascii", "replace"), axes=True)
+    if lines is not None:
+        nbytes, has_axis = lines
+        has_axis &= nbytes > 0
+        rows = np.flatnonzero(has_axis)
+        del has_axis
+    else:
+        nbytes = sent_line_bytes(text)
+        raw = np.frombuffer(text.encode("ascii", "replace"), dtype=np.uint8)
+        axis = np.flatnonzero((raw == ord("X")) | (raw == ord("Y")) | (raw == ord("Z")))
+        rows = np.searchsorted(np.flatnonzero(raw == ord("\n")), axis)     # 0-based, in order
+        rows = rows[np.concatenate([[True], rows[1:] != rows[:-1]])] if len(rows) else rows
+        rows = rows[nbytes[rows] > 0]
+    return (rows + 1 if len(rows) == n_moves else None), nbytes
+
+
+#: Bytes of a program read at a time by :func:`_plain_lines` (bounds its memory, not its result).
+_COUNT_BLOCK_BYTES = 1 << 20
 
 
 #: What str.splitlines breaks a line at besides \n and \r\n (and a lone \r).
@@ -439,18 +514,15 @@ def predict_stalls(text: str, machine=None, *, line_bytes=None, dialect: str = "
         np.ascontiguousarray(dur), tau, float(m.block_parse_s), int(W), int(m.planner_blocks),
         int(limit), FLUSH_QUIET_S if W else 0.0)
 
-    # a starvation: a stop while line bytes arrive (not the final flush's wait). The lines
-    # arriving after the stop began are a suffix (arrival times increase); one of them
-    # started arriving before the stop ended when the suffix's earliest first byte did.
+    # a starvation: a stop while the job has lines left, i.e. before the last line has been
+    # parsed (on the wire, in the receive buffer or in the parser), not the final flush's
+    # wait. The parser's time counts: a controller that parses more slowly than its blocks
+    # run starves with its buffer full of text.
     stalls = []
     gaps = np.flatnonzero(start[1:] - end[:-1] > _MIN_STALL_S) + 1
     if len(gaps) and n_sent:
-        first_due = arrived - (sent_bytes - 1) * tau
-        earliest_after = np.minimum.accumulate(first_due[::-1])[::-1]
         t0, t1 = end[gaps - 1], start[gaps]
-        k = np.searchsorted(arrived, t0, side="right")
-        hit = k < n_sent
-        hit[hit] = earliest_after[k[hit]] <= t1[hit]
+        hit = t0 < parsed[-1]
         stalls = [Starvation(float(a), int(block_line[j]), float(b - a))
                   for a, b, j in zip(t0[hit], t1[hit], gaps[hit])]
     # fill level: blocks entered by each line minus blocks that had ended by then
@@ -501,19 +573,41 @@ def block_time_bounds(moves, machine=None):
         return None
     spm = np.asarray(m.steps_per_mm, dtype=float)
     top = float(np.linalg.norm(np.asarray(m.max_rate_mm_min, dtype=float)))
-    rows_out, times_out = [], []
+    rows_out = np.empty(len(kind), dtype=np.int64)        # filled in order, then cut to length
+    times_out = np.empty(len(kind))
+    made = 0
+    start, end = moves.start, moves.end
+    before = None                                          # steps of the end of the row before a
     for a in range(0, len(kind), _BOUND_BLOCK_ROWS):      # a block of rows at a time: bounded memory
         b = min(a + _BOUND_BLOCK_ROWS, len(kind))
-        delta = to_steps(moves.end[a:b], spm) - to_steps(moves.start[a:b], spm)
-        rows = np.flatnonzero(np.any(delta != 0, axis=1))
-        length = np.linalg.norm(delta[rows] / spm, axis=1)
-        feed = np.asarray(moves.feed_mm_min[a:b], dtype=float)[rows]
-        fast = np.where((kind[a:b][rows] == MoveKind.LINE) & (feed > 0), np.minimum(feed, top), top)
-        rows_out.append(rows + a)
-        times_out.append(length / (fast / 60.0))
-    if not rows_out:
-        return np.zeros(0, dtype=np.int64), np.zeros(0)
-    return np.concatenate(rows_out), np.concatenate(times_out)
+        end_steps = to_steps(end[a:b], spm)
+        # a program's rows mostly start where the row before ended: their steps are known
+        if b - a > 1 and np.array_equal(start[a + 1:b], end[a:b - 1]) and before is not None \
+                and np.array_equal(start[a], end[a - 1]):
+            start_steps = np.concatenate([before[None], end_steps[:-1]])
+        else:
+            start_steps = to_steps(start[a:b], spm)
+        before = end_steps[-1]
+        delta = end_steps - start_steps
+        del end_steps, start_steps
+        moved = delta[:, 0] != 0
+        moved |= delta[:, 1] != 0
+        moved |= delta[:, 2] != 0
+        rows = np.flatnonzero(moved)
+        every = len(rows) == b - a                          # (most programs: no row left out)
+        d = (delta if every else delta[rows]) / spm
+        # np.linalg.norm(d, axis=1), term for term: the squares added in axis order
+        length = np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2])
+        del d, delta
+        feed = np.asarray(moves.feed_mm_min[a:b], dtype=float)
+        line = kind[a:b] == MoveKind.LINE
+        if not every:
+            feed, line = feed[rows], line[rows]
+        fast = np.where(line & (feed > 0), np.minimum(feed, top), top)
+        np.add(rows, a, out=rows_out[made:made + len(rows)])
+        np.divide(length, fast / 60.0, out=times_out[made:made + len(rows)])
+        made += len(rows)
+    return rows_out[:made], times_out[:made]
 
 
 #: Moves bounded at a time by :func:`block_time_bounds` (its memory, not its result).
@@ -577,11 +671,10 @@ def may_starve(line_bytes, block_line, block_min_s, machine=None) -> bool:
     # side by side, a line costing the slower of the two, as long as the sender may put two
     # lines in flight (it then waits for an answer only while the parser has a line to
     # parse); else the wire, then the parse
-    sent = nbytes[nbytes > 0]
-    side_by_side = len(sent) < 2 or int((sent[1:] + sent[:-1]).max()) < m.rx_buffer_bytes - 1
-    del sent
-    # the arrays below are as long as the program (millions of rows for a photo): each is made
-    # once and reused in place, so the check costs a few of them, not a score
+    side_by_side = _pairs_fit(nbytes, m.rx_buffer_bytes - 1)
+    # Two arrays as long as the program (millions of rows for a photo): the lines' cumulated
+    # link times and the blocks' cumulated motion; the rest is made a chunk of
+    # _STARVE_CHUNK rows at a time, and the check stops at the first block that may starve.
     link = nbytes * tau                                                  # wire time of each line
     if side_by_side:
         np.maximum(link, p, out=link)
@@ -594,23 +687,6 @@ def may_starve(line_bytes, block_line, block_min_s, machine=None) -> bool:
     np.cumsum(np.asarray(block_min_s, dtype=float), out=motion[1:])
     W = m.buffer_blocks if m.waits_for_lookahead else 0
     Q = m.planner_blocks - 1
-    # the line each block j >= 1 waits for (its window's last), 0-based
-    wait_line = block_line[np.minimum(np.arange(1 + W, nb + W), nb - 1)] - 1
-    ready = link[wait_line] + 2 * p
-    if W:
-        # the last blocks wait for the flush after the last line, but a wait is a starvation
-        # only while a line still arrives: the last one after block j - 1 has ended
-        last = max(nb - 1 - W, 0)
-        ready[last:] = link[-1] + 2 * p
-        wait_line[last:] = len(nbytes) - 1
-    # the reset at line r: the Q blocks before r's first block still to run (a line with
-    # fewer blocks before it never waits for a slot)
-    first_block = np.searchsorted(block_line, np.arange(1, len(nbytes) + 1), side="left")
-    best = motion[np.maximum(first_block - Q, 0)]
-    best -= link
-    best[first_block < Q] = -np.inf
-    del first_block
-    np.maximum.accumulate(best, out=best)
     # from the start: block 0 runs once its window has arrived (no sooner than the wire
     # brings it), or after a quiet input of FLUSH_QUIET_S, possible only where the next
     # line may arrive that much after the one before (only the lines up to block W's count)
@@ -624,11 +700,88 @@ def may_starve(line_bytes, block_line, block_min_s, machine=None) -> bool:
         gap = link[k0 + 1:kw + 1] + 2 * p - arrived_lb[k0:kw] >= FLUSH_QUIET_S
         if np.any(gap):
             start0 = max(parsed_lb[k0], min(start0, float(arrived_lb[k0:kw][gap][0]) + FLUSH_QUIET_S))
-    ahead = best[wait_line]
-    np.maximum(ahead, -start0, out=ahead)
-    ready -= motion[1:nb]
-    ready += ahead
-    return bool(np.any(ready > 0))
+    del head, arrived_lb, parsed_lb
+    # the last blocks wait for the flush after the last line, but a wait is a starvation
+    # only while a line still arrives: the last one after block j - 1 has ended
+    last = max(nb - 1 - W, 0) if W else nb
+    best = _BestSoFar(block_line, motion, link, Q)
+    for i0 in range(0, nb - 1, _STARVE_CHUNK):                           # block j = i + 1
+        i1 = min(i0 + _STARVE_CHUNK, nb - 1)
+        # the line each block j >= 1 waits for (its window's last), 0-based
+        wait_line = block_line[np.minimum(np.arange(i0 + 1 + W, i1 + 1 + W), nb - 1)] - 1
+        ready = link[wait_line] + 2 * p
+        if i1 > last:
+            tail = max(last - i0, 0)
+            ready[tail:] = link[-1] + 2 * p
+            wait_line[tail:] = len(nbytes) - 1
+        ahead = best.at(wait_line)
+        np.maximum(ahead, -start0, out=ahead)
+        ready -= motion[i0 + 1:i1 + 1]
+        ready += ahead
+        if np.any(ready > 0):
+            return True
+    return False
+
+
+#: Rows of a program :func:`may_starve` works on at a time (bounds its memory, not its result).
+_STARVE_CHUNK = 1 << 16
+
+
+def _pairs_fit(nbytes: np.ndarray, room: int) -> bool:
+    """Whether every two lines sent one after the other (lines of 0 bytes are not sent) hold
+    fewer than ``room`` bytes together, or fewer than two lines are sent."""
+    before = 0
+    sent_any = 0
+    for a in range(0, len(nbytes), _STARVE_CHUNK):
+        sent = nbytes[a:a + _STARVE_CHUNK]
+        sent = sent[sent > 0]
+        if not len(sent):
+            continue
+        if sent_any and int(sent[0]) + before >= room:
+            return False
+        if len(sent) > 1 and int((sent[1:] + sent[:-1]).max()) >= room:
+            return False
+        sent_any += len(sent)
+        before = int(sent[-1])
+    return True
+
+
+class _BestSoFar:
+    """For :func:`may_starve`: at line r, the most the lines after a reset may run ahead,
+    max over lines r' <= r of motion[first_block(r') - Q] - link[r'] (-inf where fewer than
+    Q blocks come before line r': it never waits for a slot), read at non-decreasing lines
+    and worked out only as far as asked, a chunk of lines at a time."""
+
+    def __init__(self, block_line, motion, link, Q):
+        self.block_line, self.motion, self.link, self.Q = block_line, motion, link, Q
+        self.done = 0                    # lines folded into self.carry
+        self.carry = -np.inf
+
+    def at(self, lines: np.ndarray) -> np.ndarray:
+        """The values at ``lines`` (0-based, non-decreasing, none before the last line asked)."""
+        out = np.full(len(lines), self.carry)
+        top = int(lines[-1]) + 1 if len(lines) else 0
+        while self.done < top:
+            l0 = self.done
+            l1 = min(top, l0 + _STARVE_CHUNK)
+            # blocks before line r + 1 (1-based): those of the lines before l0, then a count
+            b0 = int(np.searchsorted(self.block_line, l0 + 1, side="left"))
+            b1 = int(np.searchsorted(self.block_line, l1 + 1, side="left"))
+            per_line = np.bincount(self.block_line[b0:b1] - (l0 + 1), minlength=l1 - l0)
+            first_block = np.empty(l1 - l0, dtype=np.int64)
+            first_block[0] = b0
+            np.cumsum(per_line[:-1], out=first_block[1:])
+            first_block[1:] += b0
+            seg = self.motion[np.maximum(first_block - self.Q, 0)]
+            seg -= self.link[l0:l1]
+            seg[first_block < self.Q] = -np.inf
+            np.maximum.accumulate(seg, out=seg)
+            np.maximum(seg, self.carry, out=seg)
+            inside = (lines >= l0) & (lines < l1)
+            out[inside] = seg[lines[inside] - l0]
+            self.carry = float(seg[-1])
+            self.done = l1
+        return out
 
 
 def _plainly_modal(text: str, scaled_words: int) -> bool:

@@ -33,7 +33,7 @@ from labkit.toolpath.moves import LaserMode, MoveKind, Moves
 from labkit.units import s_within
 
 __all__ = ["MODES", "RasterSettings", "placed_size", "DEFAULT_DPI", "RasterReport", "RasterJob", "segments_to_moves", "mask_job", "gray_job",
-           "power_map", "image_to_job", "summarize", "raster_program"]
+           "power_map", "image_to_job", "summarize", "raster_program", "dithered_moves_estimate"]
 
 #: Modes of :func:`image_to_job` (and ``labkit img2gcode --mode``).
 MODES = ("zigzag", "spiral", "edges", "gray", "dither")
@@ -372,7 +372,15 @@ def gray_job(gray, *, pixel_mm: float, feed_mm_min: float = 3000.0, s_max: float
     if dither is not None:
         if dither not in DIFFUSION:
             raise RasterError(f"dither must be one of {sorted(DIFFUSION)} or None, got {dither!r}")
-        dots = _dither(arr if blank is None else np.where(blank, 255.0, arr), dither, serpentine=serpentine)
+        source = arr if blank is None else np.where(blank, 255.0, arr)
+        from labkit._jit import expecting
+        from labkit.gcode.writer import emit_work
+
+        # the moves these dots make are written later: declared now, the diffusion decides
+        # Python or compiled for the whole job (a photo's dots make about a move a pixel)
+        with expecting(emit_work(dithered_moves_estimate(source))):
+            dots = _dither(source, dither, serpentine=serpentine)
+        del source
         power = np.where(dots, int(round(s_max * max_power)), 0).astype(np.int64)
         if not 0 < max_power <= 1:
             raise RasterError(f"max_power must be in (0, 1] for dithering, got {max_power!r}")
@@ -391,6 +399,35 @@ def gray_job(gray, *, pixel_mm: float, feed_mm_min: float = 3000.0, s_max: float
                      feed_mm_min=feed_mm_min, rapid_mm_min=rapid_mm_min, size_error_mm=size_error_mm,
                      overscan_mm=overscan_mm)
     return RasterJob(moves, report, power)
+
+
+def dithered_moves_estimate(gray) -> int:
+    """About how many moves :func:`gray_job` makes of ``gray`` dithered, before dithering.
+
+    Error diffusion spreads dots as evenly as their density allows, so a pixel of darkness
+    d (0 white … 1 black) starts or ends a dot about 2 min(d, 1 - d) times on average; the
+    edges of dark shapes (the only changes in a black-and-white image) add their lead-ins,
+    lead-outs and rapids, about two moves each. The moves made are 0.6-1.2 times this on
+    the images of ``data/images`` and the benchmark ladder's masks and photographs (32² to
+    4096² px): close enough for :func:`labkit._jit.expecting` to choose Python or compiled
+    for the job.
+
+    >>> dithered_moves_estimate(np.full((10, 10), 127.5))     # a checkerboard: a move a pixel
+    100
+    """
+    g = np.asarray(gray, dtype=np.float64)
+    if g.ndim != 2 or not g.size:
+        return 0
+    spread = 0.0
+    edges = 0
+    step = max(1, BAND_PIXELS // g.shape[1])             # a band of rows at a time: a few MB
+    for r in range(0, g.shape[0], step):
+        band = g[r:r + step]
+        d = np.clip(1.0 - band / 255.0, 0.0, 1.0)
+        spread += float((2.0 * np.minimum(d, 1.0 - d)).sum())
+        dark = band < 128
+        edges += int(np.count_nonzero(dark[:, 1:] != dark[:, :-1]))
+    return int(round(spread)) + 2 * edges
 
 
 def _scan_moves(power, bidirectional, skip_px, overscan_px, pixel_mm, *, feed_mm_min, laser, s_max) -> Moves:
@@ -463,6 +500,9 @@ def working_bytes(source_shape, beam_shape, mode: str, *, banded: bool = False) 
 def _mask_in_bands(image: np.ndarray, weights, invert: bool, level: float) -> np.ndarray:
     """``threshold(to_gray(image))`` (inverted first if asked) without the blank pixels,
     computed in bands of rows."""
+    if image.ndim == 2 and image.dtype == np.uint8:
+        # 8-bit gray is labkit gray as it is (to_gray's scale is 255 / 255) and has no alpha
+        return (np.subtract(255, image, dtype=np.uint8) if invert else image) < level
     rows, cols = image.shape[:2]
     mask = np.empty((rows, cols), bool)
     step = max(1, BAND_PIXELS // max(cols, 1))

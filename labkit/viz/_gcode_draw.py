@@ -19,15 +19,84 @@ from labkit._jit import jit
 NUMPY_STEPS = 1 << 20
 
 
+#: A piece along an axis whose length is this close below a whole number of pixels is
+#: walked step by step (see :func:`_spans_along_axes`).
+_WHOLE_MARGIN = 1e-6
+
+
+def _spans_along_axes(x0, y0, x1, y1):
+    """The pieces along an axis whose steps are one unbroken run of pixels, and that run.
+
+    A piece with dy exactly 0 takes ceil(|dx|) + 1 steps of |dx| / ceil(|dx|) pixels each:
+    below one pixel unless |dx| is whole, so consecutive steps round to the same or the
+    next column and the pixels are every column from the first step's to the last's
+    (dx exactly 0 the same, across rows). A whole or nearly whole |dx| makes steps of a
+    pixel, whose roundings may skip a column (halves round to even): those pieces, and
+    every other piece, are left to the step-by-step walk. Returns (which pieces, along x
+    or y, the fixed row or column, the first and last pixel along the axis), rounded and
+    clipped later by the caller.
+    """
+    dx = x1 - x0
+    dy = y1 - y0
+    horizontal = dy == 0.0
+    vertical = (dx == 0.0) & ~horizontal
+    length = np.where(horizontal, np.abs(dx), np.abs(dy))
+    part = length - np.floor(length)
+    unbroken = (horizontal | vertical) & ((length == 0.0) | ((part > 0.0) & (part < 1.0 - _WHOLE_MARGIN)))
+    k = np.flatnonzero(unbroken)
+    along_x = horizontal[k]
+    fixed = np.where(along_x, y0[k], x0[k])
+    first = np.where(along_x, x0[k], y0[k])
+    last = np.where(along_x, x0[k] + dx[k] * 1.0, y0[k] + dy[k] * 1.0)    # the last step, t = 1
+    return unbroken, along_x, fixed, first, last
+
+
+def _fill_runs(grid_shape, along_x, fixed, first, last):
+    """Which pixels the runs cover: counts of runs starting minus runs ended, summed along
+    each row (or column), as a boolean grid. O(runs + pixels), whatever the runs' lengths."""
+    rows, cols = grid_shape
+    out = np.zeros((rows, cols), np.bool_)
+    for axis_x in (True, False):
+        pick = along_x == axis_x
+        if not pick.any():
+            continue
+        n_lines, n_along = (rows, cols) if axis_x else (cols, rows)
+        line = np.clip(np.rint(fixed[pick]), 0, n_lines - 1).astype(np.int64)
+        a = np.clip(np.rint(first[pick]), 0, n_along - 1).astype(np.int64)
+        b = np.clip(np.rint(last[pick]), 0, n_along - 1).astype(np.int64)
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        width = n_along + 1
+        delta = (np.bincount(line * width + lo, minlength=n_lines * width)
+                 - np.bincount(line * width + hi + 1, minlength=n_lines * width))
+        covered = np.cumsum(delta.reshape(n_lines, width)[:, :n_along], axis=1) > 0
+        out |= covered if axis_x else covered.T
+    return out
+
+
 def _draw_pieces_numpy(x0, y0, x1, y1, value, burning, power, travel):
-    """:func:`draw_pieces` with numpy: the same steps, rounding and clipping, in batches."""
+    """:func:`draw_pieces` with numpy: the same steps, rounding and clipping, in batches;
+    travel, and burning pieces of one power, along an axis (a raster job's every piece) as
+    whole runs of pixels (:func:`_spans_along_axes`)."""
     rows, cols = power.shape
+    burned = value[burning]
+    uniform = len(burned) > 0 and bool((burned == burned[0]).all())
+    runs, along_x, fixed, first, last = _spans_along_axes(x0, y0, x1, y1)
+    on_run = burning[runs]
+    if (~on_run).any():
+        travel |= _fill_runs(power.shape, along_x[~on_run], fixed[~on_run], first[~on_run], last[~on_run])
+    if uniform and on_run.any():
+        covered = _fill_runs(power.shape, along_x[on_run], fixed[on_run], first[on_run], last[on_run])
+        np.maximum(power, np.where(covered, burned[0], -np.inf), out=power)
+        del covered
+    else:
+        runs[runs] = ~on_run                    # burning pieces of several powers: walked below
+    rest = np.flatnonzero(~runs)
+    if len(rest) < len(x0):
+        x0, y0, x1, y1, value, burning = (a[rest] for a in (x0, y0, x1, y1, value, burning))
     dx = x1 - x0
     dy = y1 - y0
     steps = np.ceil(np.maximum(np.abs(dx), np.abs(dy))).astype(np.int64) + 1
     ends = np.cumsum(steps)
-    burned = value[burning]
-    uniform = len(burned) > 0 and bool((burned == burned[0]).all())
     level = burned[0] if uniform else 0.0
     first = 0
     while first < len(steps):

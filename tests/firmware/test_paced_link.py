@@ -17,8 +17,6 @@ firmware's defaults) with the link's baud rate. Checked:
 """
 from __future__ import annotations
 
-import importlib.util
-import re
 import subprocess
 from pathlib import Path
 
@@ -29,68 +27,36 @@ from labkit.cli import main
 from labkit.machine.safety import end_process
 from labkit.motion.spec import CBR40
 from labkit.motion.stall import predict_stalls, read_starvation_log, stall_free_feed, with_feed
+from paced_stream import REAL_SENDERS, WAKE_UP_LINES, paced_sim, poll_shadows, sim_complaints, stream_py_bytes
 
 ROOT = Path(__file__).resolve().parents[2]
-#: stream.py wakes GRBL up with "\r\n\r\n": four empty lines the grbl dialect counts, so
-#: the firmware's line k is the job's line k - 4.
-WAKE_UP_LINES = 4
-
-
-def _real_senders():
-    spec = importlib.util.spec_from_file_location("real_senders", Path(__file__).with_name("test_real_senders.py"))
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-REAL_SENDERS = _real_senders()
 sim = REAL_SENDERS.sim          # the fixture that builds the simulator (make -C firmware sim)
-
-
-def stream_py_bytes(text: str) -> np.ndarray:
-    """Bytes stream.py puts on the link per line: whitespace and (...) removed, newline added."""
-    return np.array([len(re.sub(r"\s|\(.*?\)", "", raw)) + 1 for raw in text.splitlines()])
 
 
 def stream_paced(sim: str, text: str, machine, tmp: Path):
     """Stream ``text`` with stream.py through the simulator paced as ``machine``'s link says.
 
     Returns its starvations (numbered by the job's lines) and the seconds the stream took
-    (stream.py's ``?`` goes out once a second).
+    (stream.py's ``?`` goes out once a second). The simulator is told what stream.py will
+    write (``--expect``), so however late a loaded machine makes the sender, the simulated
+    clock waits for it: the sender must never have been late by the simulator's measure.
     """
-    log = tmp / "starvations.csv"
-    proc = subprocess.Popen([sim, "--pty", "--dialect", "grbl", "--baud", str(machine.link_baud),
-                             "--parse-us", f"{machine.block_parse_s * 1e6:.6f}", "--starvation-log", str(log)],
-                            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+    cmd, log = paced_sim(sim, machine, text, tmp)
+    proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                             text=True)
     try:
         line = proc.stderr.readline()
         assert "pty " in line, f"simulator did not announce its pty: {line!r}"
         tally = REAL_SENDERS.stream_py(line.split("pty ", 1)[1].strip(), text, counting=True)
+        proc.terminate()
+        err = proc.communicate(timeout=30)[1]
     finally:
         end_process(proc)
+    assert sim_complaints(err) == (0, ""), err
     assert len(tally["answers"]) == len(text.splitlines())
     assert all(a == "ok" for a in tally["answers"]), [a for a in tally["answers"] if a != "ok"][:3]
     stalls = [s.__class__(s.time_s, s.line - WAKE_UP_LINES, s.duration_s) for s in read_starvation_log(log)]
     return stalls, tally["seconds"]
-
-
-def poll_shadows(simulated, predicted, baud: int, seconds: float):
-    """Split the simulated starvations the prediction lacks into those a ``?`` can explain and the rest.
-
-    stream.py's once-a-second ``?`` is one byte on the wire at a wall-clock moment no
-    prediction can know; the line bytes behind it arrive one byte time (10 / baud s) later.
-    A starvation it causes is at most that long, and there are at most as many as ``?``s.
-    """
-    lines = {s.line for s in predicted}
-    missed = [s for s in simulated if s.line not in lines]
-    byte_s = 10.0 / baud
-    shadows = [s for s in missed if s.duration_s <= byte_s * 1.001]
-    rest = [s for s in missed if s.duration_s > byte_s * 1.001]
-    if len(shadows) > seconds + 2:
-        rest += shadows
-        shadows = []
-    return shadows, rest
 
 
 # ---------------------------------------------------------------- closed form

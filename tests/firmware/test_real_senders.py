@@ -111,6 +111,22 @@ class StreamPyDeadlock(Exception):
     """stream.py would wait for an answer to a line it has not sent (it blocks for ever)."""
 
 
+#: what stream.py writes first to wake GRBL up (four empty lines in the grbl dialect)
+STREAM_PY_WAKE_UP = b"\r\n\r\n"
+
+
+def stream_py_line(raw: str) -> bytes:
+    """The bytes stream.py's counting mode writes for one line of a program: whitespace and
+    ``(...)`` removed, upper case (``;`` comments kept), a newline added."""
+    return re.sub(r"\s|\(.*?\)", "", raw).upper().encode("ascii") + b"\n"
+
+
+def stream_py_sent(text: str) -> bytes:
+    """Every line byte stream.py's counting mode writes for ``text``, the wake-up first (its
+    ``?`` status polls, real-time bytes, left out): the simulator's ``--expect`` file."""
+    return STREAM_PY_WAKE_UP + b"".join(stream_py_line(raw) for raw in text.splitlines())
+
+
 def _is_answer(reply: str) -> bool:
     # stream.py takes any line containing 'ok' or 'error' as the answer to the oldest line
     return "ok" in reply or "error" in reply
@@ -146,7 +162,7 @@ def stream_py(port: str, text: str, *, counting: bool) -> dict:
 
     tally = {"sent": 0, "answers": [], "messages": []}
     try:
-        write(b"\r\n\r\n")              # wake up; the script then waits and drops what came back
+        write(STREAM_PY_WAKE_UP)          # the script then waits and drops what came back
         time.sleep(0.5)
         link.reset_input_buffer()
         threading.Thread(target=poll, daemon=True).start()
@@ -164,14 +180,14 @@ def stream_py(port: str, text: str, *, counting: bool) -> dict:
 
         for raw in text.splitlines():
             if counting:
-                block = re.sub(r"\s|\(.*?\)", "", raw).upper()
-                in_flight.append(len(block) + 1)
+                data = stream_py_line(raw)
+                in_flight.append(len(data))
                 while sum(in_flight) >= RX_BUFFER - 1:
                     if len(in_flight) == 1:
-                        raise StreamPyDeadlock(f"line {tally['sent'] + 1} is {len(block) + 1} characters "
+                        raise StreamPyDeadlock(f"line {tally['sent'] + 1} is {len(data)} characters "
                                                f"with its newline: stream.py waits for ever")
                     take_answer()
-                write(block.encode("ascii") + b"\n")
+                write(data)
                 tally["sent"] += 1
             else:
                 write(raw.strip().encode("ascii") + b"\n")

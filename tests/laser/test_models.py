@@ -194,3 +194,18 @@ def test_data_that_do_not_fix_both_dose_parameters_are_refused():
     p = np.array([1000.0, 2000.0, 3000.0, 4000.0])
     with pytest.raises(InputError):
         fit_dose(p, p / 2, np.full(4, 0.15))
+
+
+def test_cut_through_fit_is_the_optimum_to_the_last_digits():
+    """Logistic regression with an unpenalised intercept: at the optimum the predicted
+    probabilities sum to the number of lines cut (the intercept's score equation), so a
+    speed derived from the fit does not wobble with the optimiser's stopping point."""
+    rng = np.random.default_rng(5)
+    p, v = rng.uniform(300, 2500, 60), rng.uniform(300, 1500, 60)
+    cut = rng.random(60) < 1 / (1 + np.exp(-3.0 * np.log(p / v / 1.5)))
+    m = fit_cut_through(p, v, cut)
+    assert abs(cut_probability(m, p, v).sum() - cut.sum()) < 1e-8
+    # the same data in another order: the same coefficients to ~1e-12
+    order = rng.permutation(60)
+    m2 = fit_cut_through(p[order], v[order], cut[order])
+    assert m2["b0"] == pytest.approx(m["b0"], rel=1e-10) and m2["b1"] == pytest.approx(m["b1"], rel=1e-10)

@@ -41,6 +41,15 @@ def test_the_labkit_firmware_description_holds_the_firmwares_sizes():
     grbl = load_machine("grbl-diode")
     assert (grbl.rx_buffer_bytes, grbl.planner_blocks, grbl.waits_for_lookahead) == (128, 15, False)
     assert grbl.link_bytes_per_s == 11_520.0                       # 115200 8N1
+    # grbl-diode's belts on the labkit firmware: the firmware's link and buffers, its deepest
+    # look-ahead ($207 takes at most PLAN_MAX_DEPTH = PLAN_BUFFER_SIZE - 2) and its 48 MHz timer
+    belts = load_machine("labkit-diode")
+    link = ("link_baud", "link_bits_per_byte", "rx_buffer_bytes", "planner_blocks", "block_parse_s",
+            "waits_for_lookahead")
+    assert [getattr(belts, f) for f in link] == [getattr(CBR40, f) for f in link]
+    assert belts.buffer_blocks == _c_define("firmware/src/config.h", "PLAN_BUFFER_SIZE") - 2
+    assert belts.timer_clock_hz == _c_define("firmware/src/defaults.h", "DEFAULT_TIMER_CLOCK_HZ")
+    assert belts.max_rate_mm_min[:2] == grbl.max_rate_mm_min[:2] == (6000.0, 6000.0)
 
 
 @pytest.mark.parametrize("field,value,message", [

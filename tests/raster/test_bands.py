@@ -46,3 +46,14 @@ def test_bands_are_used_only_at_one_pixel_per_beam(monkeypatch):
     image_to_job(img, mode="zigzag", beam_mm=0.4, pixel_mm=0.2)     # resampled: whole image
     image_to_job(img, mode="zigzag", beam_mm=0.2, pixel_mm=0.2, blur=True)   # a 3×3 filter
     assert calls == [1]
+
+
+@pytest.mark.parametrize("level", [0, 1, 127.5, 128, 200.25, 255, 256])
+@pytest.mark.parametrize("inverted", [False, True])
+def test_eight_bit_gray_is_thresholded_as_labkit_gray(level, inverted):
+    """8-bit gray (a PNG's L mode) is compared as it is, without a float copy of the image:
+    the mask of to_gray's 0…255 floats at every level, fractional ones too."""
+    img = np.arange(256, dtype=np.uint8).reshape(16, 16)
+    gray = to_gray(img)
+    expected = threshold(invert(gray) if inverted else gray, level)
+    np.testing.assert_array_equal(engrave._mask_in_bands(img, "seed", inverted, level), expected)
