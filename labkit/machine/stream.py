@@ -1050,7 +1050,9 @@ def _answers_lost(grbl: Grbl, sent_at_query, line_ends: list, sent_syncing: list
     answered = st.answers_before - answers_base
     if whole_lines <= answered:
         return 0
-    busy = _may_hold(st, sent_syncing, answered)
+    # the line it may hold is the last it read (GRBL works through lines in order), which is
+    # not the first unanswered one once an answer is lost
+    busy = _may_hold(st, sent_syncing, whole_lines - 1)
     return max(0, whole_lines - answered - (1 if busy else 0))
 
 
