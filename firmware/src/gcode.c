@@ -698,10 +698,26 @@ uint8_t gc_execute_line(char *line)
     gc.sync_now = 0;
     return STATUS_OK;
   }
+  /* GRBL changes the work offsets (G92, G92.1, G54-G59) and stored positions (G10, G28.1,
+     G30.1) only once the moves before the line have ended, so a status report meanwhile still
+     shows the old WCO (planner_sync #21-#34): checked above, waited for here, committed below.
+     G43.1/G49 it applies at once and answers after the moves (#37, #38: sync_now). A reset
+     (or a hard limit) that cuts the wait short drops the line, but what it writes to the
+     settings storage is written, as GRBL's EEPROM write follows its aborted wait (reset_wait:
+     G10 L20 then a reset). */
+  if (gc_dialect == GC_DIALECT_GRBL &&
+      (nonmodal == 100 || nonmodal == 281 || nonmodal == 301 || nonmodal == 920 ||
+       nonmodal == 921 || coord_new != gc.coord_select) &&
+      !wait_for_idle()) {
+    if (coord_store >= 0)
+      settings_store_coord((uint8_t)coord_store, coord_data);
+    if (nonmodal == 281 || nonmodal == 301)
+      settings_store_coord(nonmodal == 281 ? SET_N_COORD : SET_N_COORD + 1, gc.pos_mm);
+    gc.sync_now = 0;
+    return STATUS_OK;
+  }
   gc.sync_now = gc_dialect == GC_DIALECT_GRBL &&
-                (dwell || gc.probe_now || stop == 2 || stop == 30 || nonmodal == 100 || nonmodal == 281 ||
-                 nonmodal == 301 || nonmodal == 920 || nonmodal == 921 || tool_new >= 0 ||
-                 coord_new != gc.coord_select);
+                (dwell || gc.probe_now || stop == 2 || stop == 30 || tool_new >= 0);
   gc_line_count++;
   if (coord_new != gc.coord_select || nonmodal == 920 || nonmodal == 921 || tool_new >= 0)
     gc.wco_changes++;
@@ -714,10 +730,11 @@ uint8_t gc_execute_line(char *line)
   }
   if (coord_store >= 0) {
     settings_store_coord((uint8_t)coord_store, coord_data);
-    if (coord_store == gc.coord_select)
+    if (coord_store == gc.coord_select) {   /* another system's values change no WCO */
       for (int a = 0; a < 3; a++)
         gc.coord[a] = coord_data[a];
-    gc.wco_changes++;
+      gc.wco_changes++;
+    }
   }
   if (nonmodal == 281 || nonmodal == 301)
     settings_store_coord(nonmodal == 281 ? SET_N_COORD : SET_N_COORD + 1, gc.pos_mm);

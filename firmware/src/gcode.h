@@ -61,8 +61,9 @@ typedef struct {
   uint8_t inverse_time;  /* G93 */
   uint8_t stop_now;      /* GC_FLOW_* of an M0 M1 M2 M30 in the line just run, else 0 */
   uint8_t probe_now;     /* 2..5: the line just run is a G38.x probe move, else 0 */
-  uint8_t sync_now;      /* the line just run waits for the moves before it (GRBL: G4, M2,
-                            M30, offsets and stored positions) */
+  uint8_t sync_now;      /* the line just run is answered once the moves before it have
+                            ended (GRBL: G4, M2, M30, G43.1, G49; G10, G92, G54-G59 wait
+                            before their commit) */
   double coord[3];       /* offset of the selected system (stored, settings.coord) */
   double g92[3];         /* G92 offset (not stored: a reset clears it, as in GRBL) */
   double tlo;            /* G43.1 tool length offset, Z, mm */

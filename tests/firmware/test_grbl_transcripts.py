@@ -648,20 +648,6 @@ KNOWN_DIFFERENCES: dict[tuple[str, str, int], str] = {
     ('firmware', 'planner_sync', 18): "?: fields ['MPos', 'Bf', 'FS'], GRBL ['MPos', 'Bf', 'FS', "
                                       "'Ov', 'A'] (GRBL's Ov report forced by the M8 it ran after "
                                       "the move came here, the firmware's at #16: as #4)",
-    ('firmware', 'planner_sync', 22): "?: fields ['MPos', 'Bf', 'FS', 'WCO'], GRBL ['MPos', 'Bf', "
-                                      "'FS', 'Ov'] (to fix in the firmware: it holds G92's ok until"
-                                      ' the move before it has ended (#21 matches) but applies the '
-                                      'offset when it reads the line, so its WCO report is forced '
-                                      'during the move; GRBL applies it once the move has ended '
-                                      '(its WCO comes at #24))',
-    ('firmware', 'planner_sync', 24): "?: fields ['MPos', 'Bf', 'FS', 'Ov'], GRBL ['MPos', 'Bf', "
-                                      "'FS', 'WCO'] (the other half of #22)",
-    ('firmware', 'planner_sync', 32): "?: fields ['MPos', 'Bf', 'FS', 'WCO'], GRBL ['MPos', 'Bf', "
-                                      "'FS'] (to fix in the firmware, as #22: G55's offset "
-                                      "(WCO:1.000) taken when the line is read, GRBL's once the "
-                                      'move before it has ended (#34))',
-    ('firmware', 'planner_sync', 34): "?: fields ['MPos', 'Bf', 'FS'], GRBL ['MPos', 'Bf', 'FS', "
-                                      "'WCO'] (the other half of #32)",
     ('firmware', 'planner_sync', 47): "G2 X5 Y0 I-2 J0: extra lines ['ok'] (not implemented in the "
                                       'firmware: it walks an arc in its step preparation as one '
                                       'planner block, so the full circle is answered at once; '
