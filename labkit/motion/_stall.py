@@ -16,8 +16,8 @@ def stream_lines(nbytes, first_block, last_block, dur, tau, parse_s, window, pla
     ``nbytes[i]`` bytes of sent line i (newline included) make blocks ``first_block[i]``
     … ``last_block[i] - 1`` of durations ``dur`` (s). The sender keeps the characters in
     flight (sent, not yet answered) below ``limit`` (GRBL's character counting); a byte
-    takes ``tau`` s on the wire; the parser takes ``parse_s`` a line and only while the
-    planner (``planner_blocks``) has a free slot. Block j runs after block j - 1 once it
+    takes ``tau`` s on the wire; the parser takes ``parse_s`` a line, one after the other, and
+    a parsed line enters the planner (``planner_blocks``) once it has a free slot. Block j runs after block j - 1 once it
     is ready: once block j + ``window`` is parsed (0: at once), the last ``window`` blocks
     ``flush_s`` after the last line was parsed.
 
@@ -48,7 +48,9 @@ def stream_lines(nbytes, first_block, last_block, dur, tau, parse_s, window, pla
         sent[i] = t
         wire_free = max(wire_free, t) + n * tau
         arrived[i] = wire_free
-        ready = max(arrived[i], parse_free)
+        # parsed one line after the other, then held until the planner has a free slot (the
+        # next line is read only once this one has entered it)
+        ready = max(arrived[i], parse_free) + parse_s
         b0 = first_block[i]
         b1 = last_block[i]
         need = b1 - 1 - planner_blocks      # this block must have left the planner for a free slot
@@ -57,7 +59,7 @@ def stream_lines(nbytes, first_block, last_block, dur, tau, parse_s, window, pla
                            window, np.inf)
             if done > need:
                 ready = max(ready, end[need])
-        parse_free = ready + parse_s
+        parse_free = ready
         parsed[i] = parse_free
         for b in range(b0, b1):
             block_parsed[b] = parse_free
