@@ -13,8 +13,9 @@ The predictor (:func:`predict_stalls`) follows each line through the link as a
 character-counting sender streams it (GRBL's rule: a line goes out while the
 characters in flight, itself included, stay below the receive buffer less one),
 over the wire at the machine's bytes per second, through the parser
-(``block_parse_s`` a line, one line after the other; a parsed line waits for a
-free planner slot before the next is read, as GRBL's main loop does) into the planner; the motion of each block takes the time the
+(``block_parse_s`` a line, one line after the other; on GRBL a parsed line waits
+for a free planner slot, as its main loop does, on the labkit firmware a line is
+parsed once a slot is free) into the planner; the motion of each block takes the time the
 motion reference (:func:`labkit.motion.plan`) gives it. A block starts when the
 one before has ended and it is ready: on GRBL when it is in the planner; on the
 labkit firmware (``waits_for_lookahead``) when its whole look-ahead window has
@@ -518,7 +519,7 @@ def predict_stalls(text: str, machine=None, *, line_bytes=None, dialect: str = "
     sent, arrived, parsed, start, end = stream_lines(
         sent_bytes, first_block.astype(np.int64), last_block.astype(np.int64),
         np.ascontiguousarray(dur), tau, float(m.block_parse_s), int(W), int(m.planner_blocks),
-        int(limit), FLUSH_QUIET_S if W else 0.0)
+        int(limit), FLUSH_QUIET_S if W else 0.0, not m.waits_for_lookahead)
 
     # a starvation: a stop while the job has lines left, i.e. before the last line has been
     # parsed (on the wire, in the receive buffer or in the parser), not the final flush's
