@@ -32,7 +32,7 @@ lab: $(STAMP)
 ## make test: set up (first time), the firmware's host tests (C), then unit tests, doctests,
 ## notebooks (nbval) and the browser test.
 test: $(STAMP) browser-deps
-	$(MAKE) -C firmware test
+	$(MAKE) -C firmware test sim
 	$(PY) -m pytest $(XDIST) $(PYTEST_ARGS)
 
 ## make student STUDENT_DIR=DIR: the student edition of every chapter (answers replaced by stubs,

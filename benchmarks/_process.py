@@ -22,7 +22,8 @@ def process_time(argv: list[str], repeat: int, clock: str = "wall") -> float:
     set on some CI images) would otherwise time compiling labkit's sources on every run,
     so it is dropped here. A failing command stops the benchmark with its stderr.
     """
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    # the checkout first; a PYTHONPATH already set (peers installed with pip --target) after it
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
     env.pop("PYTHONDONTWRITEBYTECODE", None)
     best = float("inf")
     for k in range(repeat + 1):

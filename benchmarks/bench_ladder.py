@@ -7,8 +7,10 @@ the command's peer measured in the same run and the ratio labkit / peer (below 1
 faster), or peer / labkit where the target is a speed-up (marked ×):
 
 - ``check``, ``info``: gcodeparser's ``parse_gcode_lines`` over the file, as a process;
-- ``plan``, ``preview``, ``stream`` (to the virtual machine), ``dxf2gcode``: starting Python and
-  importing numpy, the floor any numpy-based command pays;
+- ``plan``, ``preview``, ``stream`` (to the virtual machine): starting Python and importing
+  numpy, the floor any numpy-based command pays;
+- ``dxf2gcode``: vpype (vpype-dxf's ``dread``, ``linesort``, vpype-gcode's ``gwrite``) on the
+  same drawing, as a process (×: vpype's time / labkit's);
 - ``plan: link`` (the stall prediction over the machine's link, on by default): ``plan --no-link``
   on the same file, as a process (issue 29: the prediction must not make plan slower than 1.5×);
 - ``svg2gcode``: svg-to-gcode (``parse_file`` and ``Compiler``) on the same file, as a process;
@@ -63,6 +65,7 @@ for f in sys.argv[2:]:
     c.append_curves(parse_file(f))
     c.compile(passes=1)
 """
+VPYPE_DXF = "from vpype_cli import cli; cli()"     # vpype with the vpype-dxf and vpype-gcode plug-ins
 LABKIT_SVG_SET = """
 import sys
 from labkit._jit import job_units
@@ -153,12 +156,22 @@ def ladder_svg(tmp, repeat):
 
 
 def ladder_dxf(tmp, repeat):
+    """dxf2gcode on drawings of 1, 10, 100 and 400 parts (about 13 entities each, made by
+    ``_dxfset.py``: vpype-dxf fails on most real files of data/dxf with today's ezdxf) against
+    vpype reading the same file with vpype-dxf, sorting its lines and writing G-code with
+    vpype-gcode, as a process. vpype's ``-q 0.1mm`` (its default) is a chord length: its chords
+    then sag at most 0.1² / 8r, within labkit's 0.01 mm for radii above 0.125 mm."""
+    sys.path.insert(0, str(Path(__file__).parent))
+    from _dxfset import write_dxf
+
     t_numpy = timed([PY, "-c", "import numpy"], repeat)
-    files = sorted((ROOT / "data" / "dxf").rglob("*.dxf"), key=lambda p: p.stat().st_size)
-    picks = [files[0], files[len(files) // 3], files[2 * len(files) // 3], files[-1]]
-    for f in picks:
-        labkit_row("dxf2gcode", f"{f.stat().st_size / 1e3:,.0f} kB", ["dxf2gcode", str(f), "--arcs",
-                   "-o", str(tmp / "d.gcode")], t_numpy, "import numpy", repeat)
+    print(f"(dxf2gcode: python -c 'import numpy' {t_numpy:.2f} s)")
+    for parts in (1, 10, 100, 400):
+        f = write_dxf(tmp / f"parts{parts}.dxf", parts, seed=parts)
+        peer = timed([PY, "-c", VPYPE_DXF, "dread", "-q", "0.1mm", str(f), "linesort", "pagesize",
+                      "4000mmx4000mm", "gwrite", "-p", "gcode", str(tmp / "v.gcode")], repeat)
+        labkit_row("dxf2gcode", f"{parts} parts", ["dxf2gcode", str(f), "--arcs", "--force",
+                   "-o", str(tmp / "d.gcode")], peer, "vpype", repeat, speedup=True)
 
 
 def ladder_img(tmp, repeat):

@@ -12,8 +12,11 @@ VirtualMachine` (GRBL 1.1 in laser mode, simulated time) and reports one verdict
     every line was accepted by the (virtual) controller, with no alarm, and the program ran
     to its end.
 ``work area``
-    every motion the machine executed stays inside the work area (the machine's travel),
-    in machine coordinates, as a real controller's soft limits would see it.
+    every motion the machine executed stays on the bed: within the machine's travel
+    (``$130``, ``$131``) from where the head stood at power-up, 0…travel in the virtual
+    machine's coordinates, the head starting at the bed's corner. This is the bed, not
+    GRBL's soft limits: those need homing and count −travel…0 from the homed corner
+    (the virtual machine grades with soft limits off, as GRBL ships).
 ``drawing``
     at least ``min_coverage`` of the drawing's length lies within ``band_mm`` of a burned
     stretch (coverage against the target).

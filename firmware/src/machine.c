@@ -1,6 +1,6 @@
 /*
   machine.c - the machine's fields: defaults, the checks of
-  labkit.motion.Machine, the fastest step rate of an axis (see machine.h).
+  labkit.motion.MachineSpec, the fastest step rate of an axis (see machine.h).
 */
 #include "machine.h"
 

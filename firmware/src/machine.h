@@ -1,6 +1,6 @@
 /*
   machine.h - the machine as the core sees it: the fields of
-  labkit.motion.Machine (see labkit/motion/machine.py for their meaning).
+  labkit.motion.MachineSpec (see labkit/motion/spec.py for their meaning).
 
   The live copy is plan_machine() (planner.h); machine.c fills one from
   defaults.h and checks one. Units are in the names: mm, mm/min, mm/s^2, Hz, mW.

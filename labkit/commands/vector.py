@@ -100,6 +100,16 @@ def _common_arguments(parser: argparse.ArgumentParser, kind: str) -> None:
     add_record_option(parser)
 
 
+def _image_mode(text: str) -> str:
+    """``--images MODE``, checked against img2gcode's modes only when given: the raster package
+    costs every svg2gcode command ~30 ms to import."""
+    from labkit.raster.engrave import MODES
+
+    if text not in MODES:
+        raise argparse.ArgumentTypeError(f"invalid choice: {text!r} (choose from {', '.join(MODES)})")
+    return text
+
+
 def add_svg2gcode_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``labkit svg2gcode``."""
     _common_arguments(parser, "SVG")
@@ -111,12 +121,11 @@ def add_svg2gcode_arguments(parser: argparse.ArgumentParser) -> None:
                         help="cut only what lies on the page, as a renderer shows it (default: "
                              "shapes reaching beyond the page are cut whole, with a warning)")
     from labkit.commands._args import FEED, number
-    from labkit.raster.engrave import MODES
 
-    parser.add_argument("--images", choices=MODES, default=None, metavar="MODE",
+    parser.add_argument("--images", type=_image_mode, default=None, metavar="MODE",
                         help="engrave the bitmaps the SVG embeds, where it places them, before the cuts "
-                             f"({', '.join(MODES)}; as labkit job's image layers, line interval --fill-spacing); "
-                             "default: they are named in a warning and not burned")
+                             "(a mode of img2gcode --mode; as labkit job's image layers, line interval "
+                             "--fill-spacing); default: they are named in a warning and not burned")
     parser.add_argument("--image-power", type=number(0), default=None, metavar="S",
                         help="with --images: S of full black (default --power)")
     parser.add_argument("--image-feed", type=FEED, default=None, metavar="MM_MIN",

@@ -433,8 +433,12 @@ def grbl_system_verdict(line: str, dialect: str | Dialect = "grbl") -> tuple[str
         return "invalid_statement", "'=' after the setting number"
     rest = rest[1:]
     if startup:                                  # $Nx=<G-code>: the line is checked as G-code
-        if rest.startswith("$") and not rest.startswith("$J="):   # GRBL's G-code parser: no letter
-            return "expected_letter", "a start-up line of G-code, not a $ command"
+        if rest.startswith("$"):
+            # GRBL reads a start-up line that begins with '$' as a jog from its fourth
+            # character on ($XYG91X1F100 jogs); a shorter one has no letter where one must be
+            if len(rest) < 3:
+                return "expected_letter", "a start-up line of G-code or a jog ($J=...)"
+            rest = "$J=" + rest[3:]
         errors = check(rest, dialect=d)
         return None if not errors else (errors[0].status.name, f"a valid startup line: {errors[0].message}")
     m = _GRBL_FLOAT.match(rest)

@@ -21,6 +21,7 @@ _WHERE = {
     "chord_segments": 'circle',
     "circumcentre": 'circle',
     "count_segments": 'path',
+    "cubic_chains_to_arcs": 'arcfit',
     "cubic_point": 'bezier',
     "cubics_to_arcs": 'arcfit',
     "curvature_weighted_points": 'ellipse',

@@ -55,12 +55,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from labkit.errors import GeometryError
-from labkit.geometry._biarcfit import _PER_CUBIC, fit_cubic_chain, hermite_chain
-from labkit.geometry._greedyfit import fit_runs
+from labkit.geometry._greedyfit import fit_runs_many
 from labkit.geometry.bezier import cubic_samples, flatten_cubics
 from labkit.geometry.path import Path
 
-__all__ = ["fit_arcs", "cubics_to_arcs", "coordinate_limit_mm", "tolerance_budget", "ToleranceBudget",
+__all__ = ["fit_arcs", "cubics_to_arcs", "cubic_chains_to_arcs", "chain_fits", "coordinate_limit_mm", "tolerance_budget", "ToleranceBudget",
            "sampling_share", "FLATTEN_SHARE", "CORNER_RAD", "KINK_RAD", "METHODS"]
 
 #: Share of the tolerance spent on sampling a curve before a polyline fit (the rest fits).
@@ -242,6 +241,8 @@ def fit_arcs(points, tol_mm, *, arcs=True, closed=False, base_deviation_mm=0.0, 
             p[-1] = p[0]
         elif closed:
             p = np.vstack([p, p[:1]])
+        from labkit.geometry._biarcfit import hermite_chain      # the biarc fit's kernels load on use
+
         seg = np.hypot(*np.diff(p, axis=0).T)
         ctrl = hermite_chain(p, loop, CORNER_RAD, max(4.0 * float(tol_mm), 2.0 * float(np.median(seg))))
         half = np.array([float((len(p) - 1) // 2)]) if loop else _NO_BREAKS
@@ -251,15 +252,31 @@ def fit_arcs(points, tol_mm, *, arcs=True, closed=False, base_deviation_mm=0.0, 
         # fit the two halves of a loop apart, so that a circle becomes two half arcs
         # rather than one arc short of a full turn plus a sliver
         mid = len(p) // 2
-        e1, c1, s1, w1 = fit_runs(p[:mid + 1], float(tol_mm), bool(arcs))
-        e2, c2, s2, w2 = fit_runs(p[mid:], float(tol_mm), bool(arcs))
-        ends = np.concatenate([e1, e2 + mid])
-        centres, sweeps, worst = np.vstack([c1, c2]), np.concatenate([s1, s2]), max(w1, w2)
+        (v1, c1, s1, w1), (v2, c2, s2, w2) = _greedy_runs([p[:mid + 1], p[mid:]], float(tol_mm), arcs)
+        verts, centres, sweeps = np.vstack([v1, v2[1:]]), np.vstack([c1, c2]), np.concatenate([s1, s2])
+        worst = max(w1, w2)
     else:
-        ends, centres, sweeps, worst = fit_runs(p, float(tol_mm), bool(arcs))
-    verts = np.vstack([p[:1], p[ends]])
+        ((verts, centres, sweeps, worst),) = _greedy_runs([p], float(tol_mm), arcs)
     return Path(verts, centres, sweeps, closed=closed,
                 deviation_mm=float(worst) + base_deviation_mm, **meta)
+
+
+def _greedy_runs(polylines, tol_mm: float, arcs: bool) -> list[tuple]:
+    """The greedy fit of many polylines (each (n, 2), n ≥ 2, no two neighbours equal) in one
+    kernel call: per polyline its vertices (a subset of its points), centres, sweeps and
+    largest miss."""
+    sizes = np.array([len(q) for q in polylines], np.int64)
+    starts = np.concatenate([[0], np.cumsum(sizes)])
+    pts = np.ascontiguousarray(np.concatenate(polylines), dtype=float) if len(polylines) > 1 \
+        else np.ascontiguousarray(polylines[0], dtype=float)
+    ends, centres, sweeps, counts, worst = fit_runs_many(pts, starts, float(tol_mm), bool(arcs))
+    first = np.concatenate([[0], np.cumsum(counts)])
+    out = []
+    for k in range(len(polylines)):
+        a, b = first[k], first[k + 1]
+        out.append((np.vstack([pts[starts[k]:starts[k] + 1], pts[ends[a:b]]]), centres[a:b],
+                    sweeps[a:b], float(worst[k])))
+    return out
 
 
 def _straight_cubics(p: np.ndarray) -> np.ndarray:
@@ -275,6 +292,8 @@ def _fit(ctrl, tol_mm, closed_loop, breaks, *, shape=None, base_deviation_mm=0.0
     polyline, following the tangents ``ctrl`` estimates at its vertices. A polyline is measured
     at each vertex and segment midpoint; a curve by density, then re-measured where its
     samples may misjudge it."""
+    from labkit.geometry._biarcfit import fit_cubic_chain
+
     ctrl = np.ascontiguousarray(ctrl)
     polyline = shape is not None
     shape = shape if polyline else ctrl
@@ -307,6 +326,8 @@ def _samples_may_hide(ctrl: np.ndarray, tol_mm: float) -> np.ndarray:
     the fit's own measure is close enough; elsewhere (tight loops, near-cusps, fine
     tolerances) the result is checked densely.
     """
+    from labkit.geometry._biarcfit import _PER_CUBIC
+
     pts = cubic_samples(ctrl, _PER_CUBIC + 1).reshape(len(ctrl), _PER_CUBIC + 1, 2)
     d2 = pts[:, :-2] - 2.0 * pts[:, 1:-1] + pts[:, 2:]
     return np.hypot(d2[..., 0], d2[..., 1]).max(axis=1) / 8.0 > (1.0 - SAMPLE_SHARE) * tol_mm
@@ -392,8 +413,93 @@ def cubics_to_arcs(ctrls, tol_mm, *, arcs=True, start=None, method="greedy", **m
         c[0, 0] = np.asarray(start, dtype=float).reshape(2)
     if arcs and method == "biarc":
         return _fit(c, tol_mm, False, _NO_BREAKS, **meta)
+    if arcs:
+        return cubic_chains_to_arcs([c], tol_mm, **meta)[0]
     flat_tol, fit_tol = sampling_share(tol_mm)
     pts, _ = flatten_cubics(c, flat_tol)
     dense = np.vstack([c[:1, 0], pts])
     return fit_arcs(dense, fit_tol, arcs=arcs, base_deviation_mm=flat_tol,
                     method="greedy", **meta)
+
+
+def cubic_chains_to_arcs(chains, tol_mm, **meta) -> list[Path]:
+    """Many chains of cubic Beziers as lines and arcs, each as :func:`cubics_to_arcs` makes it
+    with ``method="greedy"`` and arcs on: the same Paths, with every chain flattened in one
+    kernel call and fitted in one more (a drawing's hundreds of chains cost two calls).
+
+    Parameters
+    ----------
+    chains : sequence of array_like, each shape (m, 4, 2)
+        Control points in mm; within a chain each cubic starts where the one before ends.
+    tol_mm : float
+        Largest distance between each curve and its Path, mm.
+    **meta
+        Layer and colours of every Path.
+
+    Returns
+    -------
+    list of Path
+        One per chain, open, in order.
+
+    Examples
+    --------
+    >>> k = 0.5522847498
+    >>> quarter = [[[10, 0], [10, 10 * k], [10 * k, 10], [0, 10]]]
+    >>> a, b = cubic_chains_to_arcs([quarter, np.array(quarter) * 2], 0.01)
+    >>> round(float(a.radii_mm()[0]), 2), round(float(b.radii_mm()[0]), 2)
+    (10.0, 20.0)
+    """
+    return [Path(v, c, s, deviation_mm=dev, **meta) for v, c, s, dev in chain_fits(chains, tol_mm)]
+
+
+def chain_fits(chains, tol_mm) -> list[tuple]:
+    """:func:`cubic_chains_to_arcs` without making the Paths, for a reader that puts the pieces
+    into Paths of its own.
+
+    Parameters
+    ----------
+    chains : sequence of array_like, each shape (m, 4, 2)
+        Control points in mm; within a chain each cubic starts where the one before ends.
+    tol_mm : float
+        Largest distance between each curve and its lines and arcs, mm.
+
+    Returns
+    -------
+    list of tuple
+        Per chain: vertices (k + 1, 2) in mm, centres (k, 2) in mm (NaN for lines), sweeps (k,)
+        in rad (0 for lines) and the deviation bound in mm, as the Path would hold them.
+
+    Examples
+    --------
+    >>> v, c, s, dev = chain_fits([[[[0, 0], [1, 1], [2, 1], [3, 0]]]], 0.01)[0]
+    >>> v.shape[1], c.shape[1], len(s) == len(v) - 1, dev <= 0.01
+    (2, 2, True, True)
+    """
+    if not tol_mm > 0:
+        raise GeometryError(f"tol_mm must be > 0 mm, got {tol_mm!r}")
+    if not len(chains):
+        return []
+    ctrl = [np.asarray(c, dtype=float).reshape(-1, 4, 2) for c in chains]
+    if any(len(c) == 0 for c in ctrl):
+        raise GeometryError("cubics_to_arcs needs at least one cubic, got none")
+    flat_tol, fit_tol = sampling_share(tol_mm)
+    pts, counts = flatten_cubics(np.concatenate(ctrl) if len(ctrl) > 1 else ctrl[0], flat_tol)
+    # the points of each chain, its start first, without repeats (as fit_arcs keeps them)
+    per_chain = np.array([len(c) for c in ctrl])
+    sizes = np.add.reduceat(counts, np.concatenate([[0], np.cumsum(per_chain)[:-1]]))
+    chain_of = np.repeat(np.arange(len(ctrl)), sizes + 1)
+    dense = np.empty((len(pts) + len(ctrl), 2))
+    heads = np.concatenate([[0], np.cumsum(sizes + 1)[:-1]])
+    dense[heads] = [c[0, 0] for c in ctrl]
+    body = np.ones(len(dense), bool)
+    body[heads] = False
+    dense[body] = pts
+    keep = np.ones(len(dense), bool)
+    keep[1:] = np.any(dense[1:] != dense[:-1], axis=1)
+    keep[heads] = True
+    dense, chain_of = dense[keep], chain_of[keep]
+    bounds = np.searchsorted(chain_of, np.arange(len(ctrl) + 1))
+    polylines = [dense[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
+    if any(len(q) < 2 for q in polylines):
+        raise GeometryError("fit_arcs: all points coincide")
+    return [(v, c, s, w + flat_tol) for v, c, s, w in _greedy_runs(polylines, fit_tol, True)]

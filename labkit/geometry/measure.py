@@ -21,7 +21,7 @@ import numpy as np
 
 from labkit._jit import jit
 from labkit.geometry._grid import buckets
-from labkit.geometry.path import Path
+from labkit.geometry.path import Path, paths_bounds
 
 __all__ = ["path_distance", "hausdorff"]
 
@@ -202,8 +202,7 @@ def path_distance(paths: PathLike, points) -> np.ndarray:
     """
     ps = _as_list(paths)
     pts = np.asarray(points, dtype=float).reshape(-1, 2)
-    lo = np.min([p.bounds()[0] for p in ps], axis=0)
-    hi = np.max([p.bounds()[1] for p in ps], axis=0)
+    lo, hi = paths_bounds(ps)
     n_seg = sum(p.n_segments for p in ps)
     span = max(float(np.max(hi - lo)), 1e-9)
     cell = max(span / max(1.0, math.sqrt(n_seg)), span / 4096, 1e-9)

@@ -184,8 +184,10 @@ def region_paths(reg, tol_mm, *, sample_tol_mm=0.0, arcs=True, **meta) -> list[P
             ccw = _signed_area(pts) > 0
             if ccw != outer:
                 pts = pts[::-1]
-            out.append(fit_arcs(pts, tol_mm - sample_tol_mm, arcs=arcs, closed=True,
-                                base_deviation_mm=sample_tol_mm, **meta))
+            ring = fit_arcs(pts, tol_mm - sample_tol_mm, arcs=arcs, closed=True,
+                            base_deviation_mm=sample_tol_mm, **meta)
+            if ring.length_mm > 0:          # a sliver the fit closed to a point: nothing to cut
+                out.append(ring)
     return out
 
 

@@ -35,7 +35,7 @@ import numpy as np
 from labkit._jit import jit
 from labkit.errors import GeometryError
 from labkit.geometry._grid import buckets, nearest_neighbours
-from labkit.geometry.path import Path
+from labkit.geometry.path import Path, sample_each
 
 __all__ = ["Ordering", "order_segments", "order_paths", "travel_length", "containment_parents", "greedy_grid"]
 
@@ -249,7 +249,7 @@ def _reverse(tour, flip, pos, i, j):
         pos[t] = q
 
 
-@jit(python_below=10_000)  # ~5–10 µs an element as Python
+@jit(python_below=150_000)  # ~5.6 µs an element as Python (51–1,988 items: 1,479–57,652 elements)
 def _two_opt(tour, flip, p_in, p_out, neigh_item, parent, ox, oy, max_passes):
     """tour: item per position; flip[item]: cut backwards; p_in/p_out (n, 2, 2): entry/exit
     point of each item for flip = 0 / 1. neigh_item (n, k): items whose ends are near."""
@@ -445,7 +445,7 @@ def containment_parents(paths: Sequence[Path], tol_mm=0.05) -> np.ndarray:
     closed = [i for i, p in enumerate(paths) if p.closed and p.n_segments >= 2]
     if not closed:
         return parent
-    polys = [shapely.Polygon(paths[i].sample(tol_mm)) for i in closed]
+    polys = [shapely.Polygon(r) for r in sample_each([paths[i] for i in closed], tol_mm)]
     areas = np.array([abs(poly.area) for poly in polys])
     tree = shapely.STRtree(polys)
     pts = shapely.points(np.array([p.vertices[min(1, p.n_segments - 1)] for p in paths]))

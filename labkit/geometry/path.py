@@ -29,10 +29,10 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from labkit.errors import GeometryError
-from labkit.geometry.circle import arc_bounds, chord_segments
+from labkit.geometry.circle import chord_segments
 from labkit.geometry import transform as _tf
 
-__all__ = ["Path", "total_length", "paths_bounds", "count_segments", "max_deviation", "check_paths"]
+__all__ = ["Path", "total_length", "paths_bounds", "bounds_each", "sample_each", "count_segments", "max_deviation", "check_paths"]
 
 _META = ("layer", "stroke", "fill", "fill_rule", "source")
 
@@ -189,13 +189,13 @@ class Path:
         return float(self.lengths_mm().sum())
 
     def bounds(self) -> np.ndarray:
-        """``[[xmin, ymin], [xmax, ymax]]`` in mm, arcs included exactly."""
-        lo = self.vertices.min(axis=0)
-        hi = self.vertices.max(axis=0)
-        for i in np.flatnonzero(self.is_arc):
-            box = arc_bounds(self.vertices[i], self.vertices[i + 1], self.centres[i], self.sweeps[i])
-            lo, hi = np.minimum(lo, box[0]), np.maximum(hi, box[1])
-        return np.array([lo, hi])
+        """``[[xmin, ymin], [xmax, ymax]]`` in mm, arcs included exactly (the vertices and every
+        axis crossing an arc sweeps: :func:`labkit.geometry.circle.arc_bounds`' numbers)."""
+        v = self.vertices
+        arc = np.flatnonzero(self.sweeps != 0)
+        if len(arc):
+            v = np.vstack([v, _axis_crossings(v[arc], self.centres[arc], self.sweeps[arc])[0]])
+        return np.array([v.min(axis=0), v.max(axis=0)])
 
     def signed_area_mm2(self) -> float:
         """Signed area of a closed path, mm² (CCW > 0), arcs' circular segments included."""
@@ -367,9 +367,105 @@ def max_deviation(paths: Iterable[Path]) -> float:
     return max((p.deviation_mm for p in paths), default=0.0)
 
 
+def _axis_crossings(starts, centres, sweeps):
+    """Where arcs (their start points, centres and non-zero sweeps) cross the axis directions
+    through their centres — the extreme points :func:`labkit.geometry.circle.arc_bounds` adds to
+    an arc's ends, with its arithmetic (numpy's atan2 is the same libm function as math's; the
+    radius is math.hypot's). Returns the points (k, 2) and the arc each belongs to (k,)."""
+    c = centres
+    a0 = np.arctan2(starts[:, 1] - c[:, 1], starts[:, 0] - c[:, 0])
+    ccw = sweeps >= 0
+    lo = np.where(ccw, a0, a0 + sweeps)
+    hi = np.where(ccw, a0 + sweeps, a0) + 1e-15
+    quarter = math.pi / 2
+    # a sweep under a full turn crosses at most four axes: k0 … k0 + 3 quarters on
+    k = np.ceil(lo / quarter)[:, None] + np.arange(4.0)
+    which, step = np.nonzero(k * quarter <= hi[:, None])
+    if not len(which):
+        return np.empty((0, 2)), which
+    d = starts[which] - c[which]
+    r = np.array([math.hypot(x, y) for x, y in d.tolist()])
+    unit = _AXES[(k[which, step] % 4).astype(np.int64)]
+    return c[which] + r[:, None] * unit, which
+
+
+_AXES = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])      # cos, sin of k quarters
+
+
+def sample_each(paths: Sequence[Path], tol_mm=0.01) -> list[np.ndarray]:
+    """Each path's :meth:`Path.sample` (the same points), all paths in one vectorised pass.
+
+    >>> a, b = sample_each([Path.circle((0, 0), 1), Path.rectangle(0, 0, 2, 1)], 0.1)
+    >>> len(a), b.tolist()
+    (9, [[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [0.0, 1.0], [0.0, 0.0]])
+    """
+    if not tol_mm > 0:
+        raise GeometryError(f"tol_mm must be > 0 mm, got {tol_mm!r}")
+    if not len(paths):
+        return []
+    n_seg = np.array([p.n_segments for p in paths])
+    v = np.concatenate([p.vertices for p in paths])
+    sw = np.concatenate([p.sweeps for p in paths])
+    first_vertex = np.cumsum(n_seg + 1) - (n_seg + 1)
+    row = np.arange(len(sw)) + np.repeat(np.arange(len(paths)), n_seg)    # each segment's start
+    arc = sw != 0
+    counts = np.ones(len(sw), np.int64)
+    if arc.any():
+        centres = np.concatenate([p.centres for p in paths])
+        r = np.hypot(*(v[row[arc]] - centres[arc]).T)
+        counts[arc] = chord_segments(r, sw[arc], tol_mm)
+    seg = np.repeat(np.arange(len(sw)), counts)
+    first = np.cumsum(counts) - counts
+    k = np.arange(len(seg)) - first[seg] + 1
+    out = v[row[seg] + 1]                                 # segment ends (lines: exact)
+    inner = arc[seg] & (k < counts[seg])
+    if inner.any():
+        i = seg[inner]
+        c = centres[i]
+        p0 = v[row[i]] - c
+        rad = np.hypot(*p0.T)
+        a = np.arctan2(p0[:, 1], p0[:, 0]) + sw[i] * (k / counts[seg])[inner]
+        out[inner] = c + rad[:, None] * np.stack([np.cos(a), np.sin(a)], axis=1)
+    # each path: its first vertex, then its segments' points
+    per_path = np.add.reduceat(counts, np.cumsum(n_seg) - n_seg) if len(sw) else np.zeros(len(paths), np.int64)
+    per_path = np.where(n_seg > 0, per_path, 0)
+    size = per_path + 1
+    start = np.cumsum(size) - size
+    pts = np.empty((int(size.sum()), 2))
+    body = np.ones(len(pts), bool)
+    body[start] = False
+    pts[start] = v[first_vertex]
+    pts[body] = out
+    return np.split(pts, start[1:])
+
+
+def bounds_each(paths: Sequence[Path]) -> np.ndarray:
+    """Each path's :meth:`Path.bounds` (the same numbers), all paths at once: shape (n, 2, 2).
+
+    >>> bounds_each([Path.circle((0, 0), 1), Path.rectangle(2, 2, 1, 3)]).tolist()
+    [[[-1.0, -1.0], [1.0, 1.0]], [[2.0, 2.0], [3.0, 5.0]]]
+    """
+    if not len(paths):
+        return np.zeros((0, 2, 2))
+    sizes = np.array([len(p.vertices) for p in paths])
+    v = np.concatenate([p.vertices for p in paths])
+    sw = np.concatenate([p.sweeps for p in paths])
+    owner = np.repeat(np.arange(len(paths)), sizes)
+    seg = np.ones(len(v), bool)                          # row k starts segment k of its path
+    seg[np.cumsum(sizes) - 1] = False
+    arc = np.flatnonzero(seg)[sw != 0]
+    if len(arc):
+        centres = np.concatenate([p.centres for p in paths])[sw != 0]
+        pts, which = _axis_crossings(v[arc], centres, sw[sw != 0])
+        v, owner = np.vstack([v, pts]), np.concatenate([owner, owner[arc][which]])
+    order = np.argsort(owner, kind="stable")
+    v, first = v[order], np.searchsorted(owner[order], np.arange(len(paths)))
+    return np.stack([np.minimum.reduceat(v, first), np.maximum.reduceat(v, first)], axis=1)
+
+
 def paths_bounds(paths: Sequence[Path]) -> np.ndarray:
     """Box around all paths, ``[[xmin, ymin], [xmax, ymax]]`` mm (NaN when empty)."""
     if not len(paths):
         return np.full((2, 2), np.nan)
-    boxes = np.array([p.bounds() for p in paths])
+    boxes = bounds_each(paths)
     return np.array([boxes[:, 0].min(axis=0), boxes[:, 1].max(axis=0)])

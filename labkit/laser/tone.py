@@ -45,6 +45,7 @@ from scipy.interpolate import PchipInterpolator
 from labkit.errors import InputError
 from labkit.laser._calibration import read_document, registered_scan, save_document
 from labkit.laser.patterns import GridPattern, grid_pattern
+from labkit.units import s_within
 
 __all__ = ["ToneCurve", "wedge_pattern", "measure_wedge", "fit_tone", "isotonic", "load_tone", "TONE_FORMAT",
            "TONE_VERSION"]
@@ -347,7 +348,7 @@ def fit_tone(s_word, darkness, *, spread=None, weights=None, s_max: float = 1000
         raise InputError(f"need at least two patches with one darkness each, got {s.shape} S and {d.shape} darkness")
     if not (np.all(np.isfinite(s)) and np.all(np.isfinite(d)) and np.all(s > 0)):
         raise InputError("patch S must be finite and > 0 and darkness finite")
-    if not (math.isfinite(s_max) and s_max > 0 and s.max() <= s_max):
+    if not (math.isfinite(s_max) and s_max > 0 and s_within(s.max(), s_max)):
         raise InputError(f"s_max must be > 0 and at least the highest patch S ({s.max():g}), got {s_max!r}")
     order = np.argsort(s)
     s, d = s[order], d[order]

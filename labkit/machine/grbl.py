@@ -375,6 +375,11 @@ class Grbl:
         self.answer_count = 0
         self.info = MachineInfo()
         self.alarm: int | None = None
+        #: the answers GRBL sent at the last :meth:`soft_reset` for the line it was in (after
+        #: ALARM:1/2, or with ALARM:3): they acknowledge a line that never ran (or ran part way)
+        self.reset_answers: list[Event] = []
+        self._alarm_mark: int | None = None     # answers before the last alarm since a banner
+        self._reset_owed_from: int | None = None
         self.disconnected: str | None = None
         self.warnings: list[str] = []          #: what the reader noticed (absurd status reports)
         self._warned: set = set()
@@ -491,6 +496,7 @@ class Grbl:
         m = _ALARM.match(text)
         if m:
             self.alarm = int(m.group(1))
+            self._alarm_mark = self.answer_count
             self.events.put(Event("alarm", self.alarm, text, now))
             return
         m = _SETTING.match(text)
@@ -498,6 +504,9 @@ class Grbl:
             self.settings[int(m.group(1))] = m.group(2).strip()
         if _BANNER.match(text):
             self.info.banner = text
+            # an answer between an alarm and this banner is GRBL's answer, at the reset, to the
+            # line it was in (soft_reset sets it aside)
+            self._reset_owed_from, self._alarm_mark = self._alarm_mark, None
             self._banner.set()
             self.events.put(Event("reset", 0, text, now))
             return
@@ -774,12 +783,37 @@ class Grbl:
         self.realtime("cycle_start")
 
     def soft_reset(self, timeout_s: float = 3.0) -> None:
-        """0x18: stop at once, flush every buffer, laser off; waits for the banner."""
+        """0x18: stop at once, flush every buffer, laser off; waits for the banner.
+
+        GRBL answers, at the reset, the line it was in: after a critical alarm (ALARM:1/2,
+        when it answers nothing until the reset) and after the reset's own ALARM:3 that
+        ``ok`` acknowledges a line that never ran (or ran part way). It is taken out of the
+        answers here, into :attr:`reset_answers`, so that no later :meth:`command` takes it as
+        its own.
+        """
         self._banner.clear()
         self.realtime("soft_reset")
         if not self._banner.wait(timeout_s):
             raise MachineError(f"no start-up banner after a soft reset of {self.link.name}")
         time.sleep(0.05)                     # let the lines after the banner arrive
+        self._set_aside_reset_answers()
+
+    def _set_aside_reset_answers(self) -> None:
+        """Move the ok/error events between the alarm and the last banner out of the queue."""
+        owed_from, self.reset_answers = self._reset_owed_from, []
+        if owed_from is None:
+            return
+        with self.events.mutex:                  # the reader appends under the same lock
+            pending = list(self.events.queue)
+            last_reset = max((k for k, ev in enumerate(pending) if ev.kind == "reset"), default=-1)
+            kept = []
+            for k, ev in enumerate(pending):
+                if k < last_reset and ev.kind in ("ok", "error") and ev.seq >= owed_from:
+                    self.reset_answers.append(ev)
+                else:
+                    kept.append(ev)
+            self.events.queue.clear()
+            self.events.queue.extend(kept)
 
     def stop_safely(self, *, hold: bool = True, reset: bool = True, hold_timeout_s: float = 3.0,
                     reset_timeout_s: float = 3.0, answer_timeout_s: float = 2.0) -> SafeStop:
@@ -862,7 +896,7 @@ class Grbl:
                 if gone():
                     raise
                 why = str(exc)
-                if "error:9" in why or "ALARM" in why:
+                if grbl_reply(ErrorCode.GCODE_LOCKED) in why or "ALARM" in why:
                     why += " (the controller is in alarm: the reset had already switched the beam off)"
                 rec.steps.append(f"M5 S0 sent, not confirmed: {why}")
         except MachineError as exc:              # a write failed: the link went during the stop

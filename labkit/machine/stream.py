@@ -44,10 +44,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from labkit.errors import InputError, LabkitError, MachineError
+from labkit.errors import AlarmCode, InputError, LabkitError, MachineError
 from labkit.gcode.reader import strip_comments
 from labkit.gcode.state import line_states
-from labkit.machine.grbl import Grbl, alarm_message, error_message
+from labkit.machine.grbl import Grbl, alarm_message, error_message, grbl_reply
 from labkit.machine.resume import frame_text, resume_text
 
 __all__ = ["Job", "JobReport", "run_job", "JobRunner", "resume_text", "frame_text", "strip_line", "Controls",
@@ -496,10 +496,7 @@ def run_job(grbl: Grbl, job: Job, *, mode: str = "counting", on_error: str = "st
     key = object()
     _RUNNING[key] = (controls, done)
     t0 = time.monotonic()
-    from labkit.machine.virtual import VirtualMachine
-
-    vm = getattr(getattr(grbl, "link", None), "port", None)
-    vm = vm if isinstance(vm, VirtualMachine) else None
+    vm = _virtual_machine(getattr(grbl, "link", None))
     vm_start = (vm.sim_time_s, vm.lines_run) if vm is not None else None
     runner = None
     try:
@@ -1053,7 +1050,9 @@ def _answers_lost(grbl: Grbl, sent_at_query, line_ends: list, sent_syncing: list
     answered = st.answers_before - answers_base
     if whole_lines <= answered:
         return 0
-    busy = _may_hold(st, sent_syncing, answered)
+    # the line it may hold is the last it read (GRBL works through lines in order), which is
+    # not the first unanswered one once an answer is lost
+    busy = _may_hold(st, sent_syncing, whole_lines - 1)
     return max(0, whole_lines - answered - (1 if busy else 0))
 
 
@@ -1179,7 +1178,8 @@ def _make_safe(grbl: Grbl, fault: _Fault, report: JobReport, acked: list, inflig
             elif ev.kind == "ok" and inflight:
                 inflight.popleft()
         stop.events = []
-    if str(fault).startswith(("ALARM:1:", "ALARM:2:")):
+    critical = (AlarmCode.HARD_LIMIT, AlarmCode.SOFT_LIMIT)
+    if str(fault).startswith(tuple(grbl_reply(a) + ":" for a in critical)):
         # GRBL's critical alarm answers nothing until the reset, which then answers the line it
         # was in: that ok acknowledges a line that never ran
         stop.events = [ev for ev in stop.events if ev.kind != "ok"]

@@ -49,6 +49,7 @@ What the machine did is recorded for tests and notebooks: :attr:`executed`
 from __future__ import annotations
 
 import math
+import re
 import threading
 import time
 from collections import deque
@@ -100,6 +101,41 @@ _RPM_SETTINGS = {30, 31}
 
 #: GRBL 1.1h's line buffer holds 79 characters (LINE_BUFFER_SIZE 80 with its terminator).
 GRBL_LINE_MAX = 79
+
+#: How long GRBL's axes keep their speed after a probe switches before they brake, s: the step
+#: segments already prepared (up to 5 of 10 ms) run out first. Measured on GRBL 1.1h in grbl-sim
+#: (record.py's probe topic: 0.077 mm at 100 mm/min beyond the 0.139 mm of braking); that
+#: recording is not in tests/vectors/grbl yet (README.md), so no replay checks this figure.
+_SEGMENT_LEAD_S = 0.046
+
+#: GRBL's factor for reports in inches (``$13=1``), nuts_bolts.h's INCH_PER_MM.
+_INCH_PER_MM = 0.0393701
+
+#: G words whose axis words are not a motion (GRBL's non-modal axis commands and G43.1).
+_AXIS_NOT_MOTION = frozenset({10.0, 28.0, 28.1, 30.0, 30.1, 92.0, 92.1, 43.1})
+
+_WORD = re.compile(r"([A-Z])([-+]?[0-9.]*)")
+
+
+def _grbl_number(value: float, decimals: int) -> str:
+    """A number as GRBL's printFloat writes it: a minus sign for any negative value, then
+    rounded half up at ``decimals`` places.
+
+    >>> _grbl_number(2.5, 0), _grbl_number(100.45, 1), _grbl_number(-0.0001, 3), _grbl_number(-0.0, 3)
+    ('3', '100.5', '-0.000', '0.000')
+    """
+    n = int(abs(value) * 10 ** decimals + 0.5)
+    sign = "-" if value < 0 else ""
+    if not decimals:
+        return f"{sign}{n}"
+    whole, frac = divmod(n, 10 ** decimals)
+    return f"{sign}{whole}.{frac:0{decimals}d}"
+
+
+def _startup_jog(line: str) -> str:
+    """A start-up line that begins with ``$`` as GRBL runs it: a jog, read from its fourth
+    character on (``$XYG91X1F100`` is ``$J=G91X1F100``)."""
+    return "$J=" + line[3:]
 
 
 def _grbl_line(text: str) -> tuple[str, bool]:
@@ -167,6 +203,7 @@ class _Block:
     replies: tuple = ()
     pause: bool = False         # M0: a feed hold once the moves before it have run
     probe: int = 0              # G38.2-G38.5 as 382-385: the move stops when the probe switches
+    probe_point: np.ndarray | None = None   # where it switched (the block now brakes past it)
 
 
 def _stack(rows: list) -> Blocks:
@@ -323,6 +360,13 @@ class VirtualMachine:
         self._wire: deque = deque()          # [first byte's start s, bytes, bytes already arrived]
         self._wire_free_s = 0.0              # when the link has sent all that was written
         self._parsed: tuple | None = None    # (line, time its parse ends) read from RX, not yet run
+        # the blocks of the line GRBL is in that wait for planner room (an arc's chords enter one
+        # at a time as blocks end), and that line's replies, sent once the last has entered
+        self._admitting: deque = deque()
+        self._admit_replies: tuple = ()
+        self._sync_verdict: tuple = ("", False)   # (line, whether it waits for an empty planner)
+        self._wco_preview = None            # the WCO a waiting line has set already (reports)
+        self._soft_limit_braking = False    # a soft limit hit while moving: braking, then ALARM:2
         self._dry_since: float | None = None
         #: every time the planner ran dry and a line's blocks arrived later (simulated s since
         #: power-up, the line's count since power-up as :attr:`lines_run`, the wait)
@@ -343,7 +387,6 @@ class VirtualMachine:
         self.startup_lines = ["", ""]        #: ``$N0=`` and ``$N1=``, run after every reset
         self._partial = bytearray()          # the start of a line read out of the RX buffer
         self.overrides = (100, 100, 100)     # feed, rapid, laser power (%), GRBL's Ov: field
-        self._ov_changed = False
         self._lock = threading.RLock()
         self._out = bytearray()
         self._rx = bytearray()
@@ -364,9 +407,11 @@ class VirtualMachine:
         #: the rows of the firmware simulator's --beam-log
         self.beam_log: list[tuple[float, float, str, int]] = []
         self._beam_level = 0.0
-        self._wco_counter = self._ovr_counter = 0   # GRBL's report refresh counters
-        self._wco_sent = np.zeros(3)
-        self._ov_laser = 0
+        # GRBL's report refresh counters: a report shows WCO: (Ov:) when its counter is 0, and
+        # what changes the offsets (the spindle, coolant or an override) sets it to 0
+        self._wco_counter = self._ovr_counter = 0
+        self._flood = False                 # the coolant output (M8), as GRBL's A:F reads it
+        self._hold_stopped_laser = False    # a hold in laser mode switched the beam off
         self._speed = 0.0           # mm/s at the end of the last block executed
         self._hold_v = 0.0          # mm/s while braking for a feed hold
         self._parser = Interpreter("grbl", streaming=True)   # GRBL reads a stream: % is error:1
@@ -375,6 +420,12 @@ class VirtualMachine:
             self.state, self.alarm_code = "Alarm", 0
         if banner:
             self._emit("\r\nGrbl 1.1h ['$' for help]")
+            if self._flag(21) and self._pressed().any():
+                # GRBL checks the limit inputs after a reset with hard limits on: one pressed
+                # locks it in Alarm
+                if self.state != "Alarm":
+                    self.state, self.alarm_code = "Alarm", 0
+                self._emit(grbl_reply(Feedback.CHECK_LIMITS))
             if self.state == "Alarm":
                 self._emit(grbl_reply(Feedback.ALARM_LOCK))
 
@@ -431,34 +482,48 @@ class VirtualMachine:
         self.pos[axis] = value_mm
 
     def _stop_at_switch(self, start: np.ndarray) -> bool:
-        """Whether the motion from ``start`` to here tripped GRBL's hard limit: an input changed
-        (its pin-change interrupt) while one reads pressed. If so the head is put back where the
-        first input changed (the step is a straight line)."""
-        now = self._pressed()
-        hit = now != self._pressed(start)
-        if not (hit.any() and now.any()):
+        """Whether the motion from ``start`` to here tripped GRBL's hard limit: an input changed,
+        pressed or released (its pin-change interrupt; GRBL 1.1h as built does not check which,
+        HARD_LIMIT_FORCE_STATE_CHECK is off). If so the head is put back at the first whole step
+        (``$100``-``$102``) where an input changed (the step is a straight line): a switch is
+        pressed at its position, released one step off it."""
+        before = self._pressed(start)
+        hit = self._pressed() != before
+        if not hit.any():
             return False
         travel = self.pos - start
         with np.errstate(divide="ignore", invalid="ignore"):
             where = np.where(travel != 0, (self._switch_mm - start) / travel, 0.0)
-        self.pos = start + travel * float(np.clip(where[hit], 0.0, 1.0).min())
+        spm = np.array([float(self.settings[100 + a]) for a in range(3)])
+        first = math.inf
+        for a in np.flatnonzero(hit):
+            f = float(np.clip(where[a], 0.0, 1.0))
+            if self._pressed(start + travel * f)[a] == before[a]:   # still as before: a release
+                f += 1.0 / (spm[a] * abs(travel[a]))   # (may end a step past this tick's end)
+            first = min(first, f)
+        self.pos = start + travel * first
         return True
+
+    def _probe_touching(self, pos=None) -> bool:
+        """The probe input as GRBL reads it (``$6`` inverts it) with the head at ``pos``."""
+        pos = self.pos if pos is None else np.asarray(pos, float)
+        wired = self._probe_side != 0
+        reached = (pos - self._probe_mm) * self._probe_side >= -1e-9
+        return bool(self._probe_stuck.any() or (wired & reached).any()) ^ self._flag(6)
 
     def _probe_reached(self, kind: int, pos=None) -> bool:
         """Whether the probe input is where a G38 move of ``kind`` (382-385) stops: touching
         for G38.2/G38.3, no longer touching for G38.4/G38.5 (``$6`` inverts the input)."""
-        pos = self.pos if pos is None else np.asarray(pos, float)
-        wired = self._probe_side != 0
-        reached = (pos - self._probe_mm) * self._probe_side >= -1e-9
-        touching = bool(self._probe_stuck.any() or (wired & reached).any()) ^ self._flag(6)
-        return touching != (kind >= 384)
+        return self._probe_touching(pos) != (kind >= 384)
 
     def _probe_result(self, b: "_Block", touched: bool) -> None:
         """GRBL's end of a probe cycle (mc_probe_cycle): the touch position kept, or for G38.3 and
         G38.5 where it stopped, or for G38.2 and G38.4 ALARM:5 (the last position kept); then
         ``[PRB:x,y,z:0|1]`` (machine mm) and the line's ok."""
         self._probe_touched = touched
-        if touched or b.probe in (383, 385):
+        if touched:
+            self._probe_at = b.probe_point.copy()
+        elif b.probe in (383, 385):
             self._probe_at = self.pos.copy()
         else:
             self.state, self.alarm_code = "Alarm", AlarmCode.PROBE_FAIL_CONTACT
@@ -477,8 +542,43 @@ class VirtualMachine:
                 lo = mid
         return start + (self.pos - start) * hi
 
+    def _probe_step(self, kind: int, start: np.ndarray, b: "_Block") -> np.ndarray:
+        """The step at which GRBL sees the probe switch between ``start`` and here: the first
+        whole step (``$100``-``$102``) along the move where the input reads switched."""
+        spm = np.array([float(self.settings[100 + a]) for a in range(3)])
+        way = np.sign(b.end - b.start)
+        p = self._probe_crossing(kind, start) * spm
+        steps = np.where(way > 0, np.ceil(p - 1e-6), np.where(way < 0, np.floor(p + 1e-6), np.round(p)))
+        for _ in range(4):                   # at the switch point itself it may not read switched
+            if self._probe_reached(kind, steps / spm):
+                break
+            steps = steps + way
+        return steps / spm
+
+    def _probe_stop(self, b: "_Block", start: np.ndarray) -> None:
+        """The probe switched during ``b``: GRBL records the step (``[PRB:]``), cancels the motion
+        and brakes along the move: the prepared segments first (:data:`_SEGMENT_LEAD_S`), then
+        at the block's acceleration, never past the probe's target. The block becomes that
+        braking; its end finishes the probe cycle."""
+        touch = self._probe_step(b.probe, start, b)
+        v = self._current_speed()
+        acc = b.accel_mm_s2 if math.isfinite(b.accel_mm_s2) else 1e9
+        length = float(np.linalg.norm(b.end - b.start))
+        u = (b.end - b.start) / length if length > 0 else np.zeros(3)
+        left = max(0.0, float(np.dot(b.end - touch, u)))
+        lead = v * _SEGMENT_LEAD_S
+        d = min(left, lead + v * v / (2.0 * acc))
+        if d <= lead:
+            t = d / v if v > 0 else 0.0
+        else:
+            t = _SEGMENT_LEAD_S + (v - math.sqrt(max(0.0, v * v - 2.0 * acc * (d - lead)))) / acc
+        b.probe_point = touch
+        b.start, b.end = touch.copy(), touch + u * d
+        b.done_s, b.duration_s = 0.0, t
+        self.pos = touch.copy()
+
     def _prb_line(self) -> str:
-        return "[PRB:{:.3f},{:.3f},{:.3f}:{:d}]".format(*self._probe_at, self._probe_touched)
+        return f"[PRB:{self._coords(self._probe_at)}:{self._probe_touched:d}]"
 
     def _outside_travel(self, points) -> bool:
         """GRBL 1.1h's soft-limit test (system_check_travel_limits, built without
@@ -496,9 +596,11 @@ class VirtualMachine:
         if alarm == AlarmCode.SOFT_LIMIT or self._parsed is not None:
             owed = (grbl_reply(ErrorCode.OK),)
         else:
-            owed = self._blocks[-1].replies if self._blocks else ()
+            owed = self._waiting_replies()
         self._critical_owed = owed
         self._blocks.clear()
+        self._admitting.clear()
+        self._admit_replies = ()
         self._rest_level = 0.0
         self._rx.clear()
         self._speed = 0.0
@@ -704,6 +806,27 @@ class VirtualMachine:
     def flush(self) -> None:
         pass
 
+    def advance(self, seconds: float) -> None:
+        """Let ``seconds`` of simulated time pass now, on top of what ``time_scale`` or
+        ``tick_s`` give: motion runs, bytes arrive, replies are written. With ``time_scale=0``
+        and ``tick_s=0`` the machine's clock moves only here, so a test can replay a
+        conversation with the waits it was recorded with.
+
+        Examples
+        --------
+        >>> vm = VirtualMachine(time_scale=0, tick_s=0.0, banner=False)
+        >>> _ = vm.write(b"G1 X1 F600\\nG4 P0\\n")      # 1 mm at 10 mm/s, then a dwell
+        >>> vm.read(64)
+        b'ok\\r\\n'
+        >>> vm.advance(1.0)
+        >>> vm.read(64), vm.sim_time_s
+        (b'ok\\r\\n', 1.0)
+        """
+        if seconds < 0:
+            raise ValueError(f"advance: seconds must be >= 0, got {seconds}")
+        with self._lock:
+            self._advance(float(seconds))
+
     def close(self) -> None:
         self.is_open = False
 
@@ -878,6 +1001,7 @@ class VirtualMachine:
                 self.state = "Idle"
             elif self.state == "Idle":          # GRBL holds at rest too, until cycle start
                 self.state, self.substate = "Hold", 0
+                self._hold_complete()
         elif kind == "door":
             # GRBL 1.1 without a door switch: a feed hold that de-energizes the spindle/laser once
             # stopped (Door:2 while it does, Door:0 after: closed, ready to resume with '~')
@@ -890,15 +1014,24 @@ class VirtualMachine:
                 if self.state == "Jog":
                     self._blocks.clear()
                 self.state, self.substate = "Door", 0
+                self._hold_complete()
         elif kind == "start":
-            if self.state == "Hold" or (self.state == "Door" and self.substate == 0):
-                if self.substate == 1 and self._blocks:    # resumed while still braking
-                    self._rearm(self._hold_v)
-                elif (self.state == "Hold" and self._flag(32) and self.laser_mode_word
-                      and self.s_word > 0):
-                    # laser mode: the hold switched the beam off (DISABLE_LASER_DURING_HOLD)
-                    self._emit(grbl_reply(Feedback.RESTORING_SPINDLE))
-                    self._ovr_counter = 0
+            # GRBL resumes only a completed hold (Hold:0, Door:0): a '~' while it still brakes
+            # is dropped (protocol.c: cycle start needs SUSPEND_HOLD_COMPLETE)
+            if self.state in ("Hold", "Door") and self.substate == 0:
+                if self.state == "Hold" and self._hold_stopped_laser:
+                    # laser mode: the hold switched the beam off (DISABLE_LASER_DURING_HOLD); GRBL
+                    # says so and lights it again with the next segment (no Ov: refresh)
+                    self._hold_stopped_laser = False
+                    if self.laser_mode_word:
+                        self._emit(grbl_reply(Feedback.RESTORING_SPINDLE))
+                elif self.state == "Door":
+                    # the door restores what it switched off: the spindle outside laser mode and
+                    # the coolant, each setting the Ov: counter
+                    if self.laser_mode_word and not self._flag(32):
+                        self._ovr_counter = 0
+                    if 8 in self._parser.state.coolant:
+                        self._flood, self._ovr_counter = True, 0
                 self.state = "Run" if self._blocks else "Idle"
                 self.substate = 0
         elif kind == "jog_cancel":
@@ -909,42 +1042,85 @@ class VirtualMachine:
             for reply in self._critical_owed or ():
                 self._emit(reply)
             self._critical_owed = None
-            moving = (self.state in ("Run", "Jog", "Home") or self._braking) and bool(self._blocks)
-            if self._blocks and self._blocks[-1].replies and not moving:
-                for reply in self._blocks[-1].replies:   # GRBL leaves its wait and answers the line
-                    self._emit(reply)
+            moving = self._moving()
+            waiting = self._waiting_replies()
+            if moving:
+                self._emit(grbl_reply(AlarmCode.ABORT_CYCLE))
+            for reply in waiting:           # GRBL leaves its wait and answers the line it was in
+                self._emit(reply)
             self._rx.clear()
             self._partial.clear()
             self._parsed = None
+            self._sync_verdict, self._wco_preview = ("", False), None
             self._dry_since = None
             self._blocks.clear()
+            self._admitting.clear()
+            self._admit_replies = ()
+            self._soft_limit_braking = False
             self._speed = 0.0
             self._reset_parser()
             self.check_mode = False
-            self._wco_counter = self._ovr_counter = 0
+            self._wco_counter = self._ovr_counter = 0   # GRBL clears its system state
+            self._flood = self._hold_stopped_laser = False
             self._probe_at, self._probe_touched = np.zeros(3), False   # GRBL clears them
             if moving:
                 self.state, self.alarm_code = "Alarm", AlarmCode.ABORT_CYCLE
-                self._emit(grbl_reply(AlarmCode.ABORT_CYCLE))
             elif self.state == "Sleep":                 # GRBL wakes from sleep locked
                 self.state, self.alarm_code = "Alarm", 0
             elif self.state != "Alarm":
                 self.state = "Idle"
             self._emit("\r\nGrbl 1.1h ['$' for help]")
+            if self._flag(21) and self._pressed().any():
+                # GRBL checks the limit inputs after a reset with hard limits on: one pressed
+                # locks it in Alarm
+                if self.state != "Alarm":
+                    self.state, self.alarm_code = "Alarm", 0
+                self._emit(grbl_reply(Feedback.CHECK_LIMITS))
             if self.state == "Alarm":
                 self._emit(grbl_reply(Feedback.ALARM_LOCK))
             else:
                 self._run_startup_lines()
 
+    def _moving(self) -> bool:
+        """Whether the axes are moving (or braking): a running block that is no dwell."""
+        return ((self.state in ("Run", "Jog") or self._braking) and bool(self._blocks)
+                and not self._blocks[0].is_dwell)
+
+    def _waiting_replies(self) -> tuple:
+        """The replies of the line GRBL is in, still unanswered: its blocks wait for planner
+        room, or it waits for the planner to empty (G4, M0, M2, M30, G38)."""
+        if self._soft_limit_braking:
+            return (grbl_reply(ErrorCode.OK),)
+        if self._parsed is not None and not self._parsed[0].startswith("$"):
+            # read and waiting (parsed, the planner full or a sync): GRBL ends the line at the
+            # reset and answers it as its parser judged it
+            line, overflow = _grbl_line(self._parsed[0])
+            if overflow:
+                return (grbl_reply(ErrorCode.LINE_OVERFLOW),)
+            saved = self._parser.state
+            _, error = self._parser.feed(line) if line else (None, None)
+            after, self._parser.state = self._parser.state, saved
+            if error is None:
+                # GRBL leaves its wait and finishes the line: what it writes to EEPROM (G10
+                # L2/L20, G28.1, G30.1) is written, from the parser's position (the end of the
+                # move the reset cut short); the rest goes with the reset
+                self._parser.state = replace(saved, coord_origins=after.coord_origins,
+                                             home28=after.home28, home30=after.home30)
+            return (grbl_reply(ErrorCode.OK if error is None else ErrorCode(error.code)),)
+        if self._admitting:
+            return self._admit_replies + self._admitting[-1].replies
+        return self._blocks[-1].replies if self._blocks else ()
+
     def _run_startup_lines(self) -> None:
         """GRBL's start-up lines (``$N0=``, ``$N1=``), each answered ``>line:ok`` (or its error)."""
         for startup in self.startup_lines:
             if startup:
-                err = self._gcode(startup, jog=False)
+                jog = startup.startswith("$")
+                err = self._gcode(_startup_jog(startup) if jog else startup, jog=jog)
                 if err == _DEFERRED:            # answered here, not when it has run
-                    self._blocks[-1].replies = ()
+                    (self._admitting or self._blocks)[-1].replies = ()
                 code = ErrorCode.OK if err in (None, _DEFERRED) else ErrorCode(err)
-                self._emit(f">{startup}:{grbl_reply(code)}")
+                self._answer(f">{startup}:{grbl_reply(code)}")
 
     def _override(self, byte: int) -> None:
         """GRBL 1.1's override bytes: feed 10–200 %, rapid 25/50/100 %, laser power 10–200 %.
@@ -961,61 +1137,80 @@ class VirtualMachine:
             power = 100
         elif byte in (0x9A, 0x9B, 0x9C, 0x9D):
             power += {0x9A: 10, 0x9B: -10, 0x9C: 1, 0x9D: -1}[byte]
-        self.overrides = (min(200, max(10, feed)), rapid, min(200, max(10, power)))
-        self._ov_changed = True
+        new = (min(200, max(10, feed)), rapid, min(200, max(10, power)))
+        if new != self.overrides:
+            self._ovr_counter = 0               # GRBL: "report change immediately"
+        self.overrides = new
+
+    def _coords(self, values) -> str:
+        """Positions as GRBL prints them: mm with 3 decimals, or with ``$13=1`` inches with 4."""
+        if self._flag(13):
+            return ",".join(_grbl_number(float(v) * _INCH_PER_MM, 4) for v in values)
+        return ",".join(_grbl_number(float(v), 3) for v in values)
+
+    def _rate(self, mm_min: float) -> str:
+        """A feed rate as GRBL prints it: mm/min without decimals, or in/min with one ($13=1)."""
+        if self._flag(13):
+            return _grbl_number(mm_min * _INCH_PER_MM, 1)
+        return _grbl_number(mm_min, 0)
 
     def _status_report(self) -> str:
-        st = self.state + (f":{self.substate}" if self.state in ("Hold", "Door") else "")
-        if self.check_mode and self.state == "Idle":
+        state = self.state
+        if state == "Run" and self._blocks and self._blocks[0].is_dwell:
+            state = "Idle"              # GRBL dwells (G4) with its planner empty: Idle
+        st = state + (f":{self.substate}" if state in ("Hold", "Door") else "")
+        if self.check_mode and state == "Idle":
             st = "Check"
-        feed = self._blocks[0].speed_mm_s * 60 if self._blocks and self.state == "Run" else 0.0
-        s = self.s_word if self.laser_output() > 0 else 0.0
-        free_blocks = self.planner_blocks - len(self._blocks)
+        feed = self._blocks[0].speed_mm_s * 60 if self._blocks and state == "Run" else 0.0
+        lit = self.laser_output() > 0
+        s = self.s_word if lit else 0.0
+        # GRBL's planner holds motion only: its G4, M0 and M2 wait outside it
+        free_blocks = self.planner_blocks - sum(not b.is_dwell for b in self._blocks)
         free_rx = self.rx_bytes - len(self._rx)
-        wco = self.work_offset
+        wco = self.work_offset if self._wco_preview is None else self._wco_preview
         mask = int(self.settings[10])
         # $10 bit 0: MPos (1) or WPos (0); bit 1: the buffer state Bf
         if mask & 1:
-            text = "<{}|MPos:{:.3f},{:.3f},{:.3f}".format(st, *(float(v) for v in self.pos))
+            text = f"<{st}|MPos:{self._coords(self.pos)}"
         else:
-            text = "<{}|WPos:{:.3f},{:.3f},{:.3f}".format(st, *(float(v) for v in self.pos - wco))
+            text = f"<{st}|WPos:{self._coords(self.pos - wco)}"
         if mask & 2:
             text += f"|Bf:{free_blocks},{free_rx}"
-        text += f"|FS:{feed:.0f},{s:.0f}"
-        pins = self.limit_pins
+        text += f"|FS:{self._rate(feed)},{_grbl_number(s, 0)}"
+        pins = ("P" if self._probe_touching() else "") + self.limit_pins
         if pins:                                        # GRBL: the inputs that read pressed
             text += f"|Pn:{pins}"
-        # GRBL's refresh counters: WCO every 10th report idle (30th busy) or at once after it
-        # changes, Ov on the report after WCO, then every 10th idle (20th busy) or at once after
-        # an override or the spindle/laser state changes; no Ln (GRBL's default build has none)
-        busy = self.state in ("Run", "Hold", "Jog", "Door", "Home")
-        if not np.array_equal(wco, self._wco_sent):
-            self._wco_counter, self._wco_sent = 0, wco
-        if self._ov_changed or self.laser_mode_word != self._ov_laser:
-            self._ovr_counter, self._ov_changed, self._ov_laser = 0, False, self.laser_mode_word
+        # GRBL's refresh counters (report.c): WCO when its counter is 0, then again after 10
+        # reports idle (30 busy: the state of this report); Ov on the report after a WCO, then
+        # after 10 idle (20 busy). What changes the offsets, the spindle/laser or coolant output
+        # or an override sets the counter to 0 (see _report_events). No Ln: (not in GRBL's build).
+        busy = state in ("Run", "Hold", "Jog", "Door", "Home")
         if self._wco_counter > 0:
             self._wco_counter -= 1
         else:
             self._wco_counter = (30 if busy else 10) - 1
             self._ovr_counter = self._ovr_counter or 1
-            text += "|WCO:{:.3f},{:.3f},{:.3f}".format(*wco)
+            text += f"|WCO:{self._coords(wco)}"
         if self._ovr_counter > 0:
             self._ovr_counter -= 1
         else:
             self._ovr_counter = (20 if busy else 10) - 1
             text += "|Ov:{},{},{}".format(*self.overrides)
-            if self.laser_output() > 0:                 # GRBL: A:S (M3) or A:C (M4) while the PWM is on
-                text += "|A:" + ("S" if self.laser_mode_word == 3 else "C")
+            # GRBL: the outputs that are on, A:S (M3) or A:C (M4) while the PWM runs, F the coolant
+            accessories = ("S" if self.laser_mode_word == 3 else "C") if lit else ""
+            accessories += "F" if self._flood else ""
+            if accessories:
+                text += "|A:" + accessories
         return text + ">"
 
-    def _advance(self) -> None:
+    def _advance(self, extra_s: float = 0.0) -> None:
         now = time.monotonic()
         if self.time_scale > 0:
             dt = (now - self._wall) * self.time_scale
         else:
             dt = self.tick_s
         self._wall = now
-        target = self._sim_t + dt
+        target = self._sim_t + dt + extra_s
         while True:
             # run to the next event: a byte that acts arrives, a parse ends, or a block ends
             t_next = min(target, self._next_arrival_s())
@@ -1088,13 +1283,29 @@ class VirtualMachine:
                 return dt
         if self._hold_v <= 1e-9 or not self._blocks or self._blocks[0].is_dwell:
             self.substate, self._hold_v = 0, 0.0
-            if self._flag(32):
-                self._ovr_counter = 0           # GRBL switched the laser off: Ov and A: now
             if self._blocks and not self._blocks[0].is_dwell:
                 self._rearm(0.0)
             self._speed = 0.0
+            if self._soft_limit_braking:         # stopped: now GRBL's soft-limit alarm
+                self._soft_limit_braking = False
+                self.state, self.substate = "Idle", 0
+                self._critical_alarm(AlarmCode.SOFT_LIMIT)
+                return dt
+            self._hold_complete()
             self._note_stop("safety door" if self.state == "Door" else "feed hold")
         return dt
+
+    def _hold_complete(self) -> None:
+        """A feed hold (Hold:0), a program pause or a door (Door:0) has stopped the machine:
+        GRBL's suspend de-energizes. The door switches the spindle/laser and the coolant off;
+        a hold in laser mode switches an enabled laser off (DISABLE_LASER_DURING_HOLD). Either
+        sets the Ov: counter (the next report shows Ov: and A:)."""
+        if self.state == "Door":
+            self._ovr_counter = 0
+            self._flood = False
+        elif self._flag(32) and self.laser_mode_word:
+            self._ovr_counter = 0
+            self._hold_stopped_laser = True
 
     def _run_for(self, dt: float) -> None:
         while dt > 0:
@@ -1122,6 +1333,7 @@ class VirtualMachine:
                 if b.pause:                     # M0: the moves before it have run; hold here
                     b.pause = False
                     self.state, self.substate = "Hold", 0
+                    self._hold_complete()
                     continue
             left = b.duration_s - b.done_s
             step = min(dt, left)
@@ -1139,14 +1351,16 @@ class VirtualMachine:
                 self._log_beam()
                 return
             self._log_beam()
-            touched = b.probe and self._probe_reached(b.probe)
-            if touched:                         # stopped where the input switched
-                self.pos = self._probe_crossing(b.probe, start)
-            if touched or b.done_s >= b.duration_s - 1e-12:
-                if not touched:
-                    self.pos = b.end.copy()
+            if b.probe and b.probe_point is None and self._probe_reached(b.probe):
+                self._probe_stop(b, start)      # switched: brake past it, then the cycle ends
+                continue
+            touched = b.probe_point is not None
+            if b.done_s >= b.duration_s - 1e-12:
+                self.pos = b.end.copy()
                 self._speed = 0.0 if touched else b.exit_mm_s
                 self._blocks.popleft()
+                if not self._blocks:
+                    self._speed = 0.0           # the planner ran empty: the axes have stopped
                 if b.probe:
                     self.state = "Idle"
                     self._probe_result(b, bool(touched))
@@ -1168,6 +1382,8 @@ class VirtualMachine:
         while True:
             if self._critical_owed is not None:
                 return                                  # after ALARM:1/2 nothing is read
+            if not self._admit():
+                return                                  # GRBL is still in a line (mc_line)
             if self._parsed is None:
                 if self._blocks and self._blocks[-1].replies:
                     return
@@ -1189,7 +1405,12 @@ class VirtualMachine:
                 return
             if not text.startswith("$") and len(self._blocks) >= self.planner_blocks:
                 return                                  # planner full: the line waits
+            if self._blocks and self._waits_for_sync(text):
+                return                                  # GRBL empties the planner first
+            if self._short_since is not None and self._waits_for_sync(text):
+                self._short_since = None                # a stop the program asks for
             self._parsed = None
+            self._sync_verdict, self._wco_preview = ("", False), None
             self._line(text)
 
     def _line(self, text: str) -> None:
@@ -1208,19 +1429,19 @@ class VirtualMachine:
             self._system(line)
             return
         self.lines_run += 0 if self.check_mode else 1
-        if self.state == "Alarm":
+        if self.state in ("Alarm", "Jog"):           # GRBL takes no G-code while it jogs either
             self._emit(grbl_reply(ErrorCode.GCODE_LOCKED))
             return
         err = self._gcode(line, jog=False, text=text)
         if err not in (_ALARMED, _DEFERRED):      # an alarm replaces the line's answer
-            self._emit(grbl_reply(ErrorCode.OK if err is None else ErrorCode(err)))
+            self._answer(grbl_reply(ErrorCode.OK if err is None else ErrorCode(err)))
 
     def _system(self, line: str) -> None:
         """A ``$`` line, in the order GRBL 1.1h's system_execute_line checks it; the grammar of
         settings and start-up lines is :func:`labkit.gcode.reader.grbl_system_verdict`'s."""
         reply = self._system_reply(line)
         if reply is not None:
-            self._emit(grbl_reply(reply))
+            self._answer(grbl_reply(reply))
 
     def _system_reply(self, line: str):
         """Do a ``$`` line; the status to answer (None: answered already)."""
@@ -1249,8 +1470,8 @@ class VirtualMachine:
                 st = self._parser.state
                 coolant = " ".join(f"M{m}" for m in st.coolant) or "M9"
                 self._emit(f"[GC:G{self.motion} G{self.coord_system} G{self.plane} G{self.units} "
-                           f"G{self.distance} G{st.feed_mode} {laser} {coolant} T0 F{feed:g} "
-                           f"S{self.s_word:g}]")
+                           f"G{self.distance} G{st.feed_mode} {laser} {coolant} T0 F{self._rate(feed)} "
+                           f"S{_grbl_number(self.s_word, 0)}]")
             elif cmd == "X":
                 if self.state == "Alarm":
                     self.state, self.alarm_code = "Idle", 0
@@ -1261,10 +1482,11 @@ class VirtualMachine:
                 self.check_mode = not self.check_mode
                 self._check_pos = self.pos.copy()
                 self._emit(grbl_reply(Feedback.ENABLED if self.check_mode else Feedback.DISABLED))
-                if not self.check_mode:                 # GRBL resets when check mode ends
+                if not self.check_mode:
+                    # GRBL ends check mode with a soft reset: the line's ok, then the banner
+                    # and the start-up lines; what waited in the RX buffer is dropped
                     self._emit(grbl_reply(ErrorCode.OK))
-                    self._reset_parser()
-                    self._emit("\r\nGrbl 1.1h ['$' for help]")
+                    self._realtime("reset")
                     return None
             return ErrorCode.OK
         # the rest needs an idle (or alarmed) machine, not in check mode
@@ -1274,12 +1496,12 @@ class VirtualMachine:
             if rest:
                 return ErrorCode.INVALID_STATEMENT
             for k in range(6):
-                self._emit("[G{}:{:.3f},{:.3f},{:.3f}]".format(54 + k, *self.coord_origins[k]))
+                self._emit(f"[G{54 + k}:{self._coords(self.coord_origins[k])}]")
             st = self._parser.state
             for name, p in (("G28", st.home28), ("G30", st.home30)):
-                self._emit("[{}:{:.3f},{:.3f},{:.3f}]".format(name, *p))
-            self._emit("[G92:{:.3f},{:.3f},{:.3f}]".format(*self.g92))
-            self._emit(f"[TLO:{self.tool_offset:.3f}]")
+                self._emit(f"[{name}:{self._coords(p)}]")
+            self._emit(f"[G92:{self._coords(self.g92)}]")
+            self._emit(f"[TLO:{self._coords([self.tool_offset])}]")
             self._emit(self._prb_line())
             return ErrorCode.OK
         if cmd == "H":
@@ -1332,14 +1554,29 @@ class VirtualMachine:
         number, _, value = line[2 if cmd == "N" else 1:].partition("=")
         key = int(float(number))
         if cmd == "N":
-            if cmd == "N" and self.state != "Idle":
+            if self.state != "Idle":
                 return ErrorCode.NOT_IDLE
+            if value.startswith("$") and key < len(self.startup_lines):
+                # GRBL checks a start-up line by running it: one that begins with '$' is a
+                # jog from its fourth character on, and its ok waits for the jog's end (GRBL
+                # writes the line to EEPROM with its planner empty)
+                err = self._gcode(_startup_jog(value), jog=True, text=line)
+                if err is not None:
+                    return ErrorCode(err)
+                self.startup_lines[key] = value
+                queue = self._admitting or self._blocks
+                if queue:
+                    queue[-1].replies = (grbl_reply(ErrorCode.OK),)
+                    return None
+                return ErrorCode.OK
             if key < len(self.startup_lines):
                 self.startup_lines[key] = value
             elif key == len(self.startup_lines):    # GRBL's EEPROM: the build info's place
                 self.build_info = ""
             return ErrorCode.OK
         self.settings[key] = _setting_text(key, float(value))
+        if key == 13:
+            self._wco_counter = 0                       # GRBL: WCO at once, in the new unit
         if key == 22 and not float(value):
             self.settings[20] = "0"                     # GRBL: homing off forces soft limits off
         return ErrorCode.OK
@@ -1365,23 +1602,29 @@ class VirtualMachine:
         after = self._parser.state
         new_pos = np.array(after.position, float)
         # soft limits ($20, GRBL: off by default) in GRBL's machine space, −$13x…0: a jog's
-        # target, or every point a line's motion is cut into (G28's via point, arc chords)
-        targets = [new_pos[None, :]]
-        if self._flag(20) and not jog and len(moves):
-            targets.append(np.asarray(expand_arcs(moves, float(self.settings[12])).end,
-                                      float)[:, :3])
-        if self._flag(20) and self._outside_travel(np.concatenate(targets)):
-            self._parser.state = before               # the line is not executed
+        # target (error:15), or each straight piece a line's motion is cut into as GRBL plans
+        # it (G28's via point, arc chords): the pieces before the first outside are planned
+        outside_at = None
+        if self._flag(20):
             if jog:
-                return ErrorCode.TRAVEL_EXCEEDED
-            self._critical_alarm(AlarmCode.SOFT_LIMIT)  # GRBL holds, resets and raises ALARM:2
-            return _ALARMED
+                if self._outside_travel(new_pos):
+                    self._parser.state = before
+                    return ErrorCode.TRAVEL_EXCEEDED
+            elif len(moves):
+                chords = expand_arcs(moves, float(self.settings[12]))
+                ends = np.asarray(chords.end, float)[:, :3]
+                travel = np.array([float(self.settings[130 + a]) for a in range(3)])
+                out = chords.is_motion & ((ends > 1e-6) | (ends < -travel - 1e-6)).any(axis=1)
+                if out.any():
+                    outside_at = int(np.argmax(out))
+        if outside_at is not None:
+            return self._soft_limit(moves, outside_at, base, text, before)
         self.lines_accepted += 1
-        if self.check_mode:                              # check mode changes no offsets
-            self._parser.state = replace(after, coord_system=before.coord_system,
-                                         coord_origins=before.coord_origins, g92=before.g92,
-                                         tool_offset=before.tool_offset, home28=before.home28,
-                                         home30=before.home30)
+        if not jog:
+            self._report_events(line, before, after)
+        if self.check_mode:
+            # GRBL's check mode moves nothing but keeps the parser's state: G10 L2/L20, G28.1
+            # and G30.1 are written to EEPROM (they outlast the reset that ends check mode)
             self._check_pos = new_pos
             if any(r.kind == "end" for r in moves.records):
                 self._emit(grbl_reply(Feedback.PROGRAM_END))
@@ -1391,53 +1634,214 @@ class VirtualMachine:
         if head.startswith("N"):
             digits = "".join(c for c in head[1:].split(" ")[0] if c.isdigit())
             n_word = int(digits) if digits else -1
-        queued = len(self._blocks)
-        self._blocks.extend(self._blocks_of(moves, base, text, n_word, jog))
-        starved = False
-        if self._dry_since is not None and len(self._blocks) > queued:
-            if self._sim_t > self._dry_since:             # the planner stood empty for this line
-                self.starvations.append(Starvation(self._dry_since, self.lines_run,
-                                                   self._sim_t - self._dry_since))
-                starved = True
-            self._dry_since = None
-        self._note_short_queue(queued, starved)
+        new = self._blocks_of(moves, base, text, n_word, jog)
         kinds = {r.kind for r in moves.records}
         if "probe" in kinds:                 # G38.x: its ok waits for the probe cycle's end
-            for b in list(self._blocks)[queued:]:
+            for b in new:
                 b.probe = int(after.motion)
         deferred = not jog and (bool(kinds & {"pause", "end"})
-                                or any(b.is_dwell or b.probe for b in list(self._blocks)[queued:]))
+                                or any(b.is_dwell or b.probe for b in new))
         if deferred:
-            if "pause" in kinds or "end" in kinds or not len(self._blocks) > queued:
+            if "pause" in kinds or "end" in kinds or not new:
                 # a stop of no time at the end of the queue: it holds (M0) or answers (M2, M30)
                 # once the moves before it have run
-                self._blocks.append(_Block(self.lines_accepted, n_word, text, np.array(base, float),
-                                           np.array(base, float), 0.0, 0.0, 0.0, False,
-                                           is_dwell=True, pause="pause" in kinds))
-            last = self._blocks[-1]
-            last.replies = ((grbl_reply(Feedback.PROGRAM_END),) if "end" in kinds else ()) + (
+                new.append(_Block(self.lines_accepted, n_word, text, np.array(base, float),
+                                  np.array(base, float), 0.0, 0.0, 0.0, False,
+                                  is_dwell=True, pause="pause" in kinds))
+            new[-1].replies = ((grbl_reply(Feedback.PROGRAM_END),) if "end" in kinds else ()) + (
                 grbl_reply(ErrorCode.OK),)
+        self._admitting.extend(new)
+        self._admit()
         if not jog:
-            if len(self._blocks) > queued:               # the level the last block leaves
-                last = self._blocks[-1]
+            if new:                                      # the level the last block leaves
+                last = new[-1]
                 self._rest_level = last.power if last.constant else 0.0
             else:                                        # GRBL syncs the spindle/laser state
                 lit = self.laser_mode_word == 3 and self.motion in (1, 2, 3)
                 self._rest_level = self._beam_fraction(3, self.s_word) if lit else 0.0
-        if self._blocks and self.state == "Idle":
-            self.state = "Jog" if jog else "Run"
         if not jog and "end" in kinds:
             self.overrides = (100, 100, 100)         # GRBL's RESTORE_OVERRIDES_AFTER_PROGRAM_END
         return _DEFERRED if deferred else None
 
-    def _blocks_of(self, moves, base, text: str, n_word: int, jog: bool) -> list:
+    def _report_events(self, line: str, before: ModalState, after: ModalState) -> None:
+        """What a line GRBL accepted does to the status report's refresh counters (gcode.c):
+        the WCO: counter is set to 0 by a change of coordinate system, a G10 L2/L20 of the
+        active one, G92 and G92.1, a new tool length offset and M2/M30; the Ov: counter by
+        what switches the spindle/laser or the coolant output (not in check mode, where
+        GRBL drives no output): a new M3/M4/M5 or M8/M9, a new S while the spindle is on
+        (in laser mode not on a motion line, which carries its power with it), M3's
+        laser switching between a G1-G3 mode and another at rest, and M2/M30."""
+        values = {}
+        for letter, v in _WORD.findall(line):
+            if v not in ("", ".", "-", "+"):
+                values.setdefault(letter, set()).add(float(v))
+        g, m = values.get("G", set()), values.get("M", set())
+        end = bool(m & {2.0, 30.0})
+        systems = {w for w in g if 54.0 <= w <= 59.0 and w == int(w)}
+        wco = bool(systems and int(systems.pop()) != before.coord_system)
+        if 10.0 in g and values.get("L", set()) & {2.0, 20.0}:
+            p = int(min(values.get("P", {0.0})))
+            wco |= (p == 0 or 53 + p == after.coord_system)
+        wco |= bool(g & {92.0, 92.1}) or after.tool_offset != before.tool_offset
+        if end and not self.check_mode:
+            wco = True
+        if wco:
+            self._wco_counter = 0
+        if self.check_mode:
+            return
+        self._flood = 8 in after.coolant
+        laser_mode = self._flag(32)
+        motion_line = not (g & _AXIS_NOT_MOTION) and any(a in values for a in "XYZ")
+        cutting = (1, 2, 3)
+        force = (laser_mode and not motion_line and before.laser == 3
+                 and (before.motion in cutting) != (after.motion in cutting))
+        s_sync = ((after.s_word != before.s_word or force) and before.laser != 5
+                  and not (laser_mode and motion_line))
+        if (end or s_sync or after.laser != before.laser or after.coolant != before.coolant):
+            self._ovr_counter = 0
+
+    def _waits_for_sync(self, text: str) -> bool:
+        """Whether GRBL runs this line only once its planner is empty (its
+        protocol_buffer_synchronize): a new M3/M4/M5 (or a new S while the spindle is on, but
+        for a laser-mode motion line, whose power rides with its moves), a new M8/M9, a G10
+        L2/L20, G28.1 or G30.1 (EEPROM writes), a new coordinate system, G92 or G92.1, a new
+        tool length offset, and a probe move (G38.2-G38.5). G4, M0, M2 and M30 wait too, as
+        blocks of their own. A line GRBL refuses waits for nothing: its error comes at once."""
+        if self._sync_verdict[0] == text:
+            return self._sync_verdict[1]
+        line, overflow = _grbl_line(text)
+        verdict, self._wco_preview = False, None
+        reasons = set()
+        if not (overflow or not line or line.startswith("$") or self.check_mode
+                or self.state in ("Alarm", "Jog")):
+            reasons = self._sync_reasons(line)
+        if reasons:
+            saved = self._parser.state           # a trial parse: does GRBL accept it?
+            _, error = self._parser.feed(line)
+            after, self._parser.state = self._parser.state, saved
+            verdict = error is None
+            # GRBL sets a new tool offset, coordinate system or G92 first and then waits: a
+            # report meanwhile shows the new WCO (unless an earlier wait in the line comes first)
+            if verdict and reasons == {"wco"}:
+                self._wco_preview = after.work_offset
+        self._sync_verdict = (text, verdict)
+        return verdict
+
+    def _sync_reasons(self, line: str) -> set:
+        """GRBL's planner-sync rules (gcode.c) read off a line's words and the modal state: why
+        it waits ("spindle", "coolant", "eeprom", "wco", "probe"; empty: it does not)."""
+        values = {}
+        for letter, v in _WORD.findall(line):
+            try:
+                values.setdefault(letter, []).append(float(v))
+            except ValueError:
+                return set()                     # a bad number: GRBL refuses the line
+        st = self._parser.state
+        g = set(values.get("G", ()))
+        m = set(values.get("M", ()))
+        out = set()
+        if g & {10.0, 28.1, 30.1}:
+            out.add("eeprom")
+        if g & {38.2, 38.3, 38.4, 38.5}:
+            out.add("probe")
+        if g & {92.0, 92.1}:
+            out.add("wco")
+        if any(54.0 <= w <= 59.0 and w == int(w) and int(w) != st.coord_system for w in g):
+            out.add("wco")
+        if 49.0 in g and st.tool_offset != 0.0:
+            out.add("wco")
+        if 43.1 in g:
+            inches = 20.0 in g or (st.units == 20 and 21.0 not in g)
+            z = values.get("Z", [0.0])[0] * (25.4 if inches else 1.0)
+            if abs(z - st.tool_offset) > 1e-9:
+                out.add("wco")
+        spindle = {3.0: 3, 4.0: 4, 5.0: 5}
+        new_laser = next((spindle[w] for w in m if w in spindle), st.laser)
+        if new_laser != st.laser:
+            out.add("spindle")
+        if m & {8.0, 9.0} and ((8.0 in m) != (8 in st.coolant) or 9.0 in m and st.coolant):
+            out.add("coolant")
+        if st.laser == 5:
+            return out
+        laser_mode = self._flag(32)
+        motion_line = not (g & _AXIS_NOT_MOTION) and any(a in values for a in "XYZ")
+        if laser_mode and motion_line:
+            return out
+        new_s = values.get("S", [st.s_word])[0]
+        modes = [w for w in g if w in (0.0, 1.0, 2.0, 3.0, 38.2, 38.3, 38.4, 38.5, 80.0)]
+        new_motion = modes[0] if modes else st.motion
+        cutting = (1, 2, 3)
+        force = (laser_mode and st.laser == 3
+                 and (st.motion in cutting) != (new_motion in cutting))
+        if new_s != st.s_word or force:
+            out.add("spindle")
+        return out
+
+    def _soft_limit(self, moves, outside_at: int, base, text: str, before) -> int:
+        """GRBL's soft limit (limits_soft_check) at the line's piece ``outside_at``: the pieces
+        before it are planned; a running cycle brakes to a stop along the queued path (a feed
+        hold: Hold:1) and only then comes ALARM:2, the reset message and the critical-event
+        lock; from rest the alarm comes at once. The line's ok waits for the reset."""
+        self._parser.state = before                   # GRBL resets: the parser starts afresh
+        pieces = self._blocks_of(moves, base, text, -1, False, limit=outside_at)
+        if self.state == "Run" and (self._blocks or pieces):
+            self._blocks.extend(pieces[:max(0, self.planner_blocks - len(self._blocks))])
+            self._soft_limit_braking = True
+            self.state, self.substate = "Hold", 1
+            self._hold_v = self._current_speed()
+            return _ALARMED
+        self._critical_alarm(AlarmCode.SOFT_LIMIT)
+        return _ALARMED
+
+    def _admit(self) -> bool:
+        """Move the blocks of the line GRBL is in into the planner while it has room (GRBL's
+        mc_line waits for a free block, chord by chord for an arc); once the last is in, the
+        line's replies go out. False while some still wait."""
+        if not self._admitting:
+            return True
+        jog = self._admitting[0].text.startswith("$J=")
+        before = len(self._blocks)
+        while self._admitting and len(self._blocks) < self.planner_blocks:
+            self._blocks.append(self._admitting.popleft())
+        if self._admitting and not self._blocks:
+            self._blocks.append(self._admitting.popleft())   # a planner of no depth still moves
+        starved = False
+        if len(self._blocks) > before:
+            if self._dry_since is not None:
+                if self._sim_t > self._dry_since:          # the planner stood empty for this line
+                    self.starvations.append(Starvation(self._dry_since, self.lines_run,
+                                                       self._sim_t - self._dry_since))
+                    starved = True
+                self._dry_since = None
+            if self.state == "Idle":
+                self.state = "Jog" if jog else "Run"
+        self._note_short_queue(before, starved)
+        if self._admitting:
+            return False
+        replies, self._admit_replies = self._admit_replies, ()
+        for reply in replies:
+            self._emit(reply)
+        return True
+
+    def _answer(self, reply: str) -> None:
+        """A line's answer: now, or once its last block has entered the planner."""
+        if self._admitting:
+            self._admit_replies += (reply,)
+        else:
+            self._emit(reply)
+
+    def _blocks_of(self, moves, base, text: str, n_word: int, jog: bool,
+                   limit: int | None = None) -> list:
         """A line's moves as the blocks GRBL plans: arcs cut into ``$12`` chords, a move of no
-        step dropped (GRBL plans no block for it), a dwell as a block of its own."""
+        step dropped (GRBL plans no block for it), a dwell as a block of its own; with
+        ``limit``, only the pieces before that one (a soft limit stops the line there)."""
         chords = expand_arcs(moves, float(self.settings[12]))
         rows = build_blocks(chords, self.machine)
         out = []
         for r in range(len(rows)):
             i = int(rows.move[r])
+            if limit is not None and i >= limit:
+                break
             a, b = chords.start[i].astype(float), chords.end[i].astype(float)
             if int(rows.kind[r]) == 4:                 # dwell: standing still at the beam's level
                 out.append(_Block(self.lines_accepted, n_word, text, a, a, 0.0,
@@ -1450,6 +1854,8 @@ class VirtualMachine:
                               beam, rapid, accel_mm_s2=float(rows.accel_mm_s2[r]),
                               constant=int(chords.laser[i]) == 3 and not rapid, row=rows[r],
                               length_mm=float(rows.length_mm[r])))
+        if limit is not None:
+            return out
         # the parser's end: a last move too short for a step still moves the position GRBL's
         # parser holds (the next block's steps are counted from it)
         end = np.array(moves.end[-1], float) if len(moves) else np.asarray(base, float)
@@ -1524,6 +1930,8 @@ class VirtualMachine:
         that long after its start. The first block into an empty planner that did not starve
         (a job's first, on a fresh machine) is not counted: nothing could be behind it."""
         added = len(self._blocks) > queued
+        if added and self._blocks[queued].is_dwell:
+            self._short_since = None    # G4, M0, M2, M30: GRBL syncs, the head stops there anyway
         if added and queued == 0 and not starved:
             self._into_empty = self._blocks[0]
         if added and self._short_since is not None:

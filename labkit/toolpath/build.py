@@ -26,7 +26,7 @@ from labkit.geometry.chains import join_chains
 from labkit.geometry.hatching import hatch
 from labkit.geometry.offset import offset_paths
 from labkit.geometry.order import order_paths
-from labkit.geometry.path import Path, check_paths
+from labkit.geometry.path import Path, check_paths, sample_each
 from labkit.toolpath.moves import LaserMode, MoveKind, Moves
 
 __all__ = ["LayerSettings", "build_moves", "prepare_paths"]
@@ -230,8 +230,7 @@ def prepare_paths(paths: Sequence[Path], *, join_tol_mm=0.01, kerf_mm=0.0, tol_m
     paths = check_paths(paths)
     if kerf_mm < 0 or not math.isfinite(kerf_mm):
         raise GeometryError(f"kerf_mm must be >= 0 mm, got {kerf_mm!r}")
-    chains = [q for q in (_line_unless_area(p, tol_mm) for p in join_chains(paths, join_tol_mm))
-              if q is not None]
+    chains = _lines_unless_area(join_chains(paths, join_tol_mm), tol_mm)
     layers: dict[str, list[Path]] = {}
     for p in chains:
         layers.setdefault(p.layer, []).append(p)
@@ -333,20 +332,41 @@ def _offset_each(closed: list[Path], distance_mm: float, *, tol_mm: float, arcs:
     return by_layer
 
 
-def _line_unless_area(p: Path, tol_mm: float) -> Path | None:
-    """A closed chain that encloses no area — a line drawn there and back, or a piece shorter
-    than the join tolerance snapped shut (a CAD floor plan's stray sub-micron LINE) — is cut
-    as the open line it is; one of no length is nothing to cut (None). Only closed chains
-    with an area are outlines: offsets, hatching and nesting need a polygon."""
-    if not p.length_mm > 0:
-        return None
-    if not p.closed:
-        return p
-    d = p.sample(tol_mm) - p.vertices[0]
-    far = d[int(np.argmax(np.hypot(d[:, 0], d[:, 1])))]
-    if np.any(d[:, 0] * far[1] - d[:, 1] * far[0] != 0):
-        return p
-    return p.with_geometry(p.vertices, p.centres, p.sweeps, closed=False)
+def _lines_unless_area(chains: Sequence[Path], tol_mm: float) -> list[Path]:
+    """The chains to cut: one of no length is nothing to cut (dropped); a closed chain that
+    encloses no area — a line drawn there and back, or a piece shorter than the join tolerance
+    snapped shut (a CAD floor plan's stray sub-micron LINE) — is cut as the open line it is
+    (its samples all on the line through its start and its farthest sample). Only closed
+    chains with an area are outlines: offsets, hatching and nesting need a polygon. All
+    chains at once: a drawing of hundreds of shapes made hundreds of small numpy passes."""
+    chains = list(chains)
+    if not chains:
+        return []
+    # length > 0: some segment longer than 0 and none NaN (lengths are never negative)
+    seg = np.array([p.n_segments for p in chains])
+    owner = np.repeat(np.arange(len(chains)), seg)
+    lengths = np.concatenate([p.lengths_mm() for p in chains])
+    positive = np.zeros(len(chains), bool)
+    positive[owner[lengths > 0]] = True
+    positive[owner[np.isnan(lengths)]] = False
+    chains = [p for p, ok in zip(chains, positive) if ok]
+    closed = [k for k, p in enumerate(chains) if p.closed]
+    flat = np.zeros(len(chains), bool)                  # closed, but no area: cut as a line
+    if closed:
+        pts = sample_each([chains[k] for k in closed], tol_mm)
+        size = np.array([len(q) for q in pts])
+        ring = np.repeat(np.arange(len(closed)), size)
+        d = np.concatenate(pts) - np.array([chains[k].vertices[0] for k in closed])[ring]
+        far_d = np.hypot(d[:, 0], d[:, 1])
+        begin = np.cumsum(size) - size
+        top = np.maximum.reduceat(far_d, begin)
+        hit = np.flatnonzero(far_d == top[ring])          # the first farthest sample (argmax)
+        first_hit = hit[np.unique(ring[hit], return_index=True)[1]]
+        far = d[first_hit]
+        bent = (d[:, 0] * far[ring, 1] - d[:, 1] * far[ring, 0]) != 0
+        flat[closed] = ~np.logical_or.reduceat(bent, begin)
+    return [p.with_geometry(p.vertices, p.centres, p.sweeps, closed=False) if f else p
+            for p, f in zip(chains, flat)]
 
 
 def _inner_layers_first(layers: Mapping[str, list[Path]], tol_mm: float) -> list[str]:
@@ -356,7 +376,10 @@ def _inner_layers_first(layers: Mapping[str, list[Path]], tol_mm: float) -> list
     import shapely
 
     names = list(layers)
-    polys = {n: [shapely.Polygon(p.sample(tol_mm)) for p in layers[n] if p.closed] for n in names}
+    if len(names) < 2:
+        return names                                  # nothing to put before anything
+    polys = {n: [shapely.Polygon(r) for r in sample_each([p for p in layers[n] if p.closed], tol_mm)]
+             for n in names}
     inside: dict[str, set[str]] = {n: set() for n in names}        # n has work inside these layers
     for n in names:
         for m in names:

@@ -17,7 +17,7 @@ import numpy as np
 from labkit.budget import check_budget
 from labkit.errors import GeometryError
 from labkit.geometry.arcfit import tolerance_budget
-from labkit.geometry.path import Path
+from labkit.geometry.path import Path, bounds_each
 from labkit.toolpath.build import LayerSettings, build_moves, prepare_paths
 from labkit.toolpath.moves import Moves
 from labkit.units import s_within
@@ -113,7 +113,7 @@ def vector_job(paths: Sequence[Path], *, default: LayerSettings = LayerSettings(
     if fill and paths:
         # Hatch lines across each closed shape: its extent over the spacing, estimated
         # before hatching so that a spacing of 1e-5 mm is refused, not computed.
-        extents = [float(np.ptp(p.bounds().reshape(2, 2), axis=0).max()) for p in paths if p.closed]
+        extents = np.ptp(bounds_each([p for p in paths if p.closed]), axis=1).max(axis=1, initial=0.0).tolist()
         check_budget("hatch_lines", sum(extents) / fill_spacing_mm,
                      cause=f"hatching {len(extents)} closed shape(s) at {fill_spacing_mm:g} mm",
                      option="the drawing, or raise --fill-spacing")

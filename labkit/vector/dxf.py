@@ -128,6 +128,22 @@ def _poly(points, bulges, closed, meta, k) -> Path | None:
     return Path(pts, np.array(cents).reshape(-1, 2), np.array(sweeps), closed=closed, **meta)
 
 
+def _de_boor(t, c, p, u) -> np.ndarray:
+    """The B-spline of degree ``p``, knots ``t`` and control points ``c`` (n, d) at the
+    parameters ``u`` (within t[p]..t[n]): de Boor's algorithm, all parameters at once. Written
+    here rather than scipy's BSpline, whose import costs a small drawing ~0.3 s."""
+    n = len(c)
+    k = np.clip(np.searchsorted(t, u, side="right") - 1, p, n - 1)      # each parameter's knot span
+    d = c[k[:, None] - p + np.arange(p + 1)]                              # (m, p + 1, d)
+    for r in range(1, p + 1):
+        for j in range(p, r - 1, -1):
+            lo, hi = t[j + k - p], t[j + 1 + k - r]
+            span = hi - lo
+            a = np.where(span > 0, (u - lo) / np.where(span > 0, span, 1.0), 0.0)[:, None]
+            d[:, j] = (1.0 - a) * d[:, j - 1] + a * d[:, j]
+    return d[:, p]
+
+
 def spline_points(degree, control_points, knots, weights=None, *, tol_mm) -> np.ndarray:
     """Points of a (rational) B-spline over its valid knot range, within ``tol_mm`` of it.
 
@@ -159,17 +175,15 @@ def spline_points(degree, control_points, knots, weights=None, *, tol_mm) -> np.
     >>> pts[0].tolist(), pts[-1].tolist(), bool(np.isclose(pts[:, 1].max(), 1.0, atol=1e-3))
     ([0.0, 0.0], [2.0, 0.0], True)
     """
-    from scipy.interpolate import BSpline
-
     p = int(degree)
     c = np.asarray(control_points, float)[:, :2]
     n = len(c)
     t = np.asarray(knots, float)
     w = np.ones(n) if weights is None or len(weights) == 0 else np.asarray(weights, float)
-    spl = BSpline(t, np.column_stack([c * w[:, None], w]), p, extrapolate=False)
+    homogeneous = np.column_stack([c * w[:, None], w])
 
     def at(u):
-        h = spl(u)
+        h = _de_boor(t, homogeneous, p, u)
         return h[:, :2] / h[:, 2:3]
 
     lo, hi = t[p], t[n]
@@ -182,12 +196,12 @@ def spline_points(degree, control_points, knots, weights=None, *, tol_mm) -> np.
         ab = b - a
         ll = np.einsum("ij,ij->i", ab, ab)
         err = np.zeros(len(du))
-        for f in (0.25, 0.5, 0.75):        # the chord's largest sag need not sit at the midpoint
-            q = at(u[:-1] + f * du)
+        # the chord's largest sag need not sit at the midpoint: a quarter, half and three
+        # quarters of each step, evaluated in one call
+        quarter, pm, three = np.split(at(np.concatenate([u[:-1] + f * du for f in (0.25, 0.5, 0.75)])), 3)
+        for q in (quarter, pm, three):
             s = np.clip(np.einsum("ij,ij->i", q - a, ab) / np.where(ll > 0, ll, 1.0), 0.0, 1.0)
             err = np.maximum(err, np.hypot(*(q - a - s[:, None] * ab).T))
-            if f == 0.5:
-                pm = q
         bad = err > tol_mm
         if not bad.any():
             break

@@ -51,7 +51,8 @@ from labkit._jit import job_units
 from labkit.errors import GeometryError, name_list
 from labkit.geometry import transform as tf
 from labkit.budget import check_budget
-from labkit.geometry.arcfit import coordinate_limit_mm, cubics_to_arcs, sampling_share, tolerance_budget
+from labkit.geometry.arcfit import (chain_fits, coordinate_limit_mm, cubics_to_arcs, sampling_share,
+                                   tolerance_budget)
 from labkit.geometry.bezier import cubic_samples, flatten_cubics, quad_to_cubic
 from labkit.geometry.clip import clip_paths
 from labkit.geometry.measure import path_distance
@@ -182,10 +183,86 @@ def _name(el, index):
     return f"{type(el).__name__.lower()}#{ident}" if ident else f"{type(el).__name__.lower()}[{index}]"
 
 
-class _Builder:
-    """Accumulates one subpath's segments as lines and arcs."""
+class _Chain:
+    """A curve chain waiting for the greedy fit: a :class:`_FitBatch` fits a drawing's chains
+    together; until then it stands in the builder's lists for the lines and arcs it becomes
+    (``fit``: vertices, centres, sweeps and deviation, :func:`chain_fits`)."""
 
-    def __init__(self, start, tol_mm, arcs, fit, meta):
+    __slots__ = ("ctrl", "fit")
+
+    def __init__(self, ctrl):
+        self.ctrl, self.fit = ctrl, None
+
+    @property
+    def end(self):
+        return self.ctrl[-1, 3]
+
+
+class _FitBatch:
+    """The curve chains of one drawing, fitted in one go (:func:`chain_fits`: one flattening
+    and one fitting call for hundreds of chains) when the drawing has been read."""
+
+    def __init__(self, tol_mm):
+        self.tol, self.chains = tol_mm, []
+
+    def add(self, ctrl) -> _Chain:
+        chain = _Chain(ctrl)
+        self.chains.append(chain)
+        return chain
+
+    def resolve(self):
+        if self.chains:
+            for chain, fit in zip(self.chains, chain_fits([c.ctrl for c in self.chains], self.tol)):
+                chain.fit = fit
+            self.chains = []
+
+
+class _Subpath:
+    """A subpath read with its chains still to fit: :meth:`path` after the batch is resolved."""
+
+    __slots__ = ("v", "c", "s", "closed", "dev", "meta")
+
+    def __init__(self, v, c, s, closed, dev, meta):
+        self.v, self.c, self.s, self.closed, self.dev, self.meta = v, c, s, closed, dev, meta
+
+    def path(self) -> Path | None:
+        v, c, s, dev = [], [], [], self.dev
+        for x in self.v:
+            if isinstance(x, _Chain):
+                v.extend(x.fit[0][1:])
+                dev = max(dev, x.fit[3])
+            else:
+                v.append(x)
+        for x in self.c:
+            c.extend(x.fit[1]) if isinstance(x, _Chain) else c.append(x)
+        for x in self.s:
+            s.extend(x.fit[2]) if isinstance(x, _Chain) else s.append(x)
+        return _subpath(v, c, s, self.closed, dev, self.meta)
+
+
+def _subpath(v, c, s, closed, dev, meta) -> Path | None:
+    """A subpath's vertices, centres and sweeps (lists) as a Path, closed if asked; None when
+    it is a point or, closed, a line there and back."""
+    if len(v) < 2:
+        return None
+    v = np.array(v)
+    if closed and not (abs(v[0, 0] - v[-1, 0]) <= 1e-9 and abs(v[0, 1] - v[-1, 1]) <= 1e-9):
+        v = np.vstack([v, v[:1]])
+        c.append((np.nan, np.nan))
+        s.append(0.0)
+    elif closed:
+        v[-1] = v[0]
+    if len(v) == 2 and closed:
+        return None
+    return Path(v, np.array(c, float).reshape(-1, 2), np.array(s, float), closed=closed,
+                deviation_mm=dev, **meta)
+
+
+class _Builder:
+    """Accumulates one subpath's segments as lines and arcs; with a ``batch``, its greedy fits
+    wait there (:class:`_FitBatch`) and :meth:`finish` may give a :class:`_Subpath`."""
+
+    def __init__(self, start, tol_mm, arcs, fit, meta, batch=None):
         self.v = [np.asarray(start, float)]
         self.c: list = []
         self.s: list = []
@@ -195,13 +272,20 @@ class _Builder:
         # the greedy fit takes straight lines and ellipse samples into the curve chain, so
         # collinear runs merge and gentle polylines become arcs
         self.chain_all = arcs and fit == "greedy"
+        self.batch = batch if self.chain_all else None
+        self.waiting = False            # a chain in v waits for the batch
         self.dev = 0.0
+
+    def _last(self):
+        """The last vertex (the end of a waiting chain)."""
+        x = self.v[-1]
+        return x.end if isinstance(x, _Chain) else x
 
     @property
     def here(self):
         if self.rows:
             return self.rows[-1][6:]
-        return self.cubics[-1][-1, 3] if self.cubics else self.v[-1]
+        return self.cubics[-1][-1, 3] if self.cubics else self._last()
 
     def _commit(self):
         if self.rows:
@@ -214,8 +298,15 @@ class _Builder:
             return
         ctrl = np.concatenate(self.cubics)
         self.cubics = []
-        start = self.v[-1]
-        if self.arcs:
+        start = self._last()
+        if self.batch is not None:
+            ctrl[0, 0] = start
+            chain = self.batch.add(ctrl)
+            self.v.append(chain)
+            self.c.append(chain)
+            self.s.append(chain)
+            self.waiting = True
+        elif self.arcs:
             p = cubics_to_arcs(ctrl, self.tol, start=start, method=self.fit)
             self._append(p)
         else:
@@ -255,7 +346,7 @@ class _Builder:
             return
         end = np.asarray(end, float)
         self._flush()
-        if np.array_equal(end, self.v[-1]):
+        if np.array_equal(end, self._last()):
             return
         self.v.append(end)
         self.c.append((np.nan, np.nan))
@@ -266,7 +357,7 @@ class _Builder:
         if x0 == x1 == x2 == x3 and y0 == y1 == y2 == y3:
             return
         if not self.rows and not self.cubics:
-            x0, y0 = self.v[-1]
+            x0, y0 = self._last()
         self.rows.append((float(x0), float(y0), float(x1), float(y1), float(x2), float(y2),
                           float(x3), float(y3)))
 
@@ -289,7 +380,7 @@ class _Builder:
         self._flush()
         budget = tolerance_budget(self.tol, arcs=self.arcs)
         v, c, sweep, dev, _ = ellipse_arc_arrays(centre, jac, t0, dt, None, budget.read_mm, "midpoint")
-        v[0], v[-1] = self.v[-1], end
+        v[0], v[-1] = self._last(), end
         if not self.arcs:
             for q in Path(v, c, sweep).sample(budget.chords_mm)[1:]:
                 self.line(q)
@@ -300,26 +391,16 @@ class _Builder:
         self.s.extend(sweep)
         self.dev = max(self.dev, dev)
 
-    def finish(self, closed) -> Path | None:
+    def finish(self, closed) -> Path | _Subpath | None:
         if closed and self.chain_all and (self.cubics or self.rows):
             self.line(self.v[0])                   # the closing side joins the chain too
         self._flush()
-        if len(self.v) < 2:
-            return None
-        v = np.array(self.v)
-        if closed and not (abs(v[0, 0] - v[-1, 0]) <= 1e-9 and abs(v[0, 1] - v[-1, 1]) <= 1e-9):
-            v = np.vstack([v, v[:1]])
-            self.c.append((np.nan, np.nan))
-            self.s.append(0.0)
-        elif closed:
-            v[-1] = v[0]
-        if len(v) == 2 and closed:
-            return None
-        return Path(v, np.array(self.c, float).reshape(-1, 2), np.array(self.s, float),
-                    closed=closed, deviation_mm=self.dev, **self.meta)
+        if self.waiting:
+            return _Subpath(self.v, self.c, self.s, closed, self.dev, self.meta)
+        return _subpath(self.v, self.c, self.s, closed, self.dev, self.meta)
 
 
-def _shape_paths(el, m, tol_mm, arcs, fit, meta) -> list[Path]:
+def _shape_paths(el, m, tol_mm, arcs, fit, meta, batch=None) -> list[Path | _Subpath]:
     import svgelements as se
 
     out: list[Path] = []
@@ -346,16 +427,16 @@ def _shape_paths(el, m, tol_mm, arcs, fit, meta) -> list[Path]:
                 if p is not None:
                     out.append(p)
             start = P(seg.end)
-            b = _Builder(start, tol_mm, arcs, fit, meta)
+            b = _Builder(start, tol_mm, arcs, fit, meta, batch)
             continue
         if b is None:             # a path that does not start with M (svgelements allows it)
             start = P(seg.start)
-            b = _Builder(start, tol_mm, arcs, fit, meta)
+            b = _Builder(start, tol_mm, arcs, fit, meta, batch)
         if isinstance(seg, se.Close):
             p = b.finish(True)
             if p is not None:
                 out.append(p)
-            b = _Builder(start, tol_mm, arcs, fit, meta)
+            b = _Builder(start, tol_mm, arcs, fit, meta, batch)
         elif isinstance(seg, se.Line):
             b.line(P(seg.end))
         elif isinstance(seg, se.CubicBezier):
@@ -679,11 +760,14 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
 
     def visible(el, label) -> bool:
         if (_colour(el.stroke) is None and _colour(el.fill) is None) or _opacity(el) == 0:
-            if label not in invisible:
-                invisible.append(label)               # a renderer paints nothing here
+            steps.append((None, label, None))         # a renderer paints nothing here
             return False
         return True
 
+    # The greedy fits of every shape wait in one batch (one flattening and one fitting call
+    # for the whole drawing); what is done with each shape's paths is kept in order until then.
+    batch = _FitBatch(tol_mm) if arcs and fit == "greedy" else None
+    steps: list[tuple] = []                   # (element, label, paths), or (None, label, None): invisible
     for index, el, kind in job_units(list(_iter_shapes(doc))):   # Python or compiled: _jit's rule
         label = _name(el, index)
         if kind == "image":
@@ -705,13 +789,13 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
                                     f"({type(exc).__name__}: {exc})") from None
             for run, new in drawn:             # a hidden run still takes its place on the line
                 if run.values.get("visibility") not in ("hidden", "collapse") and visible(run, label):
-                    add(run, label, new)
+                    steps.append((run, label, new))
             continue
         if not visible(el, label):
             continue
         m = _element_matrix(el, page)
         try:
-            new = _shape_paths(el, m, tol_mm, arcs, fit, meta_of(el, label))
+            new = _shape_paths(el, m, tol_mm, arcs, fit, meta_of(el, label), batch)
         except GeometryError:
             raise
         except ValueError as exc:                  # svgelements resolves some units lazily
@@ -719,7 +803,16 @@ def read_svg(source, *, tol_mm=0.01, arcs=True, fit="greedy", flip_y=True, warn=
         except ArithmeticError as exc:
             raise GeometryError(f"{name}: {label} has degenerate numbers "
                                 f"({type(exc).__name__}: {exc})") from None
-        add(el, label, new)
+        steps.append((el, label, new))
+    if batch is not None:
+        batch.resolve()
+    for el, label, new in steps:
+        if el is None:
+            if label not in invisible:
+                invisible.append(label)
+            continue
+        made = [p.path() if isinstance(p, _Subpath) else p for p in new]
+        add(el, label, [p for p in made if p is not None])
     notes = [  # (the shapes a note is about, what it says of them): each said once when there are any
         (skipped, f"not cut: {len(skipped)} element(s) that are not vector shapes: {', '.join(skipped)} — "
                   f"engrave bitmaps with svg2gcode --images MODE or labkit job (a layer with operation \"image\" "
@@ -748,10 +841,11 @@ def _page_check(paths, width, height, name, tol_mm, arcs, clip_to_page, warn, cl
     """Shapes reaching beyond the page (a renderer does not show that part): clipped to
     it, or named in a warning with how far and how much lies outside."""
     from labkit.geometry.clip import rectangle_region
+    from labkit.geometry.path import bounds_each
 
     lo, hi = np.array([0.0, 0.0]), np.array([width, height])
-    beyond = np.array([max(float(np.max(lo - b[0])), float(np.max(b[1] - hi)), 0.0)
-                       for b in (p.bounds() for p in paths)])
+    boxes = bounds_each(paths)
+    beyond = np.maximum(np.maximum((lo - boxes[:, 0]).max(axis=1), (boxes[:, 1] - hi).max(axis=1)), 0.0)
     out = np.flatnonzero(beyond > tol_mm)
     if not len(out):
         return paths

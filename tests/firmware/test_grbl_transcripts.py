@@ -7,17 +7,25 @@ byte and with the recorded pauses, against
 * ``firmware``: the host simulator ``firmware/build/host/labkit-fw-sim --pty
   --dialect grbl --realtime`` (built by ``make -C firmware sim``), a fresh process per
   transcript (its EEPROM lives in memory, so it starts from its defaults);
-* ``virtual``: :class:`labkit.machine.virtual.VirtualMachine` in real time, a
-  fresh machine per transcript;
+* ``virtual``: :class:`labkit.machine.virtual.VirtualMachine` in simulated time, a fresh
+  machine per transcript with GRBL's mechanics (DEFAULTS_GENERIC): each exchange is written at
+  the moment the recorder wrote it (its ``at_s``, seconds after the first write), and its replies
+  are what the machine wrote before the next exchange's moment (:meth:`VirtualMachine.advance`
+  runs the clock in between). GRBL's moves ran on the recorder's clock too, so a reply that
+  depends on whether something still moved (a ``$`` line's error:8, ``Run`` or ``Idle``) is
+  compared at the same moment of the same motion; the replay is deterministic and takes no
+  wall time for the recorder's waits. A transcript recorded without GRBL's clock (no ``at_s``)
+  is scheduled by :func:`send_times` from the recorder's steps.
 
-For a transcript in which GRBL reported a hold still decelerating (``Hold:1``) the simulator first
-takes GRBL's accelerations (``$120``-``$122``, as GRBL printed them in the recorded ``$$``:
-:data:`GRBL_ACCELERATION_SETTINGS`), so that its hold decelerates as long as GRBL's did: whether a
-report after ``!`` says ``Hold:1`` or ``Hold:0`` is then GRBL's behaviour, not a difference between
-two machines (the CBR-40 brakes at 500 mm/s², GRBL's defaults at 10). The other transcripts keep
-the machine's own: the replay paces its exchanges faster than the recorder did (it waits for
-GRBL's replies, not 0.35 s more), and at 10 mm/s² a move would still run where GRBL's, paced by
-the recorder, had ended (``line_length``'s first ``G0 X1`` and the ``$`` lines after it).
+The firmware replay runs in real time: it waits for each exchange's replies (not the recorder's
+further 0.35 s of silence) and the recorded ``pause_before_s`` before the next exchange, reading
+meanwhile (what comes then is still the earlier exchange's, as it was for the recorder; in a
+transcript without ``at_s`` it is the next one's, :func:`pause_is_next`). For a transcript in which GRBL
+reported a hold still decelerating (``Hold:1``) the simulator first takes GRBL's accelerations
+(``$120``-``$122``, as GRBL printed them in the recorded ``$$``: :data:`GRBL_ACCELERATION_SETTINGS`),
+so that its hold decelerates as long as GRBL's did: whether a report after ``!`` says ``Hold:1``
+or ``Hold:0`` is then GRBL's behaviour, not a difference between two machines (the CBR-40 brakes
+at 500 mm/s², GRBL's defaults at 10). The other transcripts keep the machine's own.
 
 Every exchange (the bytes sent, the lines that came back) is one test case
 comparing the replies with GRBL's, line by line. Exchanges that differ today
@@ -213,6 +221,8 @@ class _Firmware:
     """labkit-fw-sim on a pty, GRBL dialect (with the transcript's limit switches, if any), with
     ``settings`` written first (number -> value)."""
 
+    simulated = False
+
     def __init__(self, sim: str, switches: str = "", settings: dict | None = None):
         self.proc, pty = _start_sim(sim, "grbl", ["--switches", switches] if switches else [])
         self.fd = os.open(pty, os.O_RDWR | os.O_NOCTTY)
@@ -242,10 +252,13 @@ class _Firmware:
 
 
 class _Virtual:
-    """labkit's virtual machine in real time, read as a port is, with the transcript's limit
-    switches (the same spec as the simulator's --switches)."""
+    """labkit's virtual machine in simulated time (its clock moves only by :meth:`advance`),
+    read as a port is, with the transcript's limit switches (the same spec as the simulator's
+    --switches) and probe input (grbl-sim's GRBL_SIM_PROBE)."""
 
-    def __init__(self, switches: str = ""):
+    simulated = True
+
+    def __init__(self, switches: str = "", probe: str = ""):
         from labkit.machine.virtual import VirtualMachine
         from labkit.motion import load_machine
         # the GRBL that recorded the transcripts: DEFAULTS_GENERIC's mechanics and no settings of
@@ -253,21 +266,20 @@ class _Virtual:
         generic = load_machine("grbl-diode").replace(
             steps_per_mm=(250.0,) * 3, max_rate_mm_min=(500.0,) * 3, accel_mm_s2=(10.0,) * 3,
             travel_mm=(200.0,) * 3, grbl_settings=())
-        self.vm = VirtualMachine(generic, time_scale=1.0, switches=switches or None)
+        self.vm = VirtualMachine(generic, time_scale=0, tick_s=0.0, switches=switches or None,
+                                 probe=probe or None)
         self.vm.timeout = 0
 
     def send(self, data: bytes) -> None:
         self.vm.write(data)
 
-    def read(self, timeout_s: float) -> bytes:
-        end = time.monotonic() + timeout_s
-        while True:
-            waiting = self.vm.in_waiting
-            if waiting:
-                return self.vm.read(waiting)
-            if time.monotonic() >= end:
-                return b""
-            time.sleep(0.002)
+    def advance(self, seconds: float) -> None:
+        self.vm.advance(seconds)
+
+    def read(self, timeout_s: float = 0.0) -> bytes:
+        """What the machine has written; ``timeout_s`` of simulated time pass first."""
+        self.vm.advance(timeout_s)
+        return self.vm.read(self.vm.in_waiting)
 
     def close(self) -> None:
         self.vm.close()
@@ -285,7 +297,7 @@ def _open(target: str, sim: str | None, transcript: dict):
     """The target for ``transcript``: with its limit switches (grbl-sim's and labkit-fw-sim's
     --switches) and, where it :func:`brakes_as_grbl`, GRBL's accelerations."""
     if target != "firmware":
-        return _Virtual(transcript.get("switches", ""))
+        return _Virtual(transcript.get("switches", ""), transcript.get("probe", ""))
     settings = grbl_defaults(GRBL_ACCELERATION_SETTINGS) if brakes_as_grbl(transcript) else {}
     return _Firmware(sim, transcript.get("switches", ""), settings)
 
@@ -297,12 +309,14 @@ def _lines(data: bytes) -> tuple[list[str], bool]:
     return [ln.rstrip("\r") for ln in text.split("\n") if ln.strip("\r")], bare_lf
 
 
-def _collect(port, exchange) -> bytes:
-    """Read what the target answers to one exchange (see README: how long to wait)."""
+def _collect(port, exchange, ahead_s: float = 0.0) -> bytes:
+    """Read what the target answers to one exchange (see README: how long to wait); ``ahead_s``:
+    how much sooner than GRBL the replay sends it (it waits for replies, not the recorder's
+    0.35 s of silence), which an answer that waits for motion to end takes on top."""
     want = exchange["replies"]
     terminators = sum(1 for r in want if _TERMINATOR.match(r))
     t0 = time.monotonic()
-    deadline = t0 + max(1.0, 1.5 * exchange.get("elapsed_s", 0.0) + 0.5)
+    deadline = t0 + max(1.0, 1.5 * exchange.get("elapsed_s", 0.0) + 0.5) + max(0.0, ahead_s)
     out = b""
     if not want or exchange.get("answered", True) is False:
         # nothing (more) expected: make sure of it, as long as the recorder did where it waited
@@ -333,18 +347,102 @@ def _collect(port, exchange) -> bytes:
     return out
 
 
+#: The most a firmware replay allows for being ahead of GRBL's schedule, s (the longest
+#: motion a transcript waits for is 8 s).
+MAX_AHEAD_S = 12.0
+
+#: Simulated time a replay gives the last exchange's replies after GRBL's last one (its
+#: recorder waited 0.35 s of silence), s.
+LAST_REPLY_WAIT_S = 1.0
+
+
+#: The recorder's wait for silence after an exchange's last reply, s (record.py's default).
+RECORDER_QUIET_S = 0.35
+
+
+def send_times(transcript: dict) -> list[float]:
+    """When GRBL received each exchange, s after the first: its ``at_s``, or for a transcript
+    recorded without GRBL's clock (README: no ``at_s``) the recorder's steps added up: the
+    previous exchange's ``elapsed_s`` and its wait for silence (``quiet_s``, 0.35 s by default),
+    then this one's ``pause_before_s``.
+
+    >>> send_times({"exchanges": [{"elapsed_s": 0.03}, {"elapsed_s": 0.5, "quiet_s": 1.5},
+    ...                           {"pause_before_s": 0.3, "elapsed_s": 0.0}]})
+    [0.0, 0.38, 2.68]
+    """
+    exchanges = transcript["exchanges"]
+    if all("at_s" in ex for ex in exchanges):
+        return [ex["at_s"] for ex in exchanges]
+    times, t = [], 0.0
+    for k, ex in enumerate(exchanges):
+        if k:
+            prev = exchanges[k - 1]
+            t += (prev.get("elapsed_s", 0.0) + prev.get("quiet_s", RECORDER_QUIET_S)
+                  + ex.get("pause_before_s", 0.0))
+        times.append(round(t, 4))
+    return times
+
+
+def pause_is_next(transcript: dict) -> bool:
+    """Whether what GRBL wrote during a ``pause_before_s`` is the next exchange's replies: so
+    in a transcript recorded without GRBL's clock (no ``at_s``: that recorder slept through its
+    pauses and read afterwards); with ``at_s`` it is the exchange before the pause's."""
+    return not all("at_s" in ex for ex in transcript["exchanges"])
+
+
+def _windows(transcript: dict) -> list[tuple[float, float]]:
+    """When each exchange was written and when the target's output stops being its replies
+    (the next write, or where :func:`pause_is_next` the start of the pause before it; the last:
+    its last reply plus :data:`LAST_REPLY_WAIT_S`), s on the recorder's clock."""
+    exchanges = transcript["exchanges"]
+    starts = send_times(transcript)
+    last = exchanges[-1]
+    ends = starts[1:] + [starts[-1] + last["elapsed_s"] + max(last.get("quiet_s", 0.0),
+                                                               LAST_REPLY_WAIT_S)]
+    if pause_is_next(transcript):
+        ends = [e - ex.get("pause_before_s", 0.0) for e, ex in zip(ends, exchanges[1:])] + ends[-1:]
+    return list(zip(starts, ends))
+
+
 def replay(target: str, transcript: dict, sim: str | None = None) -> list[dict]:
     """Replay one transcript; per exchange the lines got and what differs from GRBL."""
     port = _open(target, sim, transcript)
     results = []
     written: set = set()
+    windows = _windows(transcript) if port.simulated else None
+    at = send_times(transcript)
+    pause_next = pause_is_next(transcript)
+    clock = 0.0
     try:
         port.read(0.2)                                # a banner sent at start, before the replay
-        for ex in transcript["exchanges"]:
-            if ex.get("pause_before_s"):
-                time.sleep(ex["pause_before_s"])
-            port.send(ex["send"].encode("latin-1"))
-            data = _collect(port, ex)
+        exchanges = transcript["exchanges"]
+        for k, ex in enumerate(exchanges):
+            if port.simulated:
+                start, end = windows[k]
+                port.advance(max(0.0, start - clock))
+                port.send(ex["send"].encode("latin-1"))
+                data = port.read(max(0.0, end - max(start, clock)))
+                clock = max(end, clock)
+            else:
+                # how far the replay runs ahead of GRBL's schedule since they last met (a reply
+                # that took a while: both had waited for the same motion), at most a long move
+                if pause_next and ex.get("pause_before_s"):
+                    time.sleep(ex["pause_before_s"])    # what comes meanwhile is this one's
+                if k == 0:
+                    met = (at[k], time.monotonic())
+                ahead = min(MAX_AHEAD_S, (at[k] - met[0]) - (time.monotonic() - met[1]))
+                sent = time.monotonic()
+                port.send(ex["send"].encode("latin-1"))
+                data = _collect(port, ex, ahead)
+                if time.monotonic() - sent >= 0.5:
+                    met = (at[k] + ex["elapsed_s"], time.monotonic())
+                # the recorder's pause before the next exchange: what comes meanwhile is this one's
+                pause = exchanges[k + 1].get("pause_before_s", 0.0) if k + 1 < len(exchanges) else 0.0
+                if pause_next:
+                    pause = 0.0
+                end = time.monotonic() + pause
+                while time.monotonic() < end:
+                    data += port.read(end - time.monotonic())
             got, bare_lf = _lines(data)
             diffs = differences(ex, got, written)
             if bare_lf:
@@ -448,6 +546,11 @@ def test_transcripts_cover_what_issue_26_asks():
         assert "bfb67f0c7963fe3ce4aaf8a97f9009ea5a8db36e" in tr["recorded_from"]["grbl"], topic
         assert tr["exchanges"][0]["send"] == "\x18", topic
         assert tr["exchanges"][0]["replies"] == ["Grbl 1.1h ['$' for help]"], topic
+        # GRBL's clock at every exchange or at none, from 0 and in order (the simulated replay
+        # needs it)
+        assert len({"at_s" in ex for ex in tr["exchanges"]}) == 1, topic
+        at = send_times(tr)
+        assert at[0] == 0.0 and all(b >= a for a, b in zip(at, at[1:])), topic
     errors = [ex for tr in _TRANSCRIPTS.values() for ex in tr["exchanges"]
               if ex["send"].endswith("\n") and any(r.startswith("error:") for r in ex["replies"])]
     assert len(errors) >= 60
@@ -509,63 +612,6 @@ KNOWN_DIFFERENCES: dict[tuple[str, str, int], str] = {
                                   "$200-$209 are the firmware's settings in both dialects (ramps, laser maximum, "
                                   "planner, dialect; $208=0 is the way back to labkit-fw), so $200 exists and "
                                   "1 is out of its range, where GRBL has no $200)",
-    ('virtual', 'check_mode', 19): "?: line 1: fields ['MPos', 'FS'], GRBL ['MPos', 'FS', 'WCO']",
-    ('virtual', 'dollar_commands', 29): "?: line 1: fields ['MPos', 'FS', 'Ov'], GRBL ['MPos', 'FS', 'WCO']",
-    ('virtual', 'dollar_commands', 31): "?: line 1: fields ['MPos', 'FS'], GRBL ['MPos', 'FS', 'Ov']",
-    ('virtual', 'hold_resume', 18): "?: line 1: fields ['MPos', 'FS', 'Ov', 'A'], GRBL ['MPos', 'FS']",
-    ('virtual', 'hold_resume', 26): "?: line 1: fields ['MPos', 'FS', 'Ov', 'A'], GRBL ['MPos', 'FS']",
-    ('virtual', 'line_length', 14): "$I=000000000000000000000000000: line 1: 'error:8', GRBL 'ok'",
-    ('virtual', 'line_length', 15): "$I: line 1: 'error:8', GRBL '[VER:1.1h.20190830:0000000000000000000000000000000000000000000000000000",
-    ('virtual', 'line_length', 16): "$N0=G0X1.000000000000000000000: line 1: 'error:8', GRBL 'ok'",
-    ('virtual', 'line_length', 17): "$N: line 1: 'error:8', GRBL '$N0=G0X1.00000000000000000000000000000000000000000000000000000000000000",
-    ('virtual', 'line_length', 18): "$N0=: line 1: 'error:8', GRBL 'ok'",
-    ('virtual', 'offsets', 52): "?: line 1: fields ['MPos', 'FS'], GRBL ['MPos', 'FS', 'WCO']",
-    ('virtual', 'program_flow', 22): "?: line 1: fields ['MPos', 'FS', 'Ov'], GRBL ['MPos', 'FS', 'WCO']",
-    ('virtual', 'program_flow', 29): "?: line 1: fields ['MPos', 'FS'], GRBL ['MPos', 'FS', 'WCO']",
-    ('virtual', 'program_flow', 31): "?: line 1: fields ['MPos', 'FS'], GRBL ['MPos', 'FS', 'Ov']",
-    ('virtual', 'reset', 20): "?: line 1: fields ['MPos', 'FS', 'Ov'], GRBL ['MPos', 'FS']",
-    ('virtual', 'status_reports', 94): "?: line 1: fields ['MPos', 'FS'], GRBL ['MPos', 'FS', 'WCO']",
-    # startup_jog: the virtual machine neither runs a start-up line that is a jog as GRBL does (when
-    # stored and after a reset) nor refuses G-code during a jog (error:9)
-    ('virtual', 'startup_jog', 2): '?: line 1: MPos:0.000,0.000,0.000, GRBL MPos:2.000,0.000,0.000',
-    ('virtual', 'startup_jog', 5): "?: line 1: state 'Run', GRBL 'Jog'",
-    ('virtual', 'startup_jog', 6): '?: line 1: MPos:2.000,0.000,0.000, GRBL MPos:4.000,0.000,0.000',
-    ('virtual', 'startup_jog', 13): "$N1=$XYG91X1F100: line 1: 'error:1', GRBL 'ok'",
-    ('virtual', 'startup_jog', 14): '?: line 1: MPos:2.000,0.000,0.000, GRBL MPos:5.000,0.000,0.000',
-    ('virtual', 'startup_jog', 15): "$N: line 2: '$N1=', GRBL '$N1=$XYG91X1F100'",
-    ('virtual', 'startup_jog', 19): "G0X0: line 1: 'ok', GRBL 'error:9'",
-    ('virtual', 'startup_jog', 23): '?: line 1: MPos:0.000,0.000,0.000, GRBL MPos:8.000,0.000,0.000',
-    ('virtual', 'startup_jog', 27): '?: line 1: MPos:0.000,0.000,0.000, GRBL MPos:8.000,0.000,0.000',
-    # reset_wait: a dwell from rest runs as motion there (Run, then ALARM:3 at the reset) where GRBL
-    # dwells in Idle; a reset does not answer the line that waited (ALARM:3, [MSG:Pgm End] for M2,
-    # ok, then the banner); G10 L20 is answered before the move ends
-    ('virtual', 'reset_wait', 2): "?: line 1: state 'Run', GRBL 'Idle'",
-    ('virtual', 'reset_wait', 3): "'\\x18': line 1: 'ALARM:3', GRBL 'ok'",
-    ('virtual', 'reset_wait', 4): "?: line 1: state 'Alarm', GRBL 'Idle'",
-    ('virtual', 'reset_wait', 5): "G1 X10 F300: line 1: 'error:9', GRBL 'ok'",
-    ('virtual', 'reset_wait', 6): "G4 P0.01: extra lines ['error:9']",
-    ('virtual', 'reset_wait', 7): "?: line 1: state 'Alarm', GRBL 'Run'",
-    ('virtual', 'reset_wait', 8): '\'\\x18\': line 1: "Grbl 1.1h [\'$\' for help]", GRBL \'ALARM:3\'',
-    ('virtual', 'reset_wait', 15): '\'\\x18\': line 2: "Grbl 1.1h [\'$\' for help]", GRBL \'ok\'',
-    ('virtual', 'reset_wait', 21): '\'\\x18\': line 2: "Grbl 1.1h [\'$\' for help]", GRBL \'[MSG:Pgm End]\'',
-    ('virtual', 'reset_wait', 26): "G10 L20 P1 X0: extra lines ['ok']",
-    ('virtual', 'reset_wait', 27): '\'\\x18\': line 2: "Grbl 1.1h [\'$\' for help]", GRBL \'ok\'',
-    ('virtual', 'reset_wait', 35): '\'\\x18\': line 2: "Grbl 1.1h [\'$\' for help]", GRBL \'ok\'',
-    # hard_limits: a limit switch released with $21=1 raises no ALARM:1 there, and a reset with a
-    # switch pressed gives no [MSG:Check Limits]
-    ('virtual', 'hard_limits', 5): '\'\\x18\': line 2: "[MSG:\'$H\'|\'$X\' to unlock]", GRBL \'[MSG:Check Limits]\'',
-    ('virtual', 'hard_limits', 10): "G0 X4: missing lines ['ALARM:1', '[MSG:Reset to continue]']",
-    ('virtual', 'hard_limits', 11): "?: extra lines ['<Idle|MPos:4.000,0.000,0.000|FS:0,0>']",
-    ('virtual', 'hard_limits', 12): '\'\\x18\': missing lines ["[MSG:\'$H\'|\'$X\' to unlock]"]',
-    ('virtual', 'hard_limits', 13): "?: line 1: state 'Idle', GRBL 'Alarm'",
-    ('virtual', 'hard_limits', 14): "$X: line 1: 'ok', GRBL '[MSG:Caution: Unlocked]'",
-    ('virtual', 'hard_limits', 22): '\'\\x18\': line 3: "[MSG:\'$H\'|\'$X\' to unlock]", GRBL \'[MSG:Check Limits]\'',
-    ('virtual', 'hard_limits', 31): '\'\\x18\': line 2: "[MSG:\'$H\'|\'$X\' to unlock]", GRBL \'[MSG:Check Limits]\'',
-    ('virtual', 'hard_limits', 33): "$J=G91 X-2 F300: missing lines ['ALARM:1', '[MSG:Reset to continue]']",
-    ('virtual', 'hard_limits', 34): "?: extra lines ['<Idle|MPos:3.000,0.000,0.000|FS:0,0|WCO:0.000,0.000,0.000>']",
-    ('virtual', 'hard_limits', 35): '\'\\x18\': missing lines ["[MSG:\'$H\'|\'$X\' to unlock]"]',
-    ('virtual', 'hard_limits', 36): "$X: line 1: 'ok', GRBL '[MSG:Caution: Unlocked]'",
-    ('virtual', 'hard_limits', 55): '\'\\x18\': line 2: "[MSG:\'$H\'|\'$X\' to unlock]", GRBL \'[MSG:Check Limits]\'',
 }
 
 

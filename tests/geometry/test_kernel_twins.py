@@ -1,6 +1,7 @@
 """Kernels' Python paths (what a small drawing or image runs) give the compiled results:
-the numpy twins of flattening and of the distance grid, and the greedy fit run on
-memoryviews (``views=True``), the greedy order, and the gray and dither scans.
+the numpy twins of flattening and of the distance grid, the greedy fit's Python twin (and the
+drawing's chains fitted in one call), the greedy order run on memoryviews (``views=True``),
+and the gray and dither scans.
 """
 
 import numpy as np
@@ -66,25 +67,107 @@ def test_distance_twin_answers_most_queries_from_the_neighbouring_cells(monkeypa
     assert sum(left) < 0.01 * len(q)
 
 
-@pytest.mark.parametrize("tol", [0.1, 0.01])
-def test_greedy_fit_on_memoryviews_gives_the_numpy_scalar_and_the_compiled_arcs(tol, monkeypatch):
-    """On memoryviews the fit's arithmetic runs on Python floats: bit for bit what it gives on
-    numpy scalars; compiled, the same runs and arcs (centres to rounding: numba's libm)."""
-    from labkit.geometry._greedyfit import fit_runs
+def _greedy_curves(seed, tol):
+    """Dense samples of random cubic chains, as cubics_to_arcs hands them to the greedy fit."""
+    from labkit.geometry.arcfit import sampling_share
 
-    rng = np.random.default_rng(11)
-    ctrls = rng.normal(0, 15, (60, 4, 2))
-    ctrls[1:, 0] = ctrls[:-1, 3]                           # a chain
-    views, compiled = _both(cubics_to_arcs, ctrls, tol)
-    monkeypatch.setattr(fit_runs, "views", False)
-    with _jit.forced("python"):
-        scalars = cubics_to_arcs(ctrls, tol)
-    assert int(views.is_arc.sum()) > 20
-    for name in ("vertices", "centres", "sweeps"):
-        np.testing.assert_array_equal(getattr(views, name), getattr(scalars, name))
-        np.testing.assert_allclose(getattr(views, name), getattr(compiled, name), rtol=0, atol=1e-9)
-    assert views.deviation_mm == scalars.deviation_mm
-    assert views.deviation_mm == pytest.approx(compiled.deviation_mm, abs=1e-12)
+    rng = np.random.default_rng(seed)
+    curves = []
+    for _ in range(12):
+        ctrls = rng.normal(0, rng.uniform(1, 40), (int(rng.integers(1, 30)), 4, 2))
+        ctrls[1:, 0] = ctrls[:-1, 3]                       # a chain
+        if rng.random() < 0.3:                             # straight runs and sharp corners too
+            ctrls[:, 1:3] = ctrls[:, [0, 3]] * [[2 / 3], [1 / 3]] + ctrls[:, [3, 0]] * [[1 / 3], [2 / 3]]
+        flat, _ = sampling_share(tol)
+        pts, _ = flatten_cubics(ctrls, flat)
+        p = np.vstack([ctrls[:1, 0], pts])
+        keep = np.concatenate(([True], np.any(np.diff(p, axis=0) != 0, axis=1)))
+        curves.append(np.ascontiguousarray(p[keep]))
+    return curves
+
+
+@pytest.mark.parametrize("tol", [0.1, 0.01])
+@pytest.mark.parametrize("seed", range(3))
+def test_greedy_fit_twin_gives_the_kernels_own_code_bit_for_bit(tol, seed):
+    """The greedy fit's Python twin (its tests written out, the samples as lists of floats) gives
+    what the kernel's own code gives run as Python, bit for bit — runs, centres, sweeps, miss —
+    and the compiled runs (centres and sweeps to rounding: numba's libm hypot, not Python's)."""
+    from labkit.geometry._greedyfit import _fit_runs_python, fit_runs
+
+    arcs = 0
+    for p in _greedy_curves(seed, tol):
+        for allow_arcs in (True, False):
+            twin = _fit_runs_python(p, tol, allow_arcs)
+            with _jit.forced("python"):
+                _jit._python_depth[0] += 1                 # fit_runs' own code, not its twin
+                try:
+                    own = fit_runs.py_func(p, tol, allow_arcs)
+                finally:
+                    _jit._python_depth[0] -= 1
+            with _jit.forced("compiled"):
+                compiled = fit_runs(p, tol, allow_arcs)
+            for k in range(3):
+                np.testing.assert_array_equal(twin[k], own[k])
+            assert twin[3] == own[3]
+            np.testing.assert_array_equal(twin[0], compiled[0])
+            np.testing.assert_allclose(twin[1], compiled[1], rtol=0, atol=1e-9)
+            np.testing.assert_allclose(twin[2], compiled[2], rtol=0, atol=1e-12)
+            assert twin[3] == pytest.approx(compiled[3], abs=1e-12)
+            arcs += int(np.sum(twin[2] != 0))
+    assert arcs > 50
+
+
+@pytest.mark.parametrize("tol", [0.1, 0.01])
+def test_greedy_fit_of_many_curves_in_one_call_gives_each_curves_runs(tol):
+    """fit_runs_many (a drawing's curves in one call) gives fit_runs' runs of each curve, as
+    Python and compiled; curves of fewer than two samples give none."""
+    from labkit.geometry._greedyfit import fit_runs, fit_runs_many
+
+    curves = _greedy_curves(7, tol) + [np.zeros((1, 2))]
+    curves.insert(3, np.zeros((1, 2)))
+    starts = np.concatenate([[0], np.cumsum([len(c) for c in curves])])
+    p = np.ascontiguousarray(np.vstack(curves))
+    for how in ("python", "compiled"):
+        with _jit.forced(how):
+            ends, centres, sweeps, counts, worst = fit_runs_many(p, starts, tol, True)
+            k = 0
+            for c, q in enumerate(curves):
+                if len(q) < 2:
+                    assert counts[c] == 0 and worst[c] == 0.0
+                    continue
+                e, cen, sw, w = fit_runs(q, tol, True)
+                assert counts[c] == len(e)
+                np.testing.assert_array_equal(ends[k:k + len(e)], e + starts[c])
+                np.testing.assert_array_equal(centres[k:k + len(e)], cen)
+                np.testing.assert_array_equal(sweeps[k:k + len(e)], sw)
+                assert worst[c] == w
+                k += len(e)
+            assert k == len(ends)
+
+
+@pytest.mark.parametrize("tol", [0.1, 0.01])
+def test_chains_fitted_together_are_the_chains_fitted_one_by_one(tol):
+    """cubic_chains_to_arcs (a drawing's chains in one flattening and one fitting call) gives
+    the Paths cubics_to_arcs gives chain by chain, in both modes."""
+    from labkit.geometry import cubic_chains_to_arcs
+
+    rng = np.random.default_rng(3)
+    chains = []
+    for _ in range(15):
+        c = rng.normal(0, rng.uniform(1, 30), (int(rng.integers(1, 12)), 4, 2))
+        c[1:, 0] = c[:-1, 3]
+        chains.append(c)
+    chains.append(np.array([[[1.0, 1.0], [1.0, 1.0], [1.0, 1.0], [2.0, 1.0]]]))   # repeated points
+    for how in ("python", "compiled"):
+        with _jit.forced(how):
+            together = cubic_chains_to_arcs(chains, tol, layer="L")
+            alone = [cubics_to_arcs(c, tol, layer="L") for c in chains]
+        for a, b in zip(together, alone):
+            for name in ("vertices", "centres", "sweeps"):
+                np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+            assert a.deviation_mm == b.deviation_mm and a.layer == "L"
+    with pytest.raises(Exception, match="all points coincide"):
+        cubic_chains_to_arcs([np.zeros((1, 4, 2))], tol)
 
 
 def test_greedy_order_on_memoryviews_gives_the_compiled_order():
@@ -107,6 +190,28 @@ def test_greedy_order_on_memoryviews_gives_the_compiled_order():
     np.testing.assert_array_equal(a.order, b.order)
     np.testing.assert_array_equal(a.flipped, b.flipped)
     assert a.examined == b.examined
+
+
+def test_two_opt_as_python_gives_the_compiled_tour():
+    """The 2-opt improvement (``_two_opt``, run as Python up to its python_below of 150,000
+    elements) as Python: the compiled tour, reversals, travel and move count, on open segments
+    and closed loops with parents (containment) and on open segments alone, 2,000 items."""
+    from labkit.geometry import order_segments
+
+    rng = np.random.default_rng(6)
+    starts = rng.uniform(0, 300, (1500, 2))
+    ends = starts + rng.normal(0, 4, (1500, 2))
+    loops = [c + rng.uniform(1, 6) * np.c_[np.cos(a), np.sin(a)]
+             for c, a in zip(rng.uniform(0, 300, (500, 2)), [np.linspace(0, 6, 7)] * 500)]
+    parent = np.full(2000, -1)
+    parent[rng.choice(1500, 300, replace=False)] = 1500 + rng.integers(0, 500, 300)
+    for kwargs in ({"closed_points": loops, "parent": parent}, {}):
+        a, b = _both(order_segments, starts, ends, improve=True, **kwargs)
+        np.testing.assert_array_equal(a.order, b.order)
+        np.testing.assert_array_equal(a.reversed, b.reversed)
+        assert a.travel_mm == b.travel_mm
+        greedy = order_segments(starts, ends, improve=False, **kwargs)
+        assert a.travel_mm < greedy.travel_mm          # the 2-opt did move items
 
 
 @pytest.mark.parametrize("mode", ["gray", "dither"])

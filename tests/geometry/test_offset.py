@@ -77,3 +77,20 @@ def test_nonzero_region_respects_ring_direction():
     island = Path.circle((0, 0), 2)                 # back to +1 inside the hole
     assert region([outer, opposite, island]).area == pytest.approx(math.pi * 79, rel=1e-3)
     assert region([outer, same], fill_rule="evenodd").area == pytest.approx(math.pi * 75, rel=1e-3)
+
+
+def test_a_ring_the_fit_closes_to_a_point_is_dropped():
+    """A sliver of a region (a triangle with 0.04 mm sides, from the kerf offset of a generated
+    drawing) that the 0.08 mm fit closes to a single point is not a ring to cut: it made a
+    closed path of no length, which a two-layer job sampled into a 3-point polygon and shapely
+    refused (a traceback). The square beside it stays, exactly."""
+    import shapely
+
+    from labkit.geometry.offset import region_paths
+
+    sliver = [(101.93995737467502, 150.8478917789904), (101.97491551863833, 150.87026170981375),
+              (101.94419432124297, 150.88050757271282)]
+    square = shapely.Polygon([(0, 0), (10, 0), (10, 10), (0, 10)])
+    out = region_paths(shapely.MultiPolygon([square, shapely.Polygon(sliver)]), 0.1, sample_tol_mm=0.02)
+    assert len(out) == 1
+    assert out[0].length_mm == 40.0 and out[0].closed

@@ -94,3 +94,76 @@ def test_bad_paths_raise():
         Path([(0, 0), (1, 0)]).rolled(1)
     with pytest.raises(GeometryError, match="tol_mm must be > 0"):
         Path.circle((0, 0), 1).sample(0)
+
+
+def _bounds_arc_by_arc(p):
+    """Path.bounds as it was: circle.arc_bounds of every arc, one at a time."""
+    from labkit.geometry.circle import arc_bounds
+
+    lo, hi = p.vertices.min(axis=0), p.vertices.max(axis=0)
+    for i in np.flatnonzero(p.is_arc):
+        box = arc_bounds(p.vertices[i], p.vertices[i + 1], p.centres[i], p.sweeps[i])
+        lo, hi = np.minimum(lo, box[0]), np.maximum(hi, box[1])
+    return np.array([lo, hi])
+
+
+def _random_chains(count, seed=0):
+    """Chains of 1-19 lines and arcs of every size and sweep (radii 1 um to 1 m), arc starts on
+    the axes among them."""
+    rng = np.random.default_rng(seed)
+    paths = []
+    for _ in range(count):
+        n = int(rng.integers(1, 20))
+        v = [rng.normal(0, 50, 2)]
+        cs, ss = [], []
+        for _ in range(n):
+            s = v[-1]
+            sweep = 0.0 if rng.random() < 0.2 else rng.uniform(-2 * np.pi + 1e-6, 2 * np.pi - 1e-6)
+            if sweep == 0.0:
+                v.append(s + rng.normal(0, 5, 2))
+                cs.append([np.nan, np.nan])
+            else:
+                r = 10 ** rng.uniform(-3, 3)
+                a0 = rng.integers(-4, 5) * np.pi / 2 if rng.random() < 0.3 else rng.uniform(-np.pi, np.pi)
+                c = s - r * np.array([np.cos(a0), np.sin(a0)])
+                rr = math.hypot(*(s - c))
+                a = math.atan2(s[1] - c[1], s[0] - c[0]) + sweep
+                v.append(c + rr * np.array([math.cos(a), math.sin(a)]))
+                cs.append(c)
+            ss.append(sweep)
+        paths.append(Path(np.array(v), np.array(cs), np.array(ss)))
+    return paths
+
+
+def test_bounds_of_all_arcs_at_once_are_arc_bounds_numbers():
+    """Path.bounds and bounds_each (every path at once) give circle.arc_bounds' boxes exactly, on
+    random chains of arcs of every size and sweep, starts on the axes among them."""
+    from labkit.geometry.path import bounds_each
+
+    paths = _random_chains(400)
+    ref = np.array([_bounds_arc_by_arc(p) for p in paths])
+    np.testing.assert_array_equal(np.array([p.bounds() for p in paths]), ref)
+    np.testing.assert_array_equal(bounds_each(paths), ref)
+    assert bounds_each([]).shape == (0, 2, 2)
+
+
+def test_samples_of_all_paths_at_once_are_each_paths_samples():
+    """sample_each (every path in one pass) gives each Path.sample's points exactly; and,
+    independently, every sample of an arc lies on its circle and every chord stays within the
+    tolerance of the arc (sagitta r(1 - cos(phi/2)), the closed form)."""
+    from labkit.geometry.path import sample_each
+
+    paths = _random_chains(300, seed=1) + [Path.rectangle(0, 0, 2, 1), Path.circle((1, 1), 1e-3)]
+    for tol in (0.1, 0.01, 1e-4):
+        got = sample_each(paths, tol)
+        assert len(got) == len(paths)
+        for p, q in zip(paths, got):
+            np.testing.assert_array_equal(q, p.sample(tol))
+    p = Path.circle((3, 4), 5)
+    q = sample_each([p], 0.01)[0]
+    np.testing.assert_allclose(np.hypot(q[:, 0] - 3, q[:, 1] - 4), 5, rtol=1e-12)
+    step = 2 * math.pi / (len(q) - 1)
+    assert 5 * (1 - math.cos(step / 2)) <= 0.01
+    assert sample_each([], 0.1) == []
+    with pytest.raises(GeometryError, match="tol_mm must be > 0"):
+        sample_each([p], 0)

@@ -2,6 +2,7 @@
 
 import errno
 import re
+import time
 
 import pytest
 from hypothesis import given, settings
@@ -191,8 +192,11 @@ def test_jog_and_soft_limit_alarm_then_unlock():
         g.jog(x=50, feed_mm_min=1000)
     with pytest.raises(MachineError, match="ALARM:2 while sending .*: soft limit"):
         g.command("G90 G0 X9999")
-    g.soft_reset()                            # GRBL answers nothing after ALARM:2 until a reset,
-    g.drain_events()                          # then the alarmed line's ok before its banner
+    # GRBL answers nothing after ALARM:2 until a reset, then the alarmed line's ok before its
+    # banner: soft_reset sets that ok aside, so the next command gets its own answer
+    g.soft_reset()
+    assert [ev.text for ev in g.reset_answers] == ["ok"]
+    assert [ev.kind for ev in g.drain_events()] == ["reset"]
     with pytest.raises(MachineError, match="error:9: G-code is locked out"):
         g.command("G0 X0")
     g.unlock()
@@ -209,6 +213,26 @@ def test_laser_mode_check_refuses_spindle_mode():
         g.check_laser_job(True)
     assert g.check_laser_job(True, allow_spindle_mode=True).startswith("warning")
     assert g.check_laser_job(False) is None
+    g.close()
+
+
+def test_reset_answers_are_set_aside_only_after_an_alarm():
+    """The ok GRBL sends at a reset for the line it was in, as recorded from GRBL 1.1h
+    (tests/vectors/grbl/reset_wait.json: a G4 waiting behind a move, then ctrl-x gives
+    ALARM:3, ok, the banner), is not the next command's answer; a reset at rest with nothing
+    waiting sets nothing aside, and a line answered before the reset keeps its ok."""
+    g = connect(time_scale=1.0)
+    g.command("G1 X-50 F600")                 # 5 s of motion
+    g.send_line("G4 P0.01")                   # waits for the move: no answer yet
+    time.sleep(0.2)
+    assert g.drain_events() == []
+    g.soft_reset()                            # ALARM:3, then the G4's ok, then the banner
+    assert g.alarm == 3 and [ev.text for ev in g.reset_answers] == ["ok"]
+    assert [ev.kind for ev in g.drain_events()] == ["alarm", "reset"]
+    g.unlock()
+    g.command("G4 P0")                        # its own answer
+    g.soft_reset()
+    assert g.reset_answers == []
     g.close()
 
 

@@ -17,6 +17,7 @@ TICK_S = 0.005
 HOMING = (b"$130=20\n", b"$131=20\n", b"$132=20\n", b"$25=200\n", b"$24=100\n", b"$27=3\n",
           b"$22=1\n")
 LOCK = "[MSG:'$H'|'$X' to unlock]"
+CHECK = "[MSG:Check Limits]"     # after a reset with $21=1 and a limit input pressed
 BANNER = "Grbl 1.1h ['$' for help]"
 
 
@@ -210,23 +211,27 @@ def test_hard_limits_stop_at_the_switch_with_alarm_1_and_the_beam_off():
     assert lines == ["ok", "ALARM:1", "[MSG:Reset to continue]"]
     assert vm.state == "Alarm" and vm.pos[0] == pytest.approx(5.0, abs=1e-9)
     assert vm.laser_output() == 0.0 and max(p.end[0] for p in vm.executed) == pytest.approx(5.0)
-    assert talk(vm, b"\x18") == [BANNER, LOCK]
-    # already pressed: moving on or back is no new edge, as GRBL's pin-change interrupt sees it
+    # a reset with the switch still pressed: GRBL checks the inputs (hard_limits.json #5)
+    assert talk(vm, b"\x18") == [BANNER, CHECK, LOCK]
+    # moving on along the pressed switch is no edge; leaving it is one, a step off the switch
+    # (hard_limits.json #10 and #13: ALARM:1, 4.996, no Pn:X)
     assert talk(vm, b"$X\nG0 X6\n", 2.0) == ["[MSG:Caution: Unlocked]", "ok", "ok"]
-    assert talk(vm, b"G0 X4\n", 2.0) == ["ok"] and vm.state == "Idle"
+    assert talk(vm, b"G0 X4\n", 2.0) == ["ok", "ALARM:1", "[MSG:Reset to continue]"]
+    assert vm.pos[0] == pytest.approx(4.996) and vm.limit_pins == ""
+    assert talk(vm, b"\x18$X\n") == [BANNER, LOCK, "[MSG:Caution: Unlocked]", "ok"]
     # $21=0: the same switch is only a Pn: input
     assert talk(vm, b"$21=0\nG0 X10\n", 3.0) == ["ok", "ok"]
     assert vm.pos[0] == 10.0 and vm.limit_pins == "X"
 
 
 def test_a_hard_limit_is_any_input_changing_while_one_reads_pressed():
-    """GRBL's pin-change interrupt reads all inputs: with Z's switch stuck pressed, X leaving
-    its switch is a change while one reads pressed: ALARM:1 where X's switch is."""
+    """GRBL's pin-change interrupt fires on any change of an input, pressed or released: X
+    leaving its switch is ALARM:1 one step (1/250 mm) off it, Z's stuck switch reads on."""
     vm = machine(switches="X:+5,Z:stuck")
     assert talk(vm, b"G0 X6\n", 3.0) == ["ok"] and vm.limit_pins == "XZ"
     assert talk(vm, b"$21=1\n") == ["ok"]
     assert talk(vm, b"G0 X4\n", 3.0) == ["ok", "ALARM:1", "[MSG:Reset to continue]"]
-    assert vm.pos[0] == pytest.approx(5.0) and vm.limit_pins == "XZ"
+    assert vm.pos[0] == pytest.approx(4.996) and vm.limit_pins == "Z"
 
 
 def test_a_hold_braking_onto_a_switch_is_a_hard_limit():

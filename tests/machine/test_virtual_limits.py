@@ -12,7 +12,7 @@ import pytest
 
 from labkit.machine.virtual import VirtualMachine
 
-from .test_virtual_homing import BANNER, LOCK, TICK_S, generic, talk
+from .test_virtual_homing import BANNER, CHECK, LOCK, TICK_S, generic, talk
 
 ALARM_2 = ["ALARM:2", "[MSG:Reset to continue]"]
 
@@ -77,7 +77,7 @@ def test_a_hard_limit_waits_for_the_reset_too_and_owes_no_ok_when_no_line_was_in
     assert talk(vm, b"G0 X-10\n", 3.0) == ["ok", "ALARM:1", "[MSG:Reset to continue]"]
     assert vm.pos[0] == pytest.approx(-3.0)
     assert talk(vm, b"?$X\n", 0.5) == []
-    assert talk(vm, b"\x18") == [BANNER, LOCK]
+    assert talk(vm, b"\x18") == [BANNER, CHECK, LOCK]      # the switch still pressed
 
 
 def test_a_hard_limit_answers_the_line_waiting_on_a_dwell_at_the_reset():
@@ -87,7 +87,7 @@ def test_a_hard_limit_answers_the_line_waiting_on_a_dwell_at_the_reset():
     vm.timeout = 0
     assert talk(vm, b"$21=1\n") == ["ok"]
     assert talk(vm, b"G0 X-10\nG4 P0.01\n", 3.0) == ["ok", "ALARM:1", "[MSG:Reset to continue]"]
-    assert talk(vm, b"\x18") == ["ok", BANNER, LOCK]
+    assert talk(vm, b"\x18") == ["ok", BANNER, CHECK, LOCK]
 
 
 # -- probing (G38.2-G38.5) ---------------------------------------------------------------------
@@ -106,20 +106,26 @@ def prb(line):
 
 
 def test_g38_2_stops_where_the_probe_touches_and_dollar_hash_shows_it():
-    """Z from 0 towards -5 at 60 mm/min (1 mm/s): the plate at Z-2 is met after 2 mm; the
-    head stops there, [PRB:0,0,-2:1] then ok; the beam stays off."""
+    """Z from 0 towards -5 at 60 mm/min (1 mm/s): the plate at Z-2 is met after 2 mm,
+    [PRB:0,0,-2:1] then ok; the beam stays off. The head runs on for the segments already
+    prepared (0.046 s) and brakes at 10 mm/s² (v²/2a), v the block's mean speed in the
+    virtual machine (5 mm in 0.1 + 4.9 + 0.1 s): about 0.093 mm past the plate, and the
+    parser continues from there."""
+    v = 5.0 / 5.1
+    past = 0.046 * v + v * v / 20.0
     vm = probing()
     assert talk(vm, b"M3 S1000\n") == ["ok"]
     lines = talk(vm, b"G38.2 Z-5 F60\n", 6.0)
     assert len(lines) == 2 and lines[1] == "ok"
     (x, y, z), flag = prb(lines[0])
     assert (x, y, flag) == (0.0, 0.0, 1) and z == pytest.approx(-2.0, abs=1e-3)
-    assert vm.pos[2] == pytest.approx(-2.0, abs=1e-3) and vm.state == "Idle"
+    assert vm.pos[2] == pytest.approx(-2.0 - past, abs=1e-3) and vm.state == "Idle"
     assert all(p.power == 0 for p in vm.executed)
     assert talk(vm, b"$#\n")[-2:] == [lines[0], "ok"]
-    # the parser continues from where it stopped: G91 Z1 ends at Z-1
+    # the parser continues from where it stopped: G91 Z1 ends 1 mm above it
+    stopped = vm.pos[2]
     assert talk(vm, b"G91 G0 Z1\n", 3.0) == ["ok"]
-    assert vm.pos[2] == pytest.approx(-1.0, abs=1e-3)
+    assert vm.pos[2] == pytest.approx(stopped + 1.0, abs=1e-3)
 
 
 def test_g38_4_moves_until_the_probe_lets_go():
@@ -127,7 +133,9 @@ def test_g38_4_moves_until_the_probe_lets_go():
     assert talk(vm, b"G0 Z-3\n", 5.0) == ["ok"]                # on the plate
     lines = talk(vm, b"G38.4 Z0 F60\n", 4.0)                   # away: leaves it at Z-2
     (_, _, z), flag = prb(lines[0])
-    assert lines[1:] == ["ok"] and flag == 1 and z == pytest.approx(-2.0, abs=1e-3)
+    # GRBL reads the input step by step: the first step that reads open is one step
+    # (1/250 mm, $102) above the plate
+    assert lines[1:] == ["ok"] and flag == 1 and z == pytest.approx(-1.996, abs=1e-6)
 
 
 def test_a_probe_already_where_the_move_should_end_is_alarm_4_and_nothing_moves():

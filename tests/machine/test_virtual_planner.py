@@ -1,13 +1,16 @@
 """The virtual machine plans with labkit.motion's junction-deviation planner (issue 28 §1).
 
 A job streamed so that the planner stays full runs in the time ``labkit plan --planner
-junction`` gives the whole job (same planner depth, same ``$12`` chords); a job that
-starves the planner runs slower. The stream here is a character-counting sender (GRBL's
+junction`` gives the whole job (same planner depth, same ``$12`` chords), once GRBL's
+planner syncs are full stops in both (a new M3/M4/M5 or S, which GRBL runs only when its
+planner is empty: :func:`grbl_stops` puts a ``G4 P0`` there for the plan); a job that starves
+the planner runs slower. The stream here is a character-counting sender (GRBL's
 ``stream.py`` rule: at most 127 bytes unanswered) with the machine's time advanced in
 explicit 1 ms steps, so the sender is never the slow part.
 """
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -65,9 +68,35 @@ def stream(machine, lines, *, window_bytes=127, step_s=0.001, **options):
     return vm.executed[-1].t_end - t0, vm
 
 
-def whole_job_time(machine, lines, depth):
+def grbl_stops(lines, laser_mode: bool) -> list[str]:
+    """``lines`` with a ``G4 P0`` (a full stop of no time, for the whole-job plan) before every
+    line GRBL 1.1h runs only once its planner is empty (spindle_sync, coolant_sync in gcode.c):
+    a new M3/M4/M5, a new M8/M9, a new S while the spindle is on — in laser mode ($32=1) only
+    on a line without axis words, whose power does not ride with a move. (These programs use
+    no other syncing words: no G10, G92, G43.1, G5x change or probe.)"""
+    out, spindle, s_word, flood = [], 5, 0.0, False
+    for line in lines:
+        words = re.findall(r"([A-Z])([-+]?[0-9.]+)", line.upper().replace(" ", ""))
+        m = {float(v) for k, v in words if k == "M"}
+        new_spindle = next((int(w) for w in m if w in (3.0, 4.0, 5.0)), spindle)
+        new_s = next((float(v) for k, v in words if k == "S"), s_word)
+        new_flood = (flood or 8.0 in m) and 9.0 not in m
+        moves = any(k in "XYZ" for k, _ in words)
+        sync = (new_spindle != spindle or new_flood != flood
+                or (spindle != 5 and new_s != s_word and not (laser_mode and moves)))
+        out += ["G4 P0", line] if sync else [line]
+        spindle, s_word, flood = new_spindle, new_s, new_flood
+    return out
+
+
+def whole_job_time(machine, lines, depth, laser_mode: bool | None = None):
+    """The job's time by labkit.motion's whole-job plan, GRBL's planner syncs as full stops
+    (``laser_mode``: GRBL's $32, by default the machine description's)."""
     m = load_machine(machine)
-    return plan(parse("\n".join(lines), dialect="grbl"), m, planner="junction", buffer_blocks=depth,
+    if laser_mode is None:
+        laser_mode = dict(m.grbl_settings).get(32, 0) == 1
+    text = "\n".join(grbl_stops(lines, laser_mode))
+    return plan(parse(text, dialect="grbl"), m, planner="junction", buffer_blocks=depth,
                 arc_tol_mm=m.arc_tolerance_mm).job_time_s
 
 

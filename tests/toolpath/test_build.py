@@ -140,3 +140,46 @@ def test_unrelated_layers_keep_first_seen_order():
     b = Path.rectangle(20, 0, 10, 10, layer="b")
     assert [p.layer for p in prepare_paths([a, b], kerf_mm=0.2)] == ["a", "b"]
     assert [p.layer for p in prepare_paths([b, a], kerf_mm=0.2)] == ["b", "a"]
+
+
+def _line_unless_area_one_by_one(p, tol_mm):
+    """prepare_paths' test of a chain as it was written, one chain at a time."""
+    if not p.length_mm > 0:
+        return None
+    if not p.closed:
+        return p
+    d = p.sample(tol_mm) - p.vertices[0]
+    far = d[int(np.argmax(np.hypot(d[:, 0], d[:, 1])))]
+    if np.any(d[:, 0] * far[1] - d[:, 1] * far[0] != 0):
+        return p
+    return p.with_geometry(p.vertices, p.centres, p.sweeps, closed=False)
+
+
+def test_chains_without_area_are_found_for_all_chains_at_once():
+    """The vectorised test of every chain (no length: dropped; closed with no area: cut open)
+    decides each chain as the one-by-one test did: outlines, arcs, lines there and back
+    (straight, diagonal, through the start), points, open paths."""
+    from labkit.toolpath.build import _lines_unless_area
+
+    rng = np.random.default_rng(2)
+    chains = []
+    for _ in range(300):
+        kind = rng.integers(6)
+        a, b = rng.normal(0, 20, 2), rng.normal(0, 20, 2)
+        if kind == 0:                                  # a line there and back, closed
+            chains.append(Path([a, b, a], closed=True))
+        elif kind == 1:                                # collinear, through the start
+            chains.append(Path([a, a + (b - a) * 0.3, b, a], closed=True))
+        elif kind == 2:                                # a point
+            chains.append(Path([a, a], closed=False))
+        elif kind == 3:                                # open polyline
+            chains.append(Path(rng.normal(0, 10, (int(rng.integers(2, 6)), 2))))
+        elif kind == 4:                                # a circle or an arc and its chord
+            chains.append(Path.circle(a, float(rng.uniform(0.001, 20))))
+        else:
+            chains.append(Path(rng.normal(0, 10, (4, 2)), closed=True))
+    for tol in (0.1, 0.01):
+        want = [q for q in (_line_unless_area_one_by_one(p, tol) for p in chains) if q is not None]
+        got = _lines_unless_area(chains, tol)
+        assert [(q.closed, q.vertices.tobytes()) for q in got] == [(q.closed, q.vertices.tobytes()) for q in want]
+        assert sum(not q.closed for q in got) > sum(not p.closed for p in chains if p.length_mm > 0)

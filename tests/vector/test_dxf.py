@@ -276,3 +276,31 @@ def test_lines_under_a_wipeout_are_cut_only_where_drawn(tmp_path):
     line = next(p for p in d.paths if p.source.startswith("LINE"))
     assert line.length_mm == 40.0
     assert d.clipped == [square[0].source]
+
+
+def test_spline_evaluation_matches_scipy_bspline():
+    """The B-spline evaluation spline_points flattens with (de Boor, all parameters at once) gives
+    scipy's BSpline values to 1e-13 of the control points' size: degrees 1-5, clamped and
+    unclamped knot vectors, repeated knots, rational weights, the range's ends and its knots."""
+    from scipy.interpolate import BSpline
+
+    from labkit.vector.dxf import _de_boor
+
+    rng = np.random.default_rng(0)
+    checked = 0
+    for _ in range(1500):
+        p = int(rng.integers(1, 6))
+        n = int(rng.integers(p + 1, p + 12))
+        inner = np.sort(rng.uniform(0, 1, n - p - 1))
+        if len(inner) > 1 and rng.random() < 0.3:
+            inner[1] = inner[0]
+        t = (np.r_[np.zeros(p + 1), inner, np.ones(p + 1)] if rng.random() < 0.5
+             else np.sort(rng.uniform(-1, 2, n + p + 1)))
+        if not t[n] > t[p]:
+            continue
+        c = np.column_stack([rng.normal(0, 50, (n, 2)) * (w := rng.uniform(0.2, 3, n))[:, None], w])
+        u = np.r_[t[p], np.sort(rng.uniform(t[p], t[n], 40)), t[n], t[(t >= t[p]) & (t <= t[n])]]
+        want = BSpline(t, c, p, extrapolate=False)(u)
+        np.testing.assert_allclose(_de_boor(t, c, p, u), want, rtol=0, atol=1e-13 * 150)
+        checked += 1
+    assert checked > 1000

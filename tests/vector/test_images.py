@@ -64,3 +64,34 @@ def test_images_asked_of_an_svg_without_any(tmp_path, capsys):
     assert main(["svg2gcode", str(path), "-o", str(tmp_path / "o.gcode"), "--images", "gray"]) == 1
     assert "--images gray: the SVG embeds no bitmap" in capsys.readouterr().err
     assert not (tmp_path / "o.gcode").exists()
+
+
+def test_an_unknown_image_mode_is_refused_with_the_modes(tmp_path, capsys):
+    """--images is checked against img2gcode's modes (raster.engrave.MODES) when it is given:
+    a usage error naming them, nothing written."""
+    from labkit.raster.engrave import MODES
+
+    path = tmp_path / "plain.svg"
+    path.write_text('<svg xmlns="http://www.w3.org/2000/svg" width="20mm" height="20mm" viewBox="0 0 20 20">'
+                    '<rect x="2" y="2" width="10" height="10" fill="none" stroke="#000"/></svg>')
+    with pytest.raises(SystemExit) as stop:
+        main(["svg2gcode", str(path), "-o", str(tmp_path / "o.gcode"), "--images", "grey"])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert "--images: invalid choice: 'grey'" in err and all(m in err for m in MODES)
+    assert not (tmp_path / "o.gcode").exists()
+
+
+def test_svg2gcode_without_images_does_not_import_the_raster_package(tmp_path):
+    """The raster package is loaded only for --images (a fresh process, as a user runs it)."""
+    import subprocess
+    import sys
+
+    path = tmp_path / "plain.svg"
+    path.write_text('<svg xmlns="http://www.w3.org/2000/svg" width="20mm" height="20mm" viewBox="0 0 20 20">'
+                    '<rect x="2" y="2" width="10" height="10" fill="none" stroke="#000"/></svg>')
+    code = ("import sys; from labkit.cli import main; "
+            f"rc = main(['svg2gcode', {str(path)!r}, '-o', {str(tmp_path / 'o.gcode')!r}]); "
+            "print(rc, any(m.startswith('labkit.raster') for m in sys.modules))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stdout.split()[-2:] == ["0", "False"]

@@ -20,7 +20,12 @@ collects what GRBL answers:
 
 A ``pause_before_s`` holds the conversation before the bytes go out (motion
 that must finish or stop first); it is recorded so that a replay can pause
-the same way.
+the same way. What GRBL writes during that pause came before the step's
+bytes: it is the previous exchange's. Every exchange also keeps ``at_s``: when GRBL received its first
+byte, on GRBL's own clock (grbl-sim's simulated seconds, which its motion runs
+on; patch 12 of README.md logs every byte's arrival on stderr), counted from the
+first exchange's. It is the time GRBL had between two exchanges, its motion
+running meanwhile, which a replay in simulated time gives the virtual machine.
 """
 from __future__ import annotations
 
@@ -67,9 +72,9 @@ def raw(data, **kw):
     return dict(send=data, **kw)
 
 
-def _sync(**kw):
+def _sync(note="dwell: its ok means the planner is empty", **kw):
     # GRBL's G4 answers ok only when every queued move has finished: the in-band way to wait
-    return line("G4 P0.01", note="dwell: its ok means the planner is empty", **kw)
+    return line("G4 P0.01", note=note, **kw)
 
 
 # --------------------------------------------------------------------------------------------
@@ -317,6 +322,11 @@ SWITCHES = {
     "hard_limits": "X:+5,Y:+5,Z:+5",
 }
 
+#: The probe input per topic (grbl-sim patch 11), in the same form; no entry, no contact ever.
+PROBES = {
+    "probe": "Z:-2",
+}
+
 
 def _homing():
     return "The homing cycle with limit switches 5 mm from power-up on +X +Y +Z: $H, its machine " \
@@ -413,10 +423,75 @@ def _line_length():
         line("G0 X1 " + "(" + "c" * 110 + ")", note="long only because of a comment"),
         line("G0" + " " * 120 + "X0", note="long only because of spaces"),
         line("G0 X1 ; " + "c" * 110),
+        _sync(note="the three lines above moved: the $ lines below need an idle GRBL"),
         line(pad("$N0=G0X1.", 81)), line(pad("$I=", 81)), line(pad("$I=", 79)), line("$I"),
         line(pad("$N0=G0X1.", 79)), line("$N"), line("$N0="),
         line(pad("$J=G91F100X0.", 81)),
         line("G0 X0"), _sync(), rt("?"),
+    ]
+
+
+def _planner_sync():
+    return "Lines GRBL runs only once its planner is empty (a new M3/M4/M5, S or M8, G92, G10, a " \
+           "new coordinate system or tool offset), an arc's chords entering a full planner, a " \
+           "dwell, a cycle start while a hold still brakes, a reset while a line waits", [
+        line("$32=1"), line("$10=3", note="reports with Bf: the planner's free blocks and the RX"),
+        line("G1 X10 F300"),
+        line("M3 S100", answered=False, note="a new spindle state: ok once the move has ended"),
+        rt("?", note="still moving: the M3 line is read, not planned"),
+        line("G4 P0.01", note="the M3's ok, then the dwell's"), rt("?"),
+        line("G1 X0 S200", note="laser mode: a new S on a motion line rides with the move"),
+        line("S300", answered=False, note="a new S on its own while M3 is on: synced"), rt("?"),
+        _sync(), rt("?"),
+        line("M5"), line("G1 X10"), line("M8", answered=False), rt("?"), _sync(), rt("?"),
+        line("M9"), line("G1 X0"), line("G92 X0", answered=False), rt("?"), _sync(), rt("?"),
+        line("G92.1"), line("G1 X10"), line("G10 L2 P2 X1", answered=False), rt("?"), _sync(),
+        line("G1 X0"), line("G55", answered=False), rt("?"), _sync(), rt("?"), line("G54"),
+        line("G1 X10"), line("G43.1 Z1", answered=False), rt("?"), _sync(), line("G49"),
+        line("G1 X0"), line("M3 S100 X", note="a line GRBL refuses is answered at once"), rt("?"),
+        _sync(), line("M5"),
+        line("G1 X5 F300"),
+        line("G2 X5 Y0 I-2 J0", answered=False, note="a full circle: its chords fill the planner, "
+                                                   "the ok comes with the last one"),
+        rt("?", pause_before_s=0.5), rt("?", pause_before_s=2.0), _sync(), rt("?"),
+        line("G4 P2", answered=False, note="GRBL dwells with its planner empty"),
+        rt("?", pause_before_s=0.5), _sync(note="the dwell's ok, then this one's"),
+        line("G1 X20 F300"), rt("!", pause_before_s=0.5),
+        rt("~", note="a cycle start while the hold still brakes"), rt("?", pause_before_s=1.0),
+        rt("~"), rt("?"), rt("!"), rt("?", pause_before_s=1.0), line("G4 P0.01", answered=False),
+        rt(RESET, pause_before_s=0.3, quiet_s=1.5, note="a reset in a hold, a line waiting"), line("$X"),
+        line("G1 X0 F300"), line("G4 P0.01", answered=False),
+        rt(RESET, pause_before_s=0.3, quiet_s=1.5, note="a reset while moving, a line waiting"),
+        rt("?"), line("$X"), line("G0 X0"), _sync(), line("$10=1"),
+    ]
+
+
+def _probe():
+    stop = dict(timed=("MPos",))     # where a probe's motion cancel stopped the axis
+    return "A probe (grbl-sim's contact 2 mm below the power-up position): the planner is emptied " \
+           "before a probe move, the axis brakes past the touch, [PRB:] gives the touch point", [
+        line("$10=3"), line("G91 G1 X2 F300", note="relative moves from here"),
+        line("G38.2 Z-5 F100", note="planned only once the move before it has ended"),
+        rt("?", pause_before_s=0.2, note="stopped past the touch", **stop), _sync(),
+        rt("?", **stop), line("$#"),
+        line("G38.4 Z1 F50", note="from the contact up until it opens"), _sync(), rt("?", **stop),
+        line("$#"),
+        line("G1 Z0.5 F100", note="from where it stopped"), _sync(), rt("?", **stop),
+        line("G38.3 Z-2 F100"), _sync(), rt("?", **stop), line("$#"),
+        line("G90 G0 Z0"), _sync(), rt("?"),
+    ]
+
+
+def _soft_limit_moving():
+    return "Soft limits: a line outside the travel while the machine moves: GRBL brakes to a " \
+           "stop, then ALARM:2", [
+        line("$22=1"), line("$20=1"), line("$10=3"),
+        line("G1 X-20 F300"),
+        line("G1 X5", answered=False, quiet_s=2.5, note="outside (machine space is -$130..0)"),
+        rt("?", note="after the alarm GRBL answers nothing until a reset"),
+        rt(RESET, note="the line's ok, then the banner"),
+        rt("?", timed=("MPos",), note="where the hold before the alarm stopped it"),
+        line("$X"), line("G0 X0"), _sync(), line("$20=0"), line("$22=0"), line("$10=1"),
     ]
 
 
@@ -511,6 +586,9 @@ TOPICS = {
     "reset": _reset,
     "status_reports": _status_reports,
     "line_length": _line_length,
+    "planner_sync": _planner_sync,
+    "probe": _probe,
+    "soft_limit_moving": _soft_limit_moving,
     "reset_wait": _reset_wait,
     "hard_limits": _hard_limits,
     "startup_jog": _startup_jog,
@@ -520,24 +598,93 @@ TOPICS = {
 # --------------------------------------------------------------------------------------------
 
 class GrblSim:
-    """grbl-sim on pipes, in its own empty directory (a blank EEPROM)."""
+    """grbl-sim on pipes, in its own empty directory (a blank EEPROM).
 
-    def __init__(self, exe, switches=""):
+    Its stderr (patch 12, README.md) tells GRBL's own clock (simulated seconds, the time its
+    motion runs on): ``t SECONDS`` every 10 ms, ``rx HH SECONDS`` when it received a byte,
+    ``tx SECONDS`` when a piece of its output left. The recorder waits on that clock, so a
+    transcript is the same on a loaded host, where grbl-sim runs slower than the wall clock.
+    """
+
+    #: Wall seconds without any sign of GRBL's clock before the recorder calls it frozen.
+    FROZEN_S = 60.0
+
+    def __init__(self, exe, switches="", probe=""):
         self.dir = tempfile.TemporaryDirectory(prefix="grbl-sim-")
-        env = dict(os.environ, GRBL_SIM_SWITCHES=switches)
+        env = dict(os.environ, GRBL_SIM_SWITCHES=switches, GRBL_SIM_PROBE=probe)
         self.proc = subprocess.Popen([exe, "-n", "-b", "/dev/null", "-s", "/dev/null"], cwd=self.dir.name,
                                      stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                     stderr=subprocess.DEVNULL, bufsize=0, env=env)
-        self.buf = b""
+                                     stderr=subprocess.PIPE, bufsize=0, env=env)
+        self.sent = 0                    # bytes written so far
+        self.arrivals: list[float] = []  # GRBL's clock (s) when it received each of them
+        self.clock = 0.0                 # GRBL's clock as last told
+        self.last_tx = 0.0               # GRBL's clock when it last wrote something
+        self._log = b""
+        self._out = b""                  # output read while pumping the log
 
     def send(self, data: bytes):
         self.proc.stdin.write(data)
+        self.sent += len(data)
+
+    def _pump(self, timeout_s):
+        """Wait up to ``timeout_s`` (wall) for either pipe; take in what is there."""
+        pipes = [self.proc.stdout, self.proc.stderr]
+        ready, _, _ = select.select(pipes, [], [], max(0.0, timeout_s))
+        if self.proc.stderr in ready:
+            chunk = os.read(self.proc.stderr.fileno(), 65536)
+            if not chunk:
+                raise RuntimeError("grbl-sim closed its stderr (did it exit?)")
+            self._log += chunk
+            *lines, self._log = self._log.split(b"\n")
+            for ln in lines:
+                words = ln.split()
+                if words[:1] == [b"t"]:
+                    self.clock = float(words[1])
+                elif words[:1] == [b"rx"]:
+                    self.arrivals.append(float(words[2]))
+                elif words[:1] == [b"tx"]:
+                    self.last_tx = float(words[1])
+                    self.clock = max(self.clock, self.last_tx)
+        if self.proc.stdout in ready:
+            self._out += os.read(self.proc.stdout.fileno(), 65536)
+        return bool(ready)
 
     def read(self, timeout_s):
-        ready, _, _ = select.select([self.proc.stdout], [], [], max(0.0, timeout_s))
-        if not ready:
-            return b""
-        return os.read(self.proc.stdout.fileno(), 65536)
+        """GRBL's output: what is there, or the first that comes within ``timeout_s`` (wall)."""
+        deadline = time.monotonic() + timeout_s
+        while not self._out and time.monotonic() < deadline:
+            self._pump(deadline - time.monotonic())
+        out, self._out = self._out, b""
+        return out
+
+    def read_for(self, seconds, *, quiet=False):
+        """GRBL's output during ``seconds`` of GRBL's clock from now; ``quiet``: until GRBL has
+        written nothing for that long (its clock counted from now or from its last output)."""
+        start = self.clock
+        last_sign = time.monotonic()
+        while True:
+            ref = max(start, self.last_tx) if quiet else start
+            if self.clock >= ref + seconds:
+                break
+            if self._pump(0.2):
+                last_sign = time.monotonic()
+            elif time.monotonic() - last_sign > self.FROZEN_S:
+                raise RuntimeError(f"grbl-sim's clock stood still for {self.FROZEN_S:g} s at "
+                                   f"{self.clock:.3f}: is it frozen, or built without patch 12?")
+        while self._pump(0.0):       # what it wrote before that moment is in the pipe by now
+            pass
+        out, self._out = self._out, b""
+        return out
+
+    def arrival(self, k):
+        """GRBL's clock (s) when it received byte ``k`` (0-based, in the order written)."""
+        deadline = time.monotonic() + self.FROZEN_S
+        while len(self.arrivals) <= k:
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"grbl-sim logged no arrival of byte {k} within "
+                                   f"{self.FROZEN_S:g} s: is it built with patch 12 (README.md)?")
+            self._pump(0.2)
+        return self.arrivals[k]
 
     def close(self):
         try:
@@ -565,36 +712,37 @@ def _timed_fields(reply):
     return timed
 
 
-def exchange(sim, step):
-    """Send one step's bytes; return the exchange record."""
-    if step.get("pause_before_s"):
-        time.sleep(step["pause_before_s"])
+def exchange(sim, step, origin=None, then_wait_s=0.0):
+    """Send one step's bytes; return the exchange record (``at_s``: when GRBL received the
+    first of them, on its clock, s after ``origin``, the first exchange's; None: this is the
+    first). ``then_wait_s``: the next step's ``pause_before_s``, during which what GRBL writes
+    is still this exchange's (it came before the next one). Every wait but the one for a
+    line's answer (a frozen simulator must not be recorded as silence) is on GRBL's clock."""
     data = step["send"].encode("latin-1")
     lines_sent = data.count(b"\n")
     answered = step.get("answered", True) and lines_sent > 0
     quiet_s = step.get("quiet_s", 0.35)
     t0 = time.monotonic()
+    first_byte = sim.sent
     sim.send(data)
+    received = sim.arrival(first_byte)
     out = b""
     finals = 0
-    last = t0
     if answered:
         deadline = t0 + step.get("wait_s", 30.0)
         while finals < lines_sent and time.monotonic() < deadline:
             chunk = sim.read(deadline - time.monotonic())
             if chunk:
                 out += chunk
-                last = time.monotonic()
                 finals = sum(1 for ln in out.decode("latin-1").split("\r\n") if _TERMINATOR.match(ln))
-    while True:
-        chunk = sim.read(quiet_s)
-        if not chunk:
-            break
-        out += chunk
-        last = time.monotonic()
+    out += sim.read_for(quiet_s, quiet=True)
+    if then_wait_s:
+        out += sim.read_for(then_wait_s)
+    last = sim.last_tx if out else received
     text = out.decode("latin-1")
     replies = [ln for ln in text.split("\r\n") if ln]
-    rec = {"send": step["send"], "replies": replies}
+    rec = {"send": step["send"], "replies": replies,
+           "at_s": round(received - (received if origin is None else origin), 4)}
     if text and ("".join(r + "\r\n" for r in replies) != text.replace("\r\n\r\n", "\r\n").lstrip("\r\n")):
         rec["raw"] = text                  # not plain \r\n-terminated lines: keep the bytes
     if "timed" in step:                # the step says which fields depend on timing (none: M0)
@@ -609,31 +757,46 @@ def exchange(sim, step):
             rec[key] = step[key]
     if not step.get("answered", True):
         rec["answered"] = False
-    rec["elapsed_s"] = round(last - t0, 3)
+    rec["elapsed_s"] = round(max(0.0, last - received), 3)
+    rec["_received"] = received        # on GRBL's clock (dropped by record())
     if answered and finals < lines_sent:
-        raise RuntimeError(f"GRBL did not answer {step['send']!r} (got {replies}): is grbl-sim frozen? "
-                           "Mark a line GRBL holds its answer to with answered=False.")
+        sim.send(b"?")                     # what state it is in, for the message
+        state = sim.read(1.0).decode("latin-1").strip()
+        raise RuntimeError(f"GRBL did not answer {step['send']!r} (got {replies}; a '?' now: "
+                           f"{state!r}): is grbl-sim frozen? Mark a line GRBL holds its answer to "
+                           f"with answered=False.")
     return rec
 
 
 def record(exe, topic):
     title, steps = TOPICS[topic]()
-    sim = GrblSim(exe, SWITCHES.get(topic, ""))
+    sim = GrblSim(exe, SWITCHES.get(topic, ""), PROBES.get(topic, ""))
     try:
         boot = b""
         deadline = time.monotonic() + 5.0
         while b"['$' for help]" not in boot and time.monotonic() < deadline:
             boot += sim.read(deadline - time.monotonic())
-        time.sleep(1.5)                  # grbl-sim reads no input during its first simulated second
-        while sim.read(0.3):
-            pass
+        sim.read_for(max(0.0, 1.5 - sim.clock))   # it reads no input in its first simulated second
+        sim.read_for(0.3, quiet=True)
         exchanges = []
-        for step in [rt(RESET)] + steps:
-            exchanges.append(exchange(sim, step))
-            if step.get("sync_if_ok") and exchanges[-1]["replies"][-1:] == ["ok"]:
-                exchanges.append(exchange(sim, _sync()))
+        origin = None
+        steps = [rt(RESET)] + steps
+        for k, step in enumerate(steps):
+            # a dwell follows an accepted sync_if_ok line: the next step's pause comes after it
+            pause_next = steps[k + 1].get("pause_before_s", 0.0) if k + 1 < len(steps) else 0.0
+            sync_next = step.get("sync_if_ok")
+            exchanges.append(exchange(sim, step, origin, 0.0 if sync_next else pause_next))
+            origin = exchanges[0]["_received"]
+            if sync_next:
+                if exchanges[-1]["replies"][-1:] == ["ok"]:
+                    exchanges.append(exchange(sim, _sync(), origin, pause_next))
+                elif pause_next:
+                    exchanges[-1]["replies"] += [ln for ln in sim.read_for(pause_next).decode(
+                        "latin-1").split("\r\n") if ln]
     finally:
         sim.close()
+    for rec in exchanges:
+        del rec["_received"]
     return {
         "topic": topic,
         "title": title,
@@ -644,6 +807,7 @@ def record(exe, topic):
             "script": "tests/vectors/grbl/record.py",
         },
         **({"switches": SWITCHES[topic]} if topic in SWITCHES else {}),
+        **({"probe": PROBES[topic]} if topic in PROBES else {}),
         "exchanges": exchanges,
     }
 
