@@ -4,7 +4,7 @@
 
     labkit-fw-sim [--pty] [--dialect grbl|labkit-fw] [--trace FILE]
                   [--eeprom FILE] [--panel PATH] [--beam-log PATH] [--stats]
-                  [--realtime] [--switches SPEC]
+                  [--realtime] [--switches SPEC] [--probe SPEC]
                   [--baud N [--parse-us US] [--starvation-log FILE] [--expect FILE]]
 
   Serial: stdin/stdout by default; --pty creates a pseudo-terminal and
@@ -53,6 +53,10 @@
   (tests/vectors/grbl/README.md). Without the option no switch is wired.
   A step that presses or releases a switch is the limit pins' change
   interrupt (protocol_limit_pin_change): with $21=1, hard limits.
+
+  Probe input (--probe SPEC), in the same form: "Z:-2" touches at 2 mm below
+  the power-up position and beyond (grbl-sim's GRBL_SIM_PROBE, with which
+  the probe transcript was recorded). Without the option it never touches.
 
   Paced link (--baud N): the bytes the host writes reach the controller as
   over a UART at N baud, 8N1: one byte every 10/N s of SIMULATED time, each
@@ -153,6 +157,9 @@ static uint8_t switch_wired, switch_stuck;
 static double switch_mm[3];
 static uint8_t switch_seen;       /* the pins as the last step left them */
 static uint8_t switch_changed;    /* a step changed them: the pin-change interrupt is pending */
+/* probe input (--probe): the same form, read by hal_probe_read() */
+static uint8_t probe_wired, probe_stuck;
+static double probe_mm[3];
 
 /* paced link (--baud) */
 static uint32_t baud;             /* 0: bytes reach the core as soon as they are read */
@@ -300,33 +307,38 @@ void hal_air_set(uint8_t bits) { (void)bits; }
 void hal_irq_disable(void) {}
 void hal_irq_enable(void) {}
 
-uint8_t hal_limits_read(void) {
+/* the axes whose contact (a switch, the probe) the head is at or beyond, from the step count */
+static uint8_t contacts_pressed(uint8_t wired, uint8_t stuck, const double at_mm[3]) {
   const lk_machine_t *m = plan_machine();
-  uint8_t pressed = switch_stuck;
+  uint8_t pressed = stuck;
   for (int a = 0; a < 3; a++) {
-    if (!(switch_wired & (1u << a)) || (switch_stuck & (1u << a)))
+    if (!(wired & (1u << a)) || (stuck & (1u << a)))
       continue;
     double mm = (double)pos_steps[a] / m->steps_per_mm[a];
-    if (switch_mm[a] >= 0 ? mm >= switch_mm[a] : mm <= switch_mm[a])
+    if (at_mm[a] >= 0 ? mm >= at_mm[a] : mm <= at_mm[a])
       pressed |= (uint8_t)(1u << a);
   }
   return pressed;
 }
 
-/* "X:+5,Y:+5,Z:stuck" (see the head of this file); 0 when the spec is malformed */
-static int parse_switches(const char *spec) {
+uint8_t hal_limits_read(void) { return contacts_pressed(switch_wired, switch_stuck, switch_mm); }
+
+uint8_t hal_probe_read(void) { return contacts_pressed(probe_wired, probe_stuck, probe_mm) != 0; }
+
+/* "X:+5,Y:+5,Z:stuck" (see the head of this file) into wired/stuck/at_mm; 0 when malformed */
+static int parse_contacts(const char *spec, uint8_t *wired, uint8_t *stuck, double at_mm[3]) {
   while (*spec) {
     int a = spec[0] == 'X' ? 0 : spec[0] == 'Y' ? 1 : spec[0] == 'Z' ? 2 : -1;
     if (a < 0 || spec[1] != ':')
       return 0;
     spec += 2;
-    switch_wired |= (uint8_t)(1u << a);
+    *wired |= (uint8_t)(1u << a);
     if (!strncmp(spec, "stuck", 5)) {
-      switch_stuck |= (uint8_t)(1u << a);
+      *stuck |= (uint8_t)(1u << a);
       spec += 5;
     } else {
       char *end;
-      switch_mm[a] = strtod(spec, &end);
+      at_mm[a] = strtod(spec, &end);
       if (end == spec)
         return 0;
       spec = end;
@@ -788,7 +800,7 @@ static int read_expect(const char *path) {
 static void usage(void) {
   fprintf(stderr, "usage: labkit-fw-sim [--pty] [--dialect grbl|labkit-fw] [--trace FILE] "
                   "[--eeprom FILE] [--panel PATH] [--beam-log PATH] [--stats] [--realtime] "
-                  "[--switches SPEC] [--baud N [--parse-us US] [--starvation-log FILE] "
+                  "[--switches SPEC] [--probe SPEC] [--baud N [--parse-us US] [--starvation-log FILE] "
                   "[--expect FILE]]\n");
   exit(2);
 }
@@ -832,10 +844,13 @@ int main(int argc, char **argv) {
       beam_log_path = argv[++i];
     else if (!strcmp(argv[i], "--panel") && i + 1 < argc)
       panel_path = argv[++i];
-    else if (!strcmp(argv[i], "--switches") && i + 1 < argc) {
-      if (!parse_switches(argv[++i])) {
-        fprintf(stderr, "labkit-fw-sim: --switches: expected AXIS:MM or AXIS:stuck, comma separated "
-                        "(X:+5,Y:+5,Z:stuck), got '%s'\n", argv[i]);
+    else if ((!strcmp(argv[i], "--switches") || !strcmp(argv[i], "--probe")) && i + 1 < argc) {
+      int sw = !strcmp(argv[i], "--switches");
+      const char *opt = argv[i];
+      if (!(sw ? parse_contacts(argv[++i], &switch_wired, &switch_stuck, switch_mm)
+               : parse_contacts(argv[++i], &probe_wired, &probe_stuck, probe_mm))) {
+        fprintf(stderr, "labkit-fw-sim: %s: expected AXIS:MM or AXIS:stuck, comma separated "
+                        "(X:+5,Y:+5,Z:stuck), got '%s'\n", opt, argv[i]);
         return 2;
       }
     } else if (!strcmp(argv[i], "--eeprom") && i + 1 < argc)

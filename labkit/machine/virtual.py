@@ -104,8 +104,8 @@ GRBL_LINE_MAX = 79
 
 #: How long GRBL's axes keep their speed after a probe switches before they brake, s: the step
 #: segments already prepared (up to 5 of 10 ms) run out first. Measured on GRBL 1.1h in grbl-sim
-#: (record.py's probe topic: 0.077 mm at 100 mm/min beyond the 0.139 mm of braking); that
-#: recording is not in tests/vectors/grbl yet (README.md), so no replay checks this figure.
+#: (record.py's probe topic: 0.077 mm at 100 mm/min beyond the 0.139 mm of braking); the replay
+#: of tests/vectors/grbl/probe.json checks it (GRBL stopped at Z-2.200 after touching at -2.000).
 _SEGMENT_LEAD_S = 0.046
 
 #: GRBL's factor for reports in inches (``$13=1``), nuts_bolts.h's INCH_PER_MM.
@@ -1341,6 +1341,12 @@ class VirtualMachine:
             b.done_s += step
             frac = 1.0 if b.duration_s <= 0 else min(1.0, b.done_s / b.duration_s)
             self.pos = b.start + (b.end - b.start) * frac
+            probed = bool(b.probe) and b.probe_point is None and self._probe_reached(b.probe)
+            if probed:                          # switched: brake past it, then the cycle ends
+                moved = float(np.linalg.norm(self.pos - start))
+                self._probe_stop(b, start)
+                if moved > 0:                   # blocks run at a steady rate: the rest of this
+                    step *= min(1.0, float(np.linalg.norm(self.pos - start)) / moved)   # step brakes
             self._sim_t += step
             dt -= step
             hit = self._flag(21) and self._stop_at_switch(start)
@@ -1351,8 +1357,7 @@ class VirtualMachine:
                 self._log_beam()
                 return
             self._log_beam()
-            if b.probe and b.probe_point is None and self._probe_reached(b.probe):
-                self._probe_stop(b, start)      # switched: brake past it, then the cycle ends
+            if probed:
                 continue
             touched = b.probe_point is not None
             if b.done_s >= b.duration_s - 1e-12:

@@ -197,6 +197,12 @@ def _note_writes(exchange: dict, written: set) -> None:
 #: :func:`brakes_as_grbl`: its accelerations (mm/s²).
 GRBL_ACCELERATION_SETTINGS = (120, 121, 122)
 
+#: The settings the simulator takes from GRBL before replaying a transcript with a probe input:
+#: its steps/mm. A probe cycle keeps the first whole step at which the input switched, so GRBL's
+#: ``[PRB:]`` after G38.4 lies one of its 1/250 mm steps above the contact; the CBR-40's step is
+#: 1/2133 mm and prints as the contact itself.
+GRBL_STEP_SETTINGS = (100, 101, 102)
+
 
 def brakes_as_grbl(transcript: dict) -> bool:
     """Whether GRBL reported a hold still decelerating (``Hold:1``) in this transcript."""
@@ -218,13 +224,14 @@ def grbl_defaults(numbers) -> dict[int, str]:
 
 
 class _Firmware:
-    """labkit-fw-sim on a pty, GRBL dialect (with the transcript's limit switches, if any), with
-    ``settings`` written first (number -> value)."""
+    """labkit-fw-sim on a pty, GRBL dialect (with the transcript's limit switches and probe
+    input, if any), with ``settings`` written first (number -> value)."""
 
     simulated = False
 
-    def __init__(self, sim: str, switches: str = "", settings: dict | None = None):
-        self.proc, pty = _start_sim(sim, "grbl", ["--switches", switches] if switches else [])
+    def __init__(self, sim: str, switches: str = "", settings: dict | None = None, probe: str = ""):
+        extra = (["--switches", switches] if switches else []) + (["--probe", probe] if probe else [])
+        self.proc, pty = _start_sim(sim, "grbl", extra)
         self.fd = os.open(pty, os.O_RDWR | os.O_NOCTTY)
         tty.setraw(self.fd)
         self.read(0.2)                                # the banner
@@ -295,11 +302,14 @@ def _start_sim(sim: str, dialect: str, extra_args=()):
 
 def _open(target: str, sim: str | None, transcript: dict):
     """The target for ``transcript``: with its limit switches (grbl-sim's and labkit-fw-sim's
-    --switches) and, where it :func:`brakes_as_grbl`, GRBL's accelerations."""
+    --switches) and probe input (``--probe``), where it :func:`brakes_as_grbl` GRBL's
+    accelerations, and with a probe GRBL's steps/mm."""
     if target != "firmware":
         return _Virtual(transcript.get("switches", ""), transcript.get("probe", ""))
     settings = grbl_defaults(GRBL_ACCELERATION_SETTINGS) if brakes_as_grbl(transcript) else {}
-    return _Firmware(sim, transcript.get("switches", ""), settings)
+    if transcript.get("probe"):
+        settings.update(grbl_defaults(GRBL_STEP_SETTINGS))
+    return _Firmware(sim, transcript.get("switches", ""), settings, transcript.get("probe", ""))
 
 
 def _lines(data: bytes) -> tuple[list[str], bool]:
@@ -612,6 +622,56 @@ KNOWN_DIFFERENCES: dict[tuple[str, str, int], str] = {
                                   "$200-$209 are the firmware's settings in both dialects (ramps, laser maximum, "
                                   "planner, dialect; $208=0 is the way back to labkit-fw), so $200 exists and "
                                   "1 is out of its range, where GRBL has no $200)",
+    ('firmware', 'planner_sync', 4): "M3 S100: extra lines ['ok'] (not implemented in the firmware:"
+                                     ' GRBL answers a line that changes M3/M4/M5, S (laser mode, '
+                                     'beam on) or M8/M9 only once the moves before it have ended, '
+                                     'the firmware at once and runs on (firmware/README.md))',
+    ('firmware', 'planner_sync', 6): "G4 P0.01: missing lines ['ok'] (the M3's ok, which GRBL gave "
+                                     'only here: as #4)',
+    ('firmware', 'planner_sync', 7): "?: fields ['MPos', 'Bf', 'FS', 'Ov'], GRBL ['MPos', 'Bf', "
+                                     "'FS', 'Ov', 'A'] (intended: labkit never leaves the beam on "
+                                     "at rest; in laser mode GRBL keeps M3's PWM at S when stopped "
+                                     "(FS:0,100, A:S), the firmware's beam is off (FS reports the "
+                                     'beam now, no A:))',
+    ('firmware', 'planner_sync', 9): "S300: extra lines ['ok'] (as #4)",
+    ('firmware', 'planner_sync', 11): "G4 P0.01: missing lines ['ok'] (the S300's ok, which GRBL "
+                                      'gave only here: as #4)',
+    ('firmware', 'planner_sync', 12): "?: fields ['MPos', 'Bf', 'FS'], GRBL ['MPos', 'Bf', 'FS', "
+                                      "'Ov', 'A'] (intended, as #7 (beam off at rest); and no "
+                                      'forced Ov: the firmware took the S300 at once)',
+    ('firmware', 'planner_sync', 15): "M8: extra lines ['ok'] (as #4)",
+    ('firmware', 'planner_sync', 16): "?: fields ['MPos', 'Bf', 'FS', 'Ov', 'A'], GRBL ['MPos', "
+                                      "'Bf', 'FS', 'Ov'] (A:F while the move before M8 still runs: "
+                                      'as #4)',
+    ('firmware', 'planner_sync', 17): "G4 P0.01: missing lines ['ok'] (the M8's ok, which GRBL gave"
+                                      ' only here: as #4)',
+    ('firmware', 'planner_sync', 18): "?: fields ['MPos', 'Bf', 'FS'], GRBL ['MPos', 'Bf', 'FS', "
+                                      "'Ov', 'A'] (GRBL's Ov report forced by the M8 it ran after "
+                                      "the move came here, the firmware's at #16: as #4)",
+    ('firmware', 'planner_sync', 22): "?: fields ['MPos', 'Bf', 'FS', 'WCO'], GRBL ['MPos', 'Bf', "
+                                      "'FS', 'Ov'] (to fix in the firmware: it holds G92's ok until"
+                                      ' the move before it has ended (#21 matches) but applies the '
+                                      'offset when it reads the line, so its WCO report is forced '
+                                      'during the move; GRBL applies it once the move has ended '
+                                      '(its WCO comes at #24))',
+    ('firmware', 'planner_sync', 24): "?: fields ['MPos', 'Bf', 'FS', 'Ov'], GRBL ['MPos', 'Bf', "
+                                      "'FS', 'WCO'] (the other half of #22)",
+    ('firmware', 'planner_sync', 32): "?: fields ['MPos', 'Bf', 'FS', 'WCO'], GRBL ['MPos', 'Bf', "
+                                      "'FS'] (to fix in the firmware, as #22: G55's offset "
+                                      "(WCO:1.000) taken when the line is read, GRBL's once the "
+                                      'move before it has ended (#34))',
+    ('firmware', 'planner_sync', 34): "?: fields ['MPos', 'Bf', 'FS'], GRBL ['MPos', 'Bf', 'FS', "
+                                      "'WCO'] (the other half of #32)",
+    ('firmware', 'planner_sync', 47): "G2 X5 Y0 I-2 J0: extra lines ['ok'] (not implemented in the "
+                                      'firmware: it walks an arc in its step preparation as one '
+                                      'planner block, so the full circle is answered at once; '
+                                      "GRBL's 70 chords fill its 15-block planner and the ok comes "
+                                      'with the last one (#49))',
+    ('firmware', 'planner_sync', 49): "?: missing lines ['ok'] (the G2's ok: as #47)",
+    ('firmware', 'planner_sync', 58): "?: state 'Run', GRBL 'Hold:0' (not implemented in the "
+                                      'firmware: GRBL ignores a cycle start while a hold still '
+                                      'brakes (#57; the hold completes, Hold:0, and the ~ of #59 '
+                                      'resumes), the firmware resumes at once)',
 }
 
 

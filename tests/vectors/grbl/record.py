@@ -3,8 +3,8 @@
     python tests/vectors/grbl/record.py GRBL_SIM_EXE [OUT_DIR] [TOPIC ...]
 
 GRBL_SIM_EXE is a grbl-sim binary built from gnea/grbl (see README.md in this
-folder for the exact commits, build options and the four small patches the
-simulator needs). This script never runs in CI: the transcripts it writes are
+folder for the exact commits, build options and the patches the simulator
+needs). This script never runs in CI: the transcripts it writes are
 checked in and replayed by tests/firmware/test_grbl_transcripts.py.
 
 Every topic starts a fresh simulator in an empty temporary directory, so GRBL
@@ -462,7 +462,8 @@ def _planner_sync():
         rt(RESET, pause_before_s=0.3, quiet_s=1.5, note="a reset in a hold, a line waiting"), line("$X"),
         line("G1 X0 F300"), line("G4 P0.01", answered=False),
         rt(RESET, pause_before_s=0.3, quiet_s=1.5, note="a reset while moving, a line waiting"),
-        rt("?"), line("$X"), line("G0 X0"), _sync(), line("$10=1"),
+        rt("?", timed=("MPos",), note="where the reset stopped the move"),
+        line("$X"), line("G0 X0"), _sync(), line("$10=1"),
     ]
 
 
