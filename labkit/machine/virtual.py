@@ -371,6 +371,12 @@ class VirtualMachine:
         #: every time the planner ran dry and a line's blocks arrived later (simulated s since
         #: power-up, the line's count since power-up as :attr:`lines_run`, the wait)
         self.starvations: list[Starvation] = []
+        #: every time a block started with no block queued behind it and a line's blocks came
+        #: later (GRBL then plans it to stop at its end: :func:`labkit.motion.stall.short_queues`,
+        #: the predictor's figure for it); recorded as :attr:`starvations` are
+        self.short_queues: list[Starvation] = []
+        self._short_since: float | None = None
+        self._into_empty = None              # the block that last entered an empty planner
         #: G-code lines run since power-up (answered ok or error; not ``$`` lines, not in check mode)
         self.lines_run = 0
         self.planner_blocks = int(planner_blocks or self.machine.planner_blocks)
@@ -838,7 +844,7 @@ class VirtualMachine:
     def rx_used(self) -> int:
         return len(self._rx)
 
-    def starvations_since(self, start_s: float, first_run: int, sent_lines) -> list[Starvation]:
+    def starvations_since(self, start_s: float, first_run: int, sent_lines, events=None) -> list[Starvation]:
         """The starvations of a job: those after ``start_s`` (simulated s), timed from it, each
         naming the source line it waited for.
 
@@ -850,6 +856,8 @@ class VirtualMachine:
             :attr:`lines_run` then.
         sent_lines : sequence of int
             The source line of every G-code line the job sent (not its ``$`` lines), in order.
+        events : list of Starvation, optional
+            Other records numbered as :attr:`starvations` (:attr:`short_queues`).
 
         Examples
         --------
@@ -863,7 +871,7 @@ class VirtualMachine:
         [(8, 0.1, 0.4)]
         """
         out = []
-        for s in self.starvations:
+        for s in self.starvations if events is None else events:
             k = s.line - first_run - 1
             if s.time_s >= start_s and 0 <= k < len(sent_lines):
                 out.append(Starvation(s.time_s - start_s, int(sent_lines[k]), s.duration_s))
@@ -1404,6 +1412,8 @@ class VirtualMachine:
                 return                                  # planner full: the line waits
             if self._blocks and self._waits_for_sync(text):
                 return                                  # GRBL empties the planner first
+            if self._short_since is not None and self._waits_for_sync(text):
+                self._short_since = None                # a stop the program asks for
             self._parsed = None
             self._sync_verdict, self._wco_preview = ("", False), None
             self._line(text)
@@ -1800,14 +1810,17 @@ class VirtualMachine:
             self._blocks.append(self._admitting.popleft())
         if self._admitting and not self._blocks:
             self._blocks.append(self._admitting.popleft())   # a planner of no depth still moves
+        starved = False
         if len(self._blocks) > before:
             if self._dry_since is not None:
                 if self._sim_t > self._dry_since:          # the planner stood empty for this line
                     self.starvations.append(Starvation(self._dry_since, self.lines_run,
                                                        self._sim_t - self._dry_since))
+                    starved = True
                 self._dry_since = None
             if self.state == "Idle":
                 self.state = "Jog" if jog else "Run"
+        self._note_short_queue(before, starved)
         if self._admitting:
             return False
         replies, self._admit_replies = self._admit_replies, ()
@@ -1896,10 +1909,41 @@ class VirtualMachine:
         v_out = min(float(la.speed_mm_s[1]), float(reach_speed(entry, length, acc, "accel")))
         # an override lowered since the entry was planned: brake as hard as the block allows
         v_out = max(v_out, math.sqrt(max(0.0, entry * entry - 2.0 * acc * length)))
+        self._short_since = self._sim_t if self._queue_short(b, run, rows, float(la.speed_mm_s[1]),
+                                                             min(top, reach_speed(entry, length, acc, "accel"))) else None
         b.speed_mm_s = top
         b.exit_mm_s = v_out
         b.duration_s = float(block_profiles(length, entry, top, max(v_out, floor), acc, acc,
                                             "accel").time_s[0]) if length > 0 else 0.0
+
+
+    # ---- short queues (issue 30 §2): kept apart from the rest, one call in, one out
+    def _queue_short(self, b, run, rows, v_exit: float, v_own: float) -> bool:
+        """Whether the head ``b`` leaves slower than it would with more queued: its exit
+        ``v_exit`` (planned over ``run``, the queue up to a dwell) is what the blocks behind
+        it let it shed by the queue's end, from rest, and below ``v_own``, what its own cap
+        and length allow (:func:`labkit.motion.stall.short_queues`).
+        Not when the planner is full, the queue ends at a dwell, or ``b`` is a job's first."""
+        if b is self._into_empty or len(run) != len(self._blocks) or len(run) >= self.planner_blocks:
+            return False
+        shed = float(np.sum(2.0 * rows.accel_mm_s2[1:] * rows.length_mm[1:]))
+        return v_own * (1 - 1e-9) > v_exit >= math.sqrt(float(rows.rest_mm_s[-1]) ** 2 + shed) * (1 - 1e-9)
+
+    def _note_short_queue(self, queued: int, starved: bool) -> None:
+        """A line's blocks were queued behind ``queued`` others (``starved``: after a
+        starvation): if the running block started short (:meth:`_queue_short`), the line came
+        that long after its start. The first block into an empty planner that did not starve
+        (a job's first, on a fresh machine) is not counted: nothing could be behind it."""
+        added = len(self._blocks) > queued
+        if added and self._blocks[queued].is_dwell:
+            self._short_since = None    # G4, M0, M2, M30: GRBL syncs, the head stops there anyway
+        if added and queued == 0 and not starved:
+            self._into_empty = self._blocks[0]
+        if added and self._short_since is not None:
+            if self._sim_t > self._short_since:
+                self.short_queues.append(Starvation(self._short_since, self.lines_run,
+                                                    self._sim_t - self._short_since))
+            self._short_since = None
 
 
 def burn_coverage(moves, vm: VirtualMachine, *, tol_mm: float = 1e-3, origin_mm=(0.0, 0.0)):

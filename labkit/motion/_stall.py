@@ -10,14 +10,16 @@ from labkit._jit import jit
 
 @jit(python_below=20_000)  # ~3 µs a line as Python (a prediction of 33,000 lines: 0.1 s)
 def stream_lines(nbytes, first_block, last_block, dur, tau, parse_s, window, planner_blocks,
-                 limit, flush_s):
+                 limit, flush_s, parse_first):
     """When each sent line leaves the sender, arrives and is parsed; when each block runs.
 
     ``nbytes[i]`` bytes of sent line i (newline included) make blocks ``first_block[i]``
     … ``last_block[i] - 1`` of durations ``dur`` (s). The sender keeps the characters in
     flight (sent, not yet answered) below ``limit`` (GRBL's character counting); a byte
-    takes ``tau`` s on the wire; the parser takes ``parse_s`` a line and only while the
-    planner (``planner_blocks``) has a free slot. Block j runs after block j - 1 once it
+    takes ``tau`` s on the wire; the parser takes ``parse_s`` a line, one after the other:
+    with ``parse_first`` (GRBL: ``gc_execute_line`` before ``mc_line`` waits) a parsed line
+    then waits for a free slot in the planner (``planner_blocks``), else (the labkit firmware:
+    a line is executed only once a slot is free) the parse starts once a slot is free. Block j runs after block j - 1 once it
     is ready: once block j + ``window`` is parsed (0: at once), the last ``window`` blocks
     ``flush_s`` after the last line was parsed.
 
@@ -48,7 +50,8 @@ def stream_lines(nbytes, first_block, last_block, dur, tau, parse_s, window, pla
         sent[i] = t
         wire_free = max(wire_free, t) + n * tau
         arrived[i] = wire_free
-        ready = max(arrived[i], parse_free)
+        # one line after the other: the next line is read once this one has entered the planner
+        ready = max(arrived[i], parse_free) + (parse_s if parse_first else 0.0)
         b0 = first_block[i]
         b1 = last_block[i]
         need = b1 - 1 - planner_blocks      # this block must have left the planner for a free slot
@@ -57,7 +60,7 @@ def stream_lines(nbytes, first_block, last_block, dur, tau, parse_s, window, pla
                            window, np.inf)
             if done > need:
                 ready = max(ready, end[need])
-        parse_free = ready + parse_s
+        parse_free = ready + (0.0 if parse_first else parse_s)
         parsed[i] = parse_free
         for b in range(b0, b1):
             block_parsed[b] = parse_free

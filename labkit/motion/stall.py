@@ -13,8 +13,9 @@ The predictor (:func:`predict_stalls`) follows each line through the link as a
 character-counting sender streams it (GRBL's rule: a line goes out while the
 characters in flight, itself included, stay below the receive buffer less one),
 over the wire at the machine's bytes per second, through the parser
-(``block_parse_s`` a line, one line after the other, only while the planner has
-a free slot) into the planner; the motion of each block takes the time the
+(``block_parse_s`` a line, one line after the other; on GRBL a parsed line waits
+for a free planner slot, as its main loop does, on the labkit firmware a line is
+parsed once a slot is free) into the planner; the motion of each block takes the time the
 motion reference (:func:`labkit.motion.plan`) gives it. A block starts when the
 one before has ended and it is ready: on GRBL when it is in the planner; on the
 labkit firmware (``waits_for_lookahead``) when its whole look-ahead window has
@@ -45,7 +46,7 @@ from labkit.motion._stall import stream_lines
 
 __all__ = ["Starvation", "LinkPrediction", "StallFreeFeed", "predict_stalls", "stall_free_feed",
            "sent_line_bytes", "with_feed", "program_feeds", "read_starvation_log", "may_starve",
-           "block_time_bounds", "motion_line_numbers",
+           "block_time_bounds", "motion_line_numbers", "short_queues",
            "FLUSH_QUIET_S"]
 
 #: Quiet input after which the labkit firmware runs what its look-ahead holds back, s
@@ -397,6 +398,9 @@ class LinkPrediction:
         End of the last block, s from the first byte.
     motion_time_s : float
         The job's time with a link that never holds it back (the plan's), s.
+    block_exit_mm_s, block_brake_mm2_s2, block_rest_mm_s : ndarray of float or None
+        From the plan, per block: its exit speed, the square of the speed its length lets it
+        shed (2 a L) and its rest speed; what :func:`short_queues` needs.
     """
 
     machine: object
@@ -412,6 +416,9 @@ class LinkPrediction:
     stalls: list = field(default_factory=list)
     job_time_s: float = 0.0
     motion_time_s: float = 0.0
+    block_exit_mm_s: np.ndarray | None = None
+    block_brake_mm2_s2: np.ndarray | None = None
+    block_rest_mm_s: np.ndarray | None = None
 
     @property
     def stall_time_s(self) -> float:
@@ -512,7 +519,7 @@ def predict_stalls(text: str, machine=None, *, line_bytes=None, dialect: str = "
     sent, arrived, parsed, start, end = stream_lines(
         sent_bytes, first_block.astype(np.int64), last_block.astype(np.int64),
         np.ascontiguousarray(dur), tau, float(m.block_parse_s), int(W), int(m.planner_blocks),
-        int(limit), FLUSH_QUIET_S if W else 0.0)
+        int(limit), FLUSH_QUIET_S if W else 0.0, not m.waits_for_lookahead)
 
     # a starvation: a stop while the job has lines left, i.e. before the last line has been
     # parsed (on the wire, in the receive buffer or in the parser), not the final flush's
@@ -532,7 +539,74 @@ def predict_stalls(text: str, machine=None, *, line_bytes=None, dialect: str = "
     return LinkPrediction(machine=m, line=src_line, bytes=sent_bytes, sent_s=sent, arrived_s=arrived,
                           parsed_s=parsed, fill=fill, block_line=block_line, block_start_s=start,
                           block_end_s=end, stalls=stalls, job_time_s=float(end.max()) if nb else 0.0,
-                          motion_time_s=float(dur.sum()))
+                          motion_time_s=float(dur.sum()),
+                          block_exit_mm_s=np.asarray(p.lookahead.speed_mm_s[1:nb + 1], dtype=float),
+                          block_brake_mm2_s2=2.0 * np.asarray(p.blocks.accel_mm_s2, dtype=float)
+                          * np.asarray(p.blocks.length_mm, dtype=float),
+                          block_rest_mm_s=np.asarray(p.blocks.rest_mm_s, dtype=float))
+
+
+def short_queues(prediction: LinkPrediction) -> list[Starvation]:
+    """Where a GRBL-family planner runs short: a block starts with too few queued behind it.
+
+    GRBL (``waits_for_lookahead`` false) runs whatever its planner holds and plans every
+    queue to stop at its end, so a block that starts with too little queued behind it to
+    shed its planned exit speed by the queue's end leaves at a lower speed: the link costs
+    speed (a dip a raster job shows as a darker dot) before it costs a stop. Block j is
+    short when its exit speed in the plan (the whole program ahead) is above what the
+    blocks parsed by its start (at most ``planner_blocks`` - 1) let it keep: the square
+    root of the last one's rest speed squared plus 2 a L summed over them (no speed cap
+    between can raise it, and one that binds binds the plan too). This is the event a
+    GRBL-family machine (the virtual machine's ``short_queues``) is compared on; a
+    starvation (:attr:`LinkPrediction.stalls`) is the worse case of it.
+
+    Parameters
+    ----------
+    prediction : LinkPrediction
+        From :func:`predict_stalls`.
+
+    Returns
+    -------
+    list of Starvation
+        One per short block: ``time_s`` its start, ``line`` the source line of the first
+        block not yet parsed then, ``duration_s`` how long after the start that line was
+        parsed (s). A block whose queue holds the rest of the job is never short, nor is the
+        job's first (nothing could be behind it). A block after a starvation is counted:
+        GRBL, which slows down instead, would have had it queued behind a slow block.
+
+    Examples
+    --------
+    The docstring case of :func:`predict_stalls`, on GRBL (no look-ahead wait): each 0.1 mm
+    cut takes about 27 ms and each 6-byte line 50 ms on the wire. At 6000 baud (10 ms a
+    line) the first cut (19 ms) runs while the second arrives; the second (9 ms at cruise)
+    starts 0.9 ms before the third has come, with nothing behind it: short, not a starvation.
+
+    >>> from labkit.motion.spec import CBR40
+    >>> m = CBR40.replace(link_baud=6000, waits_for_lookahead=False, block_parse_s=0.0)
+    >>> job = "G1X.1F1200\\nG1X.2\\nG1X.3\\n"
+    >>> p = predict_stalls(job, m)
+    >>> [(s.line, round(s.duration_s, 4)) for s in short_queues(p)], p.stalls
+    ([(3, 0.0009)], [])
+    """
+    p = prediction
+    nb = len(p.block_line)
+    if nb < 2 or p.block_exit_mm_s is None:
+        return []
+    # when each block's line was parsed (the blocks of a line enter the planner together)
+    parsed = p.parsed_s[np.searchsorted(p.line, p.block_line)]
+    j = np.arange(nb - 1)
+    # blocks queued behind block j at its start (parse times rise with the block index)
+    q = np.searchsorted(parsed, p.block_start_s[:-1], side="right") - j - 1
+    q = np.clip(q, 0, p.machine.planner_blocks - 1)
+    last = j + q
+    brake = np.concatenate([[0.0], np.cumsum(p.block_brake_mm2_s2)])
+    keep = np.sqrt(p.block_rest_mm_s[last] ** 2 + brake[last + 1] - brake[j + 1])
+    short = (p.block_exit_mm_s[:-1] > keep * (1 + 1e-9)) & (j > 0) & (last + 1 < nb)
+    short &= q < p.machine.planner_blocks - 1           # a full planner: its depth, not the link
+    hit = np.flatnonzero(short)
+    waited = last[hit] + 1
+    return [Starvation(float(p.block_start_s[k]), int(p.block_line[w]), float(parsed[w] - p.block_start_s[k]))
+            for k, w in zip(hit.tolist(), waited.tolist())]
 
 
 def block_time_bounds(moves, machine=None):
@@ -894,20 +968,22 @@ class _FeedScaled:
         cols["feed_mm_min"] = feed
         return nbytes, Moves(source=self.moves.source, s_max=self.moves.s_max, **cols), numbers
 
-    def stalls_at(self, feed_mm_min: float) -> list:
-        """The starvations at ``feed_mm_min`` (:func:`predict_stalls` of :func:`with_feed`'s text)."""
+    def stalls_at(self, feed_mm_min: float, events=None) -> list:
+        """The starvations at ``feed_mm_min`` (:func:`predict_stalls` of :func:`with_feed`'s text),
+        or ``events(prediction)``."""
         from labkit.motion.pipeline import plan
 
+        pick = events or (lambda p: p.stalls)
         got = self.at(feed_mm_min)
         if got is None:
-            return predict_stalls(with_feed(self.text, feed_mm_min), self.machine,
-                                  dialect=self.dialect).stalls
+            return pick(predict_stalls(with_feed(self.text, feed_mm_min), self.machine,
+                                       dialect=self.dialect))
         nbytes, moves, numbers = got
         if self.base_plan is not None and numbers == self.numbers:      # the text as it is
             self.plan = self.base_plan
         else:
             self.plan = plan(moves, self.machine, planner="junction")
-        return predict_stalls(self.text, self.machine, line_bytes=nbytes, plan=self.plan).stalls
+        return pick(predict_stalls(self.text, self.machine, line_bytes=nbytes, plan=self.plan))
 
 
 @dataclass(frozen=True)
@@ -954,7 +1030,8 @@ _ROW_STEP = 1.03
 
 
 def stall_free_feed(text: str, machine=None, *, line_bytes=None, dialect: str = "grbl",
-                    rel_tol: float = 0.002, rows: bool = True, moves=None, plan=None) -> StallFreeFeed:
+                    rel_tol: float = 0.002, rows: bool = True, moves=None, plan=None,
+                    criterion: str = "stall") -> StallFreeFeed:
     """The highest feed at which the link never leaves the machine without a block.
 
     The program's feeds are scaled together (:func:`with_feed`) and the highest
@@ -981,6 +1058,10 @@ def stall_free_feed(text: str, machine=None, *, line_bytes=None, dialect: str = 
     moves, plan : Moves and Plan, optional
         The program as read in ``dialect`` and its plan as :func:`predict_stalls` makes it
         (GRBL's junction planner on ``machine``), when already made.
+    criterion : {"stall", "short_queue"}
+        What the feed must avoid: a starvation (the motors stop), or on a GRBL-family machine
+        a block started with nothing queued behind it (:func:`short_queues`: GRBL slows down
+        there). The result's ``stalls`` are these events.
 
     Returns
     -------
@@ -997,17 +1078,22 @@ def stall_free_feed(text: str, machine=None, *, line_bytes=None, dialect: str = 
     feeds = program_feeds(text)
     if not feeds or max(feeds) <= 0:
         raise MotionError("the program has no F word > 0: there is no feed to find")
+    events = {"stall": lambda p: p.stalls, "short_queue": short_queues}.get(criterion)
+    if events is None:
+        raise MotionError(f"criterion: expected 'stall' or 'short_queue', got {criterion!r}")
     programmed = max(feeds)
     top = float(min(m.max_rate_mm_min[:2]))
 
     scaled = None
     if line_bytes is None:
         scaled = _FeedScaled(text, m, dialect, moves, plan)
-        stalls_at = scaled.stalls_at
+
+        def stalls_at(feed):
+            return scaled.stalls_at(feed, events)
     else:
         def stalls_at(feed):
             t = with_feed(text, feed)
-            return predict_stalls(t, m, dialect=dialect, line_bytes=line_bytes(t)).stalls
+            return events(predict_stalls(t, m, dialect=dialect, line_bytes=line_bytes(t)))
 
     at_programmed = stalls_at(programmed)
     if not stalls_at(top):
