@@ -165,7 +165,9 @@ def test_job_commands_given_text_names_the_argument():
 
 def test_s_above_full_power_off_the_beam_is_not_refused():
     # S is only sent while burning: a rapid carrying S5000 with M5 in effect burns nothing
-    job_commands(parse("G0 X0 Y20 S5000\nM3 S100\nG1 X10 F600\nM5\n"))
+    cmds = job_commands(parse("G0 X0 Y20 S5000\nM3 S100\nG1 X10 F600\nM5\n"))
+    duties = [struct.unpack("<Bff", p)[2] for c, p, _ in cmds if c == CMD["io_pwm"]]
+    assert duties == pytest.approx([10.0])            # the cut's S100 of S1000; S5000 never sent
 
 
 def test_z_motion_is_refused_naming_the_line():

@@ -86,7 +86,9 @@ def test_hand_written_text_is_cut_where_resvg_draws_it(case, tmp_path):
     path = tmp_path / "t.svg"
     path.write_text('<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="40mm" viewBox="0 0 100 40">'
                     f'{HAND[case]}</svg>')
-    _held_to_resvg(path, read_svg(path, flip_y=False).paths)
+    paths = read_svg(path, flip_y=False).paths
+    assert paths, f"{case}: no text cut"
+    _held_to_resvg(path, paths)                       # asserts: every cut on resvg's ink, its ink cut
 
 
 def test_rotated_characters_are_named():
