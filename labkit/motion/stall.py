@@ -519,7 +519,7 @@ def predict_stalls(text: str, machine=None, *, line_bytes=None, dialect: str = "
     machine : MachineSpec, str or None
         As :func:`labkit.motion.load_machine` takes it; its link fields (``link_baud``,
         ``link_bits_per_byte``, ``rx_buffer_bytes``, ``planner_blocks``, ``block_parse_s``,
-        ``waits_for_lookahead``) and ``buffer_blocks`` decide.
+        ``waits_for_lookahead``, ``laser_change_syncs``) and ``buffer_blocks`` decide.
     line_bytes : sequence of int, optional
         Bytes the sender puts on the link for each source line, newline included (0: not
         sent). Default :func:`sent_line_bytes` (as ``labkit stream`` sends).

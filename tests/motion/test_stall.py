@@ -61,6 +61,7 @@ def test_the_labkit_firmware_description_holds_the_firmwares_sizes():
     ("block_parse_s", float("nan"), "block_parse_s must be >= 0 s"),
     ("link_baud", 9600.5, "link_baud must be an integer"),
     ("waits_for_lookahead", "yes", "waits_for_lookahead must be true or false"),
+    ("laser_change_syncs", 1, "laser_change_syncs must be true or false"),
 ])
 def test_bad_link_fields_are_refused(field, value, message):
     with pytest.raises(MotionError, match=message):
