@@ -226,36 +226,32 @@ class _Subpath:
         self.v, self.c, self.s, self.closed, self.dev, self.meta = v, c, s, closed, dev, meta
 
     def path(self) -> Path | None:
-        v, c, s, dev = [], [], [], self.dev
-        for x in self.v:
-            if isinstance(x, _Chain):
-                v.extend(x.fit[0][1:])
-                dev = max(dev, x.fit[3])
-            else:
-                v.append(x)
-        for x in self.c:
-            c.extend(x.fit[1]) if isinstance(x, _Chain) else c.append(x)
-        for x in self.s:
-            s.extend(x.fit[2]) if isinstance(x, _Chain) else s.append(x)
+        # a chain's fit joins as whole arrays (chains are most of a subpath), not row by row
+        dev = max([self.dev] + [x.fit[3] for x in self.v if isinstance(x, _Chain)])
+        v = np.concatenate([x.fit[0][1:] if isinstance(x, _Chain) else np.reshape(np.asarray(x, float), (1, 2))
+                            for x in self.v])
+        c = np.concatenate([x.fit[1] if isinstance(x, _Chain) else np.reshape(np.asarray(x, float), (1, 2))
+                            for x in self.c])
+        s = np.concatenate([x.fit[2] if isinstance(x, _Chain) else np.asarray([x], float) for x in self.s])
         return _subpath(v, c, s, self.closed, dev, self.meta)
 
 
 def _subpath(v, c, s, closed, dev, meta) -> Path | None:
-    """A subpath's vertices, centres and sweeps (lists) as a Path, closed if asked; None when
-    it is a point or, closed, a line there and back."""
+    """A subpath's vertices, centres and sweeps (lists or arrays) as a Path, closed if asked;
+    None when it is a point or, closed, a line there and back."""
     if len(v) < 2:
         return None
     v = np.array(v)
+    c, s = np.array(c, float).reshape(-1, 2), np.array(s, float).reshape(-1)
     if closed and not (abs(v[0, 0] - v[-1, 0]) <= 1e-9 and abs(v[0, 1] - v[-1, 1]) <= 1e-9):
         v = np.vstack([v, v[:1]])
-        c.append((np.nan, np.nan))
-        s.append(0.0)
+        c = np.vstack([c, [[np.nan, np.nan]]])
+        s = np.append(s, 0.0)
     elif closed:
         v[-1] = v[0]
     if len(v) == 2 and closed:
         return None
-    return Path(v, np.array(c, float).reshape(-1, 2), np.array(s, float), closed=closed,
-                deviation_mm=dev, **meta)
+    return Path(v, c, s, closed=closed, deviation_mm=dev, **meta)
 
 
 class _Builder:
