@@ -19,7 +19,9 @@ faster), or peer / labkit where the target is a speed-up (marked ×):
 
 Then svg2gcode's targets: a set of ten raw SVGs with transforms (``_svgset.py``, 450 paths,
 written by this benchmark) converted in one process at 0.1 and 0.01 mm, against svg-to-gcode
-in one process; one command per file against svg-to-gcode's process per file; the small
+in one process — as issue 29 measures it (``bench_vector.py``'s Part 1b: both imported, the
+set converted again in the same process, CPU time) and as fresh processes (start-up, imports
+and numba's load included); one command per file against svg-to-gcode's process per file; the small
 drawing ``data/svg/cncjs/jsdc.svg`` against the numpy floor.
 
 Inputs: real files where they exist (cncjs's G-code jobs, data/dxf, data/svg); the larger
@@ -231,6 +233,12 @@ def svg_targets(tmp, repeat):
     folder.mkdir()
     files = [str(f) for f in write_set(folder, files=10, elements=45)]
     print(f"\nsvg2gcode targets: {len(files)} raw SVGs with transforms, 450 paths (made by _svgset.py)")
+    # issue 29's measure, "converted in one process": both converters imported in one process,
+    # the set converted again and again (bench_vector.py's Part 1b, CPU time in that process)
+    done = subprocess.run([PY, str(ROOT / "benchmarks" / "bench_vector.py"), "set"], cwd=ROOT,
+                          capture_output=True, text=True, check=True)
+    print("\n".join("  in " + line.strip() for line in done.stdout.splitlines()[2:]), flush=True)
+    print("  fresh processes (start-up, imports and numba's load included):")
     undeclared = LABKIT_SVG_SET.replace("job_units(sys.argv[2:])", "sys.argv[2:]")
     for tol in ("0.1", "0.01"):
         peer = timed([PY, "-c", SVG_TO_GCODE, tol, *files], repeat)

@@ -136,6 +136,21 @@ def test_auto_mode_runs_small_inputs_as_python_and_large_ones_compiled(fresh_pro
     assert calls == ["py", "nb"]
 
 
+def test_a_kernel_whose_machine_code_is_loaded_runs_compiled_at_once(fresh_process, monkeypatch):
+    """Once a kernel's machine code is in the process (its dispatcher made: compiled, or loaded
+    from the cache), loading it costs nothing more, so every call runs it compiled at once —
+    the tiniest input and with nothing spent as Python, where a kernel not loaded yet runs such
+    an input as Python (issue 29: a process converting many small drawings after the first)."""
+    fresh_process.step = 0.01
+    total, calls = _recording_kernel(monkeypatch, python_below=10**9)
+    total(np.ones(3))
+    assert calls == ["py"] and _jit._spent[0] == pytest.approx(0.01)
+    monkeypatch.setattr(total, "dispatcher", lambda *a: calls.append("nb") or float(np.sum(a[0])))
+    monkeypatch.setattr(_jit, "_spent", [0.0])
+    assert total(np.ones(1)) == 1.0 and total(np.ones(4)) == 4.0
+    assert calls == ["py", "nb", "nb"]
+
+
 def test_once_numba_is_loaded_only_tiny_inputs_run_as_python(fresh_process, monkeypatch):
     count, calls = _recording_kernel(monkeypatch, python_below=100_000)
     count(np.zeros(50_000))

@@ -9,11 +9,28 @@ Modules: :mod:`~labkit.gcode.reader` (text → Moves: :func:`parse`, :func:`pars
 (writer). ``labkit.gcode.parse`` and ``labkit.gcode.emit`` are the functions.
 """
 
-from labkit.gcode import arcs
-from labkit.gcode.dialects import DIALECTS, Dialect, get_dialect
-from labkit.gcode.writer import decimals_for, emit, format_number, write_gcode
-from labkit.gcode.reader import Interpreter, check, modal_trace, parse, parse_file, parse_with_states
-from labkit.gcode.state import ModalState, restate
+# The names load on first use: a command that writes G-code (svg2gcode) does not import the
+# reader and its compiled parser's module (~20 ms).
+from labkit._lazy import lazy_names
+
+_WHERE = {
+    'arcs': None,
+    'DIALECTS': 'dialects',
+    'Dialect': 'dialects',
+    'get_dialect': 'dialects',
+    'decimals_for': 'writer',
+    'emit': 'writer',
+    'format_number': 'writer',
+    'write_gcode': 'writer',
+    'Interpreter': 'reader',
+    'check': 'reader',
+    'modal_trace': 'reader',
+    'parse': 'reader',
+    'parse_file': 'reader',
+    'parse_with_states': 'reader',
+    'ModalState': 'state',
+    'restate': 'state',
+}
 
 __all__ = [
     "parse",
@@ -33,3 +50,6 @@ __all__ = [
     "DIALECTS",
     "get_dialect",
 ]
+
+
+__getattr__, __dir__ = lazy_names(__name__, _WHERE, __all__)

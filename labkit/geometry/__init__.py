@@ -11,7 +11,7 @@ only then), so ``import labkit.gcode`` — which needs only
 :mod:`~labkit.geometry.circle` — stays light.
 """
 
-import importlib
+from labkit._lazy import lazy_names
 
 # public name → submodule that defines it (None: the name is the submodule)
 _WHERE = {
@@ -60,17 +60,4 @@ _WHERE = {
 __all__ = sorted(_WHERE, key=str.lower)
 
 
-def __getattr__(name):
-    try:
-        module = _WHERE[name]
-    except KeyError:
-        raise AttributeError(f"module 'labkit.geometry' has no attribute {name!r}") from None
-    value = importlib.import_module(f"labkit.geometry.{module or name}")
-    if module is not None:
-        value = getattr(value, name)
-    globals()[name] = value          # later look-ups skip this function
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_names(__name__, _WHERE, __all__)

@@ -10,31 +10,56 @@ laser power that follows speed (:mod:`~labkit.motion.power`), the step timer
 (:mod:`~labkit.motion.timer`) and the whole chain (:func:`plan`).
 """
 
-from labkit.motion.blocks import BlockFifo, BlockKind, Blocks, build_blocks, expand_arcs, to_steps
-from labkit.motion.bresenham import (
-    arc_lattice_points,
-    circle_points,
-    direction_bits,
-    line_points,
-    line_steps,
-    lines_points,
-    steps_from_points,
-)
-from labkit.motion.pipeline import Plan, PlanSummary, default_law, plan
-from labkit.motion.planner import PLANNERS, Lookahead, junction_speed_caps, lookahead
-from labkit.motion.power import dose_mj_per_mm, laser_power_mw, power_ratio
-from labkit.motion.profile import RAMP_LAWS, Profiles, block_profiles, ramp_distance, ramp_time, reach_speed
-from labkit.motion.spec import AXES, CBR40, MACHINES_DIR, MachineSpec, load_machine, machine_files
-from labkit.motion.timer import (
-    StepBlocks,
-    StepTrace,
-    iter_step_chunks,
-    step_blocks,
-    step_trace,
-    tick_cycles,
-    tick_rates,
-    timer_period,
-)
+# The names load on first use: a command that needs one module (svg2gcode's machine check,
+# motion.spec) does not import the planner, the step timer and the rest (~15 ms).
+from labkit._lazy import lazy_names
+
+_WHERE = {
+    'BlockFifo': 'blocks',
+    'BlockKind': 'blocks',
+    'Blocks': 'blocks',
+    'build_blocks': 'blocks',
+    'expand_arcs': 'blocks',
+    'to_steps': 'blocks',
+    'arc_lattice_points': 'bresenham',
+    'circle_points': 'bresenham',
+    'direction_bits': 'bresenham',
+    'line_points': 'bresenham',
+    'line_steps': 'bresenham',
+    'lines_points': 'bresenham',
+    'steps_from_points': 'bresenham',
+    'Plan': 'pipeline',
+    'PlanSummary': 'pipeline',
+    'default_law': 'pipeline',
+    'plan': 'pipeline',
+    'PLANNERS': 'planner',
+    'Lookahead': 'planner',
+    'junction_speed_caps': 'planner',
+    'lookahead': 'planner',
+    'dose_mj_per_mm': 'power',
+    'laser_power_mw': 'power',
+    'power_ratio': 'power',
+    'RAMP_LAWS': 'profile',
+    'Profiles': 'profile',
+    'block_profiles': 'profile',
+    'ramp_distance': 'profile',
+    'ramp_time': 'profile',
+    'reach_speed': 'profile',
+    'AXES': 'spec',
+    'CBR40': 'spec',
+    'MACHINES_DIR': 'spec',
+    'MachineSpec': 'spec',
+    'load_machine': 'spec',
+    'machine_files': 'spec',
+    'StepBlocks': 'timer',
+    'StepTrace': 'timer',
+    'iter_step_chunks': 'timer',
+    'step_blocks': 'timer',
+    'step_trace': 'timer',
+    'tick_cycles': 'timer',
+    'tick_rates': 'timer',
+    'timer_period': 'timer',
+}
 
 __all__ = [
     # machine
@@ -54,3 +79,6 @@ __all__ = [
     "timer_period", "tick_cycles", "tick_rates", "StepBlocks", "step_blocks", "StepTrace",
     "step_trace", "iter_step_chunks",
 ]
+
+
+__getattr__, __dir__ = lazy_names(__name__, _WHERE, __all__)

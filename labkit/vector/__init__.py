@@ -3,22 +3,11 @@
 The readers load on first use, so reading an SVG does not import the DXF reader.
 """
 
-import importlib
+from labkit._lazy import lazy_names
 
 _WHERE = {"Drawing": "svg", "read_svg": "svg", "svg_reference_samples": "svg", "read_dxf": "dxf"}
 
 __all__ = ["Drawing", "read_svg", "read_dxf", "svg_reference_samples"]
 
 
-def __getattr__(name):
-    try:
-        module = _WHERE[name]
-    except KeyError:
-        raise AttributeError(f"module 'labkit.vector' has no attribute {name!r}") from None
-    value = getattr(importlib.import_module(f"labkit.vector.{module}"), name)
-    globals()[name] = value          # later look-ups skip this function
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_names(__name__, _WHERE, __all__)

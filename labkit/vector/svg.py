@@ -50,7 +50,7 @@ from labkit._files import check_input_file
 from labkit._jit import job_units
 from labkit.errors import GeometryError, name_list
 from labkit.geometry import transform as tf
-from labkit.budget import check_budget
+from labkit.budget import budget, check_budget
 from labkit.geometry.arcfit import (chain_fits, coordinate_limit_mm, cubics_to_arcs, sampling_share,
                                    tolerance_budget)
 from labkit.geometry.bezier import cubic_samples, flatten_cubics, quad_to_cubic
@@ -226,36 +226,32 @@ class _Subpath:
         self.v, self.c, self.s, self.closed, self.dev, self.meta = v, c, s, closed, dev, meta
 
     def path(self) -> Path | None:
-        v, c, s, dev = [], [], [], self.dev
-        for x in self.v:
-            if isinstance(x, _Chain):
-                v.extend(x.fit[0][1:])
-                dev = max(dev, x.fit[3])
-            else:
-                v.append(x)
-        for x in self.c:
-            c.extend(x.fit[1]) if isinstance(x, _Chain) else c.append(x)
-        for x in self.s:
-            s.extend(x.fit[2]) if isinstance(x, _Chain) else s.append(x)
+        # a chain's fit joins as whole arrays (chains are most of a subpath), not row by row
+        dev = max([self.dev] + [x.fit[3] for x in self.v if isinstance(x, _Chain)])
+        v = np.concatenate([x.fit[0][1:] if isinstance(x, _Chain) else np.reshape(np.asarray(x, float), (1, 2))
+                            for x in self.v])
+        c = np.concatenate([x.fit[1] if isinstance(x, _Chain) else np.reshape(np.asarray(x, float), (1, 2))
+                            for x in self.c])
+        s = np.concatenate([x.fit[2] if isinstance(x, _Chain) else np.asarray([x], float) for x in self.s])
         return _subpath(v, c, s, self.closed, dev, self.meta)
 
 
 def _subpath(v, c, s, closed, dev, meta) -> Path | None:
-    """A subpath's vertices, centres and sweeps (lists) as a Path, closed if asked; None when
-    it is a point or, closed, a line there and back."""
+    """A subpath's vertices, centres and sweeps (lists or arrays) as a Path, closed if asked;
+    None when it is a point or, closed, a line there and back."""
     if len(v) < 2:
         return None
     v = np.array(v)
+    c, s = np.array(c, float).reshape(-1, 2), np.array(s, float).reshape(-1)
     if closed and not (abs(v[0, 0] - v[-1, 0]) <= 1e-9 and abs(v[0, 1] - v[-1, 1]) <= 1e-9):
         v = np.vstack([v, v[:1]])
-        c.append((np.nan, np.nan))
-        s.append(0.0)
+        c = np.vstack([c, [[np.nan, np.nan]]])
+        s = np.append(s, 0.0)
     elif closed:
         v[-1] = v[0]
     if len(v) == 2 and closed:
         return None
-    return Path(v, np.array(c, float).reshape(-1, 2), np.array(s, float), closed=closed,
-                deviation_mm=dev, **meta)
+    return Path(v, c, s, closed=closed, deviation_mm=dev, **meta)
 
 
 class _Builder:
@@ -325,15 +321,25 @@ class _Builder:
         self.s.extend(p.sweeps)
         self.dev = max(self.dev, p.deviation_mm)
 
-    def _chords(self, points):
-        """Straight chords from here through points (k, 2), as cubics of the chain."""
-        pts = np.vstack([np.asarray(self.here, float)[None], points])
+    def _chords(self, pts):
+        """Straight chords from here through ``pts[1:]`` (k + 1, 2; row 0 is overwritten with
+        here), as cubics of the chain. Written out with few numpy calls: a drawing makes one
+        call per elliptical arc, hundreds of calls of a few dozen points."""
+        pts[0] = self.here
         self._commit()
-        d = np.diff(pts, axis=0)
-        keep = np.any(d != 0, axis=1)
-        if keep.any():
-            a, d = pts[:-1][keep], d[keep]
-            self.cubics.append(np.stack([a, a + d / 3.0, a + 2.0 * d / 3.0, a + d], axis=1))
+        a = pts[:-1]
+        d = pts[1:] - a
+        keep = d.any(axis=1)
+        if not keep.all():
+            if not keep.any():
+                return
+            a, d = a[keep], d[keep]
+        c = np.empty((len(a), 4, 2))
+        c[:, 0] = a
+        c[:, 1] = a + d / 3.0
+        c[:, 2] = a + 2.0 * d / 3.0
+        c[:, 3] = a + d
+        self.cubics.append(c)
 
     def line(self, end):
         if self.chain_all:
@@ -364,27 +370,33 @@ class _Builder:
     def ellipse_arc(self, centre, jac, t0, dt, end):
         if dt == 0:
             return self.line(end)
-        sv = np.linalg.svd(jac, compute_uv=False)
-        if self.chain_all and sv[1] < (1.0 - 1e-9) * sv[0]:
+        s0, s1 = np.linalg.svd(jac, compute_uv=False).tolist()
+        if self.chain_all and s1 < (1.0 - 1e-9) * s0:
             # a true ellipse joins the chain as samples whose chords stay within the
             # flattening share (a chord of the unit circle over dt/n misses it by
             # 1 − cos(dt/2n); the map stretches that by at most its largest singular value)
             flat, _ = sampling_share(self.tol)
-            step = 2.0 * math.acos(max(1.0 - flat / sv[0], -1.0))
+            step = 2.0 * math.acos(max(1.0 - flat / s0, -1.0))
             n = max(2, math.ceil(abs(dt) / step)) if step > 0 else math.inf
-            check_budget("segments", n, cause=f"an elliptical arc {sv[0]:.3g} mm across at "
-                         f"tolerance {self.tol:g} mm ({self.meta['source']})", option="--tol")
+            if not n <= budget("segments"):        # (the message only when it is needed)
+                check_budget("segments", n, cause=f"an elliptical arc {s0:.3g} mm across at "
+                             f"tolerance {self.tol:g} mm ({self.meta['source']})", option="--tol")
             t = t0 + dt * np.arange(1, n) / n
-            self._chords(np.vstack([centre + np.stack([np.cos(t), np.sin(t)], axis=1) @ jac.T, np.asarray(end, float)[None]]))
+            ring = np.empty((n - 1, 2))
+            ring[:, 0], ring[:, 1] = np.cos(t), np.sin(t)
+            pts = np.empty((n + 1, 2))            # row 0: here, filled by _chords
+            np.add(centre, ring @ jac.T, out=pts[1:n])
+            pts[n] = end
+            self._chords(pts)
             return
         self._flush()
-        budget = tolerance_budget(self.tol, arcs=self.arcs)
-        v, c, sweep, dev, _ = ellipse_arc_arrays(centre, jac, t0, dt, None, budget.read_mm, "midpoint")
+        share = tolerance_budget(self.tol, arcs=self.arcs)
+        v, c, sweep, dev, _ = ellipse_arc_arrays(centre, jac, t0, dt, None, share.read_mm, "midpoint")
         v[0], v[-1] = self._last(), end
         if not self.arcs:
-            for q in Path(v, c, sweep).sample(budget.chords_mm)[1:]:
+            for q in Path(v, c, sweep).sample(share.chords_mm)[1:]:
                 self.line(q)
-            self.dev = max(self.dev, dev + budget.chords_mm)
+            self.dev = max(self.dev, dev + share.chords_mm)
             return
         self.v.extend(v[1:])
         self.c.extend(c)
