@@ -417,10 +417,10 @@ def _scan(buf, ls, le, w, letters, line_limit, grbl_verdicts, grbl_streamed, max
     ``k`` set for each letter ``A + k`` the dialect takes; the other arguments are the
     :class:`~labkit.gcode.reader.ParseOptions` fields of the same names.
 
-    Only scalars and a record come in, not arrays: with fourteen arrays handed over, inlined
-    or not, the parse measured 21-23 % slower than with the scan in :func:`interpret`'s body;
-    this form 3-5 % (1 M lines, compiled; the views taken here in the kernel, not handed
-    over: as arguments they cost as much as arrays).
+    Only scalars and a record come in, not arrays: with fourteen arrays handed over the parse
+    measured 21-23 % slower than with the scan in :func:`interpret`'s body, this form 2-3.5 %
+    (1 M lines, compiled; the views taken here in the kernel, not handed over: as arguments
+    they cost as much as arrays, numba counting their references on every line).
 
     Returns (err, detail, epos, eend, aux0, aux1, is_system, is_jog, ng, nm): the first fault
     (``OK`` when none) with its span and two numbers for its message, whether the line is a
@@ -1347,6 +1347,8 @@ def interpret(buf, options, lenient, max_errors, trace):
                 break
         else:
             # ---- phase 3: commit ---------------------------------------------------
+            # (in this body: as a kernel, handed the move and record arrays and the text,
+            # it cost 8 % more on 1 M lines; labkit/README.md)
             nnew = (1 if dwell else 0) + (1 if moving else 0) + nhome
             if nrows + nnew > cap:
                 cap = 2 * cap + nnew
