@@ -9,7 +9,7 @@ view (timer periods and the step pulse train) is in :mod:`labkit.motion.timer`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -77,6 +77,9 @@ class Plan:
         Junction speeds and super blocks of the motion blocks.
     profiles : Profiles
         Speed profile of each motion block.
+    sync_lines : ndarray of int
+        Source lines at which the motion was made to stop because the controller empties
+        its planner there (``plan``'s ``sync_lines``); empty when none were given.
     """
 
     machine: MachineSpec
@@ -84,6 +87,7 @@ class Plan:
     motion: np.ndarray
     lookahead: Lookahead
     profiles: Profiles
+    sync_lines: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
     @property
     def planner(self) -> str:
@@ -242,7 +246,7 @@ class Plan:
 
 def plan(moves: Moves | Blocks, machine: MachineSpec | str | None = None, *, planner: str = "junction",
          buffer_blocks: int | None = None, law: str | None = None,
-         arc_tol_mm: float | None = None) -> Plan:
+         arc_tol_mm: float | None = None, sync_lines=None) -> Plan:
     """Plan a program the way a controller would.
 
     Parameters
@@ -261,6 +265,10 @@ def plan(moves: Moves | Blocks, machine: MachineSpec | str | None = None, *, pla
         ``"accel"`` by each block's acceleration (mm/s²).
     arc_tol_mm : float, optional
         Cut arcs into chords (GRBL ``$12``); default one block per arc.
+    sync_lines : sequence of int, optional
+        Source lines at which the controller waits for its planner to empty before it goes
+        on (GRBL at a change of M3/M4/M5: :func:`labkit.motion.stall.laser_sync_lines`): the
+        motion stops at the junction before the first block of that line or after it.
 
     Returns
     -------
@@ -294,6 +302,11 @@ def plan(moves: Moves | Blocks, machine: MachineSpec | str | None = None, *, pla
     if len(motion):
         dwell_before = np.cumsum(~blocks.is_motion)[motion]
         stop[1:-1] = dwell_before[1:] != dwell_before[:-1]
+    sync = np.zeros(0, np.int64) if sync_lines is None else np.unique(np.asarray(sync_lines, np.int64))
+    if len(sync) and len(motion):
+        # the first motion block at or after each such line starts from rest
+        k = np.searchsorted(np.asarray(mb.line, np.int64), sync, side="left")
+        stop[k[(k > 0) & (k < len(motion))]] = True
     if law == "linear":
         up = np.full(len(mb), float(m.accel_hz_per_step))
         down = np.full(len(mb), float(m.decel_hz_per_step))
@@ -308,4 +321,4 @@ def plan(moves: Moves | Blocks, machine: MachineSpec | str | None = None, *, pla
                               np.maximum(la.speed_mm_s[1:], floor), up, down, law)
     else:
         prof = block_profiles(np.ones(0), np.ones(0), np.ones(0), np.ones(0), np.ones(0), np.ones(0), law)
-    return Plan(machine=m, blocks=blocks, motion=motion, lookahead=la, profiles=prof)
+    return Plan(machine=m, blocks=blocks, motion=motion, lookahead=la, profiles=prof, sync_lines=sync)
