@@ -68,6 +68,8 @@ typedef struct {
   double g92[3];         /* G92 offset (not stored: a reset clears it, as in GRBL) */
   double tlo;            /* G43.1 tool length offset, Z, mm */
   uint32_t wco_changes;  /* counts changes of the offsets (the status report shows WCO then) */
+  uint32_t power_syncs;  /* counts the laser/coolant switches GRBL syncs on (grbl dialect: the
+                            status report shows Ov: then) */
 } gc_state_t;
 
 void gc_init(void);                          /* power-on modal state, labkit dialect */

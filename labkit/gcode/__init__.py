@@ -12,7 +12,8 @@ Modules: :mod:`~labkit.gcode.reader` (text → Moves: :func:`parse`, :func:`pars
 from labkit.gcode import arcs
 from labkit.gcode.dialects import DIALECTS, Dialect, get_dialect
 from labkit.gcode.writer import decimals_for, emit, format_number, write_gcode
-from labkit.gcode.reader import Interpreter, check, modal_trace, parse, parse_file, parse_with_states
+from labkit.gcode.reader import (Interpreter, check, grbl_sync_lines, modal_trace, parse, parse_file,
+                                 parse_with_states)
 from labkit.gcode.state import ModalState, restate
 
 __all__ = [
@@ -21,6 +22,7 @@ __all__ = [
     "parse_with_states",
     "check",
     "modal_trace",
+    "grbl_sync_lines",
     "Interpreter",
     "ModalState",
     "restate",

@@ -66,7 +66,7 @@ from labkit.gcode.dialects import Dialect, get_dialect
 from labkit.toolpath.moves import LaserMode, MoveKind, Moves, Record
 
 __all__ = ["parse", "parse_file", "parse_with_states", "check", "modal_trace", "ParseOptions",
-           "grbl_system_verdict", "Interpreter", "strip_comments"]
+           "grbl_system_verdict", "grbl_sync_lines", "Interpreter", "strip_comments"]
 
 _COMMON_LETTERS = "FGIJKMNPRSXYZ"
 
@@ -257,6 +257,51 @@ def parse_with_states(text, *, dialect: str | Dialect = "grbl", filename: str | 
     """
     moves, data, out = _interpreted(text, dialect, filename, lenient, streaming, trace=True)
     return moves, out.trace[:_line_count(data)]
+
+
+def grbl_sync_lines(text, *, dialect: str | Dialect = "grbl") -> list[int]:
+    """The lines GRBL runs only once the moves before them have ended, so that the machine
+    stops before their moves: every accepted line with a
+    :func:`~labkit.gcode.state.grbl_sync_reasons` (a laser or coolant switch, an offset or
+    stored position, a probe). For :func:`labkit.motion.plan`'s ``sync_lines`` (the
+    firmware's grbl dialect waits at the same lines). Other dialects keep power and coolant
+    changes in the step stream ([CBR40]): none.
+
+    Parameters
+    ----------
+    text : str or bytes
+        The program.
+    dialect : str or Dialect
+
+    Returns
+    -------
+    list of int
+        1-based line numbers, ascending.
+
+    Examples
+    --------
+    >>> grbl_sync_lines("M3 S100\nG1 X5 F600\nG1 X10 S300\nS500\nM5\nG0 X0\n")
+    [1, 4, 5]
+    >>> grbl_sync_lines("M3 S100\nG1 X5 F600\nM5\n", dialect="labkit-fw")
+    []
+    """
+    from labkit.gcode.state import ModalState, grbl_sync_reasons
+
+    d = get_dialect(dialect)
+    if d.name != "grbl":
+        return []
+    data = _as_bytes(text)
+    out = _run(data, d, lenient=True, trace=True)
+    refused = set(out.errors["line"].tolist())
+    trace = out.trace
+    lines = []
+    for k, raw in enumerate(_text_lines(data), start=1):
+        line = "".join(c for c in strip_comments(raw) if c > " " and c != "/").upper()
+        if k in refused or not ("M" in line or "S" in line or "G" in line) or line.startswith("$"):
+            continue
+        if grbl_sync_reasons(line, ModalState.at(trace, k - 2)):
+            lines.append(k)
+    return lines
 
 
 def _interpreted(text, dialect, filename, lenient, streaming, trace):

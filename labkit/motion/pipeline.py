@@ -242,7 +242,7 @@ class Plan:
 
 def plan(moves: Moves | Blocks, machine: MachineSpec | str | None = None, *, planner: str = "junction",
          buffer_blocks: int | None = None, law: str | None = None,
-         arc_tol_mm: float | None = None) -> Plan:
+         arc_tol_mm: float | None = None, sync_lines=None) -> Plan:
     """Plan a program the way a controller would.
 
     Parameters
@@ -261,6 +261,11 @@ def plan(moves: Moves | Blocks, machine: MachineSpec | str | None = None, *, pla
         ``"accel"`` by each block's acceleration (mm/s²).
     arc_tol_mm : float, optional
         Cut arcs into chords (GRBL ``$12``); default one block per arc.
+    sync_lines : sequence of int, optional
+        Source lines the controller runs only once the moves before them have ended
+        (:func:`labkit.gcode.grbl_sync_lines`: GRBL's laser, coolant and offset lines): the
+        machine stops before their moves. A dwell, a pause (M0, M1), a program end (M2, M30)
+        and a probe move (before and after it) always stop it.
 
     Returns
     -------
@@ -289,11 +294,14 @@ def plan(moves: Moves | Blocks, machine: MachineSpec | str | None = None, *, pla
     depth = m.buffer_blocks if buffer_blocks is None else buffer_blocks
     motion = np.flatnonzero(blocks.is_motion)
     mb = blocks[motion]
-    # a dwell between two motion blocks forces a stop at that junction
+    # a dwell between two motion blocks forces a stop at that junction; so do a pause, a
+    # program end, a probe and a line the controller syncs on
     stop = np.zeros(len(motion) + 1, bool)
     if len(motion):
         dwell_before = np.cumsum(~blocks.is_motion)[motion]
         stop[1:-1] = dwell_before[1:] != dwell_before[:-1]
+        stop[1:-1] |= _stops_between(blocks, motion, moves if isinstance(moves, Moves) else None,
+                                     sync_lines)
     if law == "linear":
         up = np.full(len(mb), float(m.accel_hz_per_step))
         down = np.full(len(mb), float(m.decel_hz_per_step))
@@ -309,3 +317,27 @@ def plan(moves: Moves | Blocks, machine: MachineSpec | str | None = None, *, pla
     else:
         prof = block_profiles(np.ones(0), np.ones(0), np.ones(0), np.ones(0), np.ones(0), np.ones(0), law)
     return Plan(machine=m, blocks=blocks, motion=motion, lookahead=la, profiles=prof)
+
+
+def _stops_between(blocks: Blocks, motion, moves, sync_lines) -> np.ndarray:
+    """Whether the machine stands still between consecutive motion blocks (one entry per
+    inner junction) for a pause, program end or probe record of ``moves`` (before the move
+    the record names: :attr:`Record.index`; a probe also after its move) or a line of
+    ``sync_lines`` (before its first move)."""
+    out = np.zeros(max(len(motion) - 1, 0), bool)
+    if len(motion) < 2:
+        return out
+
+    def between(cuts, key):                 # a cut c with key[k - 1] < c <= key[k]
+        c = np.sort(np.asarray(cuts, float))
+        prev, nxt = key[:-1], key[1:]
+        return np.searchsorted(c, nxt, side="right") > np.searchsorted(c, prev, side="right")
+
+    if moves is not None:
+        cuts = [r.index for r in moves.records if r.kind in ("pause", "optional_pause", "end")]
+        cuts += [r.index + k for r in moves.records if r.kind == "probe" for k in (0, 1)]
+        if cuts:
+            out |= between(cuts, blocks.move[motion])
+    if sync_lines is not None and len(sync_lines):
+        out |= between(sync_lines, blocks.line[motion])
+    return out
