@@ -710,8 +710,8 @@ uint8_t gc_execute_line(char *line)
      line in laser mode ($32=1), whose power rides with its move; in laser mode M3's switch
      between a G1-G3 mode and another on a line without motion (the beam's level at rest
      changes); a new M8 or M9. The moves before the line end at rest there (the step stream
-     stops, as labkit.motion's grbl_sync_stops plans it) and a report meanwhile shows the old
-     state. The labkit-fw dialect keeps power in the step stream ([CBR40]): it never waits. */
+     stops, as labkit.motion.plan does at labkit.gcode.grbl_sync_lines) and a report meanwhile
+     shows the old state. The labkit-fw dialect keeps power in the step stream ([CBR40]). */
   uint8_t power_sync = 0;
   if (gc_dialect == GC_DIALECT_GRBL) {
     int motion_line = axis_words && axis_command != 2 && axis_command != 3;

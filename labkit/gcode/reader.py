@@ -280,9 +280,9 @@ def grbl_sync_lines(text, *, dialect: str | Dialect = "grbl") -> list[int]:
 
     Examples
     --------
-    >>> grbl_sync_lines("M3 S100\nG1 X5 F600\nG1 X10 S300\nS500\nM5\nG0 X0\n")
+    >>> grbl_sync_lines("M3 S100\\nG1 X5 F600\\nG1 X10 S300\\nS500\\nM5\\nG0 X0\\n")
     [1, 4, 5]
-    >>> grbl_sync_lines("M3 S100\nG1 X5 F600\nM5\n", dialect="labkit-fw")
+    >>> grbl_sync_lines("M3 S100\\nG1 X5 F600\\nM5\\n", dialect="labkit-fw")
     []
     """
     from labkit.gcode.state import ModalState, grbl_sync_reasons
