@@ -293,15 +293,29 @@ def grbl_sync_lines(text, *, dialect: str | Dialect = "grbl") -> list[int]:
     data = _as_bytes(text)
     out = _run(data, d, lenient=True, trace=True)
     refused = set(out.errors["line"].tolist())
-    trace = out.trace
+    texts = _text_lines(data)
+    trace = out.trace[:len(texts)]
+    # only a line that changes the state the rule reads, or writes an offset or stored position
+    # or probes whatever it changes, can wait: the rule runs on those lines only
+    before = np.concatenate([K.initial_state(), trace[:-1]]) if len(trace) else trace
+    changed = np.zeros(len(trace), bool)
+    for name in ("laser", "coolant", "s_word", "motion", "coord_system", "tool_offset"):
+        changed |= trace[name] != before[name]
     lines = []
-    for k, raw in enumerate(_text_lines(data), start=1):
-        line = "".join(c for c in strip_comments(raw) if c > " " and c != "/").upper()
-        if k in refused or not ("M" in line or "S" in line or "G" in line) or line.startswith("$"):
+    for k, raw in enumerate(texts, start=1):
+        if k in refused:
             continue
-        if grbl_sync_reasons(line, ModalState.at(trace, k - 2)):
+        if not changed[k - 1] and not _OFFSET_WORDS.search(raw):
+            continue
+        line = "".join(c for c in strip_comments(raw) if c > " " and c != "/").upper()
+        if not line.startswith("$") and grbl_sync_reasons(line, ModalState.at(trace, k - 2)):
             lines.append(k)
     return lines
+
+
+#: G10, G28.1, G30.1, G38.x, G92(.1): GRBL waits for them even when nothing changes (a
+#: superset: the rule itself decides; comments may match, which only costs time).
+_OFFSET_WORDS = re.compile(r"[gG]\s*0*(10|28\s*\.|30\s*\.|38|92)")
 
 
 def _interpreted(text, dialect, filename, lenient, streaming, trace):
