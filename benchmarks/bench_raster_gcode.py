@@ -46,12 +46,12 @@ lowered 3 % at a time and then halved to 1 %; beside it the stall predictor's fi
 (``labkit.motion.stall.stall_free_feed`` with stream.py's byte counts). The simulator is told
 what stream.py writes (``--expect``), so load on the machine does not move these figures;
 stops of at most a byte's time, no more of them than stream.py's ``?``s, are the ``?``'s and
-do not count. Measured (two runs, 2026-12-06): at 115200 baud both formats stream without a
-starvation up to the machine's 6,000 mm/min; at 57600 labkit compact 4,248 mm/min both times
-(predicted 4,279, 0.7 % high) and LaserGRBL-style 3,691–3,718 (predicted 3,858, 3.8–4.5 %
-high): 1.14–1.15 times the feed. On the LaserGRBL-style program the predictor misses a 2 ms
-stop at line 33124 of 33159 (the last look-ahead window of the job) from 3,800 mm/min on, and
-a ``?`` at its tightest rows (lines near 27,880) can leave a chain of byte-long stops there.
+do not count. Measured (2026-12-06, after the simulator's main loop was made to run between
+ticks as on the board): at 115200 baud both formats stream without a starvation up to the
+machine's 6,000 mm/min; at 57600 labkit compact 4,375 mm/min (predicted 4,279, 2.2 % low) and
+LaserGRBL-style 3,973 (predicted 3,858, 2.9 % low): 1.10 times the feed. (Before that fix the
+simulator read a line's last bytes and sent its ``ok`` a batch of ticks late: 4,248 and
+3,691–3,718, and a 2 ms stop at line 33,124 of the LaserGRBL-style job no prediction had.)
 
 Run: .venv/bin/python benchmarks/bench_raster_gcode.py [--no-stream]   (about 10 minutes; 2 cores:
 2.5 for the formats, the rest streaming)

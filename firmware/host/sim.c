@@ -79,7 +79,15 @@
   does (its bytes arrive at the baud rate's pace whatever the host does).
   Nothing is waited for once the host has written the whole file. A host
   byte that differs from the file ends this at that byte (the guess and the
-  0.25 s apply from there) and is reported on stderr at exit.
+  0.25 s apply from there) and is reported on stderr at exit. Without
+  --expect the next line is guessed as long as the longest of the last 8.
+  A wait that ran out while the host had room is not begun again by the
+  answers after it (the host is silent) until the host writes.
+  The firmware's main loop runs between ticks as on the board, where it runs
+  beside the step interrupt: an answer goes out at the simulated moment the
+  core wrote it, and no tick is taken while the main loop makes progress (it
+  took received bytes, which its parser reads 8 a pass, or a planner slot
+  came free).
   A byte due during a tick is read at its arrival, not at the tick's end.
   While the motors stand, the clock jumps to the next byte's
   arrival; with nothing on the wire it follows the wall clock. The
@@ -178,7 +186,10 @@ static uint64_t line_bytes_wired;     /* non-real-time bytes put on the wire */
 #define OWED_SIZE 1024u
 static uint16_t owed_len[OWED_SIZE];
 static size_t owed_head, owed_tail;
-static uint32_t owed_bytes, rx_line_len, last_line_len;
+static uint32_t owed_bytes, rx_line_len;
+#define RECENT_LINES 8u
+static uint32_t recent_len[RECENT_LINES];   /* the last lines' lengths: the next one's guess */
+static size_t recent_at;
 static int host_turn;                 /* an answer went out; the host may send a line */
 static double host_turn_since;
 #define HOST_ANSWER_S 0.25
@@ -379,9 +390,15 @@ static void tx_watch(const uint8_t *p, size_t n) {
           (tx_line_len >= 5 && !memcmp(tx_line, "error", 5))) {
         if (owed_tail < owed_head)
           owed_bytes -= owed_len[owed_tail++ % OWED_SIZE];
-        host_turn = 1;
-        host_waited_out = 0;           /* a new answer: the host has new room */
-        host_turn_since = host_seconds();
+        if (!host_waited_out) {
+          /* a new answer: the host may have the room it lacked. Not after a wait that ran
+             out while it had room (its next line known, --expect, or guessed long): it is
+             silent, and waiting again at every answer would hold the clock for it as long
+             as lines are left to answer */
+          host_turn = 1;
+          host_waited_out = 0;
+          host_turn_since = host_seconds();
+        }
       }
       tx_line_len = 0;
     } else if (tx_line_len < sizeof tx_line) {
@@ -561,7 +578,7 @@ static void wire_put(const uint8_t *p, size_t n) {
           owed_len[owed_head++ % OWED_SIZE] = (uint16_t)(rx_line_len > 65535 ? 65535 : rx_line_len);
           owed_bytes += rx_line_len;
         }
-        last_line_len = rx_line_len;
+        recent_len[recent_at++ % RECENT_LINES] = rx_line_len;
         rx_line_len = 0;
       }
     }
@@ -596,10 +613,19 @@ static size_t expected_line_rest(void) {
   return rest;
 }
 
+/* Without --expect, the host's next line is taken to be as long as the longest of the last
+   few: a guess too short would have the simulator wait for a line the host has no room for. */
+static uint32_t guessed_line_len(void) {
+  uint32_t n = 0;
+  for (size_t k = 0; k < RECENT_LINES; k++)
+    n = recent_len[k] > n ? recent_len[k] : n;
+  return n;
+}
+
 /* The host owes a line: it has been answered since it last fell silent, it has
    room for its next line by GRBL's character counting (stream.py: fewer than
    127 bytes in flight with it), and nothing it sent is still on the wire. The
-   next line is known with --expect, else taken to be as long as the last.
+   next line is known with --expect, else guessed (guessed_line_len).
    Silence for HOST_ANSWER_S of wall time (HOST_EXPECT_S with --expect) ends the
    wait until the next answer (the job has ended, or its next line is longer). */
 static int waiting_for_host(void) {
@@ -610,7 +636,7 @@ static int waiting_for_host(void) {
     /* a line begun is finished; a new one needs room */
     if (rest == 0 || (rx_line_len == 0 && owed_bytes + rest >= 127u))
       return 0;
-  } else if (owed_bytes + last_line_len >= 127u) {
+  } else if (owed_bytes + guessed_line_len() >= 127u) {
     return 0;
   }
   if (host_seconds() - host_turn_since > (expect_on ? HOST_EXPECT_S : HOST_ANSWER_S)) {
@@ -707,11 +733,22 @@ void hal_poll(void) {
   int idle = !timer_on && serial_tx_count() == 0 && txlen == 0 && serial_rx_count() == 0;
   poll_panel();
   int waiting = timer_on && ahead_of_wall_clock();
+  if (baud && (serial_tx_count() || txlen))
+    tx_flush(0);                 /* an answer goes out at the moment the core wrote it */
   poll_input(panel_pos == panel_len ? (idle ? 2 : waiting ? 1 : 0) : 0);
   /* paced: no tick while the host owes a line; none past the next byte's arrival */
   int hold_clock = baud && waiting_for_host();
   uint64_t next_due = baud && wire_tail < wire_head ? wire_due[wire_tail % WIRE_SIZE] : UINT64_MAX;
-  for (int i = 0; i < TICKS_PER_POLL && timer_on && !hold_clock && !ahead_of_wall_clock() &&
+  /* paced: while the main loop makes progress (it took received bytes, which it reads a few
+     a pass, or its st_prep_buffer freed a planner slot) it goes on before the clock moves, as
+     on the board, where it runs beside the step interrupt: else a line's end read in the
+     next pass, or a line waiting for that slot, would wait for the batch of ticks below */
+  static uint8_t free_slots;
+  static size_t rx_left;
+  int busy = baud && (plan_free_slots() > free_slots ||
+                      (serial_rx_count() > 0 && serial_rx_count() < rx_left));
+  free_slots = plan_free_slots();
+  for (int i = 0; i < TICKS_PER_POLL && timer_on && !hold_clock && !busy && !ahead_of_wall_clock() &&
                   cycles < next_due; i++) {
     if (!tick_end)
       tick_end = cycles + ((uint64_t)period_reg + 1u) * ((uint64_t)m->prescaler + 1u);
@@ -733,7 +770,13 @@ void hal_poll(void) {
        ST_PREP_LEAD_MS): top the ticks up while the stepper runs */
     if ((i & 3) == 3 && timer_on)
       st_prep_buffer();
+    /* paced: a planner slot freed is back to the main loop at once (a line waiting for it
+       is planned and answered then, as on the board, not after the rest of the batch) */
+    if (baud && plan_free_slots() != free_slots)
+      break;
   }
+  free_slots = plan_free_slots();
+  rx_left = serial_rx_count();
   if (serial_tx_count() || txlen)
     tx_flush(0);
 }

@@ -373,6 +373,7 @@ class VirtualMachine:
         self.short_queues: list[Starvation] = []
         self._short_since: float | None = None
         self._into_empty = None              # the block that last entered an empty planner
+        self._synced = False                 # a line that waited for an empty planner ran last
         #: G-code lines run since power-up (answered ok or error; not ``$`` lines, not in check mode)
         self.lines_run = 0
         self.planner_blocks = int(planner_blocks or self.machine.planner_blocks)
@@ -1410,6 +1411,8 @@ class VirtualMachine:
                 return                                  # GRBL empties the planner first
             if self._short_since is not None and self._waits_for_sync(text):
                 self._short_since = None                # a stop the program asks for
+            if self._waits_for_sync(text):
+                self._synced = True                     # the next block enters a planner it emptied
             self._parsed = None
             self._sync_verdict, self._wco_preview = ("", False), None
             self._line(text)
@@ -1884,12 +1887,16 @@ class VirtualMachine:
         """A line's blocks were queued behind ``queued`` others (``starved``: after a
         starvation): if the running block started short (:meth:`_queue_short`), the line came
         that long after its start. The first block into an empty planner that did not starve
-        (a job's first, on a fresh machine) is not counted: nothing could be behind it."""
+        (a job's first, on a fresh machine) or that a line waiting for an empty planner (an
+        M3/M4/M5 change, G92, ...) emptied is not counted: nothing could be behind it, at any
+        feed."""
         added = len(self._blocks) > queued
         if added and self._blocks[queued].is_dwell:
             self._short_since = None    # G4, M0, M2, M30: GRBL syncs, the head stops there anyway
-        if added and queued == 0 and not starved:
+        if added and queued == 0 and (not starved or self._synced):
             self._into_empty = self._blocks[0]
+        if added:
+            self._synced = False
         if added and self._short_since is not None:
             if self._sim_t > self._short_since:
                 self.short_queues.append(Starvation(self._short_since, self.lines_run,

@@ -9,7 +9,7 @@ view (timer periods and the step pulse train) is in :mod:`labkit.motion.timer`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -77,6 +77,9 @@ class Plan:
         Junction speeds and super blocks of the motion blocks.
     profiles : Profiles
         Speed profile of each motion block.
+    sync_lines : ndarray of int
+        Source lines at which the motion was made to stop because the controller empties
+        its planner there (``plan``'s ``sync_lines``); empty when none were given.
     """
 
     machine: MachineSpec
@@ -84,6 +87,7 @@ class Plan:
     motion: np.ndarray
     lookahead: Lookahead
     profiles: Profiles
+    sync_lines: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
     @property
     def planner(self) -> str:
@@ -262,10 +266,12 @@ def plan(moves: Moves | Blocks, machine: MachineSpec | str | None = None, *, pla
     arc_tol_mm : float, optional
         Cut arcs into chords (GRBL ``$12``); default one block per arc.
     sync_lines : sequence of int, optional
-        Source lines the controller runs only once the moves before them have ended
-        (:func:`labkit.gcode.grbl_sync_lines`: GRBL's laser, coolant and offset lines): the
-        machine stops before their moves. A dwell, a pause (M0, M1), a program end (M2, M30)
-        and a probe move (before and after it) always stop it.
+        Source lines at which the controller waits for its planner to empty before it goes
+        on (GRBL at a change of M3/M4/M5: :func:`labkit.motion.stall.laser_sync_lines`; at
+        every line GRBL syncs on, laser, coolant, offsets and probes:
+        :func:`labkit.gcode.grbl_sync_lines`): the motion stops at the junction before the
+        first block of that line or after it. A dwell, a pause (M0, M1), a program end (M2,
+        M30) and a probe move (before and after it) always stop it.
 
     Returns
     -------
@@ -294,14 +300,24 @@ def plan(moves: Moves | Blocks, machine: MachineSpec | str | None = None, *, pla
     depth = m.buffer_blocks if buffer_blocks is None else buffer_blocks
     motion = np.flatnonzero(blocks.is_motion)
     mb = blocks[motion]
-    # a dwell between two motion blocks forces a stop at that junction; so do a pause, a
-    # program end, a probe and a line the controller syncs on
+    # a dwell between two motion blocks forces a stop at that junction
     stop = np.zeros(len(motion) + 1, bool)
     if len(motion):
         dwell_before = np.cumsum(~blocks.is_motion)[motion]
         stop[1:-1] = dwell_before[1:] != dwell_before[:-1]
-        stop[1:-1] |= _stops_between(blocks, motion, moves if isinstance(moves, Moves) else None,
-                                     sync_lines)
+    sync = np.zeros(0, np.int64) if sync_lines is None else np.unique(np.asarray(sync_lines, np.int64))
+    if len(sync) and len(motion):
+        # the first motion block at or after each such line starts from rest
+        k = np.searchsorted(np.asarray(mb.line, np.int64), sync, side="left")
+        stop[k[(k > 0) & (k < len(motion))]] = True
+    if isinstance(moves, Moves) and len(motion):
+        # a pause, a program end, a probe: the first motion block after the record's place
+        # (Record.index: the moves before it; a probe also after its own move) starts from rest
+        cuts = [r.index for r in moves.records if r.kind in ("pause", "optional_pause", "end")]
+        cuts += [r.index + k for r in moves.records if r.kind == "probe" for k in (0, 1)]
+        if cuts:
+            k = np.searchsorted(np.asarray(blocks.move[motion], np.int64), np.asarray(cuts), side="left")
+            stop[k[(k > 0) & (k < len(motion))]] = True
     if law == "linear":
         up = np.full(len(mb), float(m.accel_hz_per_step))
         down = np.full(len(mb), float(m.decel_hz_per_step))
@@ -316,28 +332,4 @@ def plan(moves: Moves | Blocks, machine: MachineSpec | str | None = None, *, pla
                               np.maximum(la.speed_mm_s[1:], floor), up, down, law)
     else:
         prof = block_profiles(np.ones(0), np.ones(0), np.ones(0), np.ones(0), np.ones(0), np.ones(0), law)
-    return Plan(machine=m, blocks=blocks, motion=motion, lookahead=la, profiles=prof)
-
-
-def _stops_between(blocks: Blocks, motion, moves, sync_lines) -> np.ndarray:
-    """Whether the machine stands still between consecutive motion blocks (one entry per
-    inner junction) for a pause, program end or probe record of ``moves`` (before the move
-    the record names: :attr:`Record.index`; a probe also after its move) or a line of
-    ``sync_lines`` (before its first move)."""
-    out = np.zeros(max(len(motion) - 1, 0), bool)
-    if len(motion) < 2:
-        return out
-
-    def between(cuts, key):                 # a cut c with key[k - 1] < c <= key[k]
-        c = np.sort(np.asarray(cuts, float))
-        prev, nxt = key[:-1], key[1:]
-        return np.searchsorted(c, nxt, side="right") > np.searchsorted(c, prev, side="right")
-
-    if moves is not None:
-        cuts = [r.index for r in moves.records if r.kind in ("pause", "optional_pause", "end")]
-        cuts += [r.index + k for r in moves.records if r.kind == "probe" for k in (0, 1)]
-        if cuts:
-            out |= between(cuts, blocks.move[motion])
-    if sync_lines is not None and len(sync_lines):
-        out |= between(sync_lines, blocks.line[motion])
-    return out
+    return Plan(machine=m, blocks=blocks, motion=motion, lookahead=la, profiles=prof, sync_lines=sync)

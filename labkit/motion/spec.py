@@ -77,6 +77,15 @@ def _grbl_settings(machine: str, value) -> tuple:
     return tuple(sorted(out.items()))
 
 
+#: Whether the labkit firmware waits for its planner to empty at a change of M3/M4/M5 (GRBL
+#: does, :attr:`MachineSpec.laser_change_syncs`): in its grbl dialect, yes (``firmware/src/gcode.c``
+#: waits before it commits the line, as for a new S alone, M8/M9 and the offsets; the motion stops
+#: there); its labkit-fw dialect keeps power in the step stream. The one place that says it: the
+#: firmware's machine descriptions take it as their default, and the paced simulator's tests
+#: (grbl dialect) read it.
+FIRMWARE_LASER_CHANGE_SYNCS = True
+
+
 @dataclass(frozen=True)
 class MachineSpec:
     """A laser CNC machine as the motion planner sees it.
@@ -148,6 +157,12 @@ class MachineSpec:
         window (``buffer_blocks`` more blocks) has arrived or the stream has
         gone quiet (the labkit firmware); False when it runs whatever its
         planner holds (GRBL). Decides where a slow link makes it stop.
+    laser_change_syncs : bool
+        True when a line that changes the laser state (M3, M4, M5) waits for the planner
+        to empty and the motion to end before it runs and is answered (GRBL 1.1's
+        ``spindle_sync``, laser mode included): the motion stops there and the planner
+        starts again from one block. Default :data:`FIRMWARE_LASER_CHANGE_SYNCS`, the
+        labkit firmware's.
     description : str
         One line for people.
 
@@ -186,6 +201,7 @@ class MachineSpec:
     planner_blocks: int = 36
     block_parse_s: float = 20e-6
     waits_for_lookahead: bool = True
+    laser_change_syncs: bool = FIRMWARE_LASER_CHANGE_SYNCS
     description: str = dataclasses.field(default="", compare=False)
 
     def __post_init__(self):
@@ -226,10 +242,11 @@ class MachineSpec:
              and not isinstance(self.block_parse_s, bool)
              and math.isfinite(self.block_parse_s) and self.block_parse_s >= 0, ">= 0 s and finite"),
         ]
-        if not isinstance(self.waits_for_lookahead, (bool, np.bool_)):
-            raise MotionError(f"machine {self.name!r}: waits_for_lookahead must be true or false, "
-                              f"got {self.waits_for_lookahead!r}")
-        set_(self, "waits_for_lookahead", bool(self.waits_for_lookahead))
+        for name in ("waits_for_lookahead", "laser_change_syncs"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise MotionError(f"machine {self.name!r}: {name} must be true or false, "
+                                  f"got {getattr(self, name)!r}")
+            set_(self, name, bool(getattr(self, name)))
         set_(self, "grbl_settings", _grbl_settings(self.name, self.grbl_settings))
         for name, ok, allowed in checks:
             if not ok:

@@ -30,7 +30,13 @@ firmware runs each block as its ticks (``labkit steps``), never faster than the
 plan's continuous time and, with few steps a block, a few per cent slower (8 steps
 a 0.1 mm pixel on ``labkit-diode``: about 2 %), so the prediction errs towards
 stalls. On GRBL a shallow buffer also slows the motion down, which the prediction
-leaves out (it sees only where the buffer empties).
+leaves out (it sees only where the buffer empties; :func:`short_queues` says where).
+
+A controller that waits for its planner to empty at a change of M3/M4/M5
+(``laser_change_syncs``: GRBL's ``spindle_sync``; :func:`laser_sync_lines`) stops
+there: the plan ends the motion before such a line at rest, the line is answered once
+that motion has ended, and the next line is read after it. That stop is the program's:
+it counts as a starvation only when the line after it had not arrived by then.
 """
 
 from __future__ import annotations
@@ -46,7 +52,7 @@ from labkit.motion._stall import stream_lines
 
 __all__ = ["Starvation", "LinkPrediction", "StallFreeFeed", "predict_stalls", "stall_free_feed",
            "sent_line_bytes", "with_feed", "program_feeds", "read_starvation_log", "may_starve",
-           "block_time_bounds", "motion_line_numbers", "short_queues",
+           "block_time_bounds", "motion_line_numbers", "short_queues", "laser_sync_lines",
            "FLUSH_QUIET_S"]
 
 #: Quiet input after which the labkit firmware runs what its look-ahead holds back, s
@@ -218,6 +224,55 @@ def _plain_lines(encoded: bytes, axes: bool = False):
         first_line += len(n)
         lo = hi
     return nbytes, has_axis
+
+
+#: An M3, M4 or M5 word (M03 too) as a line's text may hold it; M30 and M3.5 are not.
+_LASER_M = re.compile(r"M\s*0*([345])(?![\s]*[0-9.])", re.IGNORECASE)
+_END_M = re.compile(r"M\s*0*(2|30)(?![\s]*[0-9.])", re.IGNORECASE)
+
+
+def laser_sync_lines(text: str) -> np.ndarray:
+    """The lines at which GRBL waits for its planner to empty: those that change the laser
+    state (M3, M4, M5; GRBL's ``spindle_sync``, laser mode included).
+
+    GRBL starts in M5; M2 and M30 end the program in M5. A line that repeats the state in
+    effect does not wait. Comments are left out; a line GRBL refuses is not told apart.
+
+    Parameters
+    ----------
+    text : str
+        The program.
+
+    Returns
+    -------
+    ndarray of int
+        Source lines (1-based), rising.
+
+    Examples
+    --------
+    >>> laser_sync_lines("M5\\nG0X1\\nM3S100 (M5)\\nG1X2\\nM3\\nM05\\nM2\\nM4\\n").tolist()
+    [3, 6, 8]
+    """
+    from labkit.gcode.reader import strip_comments
+
+    hits = [m.start() for m in re.finditer(r"[Mm]", text)]
+    if not hits:
+        return np.zeros(0, np.int64)
+    ends = np.flatnonzero(np.frombuffer(text.encode("latin-1", "replace"), np.uint8) == 10)
+    rows = np.unique(np.searchsorted(ends, hits))                # 0-based lines holding an M
+    lines = text.split("\n") if len(rows) > 1000 else None
+    starts = np.concatenate([[0], ends + 1])
+    state, out = 5, []
+    for row in rows.tolist():
+        raw = lines[row] if lines is not None else text[starts[row]:(ends[row] if row < len(ends) else len(text))]
+        code = strip_comments(raw)
+        words = _LASER_M.findall(code)
+        if words and int(words[-1]) != state:
+            state = int(words[-1])
+            out.append(row + 1)
+        if _END_M.search(code):
+            state = 5
+    return np.asarray(out, np.int64)
 
 
 def motion_line_numbers(text: str, n_moves: int):
@@ -401,6 +456,9 @@ class LinkPrediction:
     block_exit_mm_s, block_brake_mm2_s2, block_rest_mm_s : ndarray of float or None
         From the plan, per block: its exit speed, the square of the speed its length lets it
         shed (2 a L) and its rest speed; what :func:`short_queues` needs.
+    sync_lines : ndarray of int
+        Lines at which the controller emptied its planner before it went on (GRBL's
+        M3/M4/M5 changes, :func:`laser_sync_lines`; none on the labkit firmware as it is).
     """
 
     machine: object
@@ -419,6 +477,7 @@ class LinkPrediction:
     block_exit_mm_s: np.ndarray | None = None
     block_brake_mm2_s2: np.ndarray | None = None
     block_rest_mm_s: np.ndarray | None = None
+    sync_lines: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
     @property
     def stall_time_s(self) -> float:
@@ -426,11 +485,33 @@ class LinkPrediction:
         return float(sum(s.duration_s for s in self.stalls))
 
 
-def _plan_text(text: str, machine, dialect: str):
+def _plan_text(text: str, machine, dialect: str, sync_lines=None):
     from labkit.gcode import parse
     from labkit.motion.pipeline import plan
 
-    return plan(parse(text, dialect=dialect), machine, planner="junction")
+    return plan(parse(text, dialect=dialect), machine, planner="junction", sync_lines=sync_lines)
+
+
+def _sync_lines(text: str, machine) -> np.ndarray:
+    """The lines the machine's controller empties its planner at, when it waits for those
+    (``laser_change_syncs``): every line GRBL syncs on (:func:`labkit.gcode.grbl_sync_lines`:
+    laser and coolant switches, a new S alone with the beam on, offsets, probes), of which the
+    M3/M4/M5 changes (:func:`laser_sync_lines`) are the most frequent."""
+    if not machine.laser_change_syncs:
+        return np.zeros(0, np.int64)
+    from labkit.gcode import grbl_sync_lines
+
+    return np.asarray(grbl_sync_lines(text), np.int64)
+
+
+def _synced(p, machine, sync: np.ndarray):
+    """The plan ``p`` with the motion stopped at the lines ``sync`` (made again from its
+    blocks when it was made without them)."""
+    from labkit.motion.pipeline import plan
+
+    if np.array_equal(p.sync_lines, sync):
+        return p
+    return plan(p.blocks, machine, planner=p.planner, law=p.law, sync_lines=sync)
 
 
 def predict_stalls(text: str, machine=None, *, line_bytes=None, dialect: str = "grbl",
@@ -444,7 +525,7 @@ def predict_stalls(text: str, machine=None, *, line_bytes=None, dialect: str = "
     machine : MachineSpec, str or None
         As :func:`labkit.motion.load_machine` takes it; its link fields (``link_baud``,
         ``link_bits_per_byte``, ``rx_buffer_bytes``, ``planner_blocks``, ``block_parse_s``,
-        ``waits_for_lookahead``) and ``buffer_blocks`` decide.
+        ``waits_for_lookahead``, ``laser_change_syncs``) and ``buffer_blocks`` decide.
     line_bytes : sequence of int, optional
         Bytes the sender puts on the link for each source line, newline included (0: not
         sent). Default :func:`sent_line_bytes` (as ``labkit stream`` sends).
@@ -497,7 +578,8 @@ def predict_stalls(text: str, machine=None, *, line_bytes=None, dialect: str = "
         raise MotionError(f"line {k + 1}: {int(nbytes[k])} bytes with its newline; a counting sender "
                           f"sends only lines shorter than {limit} (the {m.rx_buffer_bytes}-byte buffer "
                           f"less one)")
-    p = _plan_text(text, m, dialect) if plan is None else plan
+    sync = _sync_lines(text, m)
+    p = _plan_text(text, m, dialect, sync) if plan is None else _synced(plan, m, sync)
     block_line = np.asarray(p.blocks.line, dtype=np.int64)
     dur = np.asarray(p.block_time_s, dtype=float)
     sent_idx = np.flatnonzero(nbytes > 0)
@@ -519,7 +601,7 @@ def predict_stalls(text: str, machine=None, *, line_bytes=None, dialect: str = "
     sent, arrived, parsed, start, end = stream_lines(
         sent_bytes, first_block.astype(np.int64), last_block.astype(np.int64),
         np.ascontiguousarray(dur), tau, float(m.block_parse_s), int(W), int(m.planner_blocks),
-        int(limit), FLUSH_QUIET_S if W else 0.0, not m.waits_for_lookahead)
+        int(limit), FLUSH_QUIET_S if W else 0.0, not m.waits_for_lookahead, np.isin(src_line, sync))
 
     # a starvation: a stop while the job has lines left, i.e. before the last line has been
     # parsed (on the wire, in the receive buffer or in the parser), not the final flush's
@@ -530,6 +612,13 @@ def predict_stalls(text: str, machine=None, *, line_bytes=None, dialect: str = "
     if len(gaps) and n_sent:
         t0, t1 = end[gaps - 1], start[gaps]
         hit = t0 < parsed[-1]
+        if len(sync):
+            # the stop at a sync the controller makes anyway: a starvation only where the
+            # line of the block after it had not arrived when the motion before it ended
+            at_sync = np.searchsorted(sync, block_line[gaps - 1], side="right") < \
+                np.searchsorted(sync, block_line[gaps], side="right")
+            late = arrived[np.searchsorted(src_line, block_line[gaps])] > t0
+            hit &= ~at_sync | late
         stalls = [Starvation(float(a), int(block_line[j]), float(b - a))
                   for a, b, j in zip(t0[hit], t1[hit], gaps[hit])]
     # fill level: blocks entered by each line minus blocks that had ended by then
@@ -543,7 +632,7 @@ def predict_stalls(text: str, machine=None, *, line_bytes=None, dialect: str = "
                           block_exit_mm_s=np.asarray(p.lookahead.speed_mm_s[1:nb + 1], dtype=float),
                           block_brake_mm2_s2=2.0 * np.asarray(p.blocks.accel_mm_s2, dtype=float)
                           * np.asarray(p.blocks.length_mm, dtype=float),
-                          block_rest_mm_s=np.asarray(p.blocks.rest_mm_s, dtype=float))
+                          block_rest_mm_s=np.asarray(p.blocks.rest_mm_s, dtype=float), sync_lines=sync)
 
 
 def short_queues(prediction: LinkPrediction) -> list[Starvation]:
@@ -571,8 +660,9 @@ def short_queues(prediction: LinkPrediction) -> list[Starvation]:
         One per short block: ``time_s`` its start, ``line`` the source line of the first
         block not yet parsed then, ``duration_s`` how long after the start that line was
         parsed (s). A block whose queue holds the rest of the job is never short, nor is the
-        job's first (nothing could be behind it). A block after a starvation is counted:
-        GRBL, which slows down instead, would have had it queued behind a slow block.
+        job's first or the first after a sync (nothing could be behind it, at any feed). A
+        block after a starvation is counted: GRBL, which slows down instead, would have had
+        it queued behind a slow block.
 
     Examples
     --------
@@ -602,6 +692,9 @@ def short_queues(prediction: LinkPrediction) -> list[Starvation]:
     brake = np.concatenate([[0.0], np.cumsum(p.block_brake_mm2_s2)])
     keep = np.sqrt(p.block_rest_mm_s[last] ** 2 + brake[last + 1] - brake[j + 1])
     short = (p.block_exit_mm_s[:-1] > keep * (1 + 1e-9)) & (j > 0) & (last + 1 < nb)
+    # the first block after a sync enters a planner the program emptied, as a job's first
+    restart = np.searchsorted(p.block_line, p.sync_lines, side="left")
+    short[restart[restart < nb - 1]] = False
     short &= q < p.machine.planner_blocks - 1           # a full planner: its depth, not the link
     hit = np.flatnonzero(short)
     waited = last[hit] + 1
@@ -897,6 +990,7 @@ class _FeedScaled:
         self.old_len = np.array([len(v) for v in numbers], dtype=np.int64)
         self.word_line = np.array([w[0] for w in where], dtype=np.int64)
         self.bytes = sent_line_bytes(text)
+        self.sync = _sync_lines(text, machine)
         self.programmed = max(program_feeds(text))
         self.moves = parse(text, dialect=dialect) if moves is None else moves
         self.base_plan = plan       # the plan of the text as it is, when given
@@ -982,7 +1076,7 @@ class _FeedScaled:
         if self.base_plan is not None and numbers == self.numbers:      # the text as it is
             self.plan = self.base_plan
         else:
-            self.plan = plan(moves, self.machine, planner="junction")
+            self.plan = plan(moves, self.machine, planner="junction", sync_lines=self.sync)
         return pick(predict_stalls(self.text, self.machine, line_bytes=nbytes, plan=self.plan))
 
 

@@ -123,10 +123,14 @@ def test_a_sender_silent_for_a_second_starves_the_machine_and_is_called_late(sim
     waits for it up to 10 s: the pause costs no simulated time, nothing starves and nobody
     is late (a loaded machine cannot make a starvation); told the wrong bytes, it says where
     they differ."""
-    lines = ["G21G90", "M4S0", "G1X0F6000"] + [f"X{0.1 * k:.1f}S{300 + k % 7}" for k in range(1, 1201)] + ["M5"]
+    # cuts of one length: without --expect the simulator guesses the next line's length from
+    # the last ones (a line longer than it guessed would read as a silent sender)
+    lines = ["G21G91", "M4S0", "G1X0F6000"] + [f"X.1S{300 + k % 7}" for k in range(1, 1201)] + ["M5"]
     sent = paced_stream.firmware_settings(MACHINE) + lines
     (tmp_path / "right.txt").write_bytes("".join(f"{x}\n" for x in sent).encode("ascii"))
-    (tmp_path / "wrong.txt").write_bytes("".join(f"{x}\n" for x in sent).replace("X50.0S", "X50.1S").encode("ascii"))
+    wrong_at = len(sent) - len(lines) + 3 + 499             # the 500th cut, before the pause
+    wrong = sent[:wrong_at] + ["X.1S399"] + sent[wrong_at + 1:]
+    (tmp_path / "wrong.txt").write_bytes("".join(f"{x}\n" for x in wrong).encode("ascii"))
     for pause_at, expect, late in ((None, None, False), (600, None, True), (600, "right.txt", False),
                                    (600, "wrong.txt", True)):
         log = tmp_path / f"starve-{pause_at}-{expect}.csv"
@@ -145,9 +149,9 @@ def test_a_sender_silent_for_a_second_starves_the_machine_and_is_called_late(sim
         stalls = read_starvation_log(log)
         times_late, off = paced_stream.sim_complaints(err)
         if expect == "wrong.txt":
-            # the first differing byte, the "0" of "X50.0S...", comes before the pause: from there on
-            # the simulator guesses, waits 0.25 s and the pause is late again
-            at = len("".join(f"{x}\n" for x in sent).split("X50.0S")[0]) + len("X50.") + 1
+            # the first differing byte, the S's second digit in the 500th cut, comes before the
+            # pause: from there on the simulator guesses, waits 0.25 s and the pause is late again
+            at = len("".join(f"{x}\n" for x in sent[:wrong_at])) + len("X.1S3") + 1
             assert f"line byte {at} differs" in off, err
         else:
             assert off == "", err

@@ -27,7 +27,7 @@ from labkit.cli import main
 from labkit.gcode.reader import strip_comments
 from labkit.machine.virtual import VirtualMachine
 from labkit.motion import load_machine
-from labkit.motion.stall import predict_stalls, short_queues, stall_free_feed, with_feed
+from labkit.motion.stall import laser_sync_lines, predict_stalls, short_queues, stall_free_feed, with_feed
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -114,7 +114,16 @@ def test_predicted_short_queues_and_feed_match_the_virtual_machine(tmp_path, nam
     found = stall_free_feed(text, machine, rel_tol=0.005, rows=False, criterion="short_queue")
     f_star = found.feed_mm_min
     assert found.limited_by == "link", f"{name}: the link never limits this job (F* = {f_star:.0f})"
-    report = [f"{name}: predicted short-queue-free feed {f_star:.1f} mm/min"]
+    report = [f"{name}: predicted short-queue-free feed {f_star:.1f} mm/min"] + _around_f_star(name, text, machine, f_star)
+    with capsys.disabled():
+        print("\n" + "\n".join(report))
+
+
+def _around_f_star(name: str, text: str, machine, f_star: float) -> list[str]:
+    """Stream ``text`` into the virtual machine at 0.95 and 1.05 times ``f_star``: no short
+    queue at the first, some at the second, every one of them predicted at its line.
+    Returns a report line per feed."""
+    report = []
     for factor, must_run_short in ((0.95, False), (1.05, True)):
         job = with_feed(text, f_star * factor)
         short, starved = stream_vm(job, machine)
@@ -125,5 +134,33 @@ def test_predicted_short_queues_and_feed_match_the_virtual_machine(tmp_path, nam
         assert bool(short) == must_run_short, f"{name} at {factor} F*: {len(short)} short queues: {short[:3]}"
         report.append(f"  {factor:.2f} F*: virtual machine {len(short)} short queues ({len(starved)} "
                       f"starvations), predicted {len(predicted)}")
+    return report
+
+
+def test_grbl_stops_at_laser_changes_as_the_virtual_machine_does(tmp_path, capsys):
+    """GRBL waits for its planner to empty at every change of M3/M4/M5 (``spindle_sync``, laser
+    mode included): shapes.svg as svg2gcode writes it for a controller that burns on G0
+    (``--travel-beam-off``: M5 before each of its 7 rapids, M3 after), 14 such lines, at 9600
+    baud. The predictor models the stop (``laser_change_syncs`` of grbl-diode): its
+    short-queue-free feed F* holds against the virtual machine (none at 0.95 F*, some at
+    1.05 F*, each of the virtual machine's predicted at its line). Without the stop the
+    predictor's F* is higher and wrong: at 0.95 of it the virtual machine runs short."""
+    out = tmp_path / "shapes-m5.gcode"
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(["svg2gcode", str(ROOT / "data/svg/svg2gcode/shapes.svg"), "-o", str(out), "--tol", "0.005",
+                     "--feed", "1000", "--dialect", "grbl", "--travel-beam-off"]) == 0
+    text = out.read_text("ascii")
+    assert len(laser_sync_lines(text)) == 14
+    machine = load_machine("grbl-diode").replace(link_baud=9600)
+    f_star = stall_free_feed(text, machine, rel_tol=0.005, rows=False, criterion="short_queue").feed_mm_min
+    blind = stall_free_feed(text, machine.replace(laser_change_syncs=False), rel_tol=0.005, rows=False,
+                            criterion="short_queue").feed_mm_min
+    name = "shapes --travel-beam-off @ 9600"
+    report = [f"{name}: predicted F* {f_star:.1f} mm/min (without the stop {blind:.1f})"]
+    report += _around_f_star(name, text, machine, f_star)
+    assert blind > 1.2 * f_star
+    short, _ = stream_vm(with_feed(text, 0.95 * blind), machine)
+    assert short, "the stop at M5/M3 should matter on this job"
+    report.append(f"  0.95 x the blind F*: virtual machine {len(short)} short queues")
     with capsys.disabled():
         print("\n" + "\n".join(report))

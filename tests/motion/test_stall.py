@@ -16,8 +16,8 @@ import pytest
 from labkit.cli import main
 from labkit.errors import MotionError
 from labkit.motion import CBR40, load_machine
-from labkit.motion.stall import (predict_stalls, program_feeds, read_starvation_log, sent_line_bytes,
-                                 stall_free_feed, with_feed)
+from labkit.motion.stall import (laser_sync_lines, predict_stalls, program_feeds, read_starvation_log, sent_line_bytes,
+                                 short_queues, stall_free_feed, with_feed)
 
 ROOT = Path(__file__).resolve().parents[2]
 #: 0.1 mm cuts along X at 600 mm/min: 10 ms each at cruise (the look-ahead sees more of them).
@@ -61,6 +61,7 @@ def test_the_labkit_firmware_description_holds_the_firmwares_sizes():
     ("block_parse_s", float("nan"), "block_parse_s must be >= 0 s"),
     ("link_baud", 9600.5, "link_baud must be an integer"),
     ("waits_for_lookahead", "yes", "waits_for_lookahead must be true or false"),
+    ("laser_change_syncs", 1, "laser_change_syncs must be true or false"),
 ])
 def test_bad_link_fields_are_refused(field, value, message):
     with pytest.raises(MotionError, match=message):
@@ -363,3 +364,46 @@ def test_the_numpy_line_bytes_equal_the_line_by_line_ones(monkeypatch):
             np.testing.assert_array_equal(got, expected, err_msg=repr(text))
         np.testing.assert_array_equal(sent_line_bytes(text), expected, err_msg=repr(text))
     assert 500 < fast < 3000
+
+
+# ---------------------------------------------------------------- GRBL's stop at a laser change
+
+def test_grbl_stops_at_a_laser_change_and_parses_the_next_line_after_it():
+    """Hand-worked, grbl-diode (1000 mm/s², rest 31 Hz / 80 steps/mm = 0.3875 mm/s, 3.7 ms a
+    line, 115200 baud): 'M3S100', a 10 mm cut at 600 mm/min, 'M5', a 10 mm move. GRBL syncs
+    at M3 (nothing to wait for) and at M5: the cut runs alone from rest to rest, (10 − 0.3875)
+    / 1000 = 9.6125 ms a ramp over (10² − 0.3875²) / 2000 = 0.0499249 mm, 9.9001502 mm at
+    10 mm/s between: 1.0092400 s. The M5 is answered when the cut ends; the next line is
+    parsed 3.7 ms later and its move starts then. That stop is the program's, not a
+    starvation, and the move after it is no short queue (nothing could be behind it). A GRBL
+    described without the sync runs the two moves as one stream; the labkit firmware
+    (``FIRMWARE_LASER_CHANGE_SYNCS``: its grbl dialect syncs as GRBL) stops there too."""
+    from labkit.motion.spec import FIRMWARE_LASER_CHANGE_SYNCS
+
+    grbl = load_machine("grbl-diode")
+    assert grbl.laser_change_syncs and not grbl.waits_for_lookahead
+    job = "M3S100\nG1X10F600\nM5\nG1X20\n"
+    assert laser_sync_lines(job).tolist() == [1, 3]
+    p = predict_stalls(job, grbl)
+    a, b = 0, 1
+    ramp_s, ramp_mm = (10 - 0.3875) / 1000, (10 ** 2 - 0.3875 ** 2) / 2000
+    assert p.block_end_s[a] - p.block_start_s[a] == pytest.approx(2 * ramp_s + (10 - 2 * ramp_mm) / 10, abs=1e-9)
+    assert p.block_exit_mm_s[a] == pytest.approx(0.3875)
+    assert p.parsed_s[2] == pytest.approx(p.block_end_s[a])            # M5 answered as the cut ends
+    assert p.block_start_s[b] == pytest.approx(p.block_end_s[a] + 0.0037)
+    assert p.stalls == [] and short_queues(p) == []
+    q = predict_stalls(job, grbl.replace(laser_change_syncs=False))
+    assert q.block_start_s[b] == pytest.approx(q.block_end_s[a])        # one stream: no stop
+    assert q.block_exit_mm_s[a] > 1.0
+    fw = predict_stalls(job, load_machine("labkit-diode").replace(waits_for_lookahead=False))
+    assert fw.block_exit_mm_s[a] <= fw.block_rest_mm_s[a] * (1 + 1e-9)  # stops at the M5
+    assert fw.block_start_s[b] > fw.block_end_s[a]                      # the M5's answer first
+    assert load_machine("labkit-diode").laser_change_syncs == CBR40.laser_change_syncs == FIRMWARE_LASER_CHANGE_SYNCS
+    assert FIRMWARE_LASER_CHANGE_SYNCS
+
+
+def test_laser_sync_lines_follow_the_modal_state():
+    """A change of M3/M4/M5 syncs, a repeat does not; M2/M30 end in M5; comments and M30's
+    digits are not an M3."""
+    text = "M5\nM3 S10\nM03\nG1X1 (M5 here is a comment)\nM4\n; M5\nM30\nM5\nM3\nM3.5\n"
+    assert laser_sync_lines(text).tolist() == [2, 5, 9]
