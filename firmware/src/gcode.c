@@ -187,16 +187,24 @@ static int wait_for_slot(void)
 
 /* Wait until every move before this line has ended (GRBL's buffer synchronisation before a
    probe cycle), preparing ticks meanwhile. 0 when a reset cut the wait short. */
+static uint8_t gc_syncing;      /* in wait_for_idle: the motion stops by the program's will */
 static int wait_for_idle(void)
 {
   plan_flush();
+  gc_syncing = 1;
   while (!plan_is_empty() || !st_is_idle()) {
     st_prep_buffer();
     if (gc_wait_hook) gc_wait_hook();
-    if (st_take_abort()) return 0;
+    if (st_take_abort()) {
+      gc_syncing = 0;
+      return 0;
+    }
   }
+  gc_syncing = 0;
   return 1;
 }
+
+uint8_t gc_waiting_for_idle(void) { return gc_syncing; }
 
 /* The commands of one line, as its G and M words set them. */
 typedef struct {
