@@ -493,9 +493,15 @@ def _plan_text(text: str, machine, dialect: str, sync_lines=None):
 
 
 def _sync_lines(text: str, machine) -> np.ndarray:
-    """The lines the machine's controller empties its planner at (its laser changes, when it
-    waits for those: ``laser_change_syncs``)."""
-    return laser_sync_lines(text) if machine.laser_change_syncs else np.zeros(0, np.int64)
+    """The lines the machine's controller empties its planner at, when it waits for those
+    (``laser_change_syncs``): every line GRBL syncs on (:func:`labkit.gcode.grbl_sync_lines`:
+    laser and coolant switches, a new S alone with the beam on, offsets, probes), of which the
+    M3/M4/M5 changes (:func:`laser_sync_lines`) are the most frequent."""
+    if not machine.laser_change_syncs:
+        return np.zeros(0, np.int64)
+    from labkit.gcode import grbl_sync_lines
+
+    return np.asarray(grbl_sync_lines(text), np.int64)
 
 
 def _synced(p, machine, sync: np.ndarray):

@@ -375,9 +375,9 @@ def test_grbl_stops_at_a_laser_change_and_parses_the_next_line_after_it():
     / 1000 = 9.6125 ms a ramp over (10² − 0.3875²) / 2000 = 0.0499249 mm, 9.9001502 mm at
     10 mm/s between: 1.0092400 s. The M5 is answered when the cut ends; the next line is
     parsed 3.7 ms later and its move starts then. That stop is the program's, not a
-    starvation, and the move after it is no short queue (nothing could be behind it). The
-    labkit firmware (``FIRMWARE_LASER_CHANGE_SYNCS``) and a GRBL described without the sync
-    run the two moves as one stream."""
+    starvation, and the move after it is no short queue (nothing could be behind it). A GRBL
+    described without the sync runs the two moves as one stream; the labkit firmware
+    (``FIRMWARE_LASER_CHANGE_SYNCS``: its grbl dialect syncs as GRBL) stops there too."""
     from labkit.motion.spec import FIRMWARE_LASER_CHANGE_SYNCS
 
     grbl = load_machine("grbl-diode")
@@ -392,11 +392,14 @@ def test_grbl_stops_at_a_laser_change_and_parses_the_next_line_after_it():
     assert p.parsed_s[2] == pytest.approx(p.block_end_s[a])            # M5 answered as the cut ends
     assert p.block_start_s[b] == pytest.approx(p.block_end_s[a] + 0.0037)
     assert p.stalls == [] and short_queues(p) == []
-    for m in (grbl.replace(laser_change_syncs=False), load_machine("labkit-diode").replace(waits_for_lookahead=False)):
-        q = predict_stalls(job, m)
-        assert q.block_start_s[b] == pytest.approx(q.block_end_s[a])    # one stream: no stop
-        assert q.block_exit_mm_s[a] > 1.0
+    q = predict_stalls(job, grbl.replace(laser_change_syncs=False))
+    assert q.block_start_s[b] == pytest.approx(q.block_end_s[a])        # one stream: no stop
+    assert q.block_exit_mm_s[a] > 1.0
+    fw = predict_stalls(job, load_machine("labkit-diode").replace(waits_for_lookahead=False))
+    assert fw.block_exit_mm_s[a] <= fw.block_rest_mm_s[a] * (1 + 1e-9)  # stops at the M5
+    assert fw.block_start_s[b] > fw.block_end_s[a]                      # the M5's answer first
     assert load_machine("labkit-diode").laser_change_syncs == CBR40.laser_change_syncs == FIRMWARE_LASER_CHANGE_SYNCS
+    assert FIRMWARE_LASER_CHANGE_SYNCS
 
 
 def test_laser_sync_lines_follow_the_modal_state():
