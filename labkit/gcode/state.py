@@ -25,7 +25,8 @@ import numpy as np
 from labkit.errors import InputError
 from labkit.gcode import _kernel as K
 
-__all__ = ["ModalState", "restate", "line_states", "axis_words", "grbl_sync_reasons"]
+__all__ = ["ModalState", "restate", "line_states", "axis_words", "grbl_sync_reasons", "grbl_words",
+           "is_motion_line"]
 
 #: The laser words by the interpreter's laser mode (labkit.toolpath.LaserMode's values).
 _LASER_WORDS = {K.LASER_OFF: 5, K.LASER_CONSTANT: 3, K.LASER_DYNAMIC: 4}
@@ -322,6 +323,31 @@ _AXIS_NOT_MOTION = frozenset({10.0, 28.0, 28.1, 30.0, 30.1, 92.0, 92.1, 43.1})
 _GRBL_WORD = re.compile(r"([A-Z])([-+]?[0-9.]*)")
 
 
+def grbl_words(line: str) -> dict | None:
+    """The words of a line as GRBL's reader keeps it (upper case, no spaces or comments):
+    letter -> its values in order; ``None`` when a number does not read (GRBL refuses it).
+
+    Examples
+    --------
+    >>> grbl_words("G1G91X.5S300")
+    {'G': [1.0, 91.0], 'X': [0.5], 'S': [300.0]}
+    """
+    values: dict = {}
+    for letter, v in _GRBL_WORD.findall(line):
+        try:
+            values.setdefault(letter, []).append(float(v))
+        except ValueError:
+            return None
+    return values
+
+
+def is_motion_line(values: dict) -> bool:
+    """Whether a line's axis words make a motion (:func:`grbl_words`'s ``values``): X, Y or Z
+    with no G word that takes them for itself (G10, G28, G30, G92, G43.1 and their kin)."""
+    return (not (set(values.get("G", ())) & _AXIS_NOT_MOTION)
+            and any(a in values for a in "XYZ"))
+
+
 def grbl_sync_reasons(line: str, state: ModalState, *, laser_mode: bool = True) -> set:
     """Why GRBL 1.1 runs ``line`` only once the moves before it have ended (its planner
     synchronisation in gcode.c, as the recorded transcripts show it), from the modal state
@@ -356,12 +382,9 @@ def grbl_sync_reasons(line: str, state: ModalState, *, laser_mode: bool = True) 
     >>> sorted(grbl_sync_reasons("M8G92X0", ModalState()))
     ['coolant', 'wco']
     """
-    values = {}
-    for letter, v in _GRBL_WORD.findall(line):
-        try:
-            values.setdefault(letter, []).append(float(v))
-        except ValueError:
-            return set()                     # a bad number: GRBL refuses the line
+    values = grbl_words(line)
+    if values is None:
+        return set()                         # a bad number: GRBL refuses the line
     st = state
     g = set(values.get("G", ()))
     m = set(values.get("M", ()))
@@ -389,8 +412,7 @@ def grbl_sync_reasons(line: str, state: ModalState, *, laser_mode: bool = True) 
         out.add("coolant")
     if st.laser == 5:
         return out
-    motion_line = not (g & _AXIS_NOT_MOTION) and any(a in values for a in "XYZ")
-    if laser_mode and motion_line:
+    if laser_mode and is_motion_line(values):
         return out
     new_s = values.get("S", [st.s_word])[0]
     modes = [w for w in g if w in (0.0, 1.0, 2.0, 3.0, 38.2, 38.3, 38.4, 38.5, 80.0)]

@@ -49,7 +49,6 @@ What the machine did is recorded for tests and notebooks: :attr:`executed`
 from __future__ import annotations
 
 import math
-import re
 import threading
 import time
 from collections import deque
@@ -61,8 +60,7 @@ from dataclasses import fields, replace
 
 from labkit.errors import AlarmCode, ErrorCode, Feedback, MotionError
 from labkit.gcode.reader import Interpreter, grbl_system_verdict, strip_comments
-from labkit.gcode.state import ModalState, grbl_sync_reasons
-from labkit.gcode.state import _AXIS_NOT_MOTION, _GRBL_WORD as _WORD   # GRBL's words: one home
+from labkit.gcode.state import ModalState, grbl_sync_reasons, grbl_words, is_motion_line
 from labkit.machine.grbl import grbl_reply
 # The one place labkit.machine imports the motion machine description (a rename is a one-line fix);
 # the virtual machine plans with labkit.motion's junction-deviation planner, never its own.
@@ -1675,10 +1673,7 @@ class VirtualMachine:
         GRBL drives no output): a new M3/M4/M5 or M8/M9, a new S while the spindle is on
         (in laser mode not on a motion line, which carries its power with it), M3's
         laser switching between a G1-G3 mode and another at rest, and M2/M30."""
-        values = {}
-        for letter, v in _WORD.findall(line):
-            if v not in ("", ".", "-", "+"):
-                values.setdefault(letter, set()).add(float(v))
+        values = {k: set(v) for k, v in (grbl_words(line) or {}).items()}   # an accepted line reads
         g, m = values.get("G", set()), values.get("M", set())
         end = bool(m & {2.0, 30.0})
         systems = {w for w in g if 54.0 <= w <= 59.0 and w == int(w)}
@@ -1695,7 +1690,7 @@ class VirtualMachine:
             return
         self._flood = 8 in after.coolant
         laser_mode = self._flag(32)
-        motion_line = not (g & _AXIS_NOT_MOTION) and any(a in values for a in "XYZ")
+        motion_line = is_motion_line(values)
         cutting = (1, 2, 3)
         force = (laser_mode and not motion_line and before.laser == 3
                  and (before.motion in cutting) != (after.motion in cutting))

@@ -267,8 +267,7 @@ def plan(moves: Moves | Blocks, machine: MachineSpec | str | None = None, *, pla
         Cut arcs into chords (GRBL ``$12``); default one block per arc.
     sync_lines : sequence of int, optional
         Source lines at which the controller waits for its planner to empty before it goes
-        on (GRBL at a change of M3/M4/M5: :func:`labkit.motion.stall.laser_sync_lines`; at
-        every line GRBL syncs on, laser, coolant, offsets and probes:
+        on (every line GRBL syncs on: laser, coolant, offsets and probes,
         :func:`labkit.gcode.grbl_sync_lines`): the motion stops at the junction before the
         first block of that line or after it. A dwell, a pause (M0, M1), a program end (M2,
         M30) and a probe move (before and after it) always stop it.

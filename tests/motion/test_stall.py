@@ -16,7 +16,8 @@ import pytest
 from labkit.cli import main
 from labkit.errors import MotionError
 from labkit.motion import CBR40, load_machine
-from labkit.motion.stall import (laser_sync_lines, predict_stalls, program_feeds, read_starvation_log, sent_line_bytes,
+from labkit.gcode import grbl_sync_lines
+from labkit.motion.stall import (predict_stalls, program_feeds, read_starvation_log, sent_line_bytes,
                                  short_queues, stall_free_feed, with_feed)
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -383,7 +384,7 @@ def test_grbl_stops_at_a_laser_change_and_parses_the_next_line_after_it():
     grbl = load_machine("grbl-diode")
     assert grbl.laser_change_syncs and not grbl.waits_for_lookahead
     job = "M3S100\nG1X10F600\nM5\nG1X20\n"
-    assert laser_sync_lines(job).tolist() == [1, 3]
+    assert grbl_sync_lines(job) == [1, 3]
     p = predict_stalls(job, grbl)
     a, b = 0, 1
     ramp_s, ramp_mm = (10 - 0.3875) / 1000, (10 ** 2 - 0.3875 ** 2) / 2000
@@ -402,8 +403,8 @@ def test_grbl_stops_at_a_laser_change_and_parses_the_next_line_after_it():
     assert FIRMWARE_LASER_CHANGE_SYNCS
 
 
-def test_laser_sync_lines_follow_the_modal_state():
+def test_grbl_sync_lines_follow_the_modal_state():
     """A change of M3/M4/M5 syncs, a repeat does not; M2/M30 end in M5; comments and M30's
     digits are not an M3."""
     text = "M5\nM3 S10\nM03\nG1X1 (M5 here is a comment)\nM4\n; M5\nM30\nM5\nM3\nM3.5\n"
-    assert laser_sync_lines(text).tolist() == [2, 5, 9]
+    assert grbl_sync_lines(text) == [2, 5, 9]
