@@ -40,6 +40,14 @@ def _add_common(parser):
                         help="skip rejected lines (as a controller would) instead of failing")
 
 
+def _controller_syncs(args):
+    """The lines the machine's controller stops at to empty its planner (GRBL's syncs)."""
+    from labkit.motion.stall import controller_sync_lines
+
+    with open(args.file, "rb") as fh:
+        return controller_sync_lines(fh.read(), args.machine, args.dialect)
+
+
 def _plan(args, moves=None, sync_lines=None):
     from labkit.gcode import parse_file
     from labkit.motion import plan
@@ -148,7 +156,7 @@ def run_plan(args) -> int:
     from labkit.gcode import parse_file
 
     moves = parse_file(args.file, dialect=args.dialect, lenient=args.lenient)
-    p = _plan(args, moves)
+    p = _plan(args, moves, sync_lines=_controller_syncs(args))
     s = p.summary()
     link, link_note = None, None
     if not args.no_link:

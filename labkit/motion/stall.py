@@ -52,7 +52,7 @@ from labkit.motion._stall import stream_lines
 
 __all__ = ["Starvation", "LinkPrediction", "StallFreeFeed", "predict_stalls", "stall_free_feed",
            "sent_line_bytes", "with_feed", "program_feeds", "read_starvation_log", "may_starve",
-           "block_time_bounds", "motion_line_numbers", "short_queues",
+           "block_time_bounds", "motion_line_numbers", "short_queues", "controller_sync_lines",
            "FLUSH_QUIET_S"]
 
 #: Quiet input after which the labkit firmware runs what its look-ahead holds back, s
@@ -443,16 +443,39 @@ def _plan_text(text: str, machine, dialect: str, sync_lines=None):
     return plan(parse(text, dialect=dialect), machine, planner="junction", sync_lines=sync_lines)
 
 
-def _sync_lines(text: str, machine) -> np.ndarray:
-    """The lines the machine's controller empties its planner at, when it waits for those
-    (``laser_change_syncs``): every line GRBL syncs on (:func:`labkit.gcode.grbl_sync_lines`:
-    laser and coolant switches, a new S alone with the beam on, offsets, probes), of which the
-    M3/M4/M5 changes are the most frequent."""
-    if not machine.laser_change_syncs:
-        return np.zeros(0, np.int64)
-    from labkit.gcode import grbl_sync_lines
+def controller_sync_lines(text, machine, dialect: str = "grbl") -> np.ndarray:
+    """The lines at which ``machine``'s controller empties its planner before it goes on, so
+    that the motion stops there (``plan``'s ``sync_lines``): when the description says it
+    waits (``laser_change_syncs``), every line GRBL syncs on in the grbl dialect
+    (:func:`labkit.gcode.grbl_sync_lines`: laser and coolant switches, a new S alone with the
+    beam on, offsets, probes; the M3/M4/M5 changes are the most frequent); none otherwise.
 
-    return np.asarray(grbl_sync_lines(text), np.int64)
+    Parameters
+    ----------
+    text : str or bytes
+        The program.
+    machine : MachineSpec or str
+    dialect : str
+        The program's dialect; other dialects than grbl keep power in the step stream.
+
+    Returns
+    -------
+    ndarray of int
+        1-based source lines, rising.
+
+    Examples
+    --------
+    >>> controller_sync_lines("M3S100\\nG1X10F600\\nM5\\nG1X20\\n", "grbl-diode").tolist()
+    [1, 3]
+    """
+    from labkit.gcode import grbl_sync_lines
+    from labkit.motion.spec import load_machine
+
+    m = load_machine(machine)
+    if not m.laser_change_syncs:
+        return np.zeros(0, np.int64)
+
+    return np.asarray(grbl_sync_lines(text, dialect=dialect), np.int64)
 
 
 def _synced(p, machine, sync: np.ndarray):
@@ -529,7 +552,7 @@ def predict_stalls(text: str, machine=None, *, line_bytes=None, dialect: str = "
         raise MotionError(f"line {k + 1}: {int(nbytes[k])} bytes with its newline; a counting sender "
                           f"sends only lines shorter than {limit} (the {m.rx_buffer_bytes}-byte buffer "
                           f"less one)")
-    sync = _sync_lines(text, m)
+    sync = controller_sync_lines(text, m, dialect)
     p = _plan_text(text, m, dialect, sync) if plan is None else _synced(plan, m, sync)
     block_line = np.asarray(p.blocks.line, dtype=np.int64)
     dur = np.asarray(p.block_time_s, dtype=float)
@@ -941,7 +964,7 @@ class _FeedScaled:
         self.old_len = np.array([len(v) for v in numbers], dtype=np.int64)
         self.word_line = np.array([w[0] for w in where], dtype=np.int64)
         self.bytes = sent_line_bytes(text)
-        self.sync = _sync_lines(text, machine)
+        self.sync = controller_sync_lines(text, machine, dialect)
         self.programmed = max(program_feeds(text))
         self.moves = parse(text, dialect=dialect) if moves is None else moves
         self.base_plan = plan       # the plan of the text as it is, when given
