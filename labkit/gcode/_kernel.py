@@ -1,6 +1,7 @@
 """The compiled G-code interpreter: bytes in, Moves columns and diagnostics out.
 
-One pass over the text, one line at a time, in three phases per line:
+One pass over the text, one line at a time, in three phases per line (each a kernel
+inlined into :func:`interpret`: :func:`_scan`, :func:`_check`, :func:`_commit`):
 
 1. *scan* — split the line into words (letter + number), skipping comments
    ``( … )`` and ``; …``, verifying a ``*`` checksum, and recognising ``$``
@@ -27,8 +28,8 @@ wraps it. Run with ``NUMBA_DISABLE_JIT=1`` to step through it as Python.
 
 from __future__ import annotations
 
+import functools
 import math
-import types
 from collections import namedtuple
 
 from labkit._jit import jit
@@ -392,14 +393,23 @@ def _put_flags(t, syncing, axis_words, motion_word, sets_offsets, states_units, 
     t.machine_coords = machine_coords
 
 
-def _new_words_python():
-    """:func:`_new_words` for the Python path: plain arrays by the record's field names (a
-    numpy record's fields take microseconds each to look up in Python, on every line)."""
-    return [types.SimpleNamespace(**{name: np.zeros(WORDS_ROW[name].shape, WORDS_ROW[name].base)
-                                     for name in WORDS_ROW.names})]
+@functools.lru_cache(maxsize=None)
+def _row_class(dtype):
+    """A class with ``dtype``'s fields as slots (a slot is the quickest attribute to read)."""
+    return type(f"Row{len(dtype.names)}", (), {"__slots__": dtype.names})
 
 
-@jit(python=_new_words_python)
+def _rows_python(dtype):
+    """A one-"row" list for the Python path: the fields of ``dtype`` as attributes (arrays,
+    or plain numbers), since a numpy record's fields cost microseconds each to look up."""
+    row = _row_class(dtype)()
+    for name in dtype.names:
+        setattr(row, name, np.zeros(dtype[name].shape, dtype[name].base)
+                if dtype[name].shape else dtype[name].base.type(0).item())
+    return [row]
+
+
+@jit(python=lambda: _rows_python(WORDS_ROW))
 def _new_words():
     """The per-line word storage of :func:`interpret`: a one-row :data:`WORDS_ROW` array."""
     return np.zeros(1, WORDS_ROW)
@@ -587,23 +597,12 @@ def _scan(buf, ls, le, w, letters, line_limit, grbl_verdicts, grbl_streamed, max
     return err, detail, epos, eend, aux0, aux1, is_system, is_jog, ng, nm
 
 
-#: Phase 2's decision on one line (:func:`_check` writes it, the commit reads it): the
-#: first fault (``err``, ``OK`` when none; ``detail``, its span ``[epos, eend)``, two numbers
-#: ``aux0``/``aux1`` for its message), then what the line will do once committed — in the
-#: names of :func:`interpret`'s body (``*_new``: the modal value after the line; ``nonmodal``
-#: 10·G of its non-modal command; ``moving`` and ``move_kind``, ``target``, ``ctr`` (arc
-#: centre), ``offs`` (work offset), ``inter``/``final`` (G28/G30's two rapids), ``nhome``
-#: how many of them; ``g92_new``/``new_sys``/``set_sys``: offsets it sets). Integer fields
-#: hold flags as 0/1. Lengths in mm (machine), feeds in mm/min.
-CHECKED_ROW = np.dtype((np.record, [(name, np.int64) for name in (
-    "err", "detail", "epos", "eend", "groups", "motion_new", "dwell",
-    "lookahead", "plane_new", "inches_new", "absolute_new", "arc_absolute_new", "stop", "laser_new",
-    "coolant", "m_record", "machine_coords", "nonmodal", "tlo_cmd", "coord_new", "inverse_new",
-    "axis_words", "motion_mode", "moving", "probing", "nhome", "move_kind", "set_sys")]
-    + [(name, np.float64) for name in (
-    "aux0", "aux1", "feed_new", "power_new", "dwell_s", "lookahead_p", "jog_feed", "move_feed",
-    "tlo_new")]
-    + [(name, np.float64, (3,)) for name in (
+#: Phase 2's vectors for one line (:func:`_check` writes them, :func:`_commit` reads them), in
+#: mm (machine): the move's ``target``, its arc centre ``ctr``, the work offset ``offs``,
+#: G28/G30's two rapids ``inter``/``final``, the G92 offset ``g92_new`` and the G10
+#: origin ``new_sys`` the line sets; ``nan3`` (three NaN) for a move without a centre. The
+#: scalars of the decision come back from :func:`_check` as one tuple.
+CHECKED_ROW = np.dtype((np.record, [(name, np.float64, (3,)) for name in (
     "target", "ctr", "offs", "g92_new", "new_sys", "inter", "final", "nan3")]))
 
 #: The modal state's vectors (mm, machine): the position, the G54-G59 origins, the G92
@@ -621,14 +620,6 @@ DIALECT_ROW = np.dtype((np.record, [("feed_scale", np.float64), ("dwell_scale", 
                         ("require_axis_words", np.int64), ("home_is_origin", np.int64),
                         ("max_tool", np.int64), ("grbl_verdicts", np.int64),
                         ("g_ok", np.uint8, (1000,)), ("m_kind", np.uint8, (1000,))]))
-
-
-def _rows_python(dtype):
-    """A one-"row" list for the Python path: the fields of ``dtype`` as attributes (arrays,
-    or plain numbers), since a numpy record's fields cost microseconds each to look up."""
-    return [types.SimpleNamespace(**{name: np.zeros(dtype[name].shape, dtype[name].base)
-                                     if dtype[name].shape else dtype[name].base.type(0).item()
-                                     for name in dtype.names})]
 
 
 @jit(python=lambda: _rows_python(CHECKED_ROW))
@@ -655,15 +646,28 @@ def _check(w, d, m, ls, le, err, detail, epos, eend, aux0, aux1, is_system, is_j
            inverse, coord, tlo):
     """Phase 2 of :func:`interpret`, check and compute: line ``[ls, le)``'s words ``w`` (a
     :data:`WORDS_ROW` record) against the modal state and the dialect ``opt`` (a
-    :data:`DIALECT_ROW` record); the decision is written into ``d`` (a :data:`CHECKED_ROW`
-    record). Nothing of the state changes here: ``m`` (:data:`OFFSETS_ROW`) is only read,
-    and the modal scalars come in by value. ``err`` … ``aux1`` are the scan's fault.
+    :data:`DIALECT_ROW` record); the decision's vectors are written into ``d`` (a
+    :data:`CHECKED_ROW` record), its scalars returned. Nothing of the state changes here:
+    ``m`` (:data:`OFFSETS_ROW`) is only read, and the modal scalars come in by value.
+    ``err`` … ``aux1`` are the scan's fault.
 
-    Only records and scalars come in and nothing goes back, so that no array is counted
+    Only records and scalars come in and only scalars go back, so that no array is counted
     in and out of the kernel on every line: with the decision left in arrays (as
     arguments) the parse measured +44 %, with the options' code arrays handed over +15-19 %;
     this way +5 % or less against the check written in :func:`interpret`'s body
-    (1 M lines, compiled; numba inlines it, see labkit/README.md).
+    (1 M lines, compiled; numba inlines it, see labkit/README.md). The scalars come back as
+    a tuple, not in the record: compiled the same, and as Python 37 fields written here and
+    read back in :func:`interpret` cost 8 % of the parse (20 000 lines).
+
+    Returns (err, detail, epos, eend, aux0, aux1, groups, motion_new, motion_mode, nonmodal,
+    dwell, lookahead, dwell_s, lookahead_p, plane_new, inches_new, absolute_new,
+    arc_absolute_new, inverse_new, stop, laser_new, coolant, m_record, machine_coords,
+    axis_words, tlo_cmd, coord_new, set_sys, tlo_new, feed_new, power_new, jog_feed,
+    move_feed, moving, probing, nhome, move_kind): the first fault (``OK`` when none) with
+    its span and two numbers for its message, then what the line will do once committed, in
+    the names of :func:`interpret`'s body (``*_new`` the modal value after the line;
+    ``nonmodal`` 10·G of its non-modal command; ``nhome`` G28/G30's rapids; ``set_sys`` the
+    G10 system it sets, or -1). Feeds in mm/min, lengths in mm.
     """
     present, val, wpos, wend = w.present, w.val, w.wpos, w.wend
     g_val, g_pos, g_end, m_val, m_pos, m_end = w.g_val, w.g_pos, w.g_end, w.m_val, w.m_pos, w.m_end
@@ -1184,17 +1188,125 @@ def _check(w, d, m, ls, le, err, detail, epos, eend, aux0, aux1, is_system, is_j
                 if not used and (err == OK or wpos[letter] < epos):
                     err, epos, eend = E_UNUSED, wpos[letter], wend[letter]
 
-    # the decision (flags as 0/1: the record's fields are integers)
-    d.err, d.detail, d.epos, d.eend, d.aux0, d.aux1 = err, detail, epos, eend, aux0, aux1
-    d.groups, d.motion_new, d.motion_mode, d.nonmodal = groups, motion_new, motion_mode, nonmodal
-    d.dwell, d.lookahead, d.dwell_s, d.lookahead_p = int(dwell), int(lookahead), dwell_s, lookahead_p
-    d.plane_new, d.inches_new, d.absolute_new = plane_new, int(inches_new), int(absolute_new)
-    d.arc_absolute_new, d.inverse_new = int(arc_absolute_new), int(inverse_new)
-    d.stop, d.laser_new, d.coolant, d.m_record = stop, laser_new, coolant, m_record
-    d.machine_coords, d.axis_words, d.tlo_cmd = int(machine_coords), int(axis_words), tlo_cmd
-    d.coord_new, d.set_sys, d.tlo_new = coord_new, set_sys, tlo_new
-    d.feed_new, d.power_new, d.jog_feed, d.move_feed = feed_new, power_new, jog_feed, move_feed
-    d.moving, d.probing, d.nhome, d.move_kind = int(moving), int(probing), nhome, move_kind
+    # the decision, as one tuple (see CHECKED_ROW)
+    return (err, detail, epos, eend, aux0, aux1, groups, motion_new, motion_mode, nonmodal,
+        dwell, lookahead, dwell_s, lookahead_p, plane_new, inches_new, absolute_new,
+        arc_absolute_new, inverse_new, stop, laser_new, coolant, m_record, machine_coords,
+        axis_words, tlo_cmd, coord_new, set_sys, tlo_new, feed_new, power_new, jog_feed,
+        move_feed, moving, probing, nhome, move_kind)
+
+
+@jit(inline="always")
+def _commit(buf, rows, recs, nrows, nrec, ls, le, lineno, is_system, is_jog, decision, w, d, m,
+            motion, plane, inches, absolute, arc_absolute, feed, power, laser, inverse, coord,
+            tlo, cool):
+    """Phase 3 of :func:`interpret`, the commit: line ``[ls, le)`` (number ``lineno``) that
+    the check accepted does what ``decision`` (:func:`_check`'s tuple) and ``d`` (its
+    :data:`CHECKED_ROW` vectors) say: moves appended to ``rows`` from ``nrows`` on, records
+    to ``recs`` from ``nrec`` on (both already large enough), the modal state's vectors in
+    ``m`` (:data:`OFFSETS_ROW`) updated in place; ``w`` is the line's words (an M104's S).
+
+    Returns (nrows, nrec, then the modal scalars after the line, in the order taken).
+    """
+    val, present = w.val, w.present
+    pos, wcs, g92, home28, home30 = m.pos, m.wcs, m.g92, m.home28, m.home30
+    target, ctr, offs, g92_new, new_sys = d.target, d.ctr, d.offs, d.g92_new, d.new_sys
+    inter, final, nan3 = d.inter, d.final, d.nan3
+    (err, detail, epos, eend, aux0, aux1, groups, motion_new, motion_mode, nonmodal, dwell,
+        lookahead, dwell_s, lookahead_p, plane_new, inches_new, absolute_new, arc_absolute_new,
+        inverse_new, stop, laser_new, coolant, m_record, machine_coords, axis_words, tlo_cmd,
+        coord_new, set_sys, tlo_new, feed_new, power_new, jog_feed, move_feed, moving, probing,
+        nhome, move_kind) = decision
+    if is_system:
+        s0 = ls
+        while _is_space(buf[s0]):
+            s0 += 1
+        s1 = le
+        while s1 > s0 and _is_space(buf[s1 - 1]):
+            s1 -= 1
+        nrec = _put_record(recs, nrec, lineno, REC_SYSTEM, s0, s1, np.nan, nrows)
+    elif is_jog:
+        nrec = _put_record(recs, nrec, lineno, REC_JOG, ls, le, jog_feed, nrows)
+        if moving:
+            # A jog runs as a G1 with the spindle/laser state in effect (GRBL's jog).
+            nrows = _put_row(rows, nrows, LINE, pos, target, nan3, 17 + plane, jog_feed,
+                             power, laser, 0.0, lineno, offs)
+            for a in range(3):
+                pos[a] = target[a]
+    else:
+        feed = feed_new
+        power = power_new
+        laser = laser_new
+        inverse = inverse_new
+        coord = coord_new
+        tlo = tlo_new
+        for a in range(3):
+            g92[a] = g92_new[a]
+            if set_sys >= 0:
+                wcs[set_sys, a] = new_sys[a]
+            if nonmodal == 281:
+                home28[a] = pos[a]
+            elif nonmodal == 301:
+                home30[a] = pos[a]
+        if coolant >= 0:
+            nrec = _put_record(recs, nrec, lineno, REC_COOLANT, ls, le, float(coolant),
+                               nrows)
+            if coolant == 9:
+                cool = 0
+            elif coolant == 7 or coolant == 8:
+                cool |= 1 << (coolant - 7)
+        if m_record >= 0:
+            nrec = _put_record(recs, nrec, lineno, REC_PRINTER, ls, le,
+                               val[L_S] if present[L_S] else np.nan, nrows)
+        if dwell:
+            nrows = _put_row(rows, nrows, DWELL, pos, pos, nan3, 17 + plane, feed, power,
+                             laser, dwell_s, lineno, offs)
+        if lookahead:
+            nrec = _put_record(recs, nrec, lineno, REC_LOOKAHEAD, ls, le, lookahead_p,
+                               nrows)
+        plane = plane_new
+        inches = inches_new
+        absolute = absolute_new
+        arc_absolute = arc_absolute_new
+        if motion_new >= 0:
+            motion = motion_new
+        if nhome == 2:
+            nrows = _put_row(rows, nrows, RAPID, pos, inter, nan3, 17 + plane, feed, power,
+                             laser, 0.0, lineno, offs)
+            for a in range(3):
+                pos[a] = inter[a]
+        if nhome >= 1:
+            nrows = _put_row(rows, nrows, RAPID, pos, final, nan3, 17 + plane, feed, power,
+                             laser, 0.0, lineno, offs)
+            for a in range(3):
+                pos[a] = final[a]
+        if moving:
+            if probing:
+                nrec = _put_record(recs, nrec, lineno, REC_PROBE, ls, le,
+                                   motion_mode / 10.0, nrows)
+            nrows = _put_row(rows, nrows, move_kind,
+                             pos, target, ctr if move_kind >= ARC_CW else nan3,
+                             17 + plane, move_feed, power,
+                             LASER_OFF if probing else laser,   # GRBL: beam off unless G1/G2/G3
+                             0.0, lineno, offs)
+            for a in range(3):
+                pos[a] = target[a]
+        if stop >= 0:
+            stop_kind = REC_PAUSE if stop == 0 else (
+                REC_OPTIONAL_PAUSE if stop == 1 else REC_END)
+            nrec = _put_record(recs, nrec, lineno, stop_kind, ls, le, float(stop), nrows)
+            if stop == 2 or stop == 30:
+                # GRBL's program-end reset: G1 G17 G90 G94 G54 M5 M9 (G92 stays).
+                motion = 1
+                plane = 0
+                absolute = True
+                laser = LASER_OFF
+                inverse = False
+                coord = 0
+                cool = 0
+    return (nrows, nrec, motion, plane, inches, absolute, arc_absolute, feed, power, laser,
+        inverse, coord, tlo, cool)
+
 
 
 @jit(python_below=150_000)  # bytes of text: ~3 µs each as Python vs ~0.6 s to load compiled
@@ -1249,7 +1361,7 @@ def interpret(buf, options, lenient, max_errors, trace):
         for k in range(codes.shape[0]):
             if 0 <= codes[k] < 1000:
                 o.m_kind[codes[k]] = kind
-    dec = _new_checked()       # the check's decision on the line
+    dec = _new_checked()       # the check's vectors for the line
     # Views that hold no reference to ``modal`` and ``dec``: the check is handed
     # ``modal[0]`` and ``dec[0]`` on every line, which keeps both alive (as ``words``).
     pos, wcs, g92, home28, home30 = (modal[0].pos, modal[0].wcs, modal[0].g92, modal[0].home28,
@@ -1311,22 +1423,15 @@ def interpret(buf, options, lenient, max_errors, trace):
             buf, ls, le, words[0], letters, options.line_limit, options.grbl_verdicts,
             options.grbl_streamed, options.max_tool)
 
-        # ---- phase 2: check and compute (the decision, in the record ``d``) -------------
-        d = dec[0]
-        _check(words[0], d, modal[0], ls, le, err, detail, epos, eend, aux0, aux1, is_system,
-               is_jog, ng, nm, opts[0], motion, plane, inches, absolute, arc_absolute, feed,
-               power, laser, inverse, coord, tlo)
-        # read back by name for the commit (still in this body: see labkit/README.md)
-        err, detail, epos, eend, aux0, aux1 = d.err, d.detail, d.epos, d.eend, d.aux0, d.aux1
-        groups, motion_new, motion_mode, nonmodal = d.groups, d.motion_new, d.motion_mode, d.nonmodal
-        dwell, lookahead, dwell_s, lookahead_p = d.dwell != 0, d.lookahead != 0, d.dwell_s, d.lookahead_p
-        plane_new, inches_new, absolute_new = d.plane_new, d.inches_new != 0, d.absolute_new != 0
-        arc_absolute_new, inverse_new = d.arc_absolute_new != 0, d.inverse_new != 0
-        stop, laser_new, coolant, m_record = d.stop, d.laser_new, d.coolant, d.m_record
-        machine_coords, axis_words, tlo_cmd = d.machine_coords != 0, d.axis_words != 0, d.tlo_cmd
-        coord_new, set_sys, tlo_new = d.coord_new, d.set_sys, d.tlo_new
-        feed_new, power_new, jog_feed, move_feed = d.feed_new, d.power_new, d.jog_feed, d.move_feed
-        moving, probing, nhome, move_kind = d.moving != 0, d.probing != 0, d.nhome, d.move_kind
+        # ---- phase 2: check and compute (the decision: a tuple, vectors in ``dec[0]``)
+        decision = _check(words[0], dec[0], modal[0], ls, le, err, detail, epos, eend, aux0,
+                          aux1, is_system, is_jog, ng, nm, opts[0], motion, plane, inches,
+                          absolute, arc_absolute, feed, power, laser, inverse, coord, tlo)
+        (err, detail, epos, eend, aux0, aux1, groups, motion_new, motion_mode, nonmodal, dwell,
+            lookahead, dwell_s, lookahead_p, plane_new, inches_new, absolute_new,
+            arc_absolute_new, inverse_new, stop, laser_new, coolant, m_record, machine_coords,
+            axis_words, tlo_cmd, coord_new, set_sys, tlo_new, feed_new, power_new, jog_feed,
+            move_feed, moving, probing, nhome, move_kind) = decision
         if err != OK:
             nerr_total += 1
         if err != OK and nerr < max_errors:
@@ -1347,8 +1452,6 @@ def interpret(buf, options, lenient, max_errors, trace):
                 break
         else:
             # ---- phase 3: commit ---------------------------------------------------
-            # (in this body: as a kernel, handed the move and record arrays and the text,
-            # it cost 8 % more on 1 M lines; labkit/README.md)
             nnew = (1 if dwell else 0) + (1 if moving else 0) + nhome
             if nrows + nnew > cap:
                 cap = 2 * cap + nnew
@@ -1359,93 +1462,10 @@ def interpret(buf, options, lenient, max_errors, trace):
             if nrec + nrec_new > rcap:
                 rcap = 2 * rcap + nrec_new
                 recs = _grow(recs, rcap)
-            if is_system:
-                s0 = ls
-                while _is_space(buf[s0]):
-                    s0 += 1
-                s1 = le
-                while s1 > s0 and _is_space(buf[s1 - 1]):
-                    s1 -= 1
-                nrec = _put_record(recs, nrec, lineno, REC_SYSTEM, s0, s1, np.nan, nrows)
-            elif is_jog:
-                nrec = _put_record(recs, nrec, lineno, REC_JOG, ls, le, jog_feed, nrows)
-                if moving:
-                    # A jog runs as a G1 with the spindle/laser state in effect (GRBL's jog).
-                    nrows = _put_row(rows, nrows, LINE, pos, target, nan3, 17 + plane, jog_feed,
-                                     power, laser, 0.0, lineno, offs)
-                    for a in range(3):
-                        pos[a] = target[a]
-            else:
-                feed = feed_new
-                power = power_new
-                laser = laser_new
-                inverse = inverse_new
-                coord = coord_new
-                tlo = tlo_new
-                for a in range(3):
-                    g92[a] = g92_new[a]
-                    if set_sys >= 0:
-                        wcs[set_sys, a] = new_sys[a]
-                    if nonmodal == 281:
-                        home28[a] = pos[a]
-                    elif nonmodal == 301:
-                        home30[a] = pos[a]
-                if coolant >= 0:
-                    nrec = _put_record(recs, nrec, lineno, REC_COOLANT, ls, le, float(coolant),
-                                       nrows)
-                    if coolant == 9:
-                        cool = 0
-                    elif coolant == 7 or coolant == 8:
-                        cool |= 1 << (coolant - 7)
-                if m_record >= 0:
-                    nrec = _put_record(recs, nrec, lineno, REC_PRINTER, ls, le,
-                                       val[L_S] if present[L_S] else np.nan, nrows)
-                if dwell:
-                    nrows = _put_row(rows, nrows, DWELL, pos, pos, nan3, 17 + plane, feed, power,
-                                     laser, dwell_s, lineno, offs)
-                if lookahead:
-                    nrec = _put_record(recs, nrec, lineno, REC_LOOKAHEAD, ls, le, lookahead_p,
-                                       nrows)
-                plane = plane_new
-                inches = inches_new
-                absolute = absolute_new
-                arc_absolute = arc_absolute_new
-                if motion_new >= 0:
-                    motion = motion_new
-                if nhome == 2:
-                    nrows = _put_row(rows, nrows, RAPID, pos, inter, nan3, 17 + plane, feed, power,
-                                     laser, 0.0, lineno, offs)
-                    for a in range(3):
-                        pos[a] = inter[a]
-                if nhome >= 1:
-                    nrows = _put_row(rows, nrows, RAPID, pos, final, nan3, 17 + plane, feed, power,
-                                     laser, 0.0, lineno, offs)
-                    for a in range(3):
-                        pos[a] = final[a]
-                if moving:
-                    if probing:
-                        nrec = _put_record(recs, nrec, lineno, REC_PROBE, ls, le,
-                                           motion_mode / 10.0, nrows)
-                    nrows = _put_row(rows, nrows, move_kind,
-                                     pos, target, ctr if move_kind >= ARC_CW else nan3,
-                                     17 + plane, move_feed, power,
-                                     LASER_OFF if probing else laser,   # GRBL: beam off unless G1/G2/G3
-                                     0.0, lineno, offs)
-                    for a in range(3):
-                        pos[a] = target[a]
-                if stop >= 0:
-                    stop_kind = REC_PAUSE if stop == 0 else (
-                        REC_OPTIONAL_PAUSE if stop == 1 else REC_END)
-                    nrec = _put_record(recs, nrec, lineno, stop_kind, ls, le, float(stop), nrows)
-                    if stop == 2 or stop == 30:
-                        # GRBL's program-end reset: G1 G17 G90 G94 G54 M5 M9 (G92 stays).
-                        motion = 1
-                        plane = 0
-                        absolute = True
-                        laser = LASER_OFF
-                        inverse = False
-                        coord = 0
-                        cool = 0
+            (nrows, nrec, motion, plane, inches, absolute, arc_absolute, feed, power, laser,
+                inverse, coord, tlo, cool) = _commit(buf, rows, recs, nrows, nrec, ls, le,
+                lineno, is_system, is_jog, decision, words[0], dec[0], modal[0], motion, plane,
+                inches, absolute, arc_absolute, feed, power, laser, inverse, coord, tlo, cool)
         # what the line did (a rejected line did nothing)
         did = err == OK and not is_system and not is_jog
         line_syncs = did and (dwell or nonmodal == 100 or nonmodal == 280 or nonmodal == 281
