@@ -55,7 +55,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
 }
 
 
-def _load(name: str):
+def command_entry(name: str):
+    """A command's two functions, loaded on first use: (add_NAME_arguments, run_NAME)."""
     module = importlib.import_module(f"labkit.commands.{COMMANDS[name][0]}")
     attr = name.replace("-", "_")
     return getattr(module, f"add_{attr}_arguments"), getattr(module, f"run_{attr}")
@@ -85,7 +86,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     ns = top.parse_args(argv[:1] if not argv[0].startswith("-") else argv)
     name = ns.command
-    add_arguments, run = _load(name)
+    add_arguments, run = command_entry(name)
     parser = argparse.ArgumentParser(prog=f"labkit {name}", description=COMMANDS[name][1])
     parser.add_argument("--traceback", action="store_true", help="show a traceback on errors")
     add_arguments(parser)

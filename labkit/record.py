@@ -370,12 +370,12 @@ def _records_by_default(command: str) -> bool:
     """Whether a labkit command writes its record unasked (it then takes ``--no-record``)."""
     import argparse
 
-    from labkit.cli import COMMANDS, _load
+    from labkit.cli import COMMANDS, command_entry
 
     if command not in COMMANDS:
         raise InputError(f"the record's command {command!r} is not a labkit command")
     parser = argparse.ArgumentParser(add_help=False)
-    _load(command)[0](parser)
+    command_entry(command)[0](parser)
     return "--no-record" in parser._option_string_actions
 
 

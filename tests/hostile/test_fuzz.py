@@ -129,7 +129,7 @@ def test_image_reader(data, magic):
 
 def numeric_options(command):
     """(flag, action) for every option of ``command`` whose value is a number."""
-    add, _ = cli._load(command)
+    add, _ = cli.command_entry(command)
     parser = argparse.ArgumentParser()
     add(parser)
     out = []
