@@ -463,15 +463,19 @@ def _shape_paths(el, m, tol_mm, arcs, fit, meta, batch=None) -> list[Path | _Sub
         elif isinstance(seg, se.CubicBezier):
             b.cubic((P(seg.start), P(seg.control1), P(seg.control2), P(seg.end)))
         elif isinstance(seg, se.QuadraticBezier):
-            b.cubic(quad_to_cubic(P(seg.start), P(seg.control), P(seg.end)))
+            # quad_to_cubic's degree elevation in floats (the same operations, no arrays per segment)
+            (sx, sy), (qx, qy), (ex, ey) = P(seg.start), P(seg.control), P(seg.end)
+            b.cubic(((sx, sy), ((sx + 2 * qx) / 3, (sy + 2 * qy) / 3),
+                     ((ex + 2 * qx) / 3, (ey + 2 * qy) / 3), (ex, ey)))
         elif isinstance(seg, se.Arc):
-            if seg.rx == 0 or seg.ry == 0:
+            rx, ry = seg.rx, seg.ry           # (svgelements measures them from points on each read)
+            if rx == 0 or ry == 0:
                 b.line(P(seg.end))
                 continue
             rot = seg.get_rotation()
             rot = float(rot.as_radians) if hasattr(rot, "as_radians") else float(rot)
             cr, sr = math.cos(rot), math.sin(rot)
-            jac = a2 @ np.array([[cr, -sr], [sr, cr]]) @ np.diag([seg.rx, seg.ry])
+            jac = a2 @ np.array([[cr, -sr], [sr, cr]]) @ np.array([[rx, 0.0], [0.0, ry]])
             b.ellipse_arc(np.array(P(seg.center)), jac, float(seg.get_start_t()), float(seg.sweep), P(seg.end))
         else:  # pragma: no cover - svgelements has no other segment kinds
             raise GeometryError(f"unknown SVG segment {type(seg).__name__} in {meta['source']}")
