@@ -174,6 +174,14 @@ class Kernel:
         functools.update_wrapper(self, func)
 
     @property
+    def targetoptions(self) -> dict:
+        """The decorator's options under numba's name for them: numba's inliner looks for
+        ``inline`` there, so a kernel declared ``inline="always"`` is inlined into its
+        compiled callers (without this, numba met a :class:`Kernel`, saw no options and
+        compiled a call)."""
+        return self.options
+
+    @property
     def name(self) -> str:
         """``module.qualname`` of the kernel's function."""
         return f"{self.py_func.__module__}.{self.py_func.__qualname__}"

@@ -104,7 +104,9 @@
   while they stood. time_s is when they stopped, line the source line of
   the block they resumed with, duration_s how long they stood. The wait for
   the first block and the final quiet-input flush (nothing left to arrive)
-  are not starvations. labkit.motion.stall reads it (Starvation records).
+  are not starvations, nor a stop where a line waits for the moves before it
+  (GRBL's planner sync: M3/M5, S alone, G92 ...; the program's stop, as
+  labkit.motion.stall plans it). labkit.motion.stall reads it (Starvation records).
 
   At the end of stdin (stdin mode) the look-ahead is flushed, the job runs
   out and the simulator exits; SIGINT/SIGTERM end it at once. --stats
@@ -205,6 +207,7 @@ static size_t tx_line_len;
 static double idle_wall_s;            /* wall time when the idle clock last advanced */
 /* starvations (--starvation-log) */
 static FILE *starve_log;
+static int stop_by_program;     /* the motors stopped where a line waits for them (a sync) */
 static int motors_stopped;            /* stopped after having run */
 static int stop_lines_pending;        /* line bytes were on the wire or in the RX ring at the stop */
 static uint64_t stop_cycles, stop_line_bytes;
@@ -260,8 +263,8 @@ void hal_timer_start(void) {
   if (!timer_on && motors_stopped) {
     /* a starvation when the job had lines left: line bytes were on the wire or waiting in
        the RX ring when the motors stopped, or arrived while they stood */
-    if (starve_log && (stop_lines_pending || line_bytes_delivered != stop_line_bytes) &&
-        cycles > stop_cycles) {
+    if (starve_log && !stop_by_program &&
+        (stop_lines_pending || line_bytes_delivered != stop_line_bytes) && cycles > stop_cycles) {
       double hz = (double)plan_machine()->timer_clock_hz;
       fprintf(starve_log, "%.9f,%u,%.9f\n", (double)stop_cycles / hz, (unsigned)tick_line,
               (double)(cycles - stop_cycles) / hz);
@@ -291,6 +294,7 @@ void hal_timer_stop(void) {
     stop_cycles = cycles;
     stop_line_bytes = line_bytes_delivered;
     stop_lines_pending = line_bytes_wired != line_bytes_delivered || serial_rx_count() > 0;
+    stop_by_program = gc_waiting_for_idle();   /* a planner sync (M3/M5, S alone, G92 ...) */
   }
   timer_on = 0;
 }

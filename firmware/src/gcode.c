@@ -187,16 +187,24 @@ static int wait_for_slot(void)
 
 /* Wait until every move before this line has ended (GRBL's buffer synchronisation before a
    probe cycle), preparing ticks meanwhile. 0 when a reset cut the wait short. */
+static uint8_t gc_syncing;      /* in wait_for_idle: the motion stops by the program's will */
 static int wait_for_idle(void)
 {
   plan_flush();
+  gc_syncing = 1;
   while (!plan_is_empty() || !st_is_idle()) {
     st_prep_buffer();
     if (gc_wait_hook) gc_wait_hook();
-    if (st_take_abort()) return 0;
+    if (st_take_abort()) {
+      gc_syncing = 0;
+      return 0;
+    }
   }
+  gc_syncing = 0;
   return 1;
 }
+
+uint8_t gc_waiting_for_idle(void) { return gc_syncing; }
 
 /* The commands of one line, as its G and M words set them. */
 typedef struct {
@@ -705,9 +713,26 @@ uint8_t gc_execute_line(char *line)
      (or a hard limit) that cuts the wait short drops the line, but what it writes to the
      settings storage is written, as GRBL's EEPROM write follows its aborted wait (reset_wait:
      G10 L20 then a reset). */
+  /* GRBL also switches the laser (spindle) and the coolant only with its planner empty
+     (planner_sync #4-#18): a new M3/M4/M5; a new S while the laser is on, except on a motion
+     line in laser mode ($32=1), whose power rides with its move; in laser mode M3's switch
+     between a G1-G3 mode and another on a line without motion (the beam's level at rest
+     changes); a new M8 or M9. The moves before the line end at rest there (the step stream
+     stops, as labkit.motion.plan does at labkit.gcode.grbl_sync_lines) and a report meanwhile
+     shows the old state. The labkit-fw dialect keeps power in the step stream ([CBR40]). */
+  uint8_t power_sync = 0;
+  if (gc_dialect == GC_DIALECT_GRBL) {
+    int motion_line = axis_words && axis_command != 2 && axis_command != 3;
+    int cut_old = gc.motion >= 1 && gc.motion <= 3, cut_new = motion_mode >= 1 && motion_mode <= 3;
+    int force = settings.laser_mode && gc.laser == 3 && !motion_line && cut_old != cut_new;
+    power_sync = laser_new != gc.laser ||
+                 (gc.laser != 0 && !(settings.laser_mode && motion_line) &&
+                  (power_new != gc.s_word || force)) ||
+                 (coolant == 8 && !(gc.air & 2)) || (coolant == 9 && gc.air);
+  }
   if (gc_dialect == GC_DIALECT_GRBL &&
       (nonmodal == 100 || nonmodal == 281 || nonmodal == 301 || nonmodal == 920 ||
-       nonmodal == 921 || coord_new != gc.coord_select) &&
+       nonmodal == 921 || coord_new != gc.coord_select || power_sync) &&
       !wait_for_idle()) {
     if (coord_store >= 0)
       settings_store_coord((uint8_t)coord_store, coord_data);
@@ -717,8 +742,11 @@ uint8_t gc_execute_line(char *line)
     return STATUS_OK;
   }
   gc.sync_now = gc_dialect == GC_DIALECT_GRBL &&
-                (dwell || gc.probe_now || stop == 2 || stop == 30 || tool_new >= 0);
+                (dwell || gc.probe_now || stop == 2 || stop == 30 ||
+                 (tool_new >= 0 && tlo_new != gc.tlo));   /* GRBL: a new tool offset only */
   gc_line_count++;
+  if (power_sync)
+    gc.power_syncs++;
   if (coord_new != gc.coord_select || nonmodal == 920 || nonmodal == 921 || tool_new >= 0)
     gc.wco_changes++;
   gc.coord_select = coord_new;

@@ -68,6 +68,8 @@ typedef struct {
   double g92[3];         /* G92 offset (not stored: a reset clears it, as in GRBL) */
   double tlo;            /* G43.1 tool length offset, Z, mm */
   uint32_t wco_changes;  /* counts changes of the offsets (the status report shows WCO then) */
+  uint32_t power_syncs;  /* counts the laser/coolant switches GRBL syncs on (grbl dialect: the
+                            status report shows Ov: then) */
 } gc_state_t;
 
 void gc_init(void);                          /* power-on modal state, labkit dialect */
@@ -80,6 +82,7 @@ void gc_sync_position(void);                 /* parser position := stepper posit
 void gc_load_offsets(void);                  /* the selected system's offset from the settings */
 void gc_wco(double out[3]);                  /* work coordinate offset, mm: machine - work */
 const gc_state_t *gc_state(void);
+uint8_t gc_waiting_for_idle(void);           /* a line waits for the moves before it to end */
 uint32_t gc_current_line(void);
 
 /* Called while gc_execute_line waits for room in the planner buffer (after

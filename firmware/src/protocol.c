@@ -917,6 +917,10 @@ static void system_task(void) {
     report_status_message(STATUS_OK);
     f &= (uint16_t)~RT_RESUME;
   }
+  /* GRBL takes a cycle start only once a hold has come to rest (Hold:0): one while it still
+     brakes (Hold:1) is dropped, the hold completes, and a later '~' resumes (planner_sync #57) */
+  if ((f & RT_RESUME) && settings.dialect == GC_DIALECT_GRBL && st_state() == ST_HOLDING)
+    f &= (uint16_t)~RT_RESUME;
   if (f & RT_RESUME) {
     uint8_t s = st_state();
     if (hold_req && settings.dialect == GC_DIALECT_GRBL && gc_state()->laser)

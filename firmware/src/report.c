@@ -137,6 +137,7 @@ static void report_coords(const double mm[3]) {
 static uint8_t wco_count, ovr_count;
 static uint32_t seen_wco_changes;
 static uint8_t seen_laser, seen_air, seen_ov[3];
+static uint32_t seen_power_syncs;
 
 void report_counters_reset(void) {
   wco_count = ovr_count = 0;
@@ -196,10 +197,12 @@ void report_status_report(void) {
     seen_wco_changes = g->wco_changes;
     wco_count = 0;
   }
-  if (g->laser != seen_laser || g->air != seen_air || feed_ov != seen_ov[0] ||
+  if (g->laser != seen_laser || g->air != seen_air || g->power_syncs != seen_power_syncs ||
+      feed_ov != seen_ov[0] ||
       rapid_ov != seen_ov[1] || laser_get_override() != seen_ov[2]) {
     seen_laser = g->laser;
     seen_air = g->air;
+    seen_power_syncs = g->power_syncs;
     seen_ov[0] = feed_ov;
     seen_ov[1] = rapid_ov;
     seen_ov[2] = laser_get_override();

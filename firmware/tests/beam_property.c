@@ -109,7 +109,17 @@ static void limit_pin_change(void) {
 /* The simulator's timer (host/sim.c): up to 32 ticks per pass, the
    buffer topped up as the main loop does; past the budget the host's
    Ctrl-X ends the input's motion (the parser's wait gives up with it). */
+static uint32_t idle_polls;        /* polls in a row without a tick */
 static void tick_work(void) {
+  /* a line that waits for the moves before it (GRBL's planner syncs) while a hold keeps them
+     from ending waits until '~' or Ctrl-X; the input's next bytes come only after it, so the
+     host gives up as after BEAM_MAX_TICKS: Ctrl-X */
+  idle_polls = timer_on ? 0 : idle_polls + 1;
+  if (idle_polls > 1000000u) {
+    idle_polls = 0;
+    serial_rx_isr(0x18);
+    return;
+  }
   for (int i = 0; i < 32 && timer_on; i++) {
     if (input_ticks >= BEAM_MAX_TICKS) {
       serial_rx_isr(0x18);
@@ -352,6 +362,7 @@ void beam_power_on(void) {
   out_duty = 0;
   timer_on = 0;
   input_ticks = 0;
+  idle_polls = 0;
   focus_fired = 0;
   dir_now = 0;
   memset(head_steps, 0, sizeof head_steps);

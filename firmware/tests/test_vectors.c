@@ -18,6 +18,7 @@
 #include "json_mini.h"
 #include "laser.h"
 #include "planner.h"
+#include "settings.h"
 #include "status_codes.h"
 #include "stepper.h"
 
@@ -140,6 +141,7 @@ static int run_vector(const char *path, const char *fname)
   laser_init();
   gc_init();
   gc_set_dialect(!strcmp(jm_get(v, "dialect")->str, "grbl") ? GC_DIALECT_GRBL : GC_DIALECT_LABKIT);
+  settings.laser_mode = 1;   /* the vectors' GRBL is in laser mode ($32=1, labkit.gcode's grbl) */
   gc_set_wait_hook(wait_hook);
 
   /* stream the job line by line, letting the machine run between lines */

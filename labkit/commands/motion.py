@@ -40,14 +40,14 @@ def _add_common(parser):
                         help="skip rejected lines (as a controller would) instead of failing")
 
 
-def _plan(args, moves=None):
+def _plan(args, moves=None, sync_lines=None):
     from labkit.gcode import parse_file
     from labkit.motion import plan
 
     if moves is None:
         moves = parse_file(args.file, dialect=args.dialect, lenient=args.lenient)
     return plan(moves, args.machine, planner=args.planner, buffer_blocks=args.buffer, law=args.law,
-                arc_tol_mm=args.arc_tol)
+                arc_tol_mm=args.arc_tol, sync_lines=sync_lines)
 
 
 # -- plan ------------------------------------------------------------------------------------
@@ -223,7 +223,14 @@ def run_steps(args) -> int:
     from labkit.motion.timer import iter_step_chunks
 
     check_output_file(args.output, args.file)
-    p = _plan(args)
+    from labkit.gcode import grbl_sync_lines, parse_file
+
+    moves = parse_file(args.file, dialect=args.dialect, lenient=args.lenient)   # checks the file
+    # the steps of the firmware's twin: the machine stops where the controller syncs (GRBL's
+    # laser, coolant and offset lines; firmware/README.md)
+    with open(args.file, "rb") as fh:
+        sync = grbl_sync_lines(fh.read(), dialect=args.dialect)
+    p = _plan(args, moves, sync_lines=sync)
     ticks = 0
     last_t = 0.0
     with atomic_output(args.output, newline="") as fh:

@@ -28,6 +28,7 @@ _WHERE = {
     'parse': 'reader',
     'parse_file': 'reader',
     'parse_with_states': 'reader',
+    'grbl_sync_lines': 'reader',
     'ModalState': 'state',
     'restate': 'state',
 }
@@ -38,6 +39,7 @@ __all__ = [
     "parse_with_states",
     "check",
     "modal_trace",
+    "grbl_sync_lines",
     "Interpreter",
     "ModalState",
     "restate",

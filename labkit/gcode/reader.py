@@ -66,7 +66,7 @@ from labkit.gcode.dialects import Dialect, get_dialect
 from labkit.toolpath.moves import LaserMode, MoveKind, Moves, Record
 
 __all__ = ["parse", "parse_file", "parse_with_states", "check", "modal_trace", "ParseOptions",
-           "grbl_system_verdict", "Interpreter", "strip_comments"]
+           "grbl_system_verdict", "grbl_sync_lines", "Interpreter", "strip_comments"]
 
 _COMMON_LETTERS = "FGIJKMNPRSXYZ"
 
@@ -257,6 +257,65 @@ def parse_with_states(text, *, dialect: str | Dialect = "grbl", filename: str | 
     """
     moves, data, out = _interpreted(text, dialect, filename, lenient, streaming, trace=True)
     return moves, out.trace[:_line_count(data)]
+
+
+def grbl_sync_lines(text, *, dialect: str | Dialect = "grbl") -> list[int]:
+    """The lines GRBL runs only once the moves before them have ended, so that the machine
+    stops before their moves: every accepted line with a
+    :func:`~labkit.gcode.state.grbl_sync_reasons` (a laser or coolant switch, an offset or
+    stored position, a probe). For :func:`labkit.motion.plan`'s ``sync_lines`` (the
+    firmware's grbl dialect waits at the same lines). Other dialects keep power and coolant
+    changes in the step stream ([CBR40]): none.
+
+    Parameters
+    ----------
+    text : str or bytes
+        The program.
+    dialect : str or Dialect
+
+    Returns
+    -------
+    list of int
+        1-based line numbers, ascending.
+
+    Examples
+    --------
+    >>> grbl_sync_lines("M3 S100\\nG1 X5 F600\\nG1 X10 S300\\nS500\\nM5\\nG0 X0\\n")
+    [1, 4, 5]
+    >>> grbl_sync_lines("M3 S100\\nG1 X5 F600\\nM5\\n", dialect="labkit-fw")
+    []
+    """
+    from labkit.gcode.state import ModalState, grbl_sync_reasons
+
+    d = get_dialect(dialect)
+    if d.name != "grbl":
+        return []
+    data = _as_bytes(text)
+    out = _run(data, d, lenient=True, trace=True)
+    refused = set(out.errors["line"].tolist())
+    texts = _text_lines(data)
+    trace = out.trace[:len(texts)]
+    # only a line that changes the state the rule reads, or writes an offset or stored position
+    # or probes whatever it changes, can wait: the rule runs on those lines only
+    before = np.concatenate([K.initial_state(), trace[:-1]]) if len(trace) else trace
+    changed = np.zeros(len(trace), bool)
+    for name in ("laser", "coolant", "s_word", "motion", "coord_system", "tool_offset"):
+        changed |= trace[name] != before[name]
+    lines = []
+    for k, raw in enumerate(texts, start=1):
+        if k in refused:
+            continue
+        if not changed[k - 1] and not _OFFSET_WORDS.search(raw):
+            continue
+        line = "".join(c for c in strip_comments(raw) if c > " " and c != "/").upper()
+        if not line.startswith("$") and grbl_sync_reasons(line, ModalState.at(trace, k - 2)):
+            lines.append(k)
+    return lines
+
+
+#: G10, G28.1, G30.1, G38.x, G92(.1): GRBL waits for them even when nothing changes (a
+#: superset: the rule itself decides; comments may match, which only costs time).
+_OFFSET_WORDS = re.compile(r"[gG]\s*0*(10|28\s*\.|30\s*\.|38|92)")
 
 
 def _interpreted(text, dialect, filename, lenient, streaming, trace):

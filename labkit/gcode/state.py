@@ -17,6 +17,7 @@ a fault on the controller that ran it (:mod:`labkit.machine.resume`).
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,7 +25,8 @@ import numpy as np
 from labkit.errors import InputError
 from labkit.gcode import _kernel as K
 
-__all__ = ["ModalState", "restate", "line_states", "axis_words"]
+__all__ = ["ModalState", "restate", "line_states", "axis_words", "grbl_sync_reasons", "grbl_words",
+           "is_motion_line"]
 
 #: The laser words by the interpreter's laser mode (labkit.toolpath.LaserMode's values).
 _LASER_WORDS = {K.LASER_OFF: 5, K.LASER_CONSTANT: 3, K.LASER_DYNAMIC: 4}
@@ -313,4 +315,111 @@ def restate(state: ModalState, dialect, position=None, *, origins_kept: bool = F
         out.append(f"G{state.units} G{state.distance}")
     elif not origins_kept:
         out += ["G20"] * (state.units == 20) + ["G91"] * (state.distance == 91)
+    return out
+
+
+#: G words whose axis words are not a motion's (GRBL's non-modal axis commands and G43.1).
+_AXIS_NOT_MOTION = frozenset({10.0, 28.0, 28.1, 30.0, 30.1, 92.0, 92.1, 43.1})
+_GRBL_WORD = re.compile(r"([A-Z])([-+]?[0-9.]*)")
+
+
+def grbl_words(line: str) -> dict | None:
+    """The words of a line as GRBL's reader keeps it (upper case, no spaces or comments):
+    letter -> its values in order; ``None`` when a number does not read (GRBL refuses it).
+
+    Examples
+    --------
+    >>> grbl_words("G1G91X.5S300")
+    {'G': [1.0, 91.0], 'X': [0.5], 'S': [300.0]}
+    """
+    values: dict = {}
+    for letter, v in _GRBL_WORD.findall(line):
+        try:
+            values.setdefault(letter, []).append(float(v))
+        except ValueError:
+            return None
+    return values
+
+
+def is_motion_line(values: dict) -> bool:
+    """Whether a line's axis words make a motion (:func:`grbl_words`'s ``values``): X, Y or Z
+    with no G word that takes them for itself (G10, G28, G30, G92, G43.1 and their kin)."""
+    return (not (set(values.get("G", ())) & _AXIS_NOT_MOTION)
+            and any(a in values for a in "XYZ"))
+
+
+def grbl_sync_reasons(line: str, state: ModalState, *, laser_mode: bool = True) -> set:
+    """Why GRBL 1.1 runs ``line`` only once the moves before it have ended (its planner
+    synchronisation in gcode.c, as the recorded transcripts show it), from the modal state
+    ``state`` before the line; empty: it does not wait.
+
+    The reasons: ``"spindle"`` (a new M3/M4/M5; with the laser or spindle on, a new S, except
+    on a motion line in laser mode, whose power rides with its move; in laser mode M3's switch
+    between a G1-G3 mode and another on a line without motion), ``"coolant"`` (a new M8 or
+    M9), ``"eeprom"`` (G10, G28.1, G30.1), ``"wco"`` (G92, G92.1, a new coordinate system, a
+    new tool length offset) and ``"probe"`` (G38.2-G38.5). G4, M0, M2 and M30 wait too, as
+    blocks of their own (not listed here). Whether GRBL accepts the line is not checked: a
+    refused line waits for nothing.
+
+    Parameters
+    ----------
+    line : str
+        The line as GRBL's reader keeps it: upper case, no spaces or comments.
+    state : ModalState
+        The modal state before the line.
+    laser_mode : bool
+        GRBL's ``$32`` (labkit's grbl dialect: on).
+
+    Returns
+    -------
+    set of str
+
+    Examples
+    --------
+    >>> on = ModalState(laser=3, s_word=100.0, motion=1)
+    >>> sorted(grbl_sync_reasons("S300", on)), sorted(grbl_sync_reasons("G1X5S300", on))
+    (['spindle'], [])
+    >>> sorted(grbl_sync_reasons("M8G92X0", ModalState()))
+    ['coolant', 'wco']
+    """
+    values = grbl_words(line)
+    if values is None:
+        return set()                         # a bad number: GRBL refuses the line
+    st = state
+    g = set(values.get("G", ()))
+    m = set(values.get("M", ()))
+    out = set()
+    if g & {10.0, 28.1, 30.1}:
+        out.add("eeprom")
+    if g & {38.2, 38.3, 38.4, 38.5}:
+        out.add("probe")
+    if g & {92.0, 92.1}:
+        out.add("wco")
+    if any(54.0 <= w <= 59.0 and w == int(w) and int(w) != st.coord_system for w in g):
+        out.add("wco")
+    if 49.0 in g and st.tool_offset != 0.0:
+        out.add("wco")
+    if 43.1 in g:
+        inches = 20.0 in g or (st.units == 20 and 21.0 not in g)
+        z = values.get("Z", [0.0])[0] * (25.4 if inches else 1.0)
+        if abs(z - st.tool_offset) > 1e-9:
+            out.add("wco")
+    spindle = {3.0: 3, 4.0: 4, 5.0: 5}
+    new_laser = next((spindle[w] for w in m if w in spindle), st.laser)
+    if new_laser != st.laser:
+        out.add("spindle")
+    if m & {8.0, 9.0} and ((8.0 in m) != (8 in st.coolant) or 9.0 in m and st.coolant):
+        out.add("coolant")
+    if st.laser == 5:
+        return out
+    if laser_mode and is_motion_line(values):
+        return out
+    new_s = values.get("S", [st.s_word])[0]
+    modes = [w for w in g if w in (0.0, 1.0, 2.0, 3.0, 38.2, 38.3, 38.4, 38.5, 80.0)]
+    new_motion = modes[0] if modes else st.motion
+    cutting = (1, 2, 3)
+    force = (laser_mode and st.laser == 3
+             and (st.motion in cutting) != (new_motion in cutting))
+    if new_s != st.s_word or force:
+        out.add("spindle")
     return out

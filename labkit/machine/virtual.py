@@ -49,7 +49,6 @@ What the machine did is recorded for tests and notebooks: :attr:`executed`
 from __future__ import annotations
 
 import math
-import re
 import threading
 import time
 from collections import deque
@@ -61,7 +60,7 @@ from dataclasses import fields, replace
 
 from labkit.errors import AlarmCode, ErrorCode, Feedback, MotionError
 from labkit.gcode.reader import Interpreter, grbl_system_verdict, strip_comments
-from labkit.gcode.state import ModalState
+from labkit.gcode.state import ModalState, grbl_sync_reasons, grbl_words, is_motion_line
 from labkit.machine.grbl import grbl_reply
 # The one place labkit.machine imports the motion machine description (a rename is a one-line fix);
 # the virtual machine plans with labkit.motion's junction-deviation planner, never its own.
@@ -110,11 +109,6 @@ _SEGMENT_LEAD_S = 0.046
 
 #: GRBL's factor for reports in inches (``$13=1``), nuts_bolts.h's INCH_PER_MM.
 _INCH_PER_MM = 0.0393701
-
-#: G words whose axis words are not a motion (GRBL's non-modal axis commands and G43.1).
-_AXIS_NOT_MOTION = frozenset({10.0, 28.0, 28.1, 30.0, 30.1, 92.0, 92.1, 43.1})
-
-_WORD = re.compile(r"([A-Z])([-+]?[0-9.]*)")
 
 
 def _grbl_number(value: float, decimals: int) -> str:
@@ -1679,10 +1673,7 @@ class VirtualMachine:
         GRBL drives no output): a new M3/M4/M5 or M8/M9, a new S while the spindle is on
         (in laser mode not on a motion line, which carries its power with it), M3's
         laser switching between a G1-G3 mode and another at rest, and M2/M30."""
-        values = {}
-        for letter, v in _WORD.findall(line):
-            if v not in ("", ".", "-", "+"):
-                values.setdefault(letter, set()).add(float(v))
+        values = {k: set(v) for k, v in (grbl_words(line) or {}).items()}   # an accepted line reads
         g, m = values.get("G", set()), values.get("M", set())
         end = bool(m & {2.0, 30.0})
         systems = {w for w in g if 54.0 <= w <= 59.0 and w == int(w)}
@@ -1699,7 +1690,7 @@ class VirtualMachine:
             return
         self._flood = 8 in after.coolant
         laser_mode = self._flag(32)
-        motion_line = not (g & _AXIS_NOT_MOTION) and any(a in values for a in "XYZ")
+        motion_line = is_motion_line(values)
         cutting = (1, 2, 3)
         force = (laser_mode and not motion_line and before.laser == 3
                  and (before.motion in cutting) != (after.motion in cutting))
@@ -1736,54 +1727,9 @@ class VirtualMachine:
         return verdict
 
     def _sync_reasons(self, line: str) -> set:
-        """GRBL's planner-sync rules (gcode.c) read off a line's words and the modal state: why
-        it waits ("spindle", "coolant", "eeprom", "wco", "probe"; empty: it does not)."""
-        values = {}
-        for letter, v in _WORD.findall(line):
-            try:
-                values.setdefault(letter, []).append(float(v))
-            except ValueError:
-                return set()                     # a bad number: GRBL refuses the line
-        st = self._parser.state
-        g = set(values.get("G", ()))
-        m = set(values.get("M", ()))
-        out = set()
-        if g & {10.0, 28.1, 30.1}:
-            out.add("eeprom")
-        if g & {38.2, 38.3, 38.4, 38.5}:
-            out.add("probe")
-        if g & {92.0, 92.1}:
-            out.add("wco")
-        if any(54.0 <= w <= 59.0 and w == int(w) and int(w) != st.coord_system for w in g):
-            out.add("wco")
-        if 49.0 in g and st.tool_offset != 0.0:
-            out.add("wco")
-        if 43.1 in g:
-            inches = 20.0 in g or (st.units == 20 and 21.0 not in g)
-            z = values.get("Z", [0.0])[0] * (25.4 if inches else 1.0)
-            if abs(z - st.tool_offset) > 1e-9:
-                out.add("wco")
-        spindle = {3.0: 3, 4.0: 4, 5.0: 5}
-        new_laser = next((spindle[w] for w in m if w in spindle), st.laser)
-        if new_laser != st.laser:
-            out.add("spindle")
-        if m & {8.0, 9.0} and ((8.0 in m) != (8 in st.coolant) or 9.0 in m and st.coolant):
-            out.add("coolant")
-        if st.laser == 5:
-            return out
-        laser_mode = self._flag(32)
-        motion_line = not (g & _AXIS_NOT_MOTION) and any(a in values for a in "XYZ")
-        if laser_mode and motion_line:
-            return out
-        new_s = values.get("S", [st.s_word])[0]
-        modes = [w for w in g if w in (0.0, 1.0, 2.0, 3.0, 38.2, 38.3, 38.4, 38.5, 80.0)]
-        new_motion = modes[0] if modes else st.motion
-        cutting = (1, 2, 3)
-        force = (laser_mode and st.laser == 3
-                 and (st.motion in cutting) != (new_motion in cutting))
-        if new_s != st.s_word or force:
-            out.add("spindle")
-        return out
+        """GRBL's planner-sync rules for ``line`` from the parser's state
+        (:func:`labkit.gcode.state.grbl_sync_reasons`, with this machine's ``$32``)."""
+        return grbl_sync_reasons(line, self._parser.state, laser_mode=self._flag(32))
 
     def _soft_limit(self, moves, outside_at: int, base, text: str, before) -> int:
         """GRBL's soft limit (limits_soft_check) at the line's piece ``outside_at``: the pieces

@@ -267,8 +267,10 @@ def plan(moves: Moves | Blocks, machine: MachineSpec | str | None = None, *, pla
         Cut arcs into chords (GRBL ``$12``); default one block per arc.
     sync_lines : sequence of int, optional
         Source lines at which the controller waits for its planner to empty before it goes
-        on (GRBL at a change of M3/M4/M5: :func:`labkit.motion.stall.laser_sync_lines`): the
-        motion stops at the junction before the first block of that line or after it.
+        on (every line GRBL syncs on: laser, coolant, offsets and probes,
+        :func:`labkit.gcode.grbl_sync_lines`): the motion stops at the junction before the
+        first block of that line or after it. A dwell, a pause (M0, M1), a program end (M2,
+        M30) and a probe move (before and after it) always stop it.
 
     Returns
     -------
@@ -307,6 +309,14 @@ def plan(moves: Moves | Blocks, machine: MachineSpec | str | None = None, *, pla
         # the first motion block at or after each such line starts from rest
         k = np.searchsorted(np.asarray(mb.line, np.int64), sync, side="left")
         stop[k[(k > 0) & (k < len(motion))]] = True
+    if isinstance(moves, Moves) and len(motion):
+        # a pause, a program end, a probe: the first motion block after the record's place
+        # (Record.index: the moves before it; a probe also after its own move) starts from rest
+        cuts = [r.index for r in moves.records if r.kind in ("pause", "optional_pause", "end")]
+        cuts += [r.index + k for r in moves.records if r.kind == "probe" for k in (0, 1)]
+        if cuts:
+            k = np.searchsorted(np.asarray(blocks.move[motion], np.int64), np.asarray(cuts), side="left")
+            stop[k[(k > 0) & (k < len(motion))]] = True
     if law == "linear":
         up = np.full(len(mb), float(m.accel_hz_per_step))
         down = np.full(len(mb), float(m.decel_hz_per_step))

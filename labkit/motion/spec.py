@@ -78,11 +78,12 @@ def _grbl_settings(machine: str, value) -> tuple:
 
 
 #: Whether the labkit firmware waits for its planner to empty at a change of M3/M4/M5 (GRBL
-#: does, :attr:`MachineSpec.laser_change_syncs`): not in ``firmware/src/gcode.c`` as it is
-#: (its ``sync_now`` covers G4, probing, M2/M30 and tool changes; M3/M4/M5 make no planner
-#: entry). The one place that says it: the firmware's machine descriptions take it as their
-#: default, and the paced simulator's tests read it.
-FIRMWARE_LASER_CHANGE_SYNCS = False
+#: does, :attr:`MachineSpec.laser_change_syncs`): in its grbl dialect, yes (``firmware/src/gcode.c``
+#: waits before it commits the line, as for a new S alone, M8/M9 and the offsets; the motion stops
+#: there); its labkit-fw dialect keeps power in the step stream. The one place that says it: the
+#: firmware's machine descriptions take it as their default, and the paced simulator's tests
+#: (grbl dialect) read it.
+FIRMWARE_LASER_CHANGE_SYNCS = True
 
 
 @dataclass(frozen=True)

@@ -33,7 +33,7 @@ stalls. On GRBL a shallow buffer also slows the motion down, which the predictio
 leaves out (it sees only where the buffer empties; :func:`short_queues` says where).
 
 A controller that waits for its planner to empty at a change of M3/M4/M5
-(``laser_change_syncs``: GRBL's ``spindle_sync``; :func:`laser_sync_lines`) stops
+(``laser_change_syncs``: GRBL's ``spindle_sync``; :func:`labkit.gcode.grbl_sync_lines`) stops
 there: the plan ends the motion before such a line at rest, the line is answered once
 that motion has ended, and the next line is read after it. That stop is the program's:
 it counts as a starvation only when the line after it had not arrived by then.
@@ -52,7 +52,7 @@ from labkit.motion._stall import stream_lines
 
 __all__ = ["Starvation", "LinkPrediction", "StallFreeFeed", "predict_stalls", "stall_free_feed",
            "sent_line_bytes", "with_feed", "program_feeds", "read_starvation_log", "may_starve",
-           "block_time_bounds", "motion_line_numbers", "short_queues", "laser_sync_lines",
+           "block_time_bounds", "motion_line_numbers", "short_queues",
            "FLUSH_QUIET_S"]
 
 #: Quiet input after which the labkit firmware runs what its look-ahead holds back, s
@@ -224,55 +224,6 @@ def _plain_lines(encoded: bytes, axes: bool = False):
         first_line += len(n)
         lo = hi
     return nbytes, has_axis
-
-
-#: An M3, M4 or M5 word (M03 too) as a line's text may hold it; M30 and M3.5 are not.
-_LASER_M = re.compile(r"M\s*0*([345])(?![\s]*[0-9.])", re.IGNORECASE)
-_END_M = re.compile(r"M\s*0*(2|30)(?![\s]*[0-9.])", re.IGNORECASE)
-
-
-def laser_sync_lines(text: str) -> np.ndarray:
-    """The lines at which GRBL waits for its planner to empty: those that change the laser
-    state (M3, M4, M5; GRBL's ``spindle_sync``, laser mode included).
-
-    GRBL starts in M5; M2 and M30 end the program in M5. A line that repeats the state in
-    effect does not wait. Comments are left out; a line GRBL refuses is not told apart.
-
-    Parameters
-    ----------
-    text : str
-        The program.
-
-    Returns
-    -------
-    ndarray of int
-        Source lines (1-based), rising.
-
-    Examples
-    --------
-    >>> laser_sync_lines("M5\\nG0X1\\nM3S100 (M5)\\nG1X2\\nM3\\nM05\\nM2\\nM4\\n").tolist()
-    [3, 6, 8]
-    """
-    from labkit.gcode.reader import strip_comments
-
-    hits = [m.start() for m in re.finditer(r"[Mm]", text)]
-    if not hits:
-        return np.zeros(0, np.int64)
-    ends = np.flatnonzero(np.frombuffer(text.encode("latin-1", "replace"), np.uint8) == 10)
-    rows = np.unique(np.searchsorted(ends, hits))                # 0-based lines holding an M
-    lines = text.split("\n") if len(rows) > 1000 else None
-    starts = np.concatenate([[0], ends + 1])
-    state, out = 5, []
-    for row in rows.tolist():
-        raw = lines[row] if lines is not None else text[starts[row]:(ends[row] if row < len(ends) else len(text))]
-        code = strip_comments(raw)
-        words = _LASER_M.findall(code)
-        if words and int(words[-1]) != state:
-            state = int(words[-1])
-            out.append(row + 1)
-        if _END_M.search(code):
-            state = 5
-    return np.asarray(out, np.int64)
 
 
 def motion_line_numbers(text: str, n_moves: int):
@@ -458,7 +409,7 @@ class LinkPrediction:
         shed (2 a L) and its rest speed; what :func:`short_queues` needs.
     sync_lines : ndarray of int
         Lines at which the controller emptied its planner before it went on (GRBL's
-        M3/M4/M5 changes, :func:`laser_sync_lines`; none on the labkit firmware as it is).
+        M3/M4/M5 changes and the other lines of :func:`labkit.gcode.grbl_sync_lines`).
     """
 
     machine: object
@@ -493,9 +444,15 @@ def _plan_text(text: str, machine, dialect: str, sync_lines=None):
 
 
 def _sync_lines(text: str, machine) -> np.ndarray:
-    """The lines the machine's controller empties its planner at (its laser changes, when it
-    waits for those: ``laser_change_syncs``)."""
-    return laser_sync_lines(text) if machine.laser_change_syncs else np.zeros(0, np.int64)
+    """The lines the machine's controller empties its planner at, when it waits for those
+    (``laser_change_syncs``): every line GRBL syncs on (:func:`labkit.gcode.grbl_sync_lines`:
+    laser and coolant switches, a new S alone with the beam on, offsets, probes), of which the
+    M3/M4/M5 changes are the most frequent."""
+    if not machine.laser_change_syncs:
+        return np.zeros(0, np.int64)
+    from labkit.gcode import grbl_sync_lines
+
+    return np.asarray(grbl_sync_lines(text), np.int64)
 
 
 def _synced(p, machine, sync: np.ndarray):

@@ -109,7 +109,11 @@ def test_stream_job(sim, short_job, native, capsys):
     # a dwell between moves of other directions (jsdc-laser's 'M3 S80, G4 P0.5' between
     # paths): the machine stands still, each side ramps from and to its own rest speed
     "G21 G90\nG1 X3 Y-2 F1500\nM3 S80\nG4 P0.5\nG1 X2.9 Y-2.01 F100\nG1 X2 Y-2.1\n"
-    "G4 P0.2\nG1 X2 Y1 F600\nM5\n"], ids=["lines-arcs", "dwells"])
+    "G4 P0.2\nG1 X2 Y1 F600\nM5\n",
+    # lines GRBL syncs on between collinear cuts (a new S alone, M8, G92, M9, M5, M4): the head
+    # stops before each; an S on a motion line rides with its move and does not stop it
+    "G21 G90\nM3 S100\nG1 X3 F1200\nS300\nG1 X6\nG1 X9 S500\nM8\nG1 X12\nG92 X0\n"
+    "G1 X3\nM9\nG1 X6\nM4\nG1 X9\nM5\nG0 X0\n"], ids=["lines-arcs", "dwells", "syncs"])
 def test_trace_equals_labkit_steps(sim, tmp_path, capsys, text):
     """(c) the simulator's --trace equals ``labkit steps`` tick for tick (lines, arcs, dwells)."""
     job = tmp_path / "job.gcode"

@@ -21,7 +21,7 @@ The firmware replay runs in real time: it waits for each exchange's replies (not
 further 0.35 s of silence) and the recorded ``pause_before_s`` before the next exchange, reading
 meanwhile (what comes then is still the earlier exchange's, as it was for the recorder; in a
 transcript without ``at_s`` it is the next one's, :func:`pause_is_next`). For a transcript in which GRBL
-reported a hold still decelerating (``Hold:1``) the simulator first takes GRBL's accelerations
+reported a hold still decelerating (``Hold:1``, or a ``~`` it ignored while braking) the simulator first takes GRBL's accelerations
 (``$120``-``$122``, as GRBL printed them in the recorded ``$$``: :data:`GRBL_ACCELERATION_SETTINGS`),
 so that its hold decelerates as long as GRBL's did: whether a report after ``!`` says ``Hold:1``
 or ``Hold:0`` is then GRBL's behaviour, not a difference between two machines (the CBR-40 brakes
@@ -205,8 +205,20 @@ GRBL_STEP_SETTINGS = (100, 101, 102)
 
 
 def brakes_as_grbl(transcript: dict) -> bool:
-    """Whether GRBL reported a hold still decelerating (``Hold:1``) in this transcript."""
-    return any(r.startswith("<Hold:1") for ex in transcript["exchanges"] for r in ex["replies"])
+    """Whether GRBL reported a hold still decelerating (``Hold:1``) in this transcript, or
+    ignored a cycle start ``~`` (its next status report is still a hold: GRBL takes ``~`` only
+    once a hold has come to rest, so its hold was still braking then)."""
+    exchanges = transcript["exchanges"]
+    if any(r.startswith("<Hold:1") for ex in exchanges for r in ex["replies"]):
+        return True
+    for k, ex in enumerate(exchanges):
+        if ex["send"] != "~":
+            continue
+        report = next((r for later in exchanges[k + 1:] for r in later["replies"]
+                       if r.startswith("<")), "")
+        if report.startswith("<Hold"):
+            return True
+    return False
 
 
 def grbl_defaults(numbers) -> dict[int, str]:
@@ -510,9 +522,15 @@ def test_exchange_matches_grbl(target, topic, index, sim):
 
 def test_replay_brakes_as_grbl_where_grbl_reported_braking():
     """GRBL's accelerations come from its own recorded $$ (10 mm/s², DEFAULTS_GENERIC, as the
-    vectors' README says), and only the transcript with a decelerating hold takes them."""
+    vectors' README says), and only the transcripts with a decelerating hold (a Hold:1 report, or
+    a '~' GRBL ignored while braking) take them."""
     assert grbl_defaults(GRBL_ACCELERATION_SETTINGS) == {120: "10.000", 121: "10.000", 122: "10.000"}
-    assert [t for t, tr in _TRANSCRIPTS.items() if brakes_as_grbl(tr)] == ["hold_resume"]
+    assert [t for t, tr in _TRANSCRIPTS.items() if brakes_as_grbl(tr)] == ["hold_resume",
+                                                                           "planner_sync"]
+    assert not brakes_as_grbl({"exchanges": [{"send": "~", "replies": []},
+                                             {"send": "?", "replies": ["<Run|MPos:0,0,0>"]}]})
+    assert brakes_as_grbl({"exchanges": [{"send": "~", "replies": []},
+                                         {"send": "?", "replies": ["<Hold:0|MPos:0,0,0>"]}]})
 
 
 def test_known_differences_name_real_exchanges():
@@ -622,42 +640,26 @@ KNOWN_DIFFERENCES: dict[tuple[str, str, int], str] = {
                                   "$200-$209 are the firmware's settings in both dialects (ramps, laser maximum, "
                                   "planner, dialect; $208=0 is the way back to labkit-fw), so $200 exists and "
                                   "1 is out of its range, where GRBL has no $200)",
-    ('firmware', 'planner_sync', 4): "M3 S100: extra lines ['ok'] (not implemented in the firmware:"
-                                     ' GRBL answers a line that changes M3/M4/M5, S (laser mode, '
-                                     'beam on) or M8/M9 only once the moves before it have ended, '
-                                     'the firmware at once and runs on (firmware/README.md))',
-    ('firmware', 'planner_sync', 6): "G4 P0.01: missing lines ['ok'] (the M3's ok, which GRBL gave "
-                                     'only here: as #4)',
     ('firmware', 'planner_sync', 7): "?: fields ['MPos', 'Bf', 'FS', 'Ov'], GRBL ['MPos', 'Bf', "
                                      "'FS', 'Ov', 'A'] (intended: labkit never leaves the beam on "
                                      "at rest; in laser mode GRBL keeps M3's PWM at S when stopped "
                                      "(FS:0,100, A:S), the firmware's beam is off (FS reports the "
                                      'beam now, no A:))',
-    ('firmware', 'planner_sync', 9): "S300: extra lines ['ok'] (as #4)",
-    ('firmware', 'planner_sync', 11): "G4 P0.01: missing lines ['ok'] (the S300's ok, which GRBL "
-                                      'gave only here: as #4)',
-    ('firmware', 'planner_sync', 12): "?: fields ['MPos', 'Bf', 'FS'], GRBL ['MPos', 'Bf', 'FS', "
-                                      "'Ov', 'A'] (intended, as #7 (beam off at rest); and no "
-                                      'forced Ov: the firmware took the S300 at once)',
-    ('firmware', 'planner_sync', 15): "M8: extra lines ['ok'] (as #4)",
-    ('firmware', 'planner_sync', 16): "?: fields ['MPos', 'Bf', 'FS', 'Ov', 'A'], GRBL ['MPos', "
-                                      "'Bf', 'FS', 'Ov'] (A:F while the move before M8 still runs: "
-                                      'as #4)',
-    ('firmware', 'planner_sync', 17): "G4 P0.01: missing lines ['ok'] (the M8's ok, which GRBL gave"
-                                      ' only here: as #4)',
-    ('firmware', 'planner_sync', 18): "?: fields ['MPos', 'Bf', 'FS'], GRBL ['MPos', 'Bf', 'FS', "
-                                      "'Ov', 'A'] (GRBL's Ov report forced by the M8 it ran after "
-                                      "the move came here, the firmware's at #16: as #4)",
-    ('firmware', 'planner_sync', 47): "G2 X5 Y0 I-2 J0: extra lines ['ok'] (not implemented in the "
-                                      'firmware: it walks an arc in its step preparation as one '
-                                      'planner block, so the full circle is answered at once; '
-                                      "GRBL's 70 chords fill its 15-block planner and the ok comes "
-                                      'with the last one (#49))',
-    ('firmware', 'planner_sync', 49): "?: missing lines ['ok'] (the G2's ok: as #47)",
-    ('firmware', 'planner_sync', 58): "?: state 'Run', GRBL 'Hold:0' (not implemented in the "
-                                      'firmware: GRBL ignores a cycle start while a hold still '
-                                      'brakes (#57; the hold completes, Hold:0, and the ~ of #59 '
-                                      'resumes), the firmware resumes at once)',
+    ('firmware', 'planner_sync', 12): "?: fields ['MPos', 'Bf', 'FS', 'Ov'], GRBL ['MPos', 'Bf', 'FS', "
+                                      "'Ov', 'A'] (intended, as #7: the beam off at rest, FS:0,0 "
+                                      "and no A:S; the S300's forced Ov: is GRBL's)",
+    ('firmware', 'planner_sync', 47): "G2 X5 Y0 I-2 J0: extra lines ['ok'] (intended: planner depth "
+                                      "and arc-as-one-block. GRBL cuts the full circle into 70 "
+                                      "chords ($12) that fill its 15-block planner, so its ok "
+                                      "waits for a free slot and comes with the last chord (#49). "
+                                      "The firmware walks an arc as one planner block (seed 004's "
+                                      "exact octant walk, tick-equal to labkit.motion) in a "
+                                      "36-block planner: the circle takes one slot and the ok "
+                                      "comes at once. Cutting it into chords would break the step "
+                                      "equality with labkit.motion; holding the ok back without "
+                                      "a full planner would be a fake)",
+    ('firmware', 'planner_sync', 49): "?: missing lines ['ok'] (intended: the G2's ok, given at "
+                                      "once by the firmware: as #47)",
 }
 
 

@@ -27,7 +27,8 @@ from labkit.cli import main
 from labkit.gcode.reader import strip_comments
 from labkit.machine.virtual import VirtualMachine
 from labkit.motion import load_machine
-from labkit.motion.stall import laser_sync_lines, predict_stalls, short_queues, stall_free_feed, with_feed
+from labkit.gcode import grbl_sync_lines
+from labkit.motion.stall import predict_stalls, short_queues, stall_free_feed, with_feed
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -150,7 +151,7 @@ def test_grbl_stops_at_laser_changes_as_the_virtual_machine_does(tmp_path, capsy
         assert main(["svg2gcode", str(ROOT / "data/svg/svg2gcode/shapes.svg"), "-o", str(out), "--tol", "0.005",
                      "--feed", "1000", "--dialect", "grbl", "--travel-beam-off"]) == 0
     text = out.read_text("ascii")
-    assert len(laser_sync_lines(text)) == 14
+    assert len(grbl_sync_lines(text)) == 14
     machine = load_machine("grbl-diode").replace(link_baud=9600)
     f_star = stall_free_feed(text, machine, rel_tol=0.005, rows=False, criterion="short_queue").feed_mm_min
     blind = stall_free_feed(text, machine.replace(laser_change_syncs=False), rel_tol=0.005, rows=False,

@@ -296,3 +296,33 @@ def test_an_empty_program_plans_to_nothing():
     assert len(p.trace()) == 0
     assert p.sample(5)["speed_mm_s"].tolist() == [0.0] * 5
     assert len(p.burn_profile()["dose_mj_per_mm"]) == 0
+
+
+@pytest.mark.parametrize("planner", ["junction", "normal"])
+def test_sync_lines_and_stops_rest_the_machine(planner):
+    """Where GRBL syncs (a new S alone, M8, G92, M5 between collinear cuts) and at a pause, the
+    machine stands still: the junction speed is the rest speed there, and the time between is
+    each side's run from and to rest (the same as with a dwell of no time). A new S on a motion
+    line rides with its move: no stop there."""
+    from labkit.gcode import grbl_sync_lines, parse
+
+    text = ("G21 G90\nM3 S100\nG1 X3 F1200\nS300\nG1 X6\nG1 X9 S500\nM8\nG1 X12\nG92 X0\n"
+            "G1 X3\nM0\nG1 X6\nM5\nG0 X0\n")
+    sync = grbl_sync_lines(text)
+    assert sync == [2, 4, 7, 9, 13]
+    p = plan(parse(text), planner=planner, sync_lines=sync)
+    v = p.lookahead.speed_mm_s
+    rest = p.lookahead.junction_rest_mm_s
+    stopped = v <= rest * (1 + 1e-12)
+    # junctions: 0 start, 1 (S300), 2 (S500 rides: no stop), 3 (M8), 4 (G92), 5 (M0), 6 (M5), end
+    assert stopped.tolist() == [True, True, False, True, True, True, True, True]
+    # the independent reference: the same cuts with a dwell of no time at every stop
+    dwelled = text.replace("S300\n", "S300\nG4 P0\n").replace("M8\n", "M8\nG4 P0\n") \
+        .replace("G92 X0\n", "G92 X0\nG4 P0\n").replace("M0\n", "G4 P0\n") \
+        .replace("M5\n", "M5\nG4 P0\n")
+    ref = plan(parse(dwelled), planner=planner)
+    assert np.allclose(p.profiles.entry_mm_s, ref.profiles.entry_mm_s, rtol=1e-12)
+    assert np.allclose(p.profiles.exit_mm_s, ref.profiles.exit_mm_s, rtol=1e-12)
+    assert math.isclose(p.job_time_s, ref.job_time_s, rel_tol=1e-12)
+    free = plan(parse(text.replace("M0\n", "")), planner=planner)
+    assert free.job_time_s < p.job_time_s

@@ -16,7 +16,8 @@ import pytest
 from labkit.cli import main
 from labkit.errors import MotionError
 from labkit.motion import CBR40, load_machine
-from labkit.motion.stall import (laser_sync_lines, predict_stalls, program_feeds, read_starvation_log, sent_line_bytes,
+from labkit.gcode import grbl_sync_lines
+from labkit.motion.stall import (predict_stalls, program_feeds, read_starvation_log, sent_line_bytes,
                                  short_queues, stall_free_feed, with_feed)
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -375,15 +376,15 @@ def test_grbl_stops_at_a_laser_change_and_parses_the_next_line_after_it():
     / 1000 = 9.6125 ms a ramp over (10² − 0.3875²) / 2000 = 0.0499249 mm, 9.9001502 mm at
     10 mm/s between: 1.0092400 s. The M5 is answered when the cut ends; the next line is
     parsed 3.7 ms later and its move starts then. That stop is the program's, not a
-    starvation, and the move after it is no short queue (nothing could be behind it). The
-    labkit firmware (``FIRMWARE_LASER_CHANGE_SYNCS``) and a GRBL described without the sync
-    run the two moves as one stream."""
+    starvation, and the move after it is no short queue (nothing could be behind it). A GRBL
+    described without the sync runs the two moves as one stream; the labkit firmware
+    (``FIRMWARE_LASER_CHANGE_SYNCS``: its grbl dialect syncs as GRBL) stops there too."""
     from labkit.motion.spec import FIRMWARE_LASER_CHANGE_SYNCS
 
     grbl = load_machine("grbl-diode")
     assert grbl.laser_change_syncs and not grbl.waits_for_lookahead
     job = "M3S100\nG1X10F600\nM5\nG1X20\n"
-    assert laser_sync_lines(job).tolist() == [1, 3]
+    assert grbl_sync_lines(job) == [1, 3]
     p = predict_stalls(job, grbl)
     a, b = 0, 1
     ramp_s, ramp_mm = (10 - 0.3875) / 1000, (10 ** 2 - 0.3875 ** 2) / 2000
@@ -392,15 +393,18 @@ def test_grbl_stops_at_a_laser_change_and_parses_the_next_line_after_it():
     assert p.parsed_s[2] == pytest.approx(p.block_end_s[a])            # M5 answered as the cut ends
     assert p.block_start_s[b] == pytest.approx(p.block_end_s[a] + 0.0037)
     assert p.stalls == [] and short_queues(p) == []
-    for m in (grbl.replace(laser_change_syncs=False), load_machine("labkit-diode").replace(waits_for_lookahead=False)):
-        q = predict_stalls(job, m)
-        assert q.block_start_s[b] == pytest.approx(q.block_end_s[a])    # one stream: no stop
-        assert q.block_exit_mm_s[a] > 1.0
+    q = predict_stalls(job, grbl.replace(laser_change_syncs=False))
+    assert q.block_start_s[b] == pytest.approx(q.block_end_s[a])        # one stream: no stop
+    assert q.block_exit_mm_s[a] > 1.0
+    fw = predict_stalls(job, load_machine("labkit-diode").replace(waits_for_lookahead=False))
+    assert fw.block_exit_mm_s[a] <= fw.block_rest_mm_s[a] * (1 + 1e-9)  # stops at the M5
+    assert fw.block_start_s[b] > fw.block_end_s[a]                      # the M5's answer first
     assert load_machine("labkit-diode").laser_change_syncs == CBR40.laser_change_syncs == FIRMWARE_LASER_CHANGE_SYNCS
+    assert FIRMWARE_LASER_CHANGE_SYNCS
 
 
-def test_laser_sync_lines_follow_the_modal_state():
+def test_grbl_sync_lines_follow_the_modal_state():
     """A change of M3/M4/M5 syncs, a repeat does not; M2/M30 end in M5; comments and M30's
     digits are not an M3."""
     text = "M5\nM3 S10\nM03\nG1X1 (M5 here is a comment)\nM4\n; M5\nM30\nM5\nM3\nM3.5\n"
-    assert laser_sync_lines(text).tolist() == [2, 5, 9]
+    assert grbl_sync_lines(text) == [2, 5, 9]

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from labkit.gcode import parse
+from labkit.gcode import grbl_sync_lines, parse
 from labkit.motion import load_machine, plan
 from labkit.motion.blocks import BlockKind
 from labkit.motion.timer import block_points, step_blocks, tick_power_mw, tick_rates, timer_period
@@ -118,7 +118,10 @@ def make_vector(name: str) -> dict:
     case = CASES[name]
     m = load_machine(case["machine"]).replace(**case.get("machine_fields", {}))
     moves = parse(case["gcode"], dialect="grbl")
-    p = plan(moves, m, planner=case["planner"], buffer_blocks=case.get("buffer_blocks"))
+    # the machine stops where GRBL syncs (a laser or coolant switch between moves), as the
+    # firmware's grbl dialect does
+    p = plan(moves, m, planner=case["planner"], buffer_blocks=case.get("buffer_blocks"),
+             sync_lines=grbl_sync_lines(case["gcode"]))
     sb = step_blocks(p)
     blocks = p.blocks
     pos = np.full(len(blocks), -1)
