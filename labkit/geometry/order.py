@@ -445,8 +445,11 @@ def containment_parents(paths: Sequence[Path], tol_mm=0.05) -> np.ndarray:
     closed = [i for i, p in enumerate(paths) if p.closed and p.n_segments >= 2]
     if not closed:
         return parent
-    polys = [shapely.Polygon(r) for r in sample_each([paths[i] for i in closed], tol_mm)]
-    areas = np.array([abs(poly.area) for poly in polys])
+    rings = sample_each([paths[i] for i in closed], tol_mm)
+    # all polygons in one shapely call (the same rings as shapely.Polygon of each)
+    polys = shapely.polygons(shapely.linearrings(np.concatenate(rings),
+                                                 indices=np.repeat(np.arange(len(rings)), [len(r) for r in rings])))
+    areas = np.abs(shapely.area(polys))
     tree = shapely.STRtree(polys)
     pts = shapely.points(np.array([p.vertices[min(1, p.n_segments - 1)] for p in paths]))
     pi, ti = tree.query(pts, predicate="within")

@@ -251,7 +251,13 @@ class Path:
             return self
         seg = np.concatenate((np.arange(index, n), np.arange(index)))
         v = np.vstack([self.vertices[seg], self.vertices[index:index + 1]])
-        return self.with_geometry(v, self.centres[seg], self.sweeps[seg])
+        # the same segments in another order: nothing for the constructor to check or
+        # normalise again (ordering rolls hundreds of closed paths of a drawing)
+        out = object.__new__(Path)
+        for k in Path.__slots__:
+            setattr(out, k, getattr(self, k))
+        out.vertices, out.centres, out.sweeps = v, self.centres[seg], self.sweeps[seg]
+        return out
 
     def transformed(self, m, *, tol_mm=0.01) -> "Path":
         """Apply an affine transform (3×3). Arcs stay arcs under a similarity.

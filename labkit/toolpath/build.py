@@ -150,27 +150,41 @@ def build_moves(paths: Sequence[Path], settings: LayerSettings | Mapping[str, La
     chunks = []
     for layer, group in layers.items():
         ls = _layer_settings(layer, settings, default)
+        merged = [_merged_circles(p) for p in group]
+        counts = np.array([len(s) for _, _, s in merged])
+        verts = [v for v, _, _ in merged]
+        # a pass's segments as whole arrays (a drawing has hundreds of small paths), its
+        # rapids put in before the paths that start away from where the head is
+        v0 = np.concatenate([v[:-1] for v in verts])
+        v1 = np.concatenate([v[1:] for v in verts])
+        centres = np.concatenate([c for _, c, _ in merged])
+        sweeps = np.concatenate([s for _, _, s in merged])
+        ends = np.array([v[-1] for v in verts])
+        starts = np.array([v[0] for v in verts])
+        first = np.r_[0, np.cumsum(counts)[:-1]]
+        kind = np.where(sweeps > 0, MoveKind.ARC_CCW, np.where(sweeps < 0, MoveKind.ARC_CW, MoveKind.LINE))
         for k in range(int(ls.passes)):
             z = float(origin[2]) - k * ls.z_step_mm
-            for p in group:
-                start = np.array([p.start[0], p.start[1], z])
-                if np.linalg.norm(start - pos) > rapid_tol_mm:
-                    chunks.append(dict(kind=np.array([MoveKind.RAPID]), start=pos[None].copy(),
-                                       end=start[None], centre=np.full((1, 3), np.nan),
-                                       feed=np.array([ls.feed_mm_min]), power=np.array([ls.s_word]),
-                                       laser=np.array([int(ls.laser)])))
-                verts, centres, sweeps = _merged_circles(p)
-                n = len(sweeps)
-                kind = np.where(sweeps > 0, MoveKind.ARC_CCW,
-                                np.where(sweeps < 0, MoveKind.ARC_CW, MoveKind.LINE))
-                zc = np.full((n, 1), z)
-                centre = np.hstack([centres, zc])
-                centre[sweeps == 0] = np.nan
-                chunks.append(dict(kind=kind, start=np.hstack([verts[:-1], zc]),
-                                   end=np.hstack([verts[1:], zc]), centre=centre,
-                                   feed=np.full(n, ls.feed_mm_min), power=np.full(n, ls.s_word),
-                                   laser=np.full(n, int(ls.laser))))
-                pos = np.array([p.end[0], p.end[1], z])
+            zc = np.full((len(sweeps), 1), z)
+            centre = np.hstack([centres, zc])
+            centre[sweeps == 0] = np.nan
+            start = np.hstack([starts, np.full((len(group), 1), z)])
+            before = np.vstack([pos[None], np.hstack([ends[:-1], np.full((len(group) - 1, 1), z)])])
+            rapid = np.flatnonzero(np.linalg.norm(start - before, axis=1) > rapid_tol_mm)
+            seg_start, seg_end = np.hstack([v0, zc]), np.hstack([v1, zc])
+            if len(rapid):
+                at = first[rapid]
+                kind_k = np.insert(kind, at, MoveKind.RAPID)
+                seg_start = np.insert(seg_start, at, before[rapid], axis=0)
+                seg_end = np.insert(seg_end, at, start[rapid], axis=0)
+                centre = np.insert(centre, at, np.nan, axis=0)
+            else:
+                kind_k = kind
+            n = len(kind_k)
+            chunks.append(dict(kind=kind_k, start=seg_start, end=seg_end, centre=centre,
+                               feed=np.full(n, ls.feed_mm_min), power=np.full(n, ls.s_word),
+                               laser=np.full(n, int(ls.laser))))
+            pos = np.array([ends[-1][0], ends[-1][1], z])
     if not chunks:
         return Moves.empty(s_max=s_max)
     cat = {k: np.concatenate([c[k] for c in chunks]) for k in chunks[0]}

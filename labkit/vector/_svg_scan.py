@@ -38,6 +38,9 @@ _GEOMETRY_ATTRS = frozenset(("d", "points", "x", "y", "width", "height", "cx", "
                              "ry", "x1", "y1", "x2", "y2", "transform", "viewBox"))
 _NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
 _NON_FINITE_WORD = re.compile(r"(?i)(?<![a-z])(nan|inf(inity)?)(?![a-z])")
+# a number that can overflow has an exponent or more than 15 characters: text without
+# either skips the per-number loop (path data is most of a drawing)
+_MAYBE_HUGE = re.compile(r"[\d.][eE]|[-+.\d]{16,}")
 
 
 @dataclass
@@ -63,6 +66,8 @@ def _non_finite(value: str) -> str | None:
     m = _NON_FINITE_WORD.search(value)
     if m:
         return m.group(0)
+    if not _MAYBE_HUGE.search(value):
+        return None
     for tok in _NUMBER.findall(value):
         if len(tok) > 15 or "e" in tok or "E" in tok:      # only these can overflow a double
             if not math.isfinite(float(tok)):

@@ -254,6 +254,15 @@ def _subpath(v, c, s, closed, dev, meta) -> Path | None:
     return Path(v, c, s, closed=closed, deviation_mm=dev, **meta)
 
 
+def _singular_values(jac) -> tuple[float, float]:
+    """The 2 × 2 matrix's singular values (largest first) in closed form: half the sum and
+    difference of the norms of its conformal and anticonformal parts (numpy's SVD costs
+    ~25 µs a call, and a drawing has one call per elliptical arc)."""
+    (a, b), (c, d) = jac.tolist()
+    q, r = math.hypot(a + d, c - b), math.hypot(a - d, b + c)
+    return 0.5 * (q + r), 0.5 * abs(q - r)
+
+
 class _Builder:
     """Accumulates one subpath's segments as lines and arcs; with a ``batch``, its greedy fits
     wait there (:class:`_FitBatch`) and :meth:`finish` may give a :class:`_Subpath`."""
@@ -370,7 +379,7 @@ class _Builder:
     def ellipse_arc(self, centre, jac, t0, dt, end):
         if dt == 0:
             return self.line(end)
-        s0, s1 = np.linalg.svd(jac, compute_uv=False).tolist()
+        s0, s1 = _singular_values(jac)
         if self.chain_all and s1 < (1.0 - 1e-9) * s0:
             # a true ellipse joins the chain as samples whose chords stay within the
             # flattening share (a chord of the unit circle over dt/n misses it by
@@ -454,15 +463,19 @@ def _shape_paths(el, m, tol_mm, arcs, fit, meta, batch=None) -> list[Path | _Sub
         elif isinstance(seg, se.CubicBezier):
             b.cubic((P(seg.start), P(seg.control1), P(seg.control2), P(seg.end)))
         elif isinstance(seg, se.QuadraticBezier):
-            b.cubic(quad_to_cubic(P(seg.start), P(seg.control), P(seg.end)))
+            # quad_to_cubic's degree elevation in floats (the same operations, no arrays per segment)
+            (sx, sy), (qx, qy), (ex, ey) = P(seg.start), P(seg.control), P(seg.end)
+            b.cubic(((sx, sy), ((sx + 2 * qx) / 3, (sy + 2 * qy) / 3),
+                     ((ex + 2 * qx) / 3, (ey + 2 * qy) / 3), (ex, ey)))
         elif isinstance(seg, se.Arc):
-            if seg.rx == 0 or seg.ry == 0:
+            rx, ry = seg.rx, seg.ry           # (svgelements measures them from points on each read)
+            if rx == 0 or ry == 0:
                 b.line(P(seg.end))
                 continue
             rot = seg.get_rotation()
             rot = float(rot.as_radians) if hasattr(rot, "as_radians") else float(rot)
             cr, sr = math.cos(rot), math.sin(rot)
-            jac = a2 @ np.array([[cr, -sr], [sr, cr]]) @ np.diag([seg.rx, seg.ry])
+            jac = a2 @ np.array([[cr, -sr], [sr, cr]]) @ np.array([[rx, 0.0], [0.0, ry]])
             b.ellipse_arc(np.array(P(seg.center)), jac, float(seg.get_start_t()), float(seg.sweep), P(seg.end))
         else:  # pragma: no cover - svgelements has no other segment kinds
             raise GeometryError(f"unknown SVG segment {type(seg).__name__} in {meta['source']}")
@@ -855,6 +868,8 @@ def _page_check(paths, width, height, name, tol_mm, arcs, clip_to_page, warn, cl
     from labkit.geometry.clip import rectangle_region
     from labkit.geometry.path import bounds_each
 
+    if not (warn or clip_to_page):     # the paths come back as they are: nothing to find
+        return paths
     lo, hi = np.array([0.0, 0.0]), np.array([width, height])
     boxes = bounds_each(paths)
     beyond = np.maximum(np.maximum((lo - boxes[:, 0]).max(axis=1), (boxes[:, 1] - hi).max(axis=1)), 0.0)
