@@ -1571,6 +1571,22 @@ class VirtualMachine:
                     queue[-1].replies = (grbl_reply(ErrorCode.OK),)
                     return None
                 return ErrorCode.OK
+            if key < len(self.startup_lines) and value:
+                # GRBL checks a G-code start-up line by running it: its modes and moves take
+                # effect now (the startup_store transcript); it writes the line with its
+                # planner empty, so the ok follows the line's moves
+                queued = len(self._admitting or self._blocks)
+                err = self._gcode(value, jog=False, text=line)
+                if err not in (None, _DEFERRED):
+                    return None if err == _ALARMED else ErrorCode(err)
+                self.startup_lines[key] = value
+                queue = self._admitting or self._blocks
+                if err == _DEFERRED:                # answered when the line has run
+                    return None
+                if len(queue) > queued:
+                    queue[-1].replies = (grbl_reply(ErrorCode.OK),)
+                    return None
+                return ErrorCode.OK
             if key < len(self.startup_lines):
                 self.startup_lines[key] = value
             elif key == len(self.startup_lines):    # GRBL's EEPROM: the build info's place

@@ -572,6 +572,20 @@ def _startup_jog():
     ]
 
 
+def _startup_store():
+    return "A start-up line's G-code runs when it is stored, as GRBL checks it by running it " \
+           "($N0=G20 G91 changes the modal state at once; a stored move moves the machine)", [
+        line("$G"),
+        line("$N0=G20G91", note="stored: GRBL runs it to check it, so its modes apply now"),
+        line("$G"),
+        line("$N1=G0X0.1", note="a move stored as a start-up line moves the machine (0.1 in, relative)"),
+        rt("?", pause_before_s=2.0),
+        line("$G"),
+        line("$N0="), line("$N1="), line("$G"),
+        rt(RESET), line("$G"), rt("?"),
+    ]
+
+
 TOPICS = {
     "dollar_commands": _dollar_commands,
     "settings": _settings,
@@ -593,6 +607,7 @@ TOPICS = {
     "reset_wait": _reset_wait,
     "hard_limits": _hard_limits,
     "startup_jog": _startup_jog,
+    "startup_store": _startup_store,
 }
 
 
