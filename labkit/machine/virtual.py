@@ -1101,6 +1101,8 @@ class VirtualMachine:
                 # move the reset cut short); the rest goes with the reset
                 self._parser.state = replace(saved, coord_origins=after.coord_origins,
                                              home28=after.home28, home30=after.home30)
+                if "end" in self._sync_reasons(line):   # GRBL still ends the program
+                    return grbl_reply(Feedback.PROGRAM_END), grbl_reply(ErrorCode.OK)
             return (grbl_reply(ErrorCode.OK if error is None else ErrorCode(error.code)),)
         if self._admitting:
             return self._admit_replies + self._admitting[-1].replies
@@ -1744,8 +1746,14 @@ class VirtualMachine:
 
     def _sync_reasons(self, line: str) -> set:
         """GRBL's planner-sync rules for ``line`` from the parser's state
-        (:func:`labkit.gcode.state.grbl_sync_reasons`, with this machine's ``$32``)."""
-        return grbl_sync_reasons(line, self._parser.state, laser_mode=self._flag(32))
+        (:func:`labkit.gcode.state.grbl_sync_reasons`, with this machine's ``$32``), and a
+        program end (M2, M30), whose reset of the modal state GRBL makes only once the moves
+        before it have ended (the program_end_moving transcript)."""
+        reasons = grbl_sync_reasons(line, self._parser.state, laser_mode=self._flag(32))
+        words = grbl_words(line) or {}
+        if {2.0, 30.0} & set(words.get("M", ())):
+            reasons.add("end")
+        return reasons
 
     def _soft_limit(self, moves, outside_at: int, base, text: str, before) -> int:
         """GRBL's soft limit (limits_soft_check) at the line's piece ``outside_at``: the pieces

@@ -586,6 +586,20 @@ def _startup_store():
     ]
 
 
+def _program_end_moving():
+    return "M2 and M30 behind a move: GRBL ends the program once the move has ended, and only " \
+           "then resets the modal state (coordinate system, distance mode, offsets as GRBL's " \
+           "program end does); reports during the move show the state before it", [
+        line("$10=3"), line("G10 L2 P2 X5"), line("G55"), line("G91"),
+        line("G1 X10 F300"),
+        line("M2", answered=False, note="program end behind a move: its ok once the move has ended"),
+        rt("?", note="still moving: WCO still G55's"), line("$G", answered=False),
+        rt("?", pause_before_s=2.5), line("$G"), rt("?"),
+        line("G55"), line("G92 X1"), line("G1 X3 F300"),
+        line("M30", answered=False), rt("?"), rt("?", pause_before_s=2.0), line("$G"), rt("?"),
+    ]
+
+
 TOPICS = {
     "dollar_commands": _dollar_commands,
     "settings": _settings,
@@ -608,6 +622,7 @@ TOPICS = {
     "hard_limits": _hard_limits,
     "startup_jog": _startup_jog,
     "startup_store": _startup_store,
+    "program_end_moving": _program_end_moving,
 }
 
 
