@@ -414,15 +414,20 @@ class VirtualMachine:
         if self._flag(22):                  # GRBL's HOMING_INIT_LOCK: homing first, or $X
             self.state, self.alarm_code = "Alarm", 0
         if banner:
-            self._emit("\r\nGrbl 1.1h ['$' for help]")
-            if self._flag(21) and self._pressed().any():
-                # GRBL checks the limit inputs after a reset with hard limits on: one pressed
-                # locks it in Alarm
-                if self.state != "Alarm":
-                    self.state, self.alarm_code = "Alarm", 0
-                self._emit(grbl_reply(Feedback.CHECK_LIMITS))
-            if self.state == "Alarm":
-                self._emit(grbl_reply(Feedback.ALARM_LOCK))
+            self._greet()
+
+    def _greet(self) -> bool:
+        """GRBL's start after power-on or a reset: the banner; with hard limits on, a pressed
+        limit input locks it in Alarm; a locked GRBL says how to unlock. True: unlocked."""
+        self._emit("\r\nGrbl 1.1h ['$' for help]")
+        if self._flag(21) and self._pressed().any():
+            if self.state != "Alarm":
+                self.state, self.alarm_code = "Alarm", 0
+            self._emit(grbl_reply(Feedback.CHECK_LIMITS))
+        if self.state == "Alarm":
+            self._emit(grbl_reply(Feedback.ALARM_LOCK))
+            return False
+        return True
 
     @staticmethod
     def _initial_settings(machine) -> dict:
@@ -1064,16 +1069,7 @@ class VirtualMachine:
                 self.state, self.alarm_code = "Alarm", 0
             elif self.state != "Alarm":
                 self.state = "Idle"
-            self._emit("\r\nGrbl 1.1h ['$' for help]")
-            if self._flag(21) and self._pressed().any():
-                # GRBL checks the limit inputs after a reset with hard limits on: one pressed
-                # locks it in Alarm
-                if self.state != "Alarm":
-                    self.state, self.alarm_code = "Alarm", 0
-                self._emit(grbl_reply(Feedback.CHECK_LIMITS))
-            if self.state == "Alarm":
-                self._emit(grbl_reply(Feedback.ALARM_LOCK))
-            else:
+            if self._greet():
                 self._run_startup_lines()
 
     def _moving(self) -> bool:
