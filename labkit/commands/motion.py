@@ -231,14 +231,12 @@ def run_steps(args) -> int:
     from labkit.motion.timer import iter_step_chunks
 
     check_output_file(args.output, args.file)
-    from labkit.gcode import grbl_sync_lines, parse_file
+    from labkit.gcode import parse_file
 
     moves = parse_file(args.file, dialect=args.dialect, lenient=args.lenient)   # checks the file
     # the steps of the firmware's twin: the machine stops where the controller syncs (GRBL's
-    # laser, coolant and offset lines; firmware/README.md)
-    with open(args.file, "rb") as fh:
-        sync = grbl_sync_lines(fh.read(), dialect=args.dialect)
-    p = _plan(args, moves, sync_lines=sync)
+    # laser, coolant and offset lines; firmware/README.md), decided where plan decides it
+    p = _plan(args, moves, sync_lines=_controller_syncs(args))
     ticks = 0
     last_t = 0.0
     with atomic_output(args.output, newline="") as fh:
