@@ -82,6 +82,22 @@ void gc_load_offsets(void)
   gc.wco_changes++;
 }
 
+void gc_end_program(void)
+{
+  if (!gc.end_owed)
+    return;
+  gc.end_owed = 0;                 /* GRBL's program end: units, F and S stay */
+  gc.motion = 1;
+  gc.plane = 0;
+  gc.absolute = 1;
+  gc.laser = 0;
+  gc.air = 0;
+  gc.inverse_time = 0;
+  gc.coord_select = 0;
+  gc_load_offsets();
+  hal_air_set(0);
+}
+
 void gc_wco(double out[3])
 {
   uint8_t grbl = gc_dialect == GC_DIALECT_GRBL;   /* labkit-fw has no work offsets */
@@ -817,16 +833,13 @@ uint8_t gc_execute_line(char *line)
     gc.program_flow = stop == 0 ? GC_FLOW_PAUSED : stop == 1 ? GC_FLOW_OPTIONAL_PAUSE : GC_FLOW_END;
     gc.stop_now = gc.program_flow;
     plan_flush();
-    if (stop == 2 || stop == 30) {   /* GRBL's program end: units, F and S stay */
-      gc.motion = 1;
-      gc.plane = 0;
-      gc.absolute = 1;
-      gc.laser = 0;
-      gc.air = 0;
-      gc.inverse_time = 0;
-      gc.coord_select = 0;
-      gc_load_offsets();
-      hal_air_set(0);
+    /* GRBL resets the modal state only once the moves before the program end have ended (a
+       report meanwhile shows the old WCO: program_end_moving); nothing is read meanwhile, so
+       the grbl dialect leaves the reset to the protocol (gc_end_program), at rest. */
+    if (stop == 2 || stop == 30) {
+      gc.end_owed = 1;
+      if (gc_dialect != GC_DIALECT_GRBL)
+        gc_end_program();
     }
   } else if (moving || dwell) {
     gc.program_flow = GC_FLOW_RUNNING;

@@ -60,6 +60,7 @@ typedef struct {
   uint8_t coord_select;  /* 0..5: G54..G59 */
   uint8_t inverse_time;  /* G93 */
   uint8_t stop_now;      /* GC_FLOW_* of an M0 M1 M2 M30 in the line just run, else 0 */
+  uint8_t end_owed;      /* an M2 / M30 whose modal reset waits for the moves (grbl) */
   uint8_t probe_now;     /* 2..5: the line just run is a G38.x probe move, else 0 */
   uint8_t sync_now;      /* the line just run is answered once the moves before it have
                             ended (GRBL: G4, M2, M30, G43.1, G49; G10, G92, G54-G59 wait
@@ -80,6 +81,7 @@ void gc_set_s_max(double s_max);             /* grbl $30 (> 0) */
 double gc_get_s_max(void);                   /* S of full power in the current dialect */
 void gc_sync_position(void);                 /* parser position := stepper position */
 void gc_load_offsets(void);                  /* the selected system's offset from the settings */
+void gc_end_program(void);                   /* an owed M2 / M30 modal reset, now */
 void gc_wco(double out[3]);                  /* work coordinate offset, mm: machine - work */
 const gc_state_t *gc_state(void);
 uint8_t gc_waiting_for_idle(void);           /* a line waits for the moves before it to end */

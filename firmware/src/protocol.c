@@ -64,13 +64,16 @@ static uint8_t in_wait;
 static uint8_t reset_pending;
 
 /* GRBL ends a program (M2, M30) once the moves before it have ended, or a reset has cut them
-   short: the overrides go back to 100 % and "[MSG:Pgm End]" comes before the line's ok. */
+   short: the modal state resets, the overrides go back to 100 % and "[MSG:Pgm End]" comes
+   before the line's ok. */
 static uint8_t program_end;
 
 static void end_program(void) {
   if (!program_end)
     return;
   program_end = 0;
+  gc_end_program();               /* its new WCO shows in the next report, */
+  report_overrides_next();        /* and its laser and coolant stop force Ov: after it */
   plan_set_overrides(100, 100);
   laser_set_override(100);
   report_feedback(MSG_PROGRAM_END);
@@ -766,8 +769,10 @@ void protocol_execute_line(char *line) {
     st = gc_execute_line(line);
     plan_reset();                 /* checked, never run */
     (void)st_take_abort();
-    if (st == STATUS_OK && gc_state()->stop_now == GC_FLOW_END)
+    if (st == STATUS_OK && gc_state()->stop_now == GC_FLOW_END) {
+      gc_end_program();
       report_feedback(MSG_PROGRAM_END);
+    }
   } else {
     st = gc_execute_line(line);
     if (reset_pending) {          /* a reset ended the line's wait: its reply, then the banner */
@@ -788,6 +793,7 @@ void protocol_execute_line(char *line) {
         return;
       }
       if (g->probe_now && settings.dialect == GC_DIALECT_GRBL) {
+        program_end = g->stop_now == GC_FLOW_END;   /* M2 / M30 on the probe line: after it */
         start_probe(g->probe_now);
         return;
       }

@@ -660,12 +660,6 @@ KNOWN_DIFFERENCES: dict[tuple[str, str, int], str] = {
                                       "a full planner would be a fake)",
     ('firmware', 'planner_sync', 49): "?: missing lines ['ok'] (intended: the G2's ok, given at "
                                       "once by the firmware: as #47)",
-    ('firmware', 'program_end_moving', 7): "?: WCO:0.000 during the move, GRBL WCO:5.000 (G55's) (not implemented in the firmware: GRBL resets the modal state at M2/M30 only once the moves before it have ended, the firmware at once (a report during the move shows the new WCO); waiting in gc_execute_line there, as for G92, broke the host tests' beam property (a random stream with M2 on a motion line) and test_protocol's M2 checks: left for its own change)",
-    ('firmware', 'program_end_moving', 9): "?: Ov: where GRBL forces WCO: first (as #7: the firmware's WCO report came at #7)",
-    ('firmware', 'program_end_moving', 11): "?: no Ov:, GRBL's Ov: after its WCO: (as #7)",
-    ('firmware', 'program_end_moving', 16): '?: WCO:4.000 during the move, GRBL WCO:9.000 (G55 with G92; as #7)',
-    ('firmware', 'program_end_moving', 17): "?: no WCO:, GRBL's forced by the M30 it ran after the move (as #7)",
-    ('firmware', 'program_end_moving', 19): "?: no Ov:, GRBL's after its WCO: (as #7)",
 }
 
 
