@@ -138,6 +138,7 @@
 #include "serial.h"
 #include "settings.h"
 #include "stepper.h"
+#include "storage_ram.h"
 
 static int fd_in = 0, fd_out = 1, pty_slave = -1, fd_panel = -1;
 static int input_eof;
@@ -211,11 +212,6 @@ static int stop_by_program;     /* the motors stopped where a line waits for the
 static int motors_stopped;            /* stopped after having run */
 static int stop_lines_pending;        /* line bytes were on the wire or in the RX ring at the stop */
 static uint64_t stop_cycles, stop_line_bytes;
-
-/* storage */
-static const char *eeprom_path;
-static uint8_t eeprom[4096];
-static uint32_t eeprom_len;
 
 /* ------------------------------------------------------------ core hal */
 
@@ -445,37 +441,6 @@ void hal_serial_tx_kick(void) {
     tx_flush(0);
 }
 void hal_serial_tx_wait(void) { tx_flush(1); }
-
-uint8_t hal_storage_read(void *buf, uint32_t len) {
-  if (eeprom_path) {
-    FILE *f = fopen(eeprom_path, "rb");
-    if (f) {
-      eeprom_len = (uint32_t)fread(eeprom, 1, sizeof eeprom, f);
-      fclose(f);
-    }
-  }
-  if (len > eeprom_len)
-    return 0;
-  memcpy(buf, eeprom, len);
-  return 1;
-}
-
-uint8_t hal_storage_write(const void *buf, uint32_t len) {
-  if (len > sizeof eeprom)
-    return 0;
-  memcpy(eeprom, buf, len);
-  eeprom_len = len;
-  if (eeprom_path) {
-    FILE *f = fopen(eeprom_path, "wb");
-    if (!f || fwrite(buf, 1, len, f) != len) {
-      if (f)
-        fclose(f);
-      return 0;
-    }
-    fclose(f);
-  }
-  return 1;
-}
 
 /* Input bytes read but not yet delivered (the RX ring was full). */
 static uint8_t inbuf[512];
@@ -901,7 +866,7 @@ int main(int argc, char **argv) {
         return 2;
       }
     } else if (!strcmp(argv[i], "--eeprom") && i + 1 < argc)
-      eeprom_path = argv[++i];
+      storage_file(argv[++i]);
     else if (!strcmp(argv[i], "--dialect") && i + 1 < argc) {
       i++;
       if (!strcmp(argv[i], "grbl"))
