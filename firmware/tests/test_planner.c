@@ -24,6 +24,7 @@
 #include <string.h>
 
 #include "config.h"
+#include "core_test.h"
 #include "gcode.h"
 #include "hal_record.h"
 #include "laser.h"
@@ -31,21 +32,11 @@
 #include "status_codes.h"
 #include "stepper.h"
 
-static int failures, checks;
 static const char *ctx = "";
 
-#define CHECK(cond, ...)                                              \
-  do {                                                                \
-    checks++;                                                         \
-    if (!(cond)) {                                                    \
-      if (!failures) {                                                \
-        printf("test_planner: FAIL (%s) %s:%d: ", ctx, __FILE__, __LINE__); \
-        printf(__VA_ARGS__);                                          \
-        printf("\n");                                                 \
-      }                                                               \
-      failures++;                                                     \
-    }                                                                 \
-  } while (0)
+static void fail_where(const char *file, int line) {
+  printf("test_planner: FAIL (%s) %s:%d: ", ctx, file, line);
+}
 
 static uint32_t rng = 12345u;
 static double urand(double lo, double hi)
