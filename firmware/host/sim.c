@@ -817,6 +817,23 @@ static void usage(void) {
   exit(2);
 }
 
+/* A CSV file opened for writing, its header line written: with a buffer of `buffer` bytes (the
+   per-tick trace), else the stream's own and the header flushed at once (the logs a reader
+   follows while the simulation runs). 0, after perror, when it cannot be opened. */
+static FILE *open_csv(const char *path, const char *header, size_t buffer) {
+  FILE *f = fopen(path, "w");
+  if (!f) {
+    perror(path);
+    return 0;
+  }
+  if (buffer)
+    setvbuf(f, 0, _IOFBF, buffer);
+  fputs(header, f);
+  if (!buffer)
+    fflush(f);
+  return f;
+}
+
 int main(int argc, char **argv) {
   int use_pty = 0, stats = 0, dialect = -1;
   const char *trace_path = 0, *beam_log_path = 0, *panel_path = 0, *starve_path = 0;
@@ -889,24 +906,11 @@ int main(int argc, char **argv) {
     }
     fd_in = fd_out = m;
   }
-  if (trace_path) {
-    trace = fopen(trace_path, "w");
-    if (!trace) {
-      perror(trace_path);
-      return 1;
-    }
-    setvbuf(trace, 0, _IOFBF, 1 << 20);
-    fprintf(trace, "time_s,cycle,block,line,x,y,z,dir,period,power_mw\n");
-  }
-  if (beam_log_path) {
-    beam_log = fopen(beam_log_path, "w");
-    if (!beam_log) {
-      perror(beam_log_path);
-      return 1;
-    }
-    fprintf(beam_log, "time_s,duty,state,line\n");
-    fflush(beam_log);
-  }
+  if (trace_path &&
+      !(trace = open_csv(trace_path, "time_s,cycle,block,line,x,y,z,dir,period,power_mw\n", 1 << 20)))
+    return 1;
+  if (beam_log_path && !(beam_log = open_csv(beam_log_path, "time_s,duty,state,line\n", 0)))
+    return 1;
   if (panel_path)
     open_panel(panel_path);
   if ((starve_path || parse_us > 0 || expect_path) && !baud) {
@@ -919,15 +923,8 @@ int main(int argc, char **argv) {
     fprintf(stderr, "labkit-fw-sim: --baud runs on simulated time; leave out --realtime\n");
     return 2;
   }
-  if (starve_path) {
-    starve_log = fopen(starve_path, "w");
-    if (!starve_log) {
-      perror(starve_path);
-      return 1;
-    }
-    fprintf(starve_log, "time_s,line,duration_s\n");
-    fflush(starve_log);
-  }
+  if (starve_path && !(starve_log = open_csv(starve_path, "time_s,line,duration_s\n", 0)))
+    return 1;
   double t0 = host_seconds();
   if (dialect >= 0) {
     /* choose the dialect before the banner: as if $208 had been stored */
