@@ -131,7 +131,7 @@ def ladder_gcode(tmp, repeat, only):
                 ("check", [], peer, "gcodeparser"), ("info", [], peer, "gcodeparser"),
                 ("plan", [], t_numpy, "import numpy"),
                 ("preview", ["-o", str(tmp / "p.png")], t_numpy, "import numpy"),
-                ("stream", [], t_numpy, "import numpy")):
+                ("stream", ["--no-record"], t_numpy, "import numpy")):   # no record beside data/'s jobs
             if not only or cmd in only:
                 labkit_row(cmd, lines_of(f), [cmd, str(f), *extra], peer_t, peer_name, repeat)
         if not only or "plan" in only:

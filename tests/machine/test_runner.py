@@ -126,3 +126,35 @@ def test_a_rejected_line_faults_the_run_names_its_line_and_leaves_the_beam_off(m
         assert vm.laser_output() == 0.0
     finally:
         g.close()
+
+
+def test_executed_line_counts_the_lines_answered_after_the_report_as_a_full_scan_does():
+    """_executed_line stops its search at the first entry before which no line was answered
+    after the status report (the entries carry the highest answer number so far, _ack). Against
+    the plain definition, every acknowledged line with an answer number at or after the report
+    counted, on random histories in which a buffer report's lines carry an earlier number."""
+    import random
+    from types import SimpleNamespace
+
+    from labkit.machine.stream import _ack, _executed_line
+
+    rng = random.Random(7)
+    for _ in range(400):
+        acked, seq = [], 0
+        for line in range(1, rng.randint(1, 60)):
+            seq += rng.randint(0, 2)
+            late = rng.random() < 0.1               # counted from a buffer report: earlier number
+            _ack(acked, line, rng.randint(1, 4), max(0, seq - rng.randint(1, 5)) if late else seq)
+        depth = rng.choice((4, 15, 36))
+        st = SimpleNamespace(line=None, planner_free=rng.randint(0, depth),
+                             answers_before=rng.randint(0, seq + 2))
+        grbl = SimpleNamespace(status=st, info=SimpleNamespace(planner_blocks=depth))
+        later = sum(a[1] for a in acked if a[2] >= st.answers_before)
+        remaining = min(depth, max(0, depth - st.planner_free) + later)
+        want = 0
+        for idx in range(len(acked) - 1, -1, -1):
+            if remaining <= 0:
+                want = acked[idx][0]
+                break
+            remaining -= acked[idx][1]
+        assert _executed_line(grbl, acked, 0) == want
