@@ -74,6 +74,17 @@ def test_parse_as_python_equals_compiled_on_the_corpus(path):
     assert text_a == text_b
 
 
+@pytest.mark.parametrize("path", CORPUS[:6], ids=lambda p: p.name)
+def test_the_writer_as_python_equals_compiled_with_line_numbers_checksums_and_compact_words(path):
+    """The writer's Python twins (numbers by ``str``, lines moved by slices) against the
+    compiled writer, digit by digit: Marlin's N words and ``*`` checksums, GRBL's compact
+    words and G90/G91 choice."""
+    moves = parse(path.read_bytes(), lenient=True)
+    for options in ({"dialect": "marlin"}, {"compact": True}, {"arcs": "r", "tol_mm": 0.01}):
+        text_a, text_b = _both(emit, moves, **options)
+        assert text_a == text_b and len(text_a) > 100
+
+
 @pytest.mark.parametrize("dialect", ["grbl", "marlin"])
 def test_parse_as_python_equals_compiled_on_tricky_lines(dialect):
     a, b = _both(parse, TRICKY, dialect=dialect, lenient=True)
