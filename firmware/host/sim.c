@@ -138,6 +138,7 @@
 #include "serial.h"
 #include "settings.h"
 #include "stepper.h"
+#include "storage_ram.h"
 
 static int fd_in = 0, fd_out = 1, pty_slave = -1, fd_panel = -1;
 static int input_eof;
@@ -211,11 +212,6 @@ static int stop_by_program;     /* the motors stopped where a line waits for the
 static int motors_stopped;            /* stopped after having run */
 static int stop_lines_pending;        /* line bytes were on the wire or in the RX ring at the stop */
 static uint64_t stop_cycles, stop_line_bytes;
-
-/* storage */
-static const char *eeprom_path;
-static uint8_t eeprom[4096];
-static uint32_t eeprom_len;
 
 /* ------------------------------------------------------------ core hal */
 
@@ -445,37 +441,6 @@ void hal_serial_tx_kick(void) {
     tx_flush(0);
 }
 void hal_serial_tx_wait(void) { tx_flush(1); }
-
-uint8_t hal_storage_read(void *buf, uint32_t len) {
-  if (eeprom_path) {
-    FILE *f = fopen(eeprom_path, "rb");
-    if (f) {
-      eeprom_len = (uint32_t)fread(eeprom, 1, sizeof eeprom, f);
-      fclose(f);
-    }
-  }
-  if (len > eeprom_len)
-    return 0;
-  memcpy(buf, eeprom, len);
-  return 1;
-}
-
-uint8_t hal_storage_write(const void *buf, uint32_t len) {
-  if (len > sizeof eeprom)
-    return 0;
-  memcpy(eeprom, buf, len);
-  eeprom_len = len;
-  if (eeprom_path) {
-    FILE *f = fopen(eeprom_path, "wb");
-    if (!f || fwrite(buf, 1, len, f) != len) {
-      if (f)
-        fclose(f);
-      return 0;
-    }
-    fclose(f);
-  }
-  return 1;
-}
 
 /* Input bytes read but not yet delivered (the RX ring was full). */
 static uint8_t inbuf[512];
@@ -852,6 +817,23 @@ static void usage(void) {
   exit(2);
 }
 
+/* A CSV file opened for writing, its header line written: with a buffer of `buffer` bytes (the
+   per-tick trace), else the stream's own and the header flushed at once (the logs a reader
+   follows while the simulation runs). 0, after perror, when it cannot be opened. */
+static FILE *open_csv(const char *path, const char *header, size_t buffer) {
+  FILE *f = fopen(path, "w");
+  if (!f) {
+    perror(path);
+    return 0;
+  }
+  if (buffer)
+    setvbuf(f, 0, _IOFBF, buffer);
+  fputs(header, f);
+  if (!buffer)
+    fflush(f);
+  return f;
+}
+
 int main(int argc, char **argv) {
   int use_pty = 0, stats = 0, dialect = -1;
   const char *trace_path = 0, *beam_log_path = 0, *panel_path = 0, *starve_path = 0;
@@ -901,7 +883,7 @@ int main(int argc, char **argv) {
         return 2;
       }
     } else if (!strcmp(argv[i], "--eeprom") && i + 1 < argc)
-      eeprom_path = argv[++i];
+      storage_file(argv[++i]);
     else if (!strcmp(argv[i], "--dialect") && i + 1 < argc) {
       i++;
       if (!strcmp(argv[i], "grbl"))
@@ -924,24 +906,11 @@ int main(int argc, char **argv) {
     }
     fd_in = fd_out = m;
   }
-  if (trace_path) {
-    trace = fopen(trace_path, "w");
-    if (!trace) {
-      perror(trace_path);
-      return 1;
-    }
-    setvbuf(trace, 0, _IOFBF, 1 << 20);
-    fprintf(trace, "time_s,cycle,block,line,x,y,z,dir,period,power_mw\n");
-  }
-  if (beam_log_path) {
-    beam_log = fopen(beam_log_path, "w");
-    if (!beam_log) {
-      perror(beam_log_path);
-      return 1;
-    }
-    fprintf(beam_log, "time_s,duty,state,line\n");
-    fflush(beam_log);
-  }
+  if (trace_path &&
+      !(trace = open_csv(trace_path, "time_s,cycle,block,line,x,y,z,dir,period,power_mw\n", 1 << 20)))
+    return 1;
+  if (beam_log_path && !(beam_log = open_csv(beam_log_path, "time_s,duty,state,line\n", 0)))
+    return 1;
   if (panel_path)
     open_panel(panel_path);
   if ((starve_path || parse_us > 0 || expect_path) && !baud) {
@@ -954,15 +923,8 @@ int main(int argc, char **argv) {
     fprintf(stderr, "labkit-fw-sim: --baud runs on simulated time; leave out --realtime\n");
     return 2;
   }
-  if (starve_path) {
-    starve_log = fopen(starve_path, "w");
-    if (!starve_log) {
-      perror(starve_path);
-      return 1;
-    }
-    fprintf(starve_log, "time_s,line,duration_s\n");
-    fflush(starve_log);
-  }
+  if (starve_path && !(starve_log = open_csv(starve_path, "time_s,line,duration_s\n", 0)))
+    return 1;
   double t0 = host_seconds();
   if (dialect >= 0) {
     /* choose the dialect before the banner: as if $208 had been stored */

@@ -91,17 +91,25 @@ int serial_panel_pop(void) {
   return ev;
 }
 
-int serial_read(void) {
-  if (rx_tail == rx_head)
+/* The rings: a power-of-two size (mask = size - 1); the producer moves only head, the
+   consumer only tail, so neither needs the interrupts off. */
+static inline int ring_pop(const volatile uint8_t *buf, volatile uint16_t *tail, uint16_t head,
+                           uint16_t mask) {
+  uint16_t t = *tail;
+  if (t == head)
     return -1;
-  uint8_t b = rx_buf[rx_tail];
-  rx_tail = (uint16_t)((rx_tail + 1u) & (RX_RING - 1u));
+  uint8_t b = buf[t];
+  *tail = (uint16_t)((t + 1u) & mask);
   return b;
 }
 
-uint16_t serial_rx_count(void) {
-  return (uint16_t)((rx_head - rx_tail) & (RX_RING - 1u));
+static inline uint16_t ring_count(uint16_t head, uint16_t tail, uint16_t mask) {
+  return (uint16_t)((head - tail) & mask);
 }
+
+int serial_read(void) { return ring_pop(rx_buf, &rx_tail, rx_head, RX_RING - 1u); }
+
+uint16_t serial_rx_count(void) { return ring_count(rx_head, rx_tail, RX_RING - 1u); }
 
 uint16_t serial_rx_free(void) { return (uint16_t)(SERIAL_RX_SIZE - serial_rx_count()); }
 
@@ -127,17 +135,9 @@ void serial_write(const char *s) {
     serial_putc(*s++);
 }
 
-int serial_tx_pop(void) {
-  if (tx_tail == tx_head)
-    return -1;
-  uint8_t b = tx_buf[tx_tail];
-  tx_tail = (uint16_t)((tx_tail + 1u) & (SERIAL_TX_SIZE - 1u));
-  return b;
-}
+int serial_tx_pop(void) { return ring_pop(tx_buf, &tx_tail, tx_head, SERIAL_TX_SIZE - 1u); }
 
-uint16_t serial_tx_count(void) {
-  return (uint16_t)((tx_head - tx_tail) & (SERIAL_TX_SIZE - 1u));
-}
+uint16_t serial_tx_count(void) { return ring_count(tx_head, tx_tail, SERIAL_TX_SIZE - 1u); }
 
 uint16_t serial_take_flags(uint16_t mask) {
   hal_irq_disable();

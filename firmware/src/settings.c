@@ -140,6 +140,10 @@ typedef struct {
 #define MOFF(f) ((uint16_t)(offsetof(settings_t, machine) + offsetof(lk_machine_t, f)))
 #define SOFF(f) ((uint16_t)offsetof(settings_t, f))
 #define BIG 1e300
+/* GRBL's per-axis settings: $n, $n+1, $n+2 are X, Y, Z of one machine array, at least lo. */
+#define PER_AXIS(n, f, lo)                                                          \
+  {n, K_DOUBLE, 0, MOFF(f[0]), lo, BIG}, {n + 1, K_DOUBLE, 0, MOFF(f[1]), lo, BIG}, \
+      {n + 2, K_DOUBLE, 0, MOFF(f[2]), lo, BIG}
 
 static const setting_def_t defs[] = {
     {0, K_BYTE, 0, MOFF(step_pulse_us), 3, 255},
@@ -164,18 +168,10 @@ static const setting_def_t defs[] = {
     {30, K_RPM, 0, SOFF(s_max), 0.0, BIG},
     {31, K_RPM, 0, SOFF(s_min), 0.0, BIG},
     {32, K_FLAG, 0, SOFF(laser_mode), 0, 1},
-    {100, K_DOUBLE, 0, MOFF(steps_per_mm[0]), 0.001, BIG},
-    {101, K_DOUBLE, 0, MOFF(steps_per_mm[1]), 0.001, BIG},
-    {102, K_DOUBLE, 0, MOFF(steps_per_mm[2]), 0.001, BIG},
-    {110, K_DOUBLE, 0, MOFF(max_rate_mm_min[0]), 0.001, BIG},
-    {111, K_DOUBLE, 0, MOFF(max_rate_mm_min[1]), 0.001, BIG},
-    {112, K_DOUBLE, 0, MOFF(max_rate_mm_min[2]), 0.001, BIG},
-    {120, K_DOUBLE, 0, MOFF(accel_mm_s2[0]), 0.001, BIG},
-    {121, K_DOUBLE, 0, MOFF(accel_mm_s2[1]), 0.001, BIG},
-    {122, K_DOUBLE, 0, MOFF(accel_mm_s2[2]), 0.001, BIG},
-    {130, K_DOUBLE, 0, MOFF(travel_mm[0]), 0.0, BIG},
-    {131, K_DOUBLE, 0, MOFF(travel_mm[1]), 0.0, BIG},
-    {132, K_DOUBLE, 0, MOFF(travel_mm[2]), 0.0, BIG},
+    PER_AXIS(100, steps_per_mm, 0.001),
+    PER_AXIS(110, max_rate_mm_min, 0.001),
+    PER_AXIS(120, accel_mm_s2, 0.001),
+    PER_AXIS(130, travel_mm, 0.0),
     /* labkit's own (listed by $$ in the labkit-fw dialect only) */
     {200, K_I32, 0, MOFF(accel_hz_per_step), 1, 1000000},
     {201, K_I32, 0, MOFF(decel_hz_per_step), 1, 1000000},

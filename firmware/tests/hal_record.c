@@ -108,6 +108,14 @@ uint8_t hal_record_line(const char *text)
   return gc_execute_line(buf);
 }
 
+void hal_record_ticks(uint32_t n)
+{
+  for (uint32_t i = 0; i < n && rec.running; i++) {
+    st_tick();
+    st_prep_buffer();
+  }
+}
+
 void hal_record_pump(void)
 {
   for (int guard = 0; guard < 100000000; guard++) {

@@ -45,6 +45,8 @@ extern rec_t rec;
 void hal_record_reset(void);
 void hal_record_run(void);        /* st_tick() while the timer runs */
 void hal_record_pump(void);       /* st_prep_buffer + run until nothing moves */
+void hal_record_ticks(uint32_t n);  /* at most n ticks while the timer runs, st_prep_buffer
+                                       after each (a job stopped part way) */
 
 /* The core started on this hal, after plan_init() and any planner settings: stepper, laser,
    the parser in `dialect` (GC_DIALECT_*), its waits for a planner slot running the timer. */

@@ -1,6 +1,6 @@
 /*
   shell_util.c - the shell's hal for tests (serial output captured into a
-  buffer, storage in RAM (storage_util.c), a fake millisecond clock, hal_poll empty).
+  buffer, storage in RAM (host/storage_ram.c), a fake millisecond clock, hal_poll empty).
 */
 #include "shell_util.h"
 
@@ -10,7 +10,7 @@
 #include "serial.h"
 #include "settings.h"
 #include "stepper.h"
-#include "storage_util.h"
+#include "storage_ram.h"
 #if defined(__has_include)
 #if __has_include("hal_record.h")
 #include "hal_record.h"

@@ -16,6 +16,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "core_test.h"
 #include "gcode.h"
 #include "hal_record.h"
 #include "laser.h"
@@ -169,20 +170,9 @@ static const gc_case_t cases[] = {
   {GC_DIALECT_GRBL, "", "G2 X1 Y1 I0.5 F10", 33, 33},
 };
 
-static int failures, checks;
-
-#define CHECK(cond, ...)                                   \
-  do {                                                     \
-    checks++;                                              \
-    if (!(cond)) {                                         \
-      if (!failures) {                                     \
-        printf("test_gcode: FAIL %s:%d: ", __FILE__, __LINE__); \
-        printf(__VA_ARGS__);                               \
-        printf("\n");                                      \
-      }                                                    \
-      failures++;                                          \
-    }                                                      \
-  } while (0)
+static void fail_where(const char *file, int line) {
+  printf("test_gcode: FAIL %s:%d: ", file, line);
+}
 
 static void reset(uint8_t dialect)
 {

@@ -24,6 +24,7 @@
 #include <string.h>
 
 #include "config.h"
+#include "core_test.h"
 #include "gcode.h"
 #include "hal_record.h"
 #include "laser.h"
@@ -31,21 +32,11 @@
 #include "status_codes.h"
 #include "stepper.h"
 
-static int failures, checks;
 static const char *ctx = "";
 
-#define CHECK(cond, ...)                                              \
-  do {                                                                \
-    checks++;                                                         \
-    if (!(cond)) {                                                    \
-      if (!failures) {                                                \
-        printf("test_planner: FAIL (%s) %s:%d: ", ctx, __FILE__, __LINE__); \
-        printf(__VA_ARGS__);                                          \
-        printf("\n");                                                 \
-      }                                                               \
-      failures++;                                                     \
-    }                                                                 \
-  } while (0)
+static void fail_where(const char *file, int line) {
+  printf("test_planner: FAIL (%s) %s:%d: ", ctx, file, line);
+}
 
 static uint32_t rng = 12345u;
 static double urand(double lo, double hi)
@@ -299,17 +290,11 @@ int main(int argc, char **argv)
     CHECK(run("M3 S255 G1 X2 F20") == STATUS_OK && run("G1 X0 Y1") == STATUS_OK, "job");
     plan_flush();
     st_prep_buffer();
-    for (int i = 0; i < 1500 && rec.running; i++) {
-      st_tick();
-      st_prep_buffer();
-    }
+    hal_record_ticks(1500);
     uint32_t before = rec.n_ticks;
     uint32_t rate_at_hold = rec.ticks[before - 1].rate;
     st_feed_hold();
-    for (int g = 0; g < 1000000 && rec.running; g++) {
-      st_tick();
-      st_prep_buffer();
-    }
+    hal_record_ticks(1000000);
     CHECK(st_state() == ST_HELD, "state %u after the hold", st_state());
     CHECK(rec.duty == 0, "laser duty %u while held", rec.duty);
     uint32_t rises = 0, jumps = 0, prepared = 0;
@@ -374,10 +359,7 @@ int main(int argc, char **argv)
     CHECK(run("M3 S100 G1 X3 F10") == STATUS_OK && run("G1 Y3") == STATUS_OK, "job");
     plan_flush();
     st_prep_buffer();
-    for (int i = 0; i < 700 && rec.running; i++) {
-      st_tick();
-      st_prep_buffer();
-    }
+    hal_record_ticks(700);
     st_reset();
     CHECK(!rec.running && rec.duty == 0 && plan_is_empty() && st_is_idle(), "reset left the machine running");
     int32_t p[3], q[3];

@@ -641,6 +641,30 @@ def _new_dialect():
 
 
 @jit(inline="always")
+def _word_limit(err, epos, le, grbl_verdicts):
+    """Where :func:`_check` stops reading command words, a byte offset of the line ``[.., le)``:
+    GRBL checks each word as it reads it, left to right, so a command word left of a fault
+    found so far (``err`` at ``epos``) is checked first and its own fault is the one reported;
+    an overlong line (``E_OVERFLOW``) and the other dialects' lines are judged whole."""
+    if err != OK and grbl_verdicts and err != E_OVERFLOW:
+        return epos
+    return le + 1
+
+
+@jit(inline="always")
+def _group_fault(groups, grp, unknown, detail):
+    """Whether a command word of modal group ``grp`` may join the line's ``groups`` (a bit a
+    group): ``(OK, detail)`` when it may; ``(E_UNSUPPORTED, unknown)`` when ``grp`` is −1 (a
+    command the dialect does not have); ``(E_MODAL_GROUP, detail)`` when the line has a
+    command of that group already (``detail`` is kept: that fault's message is the group's)."""
+    if grp < 0:
+        return E_UNSUPPORTED, unknown
+    if groups & (1 << grp):
+        return E_MODAL_GROUP, detail
+    return OK, detail
+
+
+@jit(inline="always")
 def _check(w, d, m, ls, le, err, detail, epos, eend, aux0, aux1, is_system, is_jog, ng, nm,
            opt, motion, plane, inches, absolute, arc_absolute, feed, power, laser,
            inverse, coord, tlo):
@@ -699,11 +723,7 @@ def _check(w, d, m, ls, le, err, detail, epos, eend, aux0, aux1, is_system, is_j
     tlo_cmd = 0           # 431 (G43.1) or 490 (G49)
     coord_new = coord
     inverse_new = inverse
-    # GRBL checks each word as it reads it, left to right: a command word left of a
-    # fault the scan found is checked first, and its own fault is the one reported
-    word_limit = le + 1
-    if err != OK and opt.grbl_verdicts and err != E_OVERFLOW:
-        word_limit = epos
+    word_limit = _word_limit(err, epos, le, opt.grbl_verdicts)
     grbl_jog = is_jog and opt.grbl_verdicts   # GRBL reads a jog's words as any line's
     jog_refused = -1       # GRBL: the first command word a jog cannot take (error 16, last)
     axis_command = False   # GRBL: a word of G0-G3 G38 G10 G28 G30 G92 G43.1 G49 was read
@@ -789,17 +809,14 @@ def _check(w, d, m, ls, le, err, detail, epos, eend, aux0, aux1, is_system, is_j
                 coord_new = code - 54
             elif code == 61:
                 grp = G_PATH
-            else:
-                err, detail, epos, eend = E_UNSUPPORTED, D_UNKNOWN_G, g_pos[k], g_end[k]
-                break
-            if groups & (1 << grp):
-                err, epos, eend = E_MODAL_GROUP, g_pos[k], g_end[k]
+            fault, fault_detail = _group_fault(groups, grp, D_UNKNOWN_G, detail)
+            if fault != OK:
+                err, detail, epos, eend = fault, fault_detail, g_pos[k], g_end[k]
                 break
             groups |= 1 << grp
     if err == OK and is_jog and nm > 0 and not grbl_jog:
         err, detail, epos, eend = E_INVALID_JOG, D_JOG_COMMAND, m_pos[0], m_end[0]
-    if err != OK and opt.grbl_verdicts and err != E_OVERFLOW:
-        word_limit = epos
+    word_limit = _word_limit(err, epos, le, opt.grbl_verdicts)
     if (err == OK or word_limit <= le) and not is_system:
         for k in range(nm):
             if m_pos[k] >= word_limit:
@@ -826,11 +843,9 @@ def _check(w, d, m, ls, le, err, detail, epos, eend, aux0, aux1, is_system, is_j
             elif mk == 4:
                 grp = M_RECORD
                 m_record = code
-            else:
-                err, detail, epos, eend = E_UNSUPPORTED, D_UNKNOWN_M, m_pos[k], m_end[k]
-                break
-            if groups & (1 << grp):
-                err, epos, eend = E_MODAL_GROUP, m_pos[k], m_end[k]
+            fault, fault_detail = _group_fault(groups, grp, D_UNKNOWN_M, detail)
+            if fault != OK:
+                err, detail, epos, eend = fault, fault_detail, m_pos[k], m_end[k]
                 break
             groups |= 1 << grp
 

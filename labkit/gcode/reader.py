@@ -54,6 +54,7 @@ The work happens in the compiled interpreter :mod:`labkit.gcode._kernel`.
 
 from __future__ import annotations
 
+import hashlib
 import os
 import re
 from typing import NamedTuple
@@ -285,12 +286,28 @@ def grbl_sync_lines(text, *, dialect: str | Dialect = "grbl") -> list[int]:
     >>> grbl_sync_lines("M3 S100\\nG1 X5 F600\\nM5\\n", dialect="labkit-fw")
     []
     """
-    from labkit.gcode.state import ModalState, grbl_sync_reasons
-
     d = get_dialect(dialect)
     if d.name != "grbl":
         return []
     data = _as_bytes(text)
+    # one command asks several times for the same program's lines (the plan, the link's
+    # prediction, the stall-free feed): the answer is kept for the last few programs, by
+    # digest, not by holding their text
+    key = (hashlib.blake2b(data, digest_size=16).digest(), len(data), d)
+    lines = _SYNC_LINES_SEEN.get(key)
+    if lines is None:
+        lines = _SYNC_LINES_SEEN[key] = tuple(_grbl_sync_lines(data, d))
+        while len(_SYNC_LINES_SEEN) > 4:
+            del _SYNC_LINES_SEEN[next(iter(_SYNC_LINES_SEEN))]
+    return list(lines)
+
+
+_SYNC_LINES_SEEN: dict[tuple, tuple[int, ...]] = {}
+
+
+def _grbl_sync_lines(data: bytes, d: Dialect) -> list[int]:
+    from labkit.gcode.state import ModalState, grbl_sync_reasons
+
     out = _run(data, d, lenient=True, trace=True)
     refused = set(out.errors["line"].tolist())
     texts = _text_lines(data)

@@ -408,3 +408,22 @@ def test_grbl_sync_lines_follow_the_modal_state():
     digits are not an M3."""
     text = "M5\nM3 S10\nM03\nG1X1 (M5 here is a comment)\nM4\n; M5\nM30\nM5\nM3\nM3.5\n"
     assert grbl_sync_lines(text) == [2, 5, 9]
+
+
+def test_plan_reads_a_programs_sync_lines_once(tmp_path, monkeypatch, capsys):
+    """``labkit plan`` asks for the controller's sync lines in the plan, the link's prediction
+    and the stall-free feed (five asks); the program is interpreted for them once (each
+    interpretation with a trace cost as much as the whole plan, as Python)."""
+    import labkit.gcode.reader as reader
+
+    calls = []
+    real = reader._grbl_sync_lines
+    monkeypatch.setattr(reader, "_grbl_sync_lines", lambda data, d: calls.append(len(data)) or real(data, d))
+    job = tmp_path / "job.gcode"
+    job.write_text("G21 G90\nM3 S200\nG1 X10 F600\nM5\nG0 X0\nM3 S400\nG1 Y10\nM5\n")
+    assert main(["plan", str(job), "--machine", "grbl-diode"]) == 0
+    assert "stall-free feed" in capsys.readouterr().out
+    assert calls == [job.stat().st_size]
+    # another program, or the same text in another dialect, is read again
+    assert grbl_sync_lines(job.read_text() + "M3 S100\n") == [2, 4, 6, 8, 9]
+    assert len(calls) == 2

@@ -1,6 +1,6 @@
 /*
   fuzz_util.c - the shell's hal for the fuzzers and the beam property:
-  output discarded, storage in RAM (../storage_util.c), a clock that moves 1 ms per poll. With
+  output discarded, storage in RAM (host/storage_ram.c), a clock that moves 1 ms per poll. With
   hal_null.c the step timer never ticks, so when the planner is nearly full
   or motion stays queued for long the machine is reset (st_reset +
   plan_reset) and no input can make the loop wait for motion that never
@@ -23,7 +23,7 @@
 #include "settings.h"
 #include "status_codes.h"
 #include "stepper.h"
-#include "storage_util.h"
+#include "storage_ram.h"
 
 static uint32_t now_ms;
 
