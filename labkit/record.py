@@ -41,7 +41,6 @@ whether it came out byte for byte the same (run it from the folder the command w
 from __future__ import annotations
 
 import datetime
-import hashlib
 import json
 import os
 from pathlib import Path
@@ -62,6 +61,8 @@ def utc_now() -> str:
 
 def file_entry(path, role: str) -> dict:
     """``{"role", "path", "sha256", "bytes"}`` of a file (hash read in blocks)."""
+    import hashlib          # here: it loads OpenSSL, ~4 ms of every command that writes no record
+
     h = hashlib.sha256()
     size = 0
     with open(path, "rb") as fh:

@@ -74,6 +74,17 @@ def test_parse_as_python_equals_compiled_on_the_corpus(path):
     assert text_a == text_b
 
 
+@pytest.mark.parametrize("path", CORPUS[:6], ids=lambda p: p.name)
+def test_the_writer_as_python_equals_compiled_with_line_numbers_checksums_and_compact_words(path):
+    """The writer's Python twins (numbers by ``str``, lines moved by slices) against the
+    compiled writer, digit by digit: Marlin's N words and ``*`` checksums, GRBL's compact
+    words and G90/G91 choice."""
+    moves = parse(path.read_bytes(), lenient=True)
+    for options in ({"dialect": "marlin"}, {"compact": True}, {"arcs": "r", "tol_mm": 0.01}):
+        text_a, text_b = _both(emit, moves, **options)
+        assert text_a == text_b and len(text_a) > 100
+
+
 @pytest.mark.parametrize("dialect", ["grbl", "marlin"])
 def test_parse_as_python_equals_compiled_on_tricky_lines(dialect):
     a, b = _both(parse, TRICKY, dialect=dialect, lenient=True)
@@ -370,3 +381,30 @@ def test_a_declared_batch_projects_from_part_of_its_first_file(fresh_process, mo
         per_file.append(calls[before:])
     assert per_file[0] == ["py"] + ["nb"] * 3
     assert all(f == ["nb"] * 4 for f in per_file[1:])
+
+
+@pytest.mark.parametrize("files", [10, 20])
+def test_a_file_under_way_is_not_counted_as_not_begun(fresh_process, monkeypatch, files):
+    """A declared batch whose files each run two kernel calls inside a job of shapes and two
+    after it (ordering, G-code), 0.02 s each as Python: 0.08 s a file. Ten files (0.8 s in
+    all, below the 1 s load) stay Python: in the second file's calls after its shapes, the
+    projection is the first file's 0.08 s for each of the 9 files left less the 0.04 s the
+    second has spent (counting that file as not begun projected 0.12 s × 9 and loaded numba
+    there). Twenty files (1.6 s) go compiled from the second file's third call on."""
+    monkeypatch.setattr(_jit, "LOAD_COST_S", 1.0)
+    fresh_process.step = 0.02
+    total, calls = _recording_kernel(monkeypatch, python_below=10**9)
+    per_file = []
+    for _ in _jit.job_units(range(files)):
+        before = len(calls)
+        for _ in _jit.job_units(range(2)):
+            total(np.ones(5000))
+        total(np.ones(5000))
+        total(np.ones(5000))
+        per_file.append(calls[before:])
+    assert per_file[0] == ["py"] * 4
+    if files == 10:
+        assert all(f == ["py"] * 4 for f in per_file)
+    else:       # the projection starts once 0.1 s is spent: at the second file's third call
+        assert per_file[1] == ["py"] * 2 + ["nb"] * 2
+        assert all(f == ["nb"] * 4 for f in per_file[2:])

@@ -86,7 +86,20 @@ def _parts(value, decimals):
     return whole, value - whole * scale
 
 
-@jit(python_below=4096)  # format_number: one number at a time, as Python
+def _put_scaled_python(out, used, value, decimals):
+    """:func:`_put_scaled` as Python: the same integer parts written by ``str`` in one slice
+    (digit by digit into a fresh numpy array it took 2.5 µs a number, a third of writing
+    a program as Python)."""
+    whole, frac = divmod(-value if value < 0 else value, 10 ** decimals)
+    text = f"-{whole}" if value < 0 else str(whole)
+    if frac > 0:                       # the fraction's digits, its trailing zeros dropped
+        text += "." + str(frac).rjust(decimals, "0").rstrip("0")
+    end = used + len(text)
+    out[used:end] = memoryview(text.encode())
+    return end
+
+
+@jit(python_below=4096, python=_put_scaled_python)  # format_number: one number at a time, as Python
 def _put_scaled(out, used, value, decimals):
     """Write value / 10**decimals without trailing zeros (``-0`` written as ``0``)."""
     if value < 0:
@@ -282,7 +295,28 @@ def choose_relative(kind, end_i, cur0, relative0, decimals, last):
     return rel
 
 
-@jit
+def _end_line_python(out, used, line_start, numbered, checksums, number):
+    """:func:`_end_line` as Python: the line moved by slices, not byte by byte."""
+    if used > line_start and out[line_start] == 32:
+        out[line_start:used - 1] = out[line_start + 1:used]
+        used -= 1
+    if numbered:
+        prefix = memoryview(f"N{number} ".encode())
+        line = bytes(out[line_start:used])
+        out[line_start:line_start + len(prefix)] = prefix
+        used += len(prefix)
+        out[used - len(line):used] = memoryview(line)
+    if checksums:
+        x = 0
+        for c in bytes(out[line_start:used]):
+            x ^= c
+        out[used] = 42
+        used = _put_scaled(out, used + 1, x, 0)
+    out[used] = 10
+    return used + 1
+
+
+@jit(python=_end_line_python)
 def _end_line(out, used, line_start, numbered, checksums, number):
     """Finish a line: drop the leading space, prefix ``N`` and add ``*checksum`` when asked."""
     if used > line_start and out[line_start] == 32:
