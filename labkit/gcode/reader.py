@@ -54,7 +54,6 @@ The work happens in the compiled interpreter :mod:`labkit.gcode._kernel`.
 
 from __future__ import annotations
 
-import hashlib
 import os
 import re
 from typing import NamedTuple
@@ -292,7 +291,10 @@ def grbl_sync_lines(text, *, dialect: str | Dialect = "grbl") -> list[int]:
     data = _as_bytes(text)
     # one command asks several times for the same program's lines (the plan, the link's
     # prediction, the stall-free feed): the answer is kept for the last few programs, by
-    # digest, not by holding their text
+    # digest, not by holding their text (hashlib here: importing it loads OpenSSL, which
+    # a command that never asks should not pay)
+    import hashlib
+
     key = (hashlib.blake2b(data, digest_size=16).digest(), len(data), d)
     lines = _SYNC_LINES_SEEN.get(key)
     if lines is None:

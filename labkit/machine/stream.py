@@ -107,6 +107,10 @@ class Job:
     trace: np.ndarray | None = None
 
     def __post_init__(self):
+        # for eta_s: the source lines rising, and the latest planned end of any line up to each
+        self._done_lines = sorted(self.done_at_s)
+        self._done_by_line = (np.maximum.accumulate([self.done_at_s[ln] for ln in self._done_lines]).tolist()
+                              if self._done_lines else [])
         if self.trace is None:              # not from from_text: read the lines
             self.trace = _send_trace([t for _, t in self.send], self.dialect)
         if self.syncing is None:
@@ -199,18 +203,8 @@ class Job:
 
         Asked at every acknowledged line: a bisection over the lines' ends in line order,
         taken once (a scan of every line per ask made a 40,000-line stream quadratic)."""
-        lines, done = self._done_by_line()
-        k = bisect.bisect_right(lines, executed_line)
-        return max(0.0, self.job_time_s - (done[k - 1] if k else 0.0))
-
-    def _done_by_line(self):
-        """(source lines rising, the latest planned end of any line up to each), for eta_s."""
-        cached = self.__dict__.get("_done_cache")
-        if cached is None or cached[0] is not self.done_at_s or cached[1] != len(self.done_at_s):
-            lines = sorted(self.done_at_s)
-            done = np.maximum.accumulate([self.done_at_s[ln] for ln in lines]).tolist() if lines else []
-            cached = self.__dict__["_done_cache"] = (self.done_at_s, len(self.done_at_s), lines, done)
-        return cached[2], cached[3]
+        k = bisect.bisect_right(self._done_lines, executed_line)
+        return max(0.0, self.job_time_s - (self._done_by_line[k - 1] if k else 0.0))
 
 
 @dataclass
