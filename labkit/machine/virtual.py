@@ -56,7 +56,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dataclasses import fields, replace
+from dataclasses import replace
 
 from labkit.errors import AlarmCode, ErrorCode, Feedback, MotionError
 from labkit.gcode.reader import Interpreter, grbl_system_verdict, strip_comments
@@ -198,11 +198,6 @@ class _Block:
     pause: bool = False         # M0: a feed hold once the moves before it have run
     probe: int = 0              # G38.2-G38.5 as 382-385: the move stops when the probe switches
     probe_point: np.ndarray | None = None   # where it switched (the block now brakes past it)
-
-
-def _stack(rows: list) -> Blocks:
-    """One :class:`~labkit.motion.Blocks` of the queued blocks' rows, in order."""
-    return Blocks(**{f.name: np.concatenate([getattr(r, f.name) for r in rows]) for f in fields(Blocks)})
 
 
 #: GRBL 1.1h's homing (config.h as released): Z first, then X and Y together; the search covers
@@ -1862,7 +1857,7 @@ class VirtualMachine:
             if q.is_dwell:
                 break
             run.append(q)
-        rows = _stack([q.row for q in run])
+        rows = Blocks.concat([q.row for q in run])
         # overrides scale the programmed rates (GRBL re-plans its queue with them)
         cap = np.where(rows.rapid, rows.limit_mm_s * rapid_ov / 100.0,
                        np.minimum(rows.feed_mm_s * feed_ov / 100.0, rows.limit_mm_s))

@@ -37,6 +37,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from labkit._array import ColumnTable
 from labkit.errors import MotionError
 from labkit.motion.bresenham import arc_lattice_points, direction_bits
 from labkit.motion.spec import MachineSpec, load_machine
@@ -66,7 +67,7 @@ def to_steps(mm, steps_per_mm):
 
 
 @dataclass(frozen=True)
-class Blocks:
+class Blocks(ColumnTable):
     """Blocks as numpy columns, one row per block in program order.
 
     Attributes
@@ -131,15 +132,6 @@ class Blocks:
     laser_mode: np.ndarray
     power_mw: np.ndarray
     dwell_s: np.ndarray
-
-    def __len__(self) -> int:
-        return len(self.kind)
-
-    def __getitem__(self, index) -> "Blocks":
-        """Rows by slice, mask or index array."""
-        if isinstance(index, (int, np.integer)):
-            index = slice(index, index + 1 if index != -1 else None)
-        return Blocks(**{f.name: getattr(self, f.name)[index] for f in fields(self)})
 
     @property
     def steps(self) -> np.ndarray:

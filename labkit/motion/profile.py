@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from labkit._array import scalar_or_array
+from labkit._array import ColumnTable, scalar_or_array
 from labkit.errors import MotionError
 from labkit.motion import _ramp
 
@@ -96,7 +96,7 @@ def ramp_time(v0_mm_s, v1_mm_s, slope, law="linear"):
 
 
 @dataclass(frozen=True)
-class Profiles:
+class Profiles(ColumnTable):
     """Speed profiles of n blocks as columns (all speeds mm/s, distances mm, times s).
 
     Attributes
@@ -127,9 +127,6 @@ class Profiles:
     accel_s: np.ndarray
     cruise_s: np.ndarray
     decel_s: np.ndarray
-
-    def __len__(self) -> int:
-        return len(self.length_mm)
 
     @property
     def time_s(self) -> np.ndarray:

@@ -51,7 +51,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from labkit._array import scalar_or_array
+from labkit._array import ColumnTable, scalar_or_array
 from labkit.errors import MotionError
 from labkit.motion.blocks import BlockKind
 from labkit.motion.bresenham import arc_lattice_points, lines_points
@@ -119,7 +119,7 @@ def isqrt(x):
 
 
 @dataclass(frozen=True)
-class StepBlocks:
+class StepBlocks(ColumnTable):
     """The integer blocks the runner executes (one row per block of the plan).
 
     Attributes
@@ -158,9 +158,6 @@ class StepBlocks:
     f_feed: np.ndarray
     laser: np.ndarray
     power_mw: np.ndarray
-
-    def __len__(self) -> int:
-        return len(self.block)
 
     def row(self, i: int) -> dict:
         """Row ``i`` as a dict of Python ints (and the law)."""
@@ -264,7 +261,7 @@ def block_periods(row: dict, *, timer_clock_hz: int, prescaler: int) -> np.ndarr
 
 
 @dataclass(frozen=True)
-class StepTrace:
+class StepTrace(ColumnTable):
     """The step pulse train: one row per tick.
 
     Attributes
@@ -290,9 +287,6 @@ class StepTrace:
     step: np.ndarray
     period: np.ndarray
     power_mw: np.ndarray
-
-    def __len__(self) -> int:
-        return len(self.cycle)
 
     @property
     def dir_bits(self) -> np.ndarray:
@@ -372,11 +366,7 @@ def step_trace(plan) -> StepTrace:
     ([48000, 94154], [47999, 46153])
     """
     parts = list(iter_step_chunks(plan, max_ticks=2 ** 62))
-    return parts[0] if len(parts) == 1 else _join_traces(parts)
-
-
-def _join_traces(traces) -> StepTrace:
-    return StepTrace(*(np.concatenate([getattr(t, f.name) for t in traces]) for f in fields(StepTrace)))
+    return parts[0] if len(parts) == 1 else StepTrace.concat(parts)
 
 
 def block_points(blocks, i: int, steps_per_mm) -> np.ndarray:

@@ -123,3 +123,40 @@ def test_dwell_time_counts_in_the_trace():
 def test_tick_rates_argument_error():
     with pytest.raises(MotionError, match="ramp law must be 'linear' or 'accel'"):
         tick_rates(10, 1000, 2000, 1000, 1000, 10, 10, "cubic")
+
+
+def test_plan_tables_select_and_join_rows_as_their_columns_do():
+    # Blocks, Profiles, StepBlocks and StepTrace share one table behaviour (labkit._array.
+    # ColumnTable): checked against numpy's own indexing of each column, and a trace made in
+    # small pieces joined back against the trace made whole.
+    from dataclasses import fields
+
+    from labkit.motion.timer import iter_step_chunks
+
+    p = plan(zigzag_moves(), planner="hq")
+    sb = step_blocks(p)
+    whole = step_trace(p)
+    tables = {"blocks": p.blocks, "profiles": p.profiles, "step blocks": sb, "trace": whole}
+    rng = np.random.default_rng(7)
+    for name, table in tables.items():
+        cols = {f.name: getattr(table, f.name) for f in fields(table)}
+        arrays = {k: v for k, v in cols.items() if isinstance(v, np.ndarray)}
+        n = len(next(iter(arrays.values())))
+        assert len(table) == n > 3, name
+        mask = rng.random(n) < 0.5
+        for index in (mask, slice(1, None, 2), np.array([n - 1, 0]), 2, -1):
+            picked = table[index]
+            expect_rows = np.arange(n)[index]
+            assert len(picked) == np.atleast_1d(expect_rows).size, (name, index)
+            for k, v in cols.items():
+                got = getattr(picked, k)
+                if k in arrays:
+                    want = v[np.atleast_1d(expect_rows)]
+                    assert np.array_equal(got, want, equal_nan=True), (name, k, index)
+                else:
+                    assert got == v, (name, k)
+    pieces = list(iter_step_chunks(p, max_ticks=97))
+    assert len(pieces) > 3
+    joined = type(whole).concat(pieces)
+    for f in fields(whole):
+        assert np.array_equal(getattr(joined, f.name), getattr(whole, f.name)), f.name
