@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 from labkit import __version__
@@ -80,6 +81,11 @@ def _top_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit status (0 ok, 1 failure, 2 usage)."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    if "numpy" not in sys.modules:
+        # One BLAS thread for a command: its matrix products are small, and OpenBLAS's pool,
+        # started at numpy's import, spins ~0.1 s of CPU a process for nothing (a user's
+        # own setting wins; a notebook, which does not come through here, keeps the pool).
+        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     top = _top_parser()
     if not argv:
         top.print_help()

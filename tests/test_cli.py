@@ -76,3 +76,24 @@ def test_unknown_command_is_a_usage_error():
     with pytest.raises(SystemExit) as info:
         main(["frobnicate"])
     assert info.value.code == 2
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="counts threads in /proc")
+def test_a_command_runs_one_blas_thread_unless_the_user_asks(tmp_path):
+    # OpenBLAS starts its thread pool at numpy's import and its idle threads spin (~0.1 s of CPU
+    # a command for nothing): a command starts none. Counted by the kernel's own thread list;
+    # a user's OPENBLAS_NUM_THREADS still wins.
+    import os
+
+    script = ("import os, sys\nfrom labkit.cli import main\n"
+              f"assert main(['check', {str(DATA / 'jsdc-laser.gcode')!r}]) == 0\n"
+              "assert 'numpy' in sys.modules\nprint(len(os.listdir('/proc/self/task')))\n")
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    env["LABKIT_JIT"] = "python"            # numba's own threads are not the question here
+    ours = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True,
+                          check=True)
+    assert ours.stdout.split()[-1] == "1"
+    if (os.cpu_count() or 1) > 1:
+        theirs = subprocess.run([sys.executable, "-c", script], env={**env, "OPENBLAS_NUM_THREADS": "2"},
+                                capture_output=True, text=True, check=True)
+        assert int(theirs.stdout.split()[-1]) > 1
