@@ -1805,7 +1805,7 @@ class VirtualMachine:
         step dropped (GRBL plans no block for it), a dwell as a block of its own; with
         ``limit``, only the pieces before that one (a soft limit stops the line there)."""
         chords = expand_arcs(moves, float(self.settings[12]))
-        rows = build_blocks(chords, self.machine)
+        rows = build_blocks(chords, self.machine).with_rest(self.machine, "accel")
         out = []
         for r in range(len(rows)):
             i = int(rows.move[r])
@@ -1861,6 +1861,8 @@ class VirtualMachine:
         # overrides scale the programmed rates (GRBL re-plans its queue with them)
         cap = np.where(rows.rapid, rows.limit_mm_s * rapid_ov / 100.0,
                        np.minimum(rows.feed_mm_s * feed_ov / 100.0, rows.limit_mm_s))
+        # the step timer's slowest speed, which a dip must go below to show (GRBL plans from 0)
+        timer_floor = np.minimum(rows.speed_at_rate(self.machine.start_rate_hz), cap)
         rows = replace(rows, cap_mm_s=cap, rest_mm_s=np.minimum(rows.rest_mm_s, cap))
         up = rows.accel_mm_s2.copy()
         up[0] = 1e30        # the head ramps from its real entry below; the plan gives the limit behind
@@ -1873,7 +1875,8 @@ class VirtualMachine:
         v_out = min(float(la.speed_mm_s[1]), float(reach_speed(entry, length, acc, "accel")))
         # an override lowered since the entry was planned: brake as hard as the block allows
         v_out = max(v_out, math.sqrt(max(0.0, entry * entry - 2.0 * acc * length)))
-        self._short_since = self._sim_t if self._queue_short(b, run, rows, float(la.speed_mm_s[1]),
+        self._short_since = self._sim_t if self._queue_short(b, run, rows, float(timer_floor[-1]),
+                                                             float(la.speed_mm_s[1]),
                                                              min(top, reach_speed(entry, length, acc, "accel"))) else None
         b.speed_mm_s = top
         b.exit_mm_s = v_out
@@ -1882,16 +1885,19 @@ class VirtualMachine:
 
 
     # ---- short queues (issue 30 §2): kept apart from the rest, one call in, one out
-    def _queue_short(self, b, run, rows, v_exit: float, v_own: float) -> bool:
+    def _queue_short(self, b, run, rows, floor: float, v_exit: float, v_own: float) -> bool:
         """Whether the head ``b`` leaves slower than it would with more queued: its exit
         ``v_exit`` (planned over ``run``, the queue up to a dwell) is what the blocks behind
-        it let it shed by the queue's end, from rest, and below ``v_own``, what its own cap
-        and length allow (:func:`labkit.motion.stall.short_queues`).
+        it let it shed by the queue's end, from rest, and ``v_own``, what its own cap and
+        length allow, is above what they let it shed from ``floor``, the last block's speed
+        at the step timer's slowest rate (a dip below it cannot show: the steps run at it)
+        (:func:`labkit.motion.stall.short_queues`).
         Not when the planner is full, the queue ends at a dwell, or ``b`` is a job's first."""
         if b is self._into_empty or len(run) != len(self._blocks) or len(run) >= self.planner_blocks:
             return False
         shed = float(np.sum(2.0 * rows.accel_mm_s2[1:] * rows.length_mm[1:]))
-        return v_own * (1 - 1e-9) > v_exit >= math.sqrt(float(rows.rest_mm_s[-1]) ** 2 + shed) * (1 - 1e-9)
+        binds = v_exit >= math.sqrt(float(rows.rest_mm_s[-1]) ** 2 + shed) * (1 - 1e-9)
+        return binds and v_own * (1 - 1e-9) > max(v_exit, math.sqrt(floor ** 2 + shed))
 
     def _note_short_queue(self, queued: int, starved: bool) -> None:
         """A line's blocks were queued behind ``queued`` others (``starved``: after a

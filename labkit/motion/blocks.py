@@ -23,7 +23,9 @@ Conventions (what the firmware must reproduce)
   run at the axis limit. The acceleration along a line is
   min_i(a_i / |u_i|) (GRBL); along an arc the smallest of its axes'.
 - The rest speed of a block is the path speed at which its driver axis steps
-  at the machine's start rate, start_rate_hz × L / N (or the cap if lower).
+  at the machine's start rate, start_rate_hz × L / N (or the cap if lower); a
+  plan with constant acceleration on a machine whose planner rests at zero
+  (GRBL, ``MachineSpec.rest_at_zero``) sets it to 0 (:meth:`Blocks.with_rest`).
 - Power: S / s_max × laser maximum (mW) while the beam burns (M3/M4 with
   S > 0 on a feed move), else 0; the power/speed ratio of [CBR40] §IV is
   that power over the programmed speed (mW per mm/s).
@@ -33,7 +35,7 @@ from __future__ import annotations
 
 import enum
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -101,7 +103,8 @@ class Blocks(ColumnTable):
     accel_mm_s2 : float
         Acceleration along the block.
     rest_mm_s : float
-        Rest speed: the driver at the machine's start rate (≤ cap).
+        Rest speed, the speed the planner starts and stops the block at: the
+        driver at the machine's start rate (≤ cap), or 0 (:meth:`with_rest`).
     laser_mode : int8
         0 off, 3 M3 constant, 4 M4 dynamic.
     power_mw : float
@@ -137,6 +140,18 @@ class Blocks(ColumnTable):
     def steps(self) -> np.ndarray:
         """Net displacement in steps per axis, (n, 3)."""
         return self.end_steps - self.start_steps
+
+    def speed_at_rate(self, rate_hz) -> np.ndarray:
+        """Path speed (mm/s) at which each block's driver axis steps at ``rate_hz`` (Hz), at
+        most its cap; 0 for a block of no tick. At the machine's ``start_rate_hz`` it is the
+        slowest speed the step timer runs the block at (a planned speed below it runs at it)."""
+        return _rest_mm_s(self.length_mm, self.ticks, self.cap_mm_s, rate_hz)
+
+    def with_rest(self, machine: MachineSpec, law: str) -> "Blocks":
+        """The blocks with the rest speed ``machine``'s planner starts and stops them at
+        under the ramp ``law`` (``"linear"`` or ``"accel"``): the driver at
+        :meth:`MachineSpec.rest_rate_hz` (0 on GRBL with constant acceleration)."""
+        return replace(self, rest_mm_s=self.speed_at_rate(machine.rest_rate_hz(law)))
 
     @property
     def dir_bits(self) -> np.ndarray:
@@ -420,8 +435,7 @@ def build_blocks(moves: Moves, machine: MachineSpec | str | None = None, *,
         accel[i] = min(amax[axes])
 
     cap = np.minimum(feed, limit)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rest = np.where(ticks > 0, np.minimum(m.start_rate_hz * length / np.maximum(ticks, 1), cap), 0.0)
+    rest = _rest_mm_s(length, ticks, cap, m.start_rate_hz)
     burning = moves.laser_on
     power = moves.power_mw(m.laser_max_power_mw)
     keep = (ticks > 0) | (kind == BlockKind.DWELL)
@@ -438,6 +452,13 @@ def build_blocks(moves: Moves, machine: MachineSpec | str | None = None, *,
                   accel_mm_s2=accel[keep], rest_mm_s=rest[keep],
                   laser_mode=np.where(burning, moves.laser, LaserMode.OFF)[keep].astype(np.int8),
                   power_mw=power[keep], dwell_s=dwell[keep])
+
+
+def _rest_mm_s(length_mm, ticks, cap_mm_s, rate_hz: int) -> np.ndarray:
+    """Path speed (mm/s) at which a block's driver steps at ``rate_hz``, at most its cap;
+    0 for a block of no tick."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(ticks > 0, np.minimum(rate_hz * length_mm / np.maximum(ticks, 1), cap_mm_s), 0.0)
 
 
 def _empty_blocks() -> Blocks:

@@ -296,6 +296,7 @@ def plan(moves: Moves | Blocks, machine: MachineSpec | str | None = None, *, pla
     law = default_law(planner) if law is None else law
     if law not in RAMP_LAWS:
         raise MotionError(f"ramp law must be one of {sorted(RAMP_LAWS)}, got {law!r}")
+    blocks = blocks.with_rest(m, law)       # GRBL's planner rests at 0, the others at the start rate
     depth = m.buffer_blocks if buffer_blocks is None else buffer_blocks
     motion = np.flatnonzero(blocks.is_motion)
     mb = blocks[motion]

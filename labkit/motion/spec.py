@@ -107,8 +107,16 @@ class MachineSpec:
         [CBR40]'s ramp slopes: the driver axis' step rate rises (falls) by
         this many Hz per step, ≥ 1.
     start_rate_hz : int
-        Step rate the motors start and stop at without a ramp, Hz; the floor
-        of every step rate (and the rest speed of [CBR40]'s linear ramps).
+        Slowest step rate of the driver axis, Hz: the step timer never times a
+        tick slower (the floor of every step rate). It is also the rate the
+        planner starts and stops the motors at without a ramp (the rest speed),
+        unless ``rest_at_zero`` says otherwise.
+    rest_at_zero : bool
+        True when the controller's planner starts and stops its constant-acceleration
+        ramps at speed 0 (GRBL: its minimum junction speed is 0), the step timer still
+        ticking no slower than ``start_rate_hz``; False (default) when it plans from and
+        to the start rate (the labkit firmware, [CBR40]). [CBR40]'s linear ramps (Hz
+        per step) always rest at the start rate: they cannot start from 0.
     junction_deviation_mm : float
         GRBL ``$11``: how far the path may deviate at a corner, mm (> 0).
     arc_tolerance_mm : float
@@ -186,6 +194,7 @@ class MachineSpec:
     accel_hz_per_step: int = 40
     decel_hz_per_step: int = 40
     start_rate_hz: int = 1000
+    rest_at_zero: bool = False
     junction_deviation_mm: float = 0.01
     arc_tolerance_mm: float = 0.002
     buffer_blocks: int = 16
@@ -242,7 +251,7 @@ class MachineSpec:
              and not isinstance(self.block_parse_s, bool)
              and math.isfinite(self.block_parse_s) and self.block_parse_s >= 0, ">= 0 s and finite"),
         ]
-        for name in ("waits_for_lookahead", "laser_change_syncs"):
+        for name in ("rest_at_zero", "waits_for_lookahead", "laser_change_syncs"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise MotionError(f"machine {self.name!r}: {name} must be true or false, "
                                   f"got {getattr(self, name)!r}")
@@ -292,6 +301,18 @@ class MachineSpec:
     def tick_hz(self) -> float:
         """Counting rate of the step timer, Hz: clock / (prescaler + 1)."""
         return self.timer_clock_hz / (self.prescaler + 1)
+
+    def rest_rate_hz(self, law: str) -> int:
+        """Driver step rate the planner starts and stops the motors at under a ramp law, Hz:
+        0 for constant acceleration (``"accel"``) on a machine whose planner rests at zero
+        (:attr:`rest_at_zero`), else :attr:`start_rate_hz`.
+
+        >>> CBR40.rest_rate_hz("accel"), CBR40.replace(rest_at_zero=True).rest_rate_hz("accel")
+        (1000, 0)
+        >>> CBR40.replace(rest_at_zero=True).rest_rate_hz("linear")     # a Hz-per-step ramp needs a start
+        1000
+        """
+        return 0 if self.rest_at_zero and law == "accel" else self.start_rate_hz
 
     @property
     def link_bytes_per_s(self) -> float:

@@ -404,9 +404,11 @@ class LinkPrediction:
         End of the last block, s from the first byte.
     motion_time_s : float
         The job's time with a link that never holds it back (the plan's), s.
-    block_exit_mm_s, block_brake_mm2_s2, block_rest_mm_s : ndarray of float or None
+    block_exit_mm_s, block_brake_mm2_s2, block_floor_mm_s : ndarray of float or None
         From the plan, per block: its exit speed, the square of the speed its length lets it
-        shed (2 a L) and its rest speed; what :func:`short_queues` needs.
+        shed (2 a L) and its floor, the speed of its driver at the step timer's slowest rate
+        (``start_rate_hz``; GRBL's planner rests at 0 but its steps never tick slower); what
+        :func:`short_queues` needs.
     sync_lines : ndarray of int
         Lines at which the controller emptied its planner before it went on (GRBL's
         M3/M4/M5 changes and the other lines of :func:`labkit.gcode.grbl_sync_lines`).
@@ -427,7 +429,7 @@ class LinkPrediction:
     motion_time_s: float = 0.0
     block_exit_mm_s: np.ndarray | None = None
     block_brake_mm2_s2: np.ndarray | None = None
-    block_rest_mm_s: np.ndarray | None = None
+    block_floor_mm_s: np.ndarray | None = None
     sync_lines: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
     @property
@@ -606,7 +608,7 @@ def predict_stalls(text: str, machine=None, *, line_bytes=None, dialect: str = "
                           block_exit_mm_s=np.asarray(p.lookahead.speed_mm_s[1:nb + 1], dtype=float),
                           block_brake_mm2_s2=2.0 * np.asarray(p.blocks.accel_mm_s2, dtype=float)
                           * np.asarray(p.blocks.length_mm, dtype=float),
-                          block_rest_mm_s=np.asarray(p.blocks.rest_mm_s, dtype=float), sync_lines=sync)
+                          block_floor_mm_s=p.blocks.speed_at_rate(m.start_rate_hz), sync_lines=sync)
 
 
 def short_queues(prediction: LinkPrediction) -> list[Starvation]:
@@ -618,8 +620,10 @@ def short_queues(prediction: LinkPrediction) -> list[Starvation]:
     speed (a dip a raster job shows as a darker dot) before it costs a stop. Block j is
     short when its exit speed in the plan (the whole program ahead) is above what the
     blocks parsed by its start (at most ``planner_blocks`` - 1) let it keep: the square
-    root of the last one's rest speed squared plus 2 a L summed over them (no speed cap
-    between can raise it, and one that binds binds the plan too). This is the event a
+    root of the last one's floor squared plus 2 a L summed over them (no speed cap
+    between can raise it, and one that binds binds the plan too). The floor is the speed
+    of the step timer's slowest rate (``start_rate_hz``): a dip below it cannot show, the
+    steps run at it anyway (GRBL's planner stops at 0, its stepper at 30.5 Hz). This is the event a
     GRBL-family machine (the virtual machine's ``short_queues``) is compared on; a
     starvation (:attr:`LinkPrediction.stalls`) is the worse case of it.
 
@@ -664,7 +668,7 @@ def short_queues(prediction: LinkPrediction) -> list[Starvation]:
     q = np.clip(q, 0, p.machine.planner_blocks - 1)
     last = j + q
     brake = np.concatenate([[0.0], np.cumsum(p.block_brake_mm2_s2)])
-    keep = np.sqrt(p.block_rest_mm_s[last] ** 2 + brake[last + 1] - brake[j + 1])
+    keep = np.sqrt(p.block_floor_mm_s[last] ** 2 + brake[last + 1] - brake[j + 1])
     short = (p.block_exit_mm_s[:-1] > keep * (1 + 1e-9)) & (j > 0) & (last + 1 < nb)
     # the first block after a sync enters a planner the program emptied, as a job's first
     restart = np.searchsorted(p.block_line, p.sync_lines, side="left")

@@ -42,7 +42,8 @@ block P, a dark block 0 (IEEE double: one multiply and one divide).
 
 Because every tick runs at the rate of its start, the step-timed job is a
 little slower than the continuous profiles (:attr:`Plan.job_time_s`): about
-half a tick at the start rate per ramp from or to rest.
+half a tick at the start rate per ramp from or to rest (more where the planner
+rests at 0, ``MachineSpec.rest_at_zero``: the first tick still runs at f_min).
 """
 
 from __future__ import annotations

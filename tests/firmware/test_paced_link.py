@@ -122,7 +122,7 @@ def test_the_firmware_stops_at_a_laser_change_as_its_description_says(sim, tmp_p
         stopped = t[i + 1] - t[i] > 10 * cruise
         assert stopped == FIRMWARE_LASER_CHANGE_SYNCS, (a, b, t[i + 1] - t[i])
         # the plan: the cut leaves at its rest speed where the firmware stops
-        assert (pred.block_exit_mm_s[k] <= pred.block_rest_mm_s[k] * (1 + 1e-9)) == stopped
+        assert (pred.block_exit_mm_s[k] <= pred.block_floor_mm_s[k] * (1 + 1e-9)) == stopped
 
 
 def test_paced_options_are_checked(sim, tmp_path):

@@ -20,9 +20,10 @@ from labkit.gcode.reader import parse
 from labkit.machine.virtual import VirtualMachine
 from labkit.motion import MachineSpec, load_machine, plan
 
-#: grbl-diode with the rest speed and planner depth the hand-worked numbers use
-DIODE = load_machine("grbl-diode").replace(start_rate_hz=250, planner_blocks=15,
-                                                  block_parse_s=0.0)
+#: grbl-diode with the rest speed (250 Hz, planned from: not GRBL's 0) and planner depth the
+#: hand-worked numbers use
+DIODE = load_machine("grbl-diode").replace(start_rate_hz=250, rest_at_zero=False, planner_blocks=15,
+                                           block_parse_s=0.0)
 
 VECTORS = sorted((Path(__file__).resolve().parents[1] / "vectors" / "motion").glob("*.json"))
 

@@ -370,11 +370,10 @@ def test_the_numpy_line_bytes_equal_the_line_by_line_ones(monkeypatch):
 # ---------------------------------------------------------------- GRBL's stop at a laser change
 
 def test_grbl_stops_at_a_laser_change_and_parses_the_next_line_after_it():
-    """Hand-worked, grbl-diode (1000 mm/s², rest 31 Hz / 80 steps/mm = 0.3875 mm/s, 3.7 ms a
-    line, 115200 baud): 'M3S100', a 10 mm cut at 600 mm/min, 'M5', a 10 mm move. GRBL syncs
-    at M3 (nothing to wait for) and at M5: the cut runs alone from rest to rest, (10 − 0.3875)
-    / 1000 = 9.6125 ms a ramp over (10² − 0.3875²) / 2000 = 0.0499249 mm, 9.9001502 mm at
-    10 mm/s between: 1.0092400 s. The M5 is answered when the cut ends; the next line is
+    """Hand-worked, grbl-diode (1000 mm/s², GRBL's planner rests at 0, 3.7 ms a line, 115200
+    baud): 'M3S100', a 10 mm cut at 600 mm/min, 'M5', a 10 mm move. GRBL syncs at M3 (nothing
+    to wait for) and at M5: the cut runs alone from rest to rest, 10 / 1000 = 10 ms a ramp over
+    10² / 2000 = 0.05 mm, 9.9 mm at 10 mm/s between: 1.01 s. The M5 is answered when the cut ends; the next line is
     parsed 3.7 ms later and its move starts then. That stop is the program's, not a
     starvation, and the move after it is no short queue (nothing could be behind it). A GRBL
     described without the sync runs the two moves as one stream; the labkit firmware
@@ -387,9 +386,8 @@ def test_grbl_stops_at_a_laser_change_and_parses_the_next_line_after_it():
     assert grbl_sync_lines(job) == [1, 3]
     p = predict_stalls(job, grbl)
     a, b = 0, 1
-    ramp_s, ramp_mm = (10 - 0.3875) / 1000, (10 ** 2 - 0.3875 ** 2) / 2000
-    assert p.block_end_s[a] - p.block_start_s[a] == pytest.approx(2 * ramp_s + (10 - 2 * ramp_mm) / 10, abs=1e-9)
-    assert p.block_exit_mm_s[a] == pytest.approx(0.3875)
+    assert p.block_end_s[a] - p.block_start_s[a] == pytest.approx(2 * 0.01 + (10 - 2 * 0.05) / 10, abs=1e-9)
+    assert p.block_exit_mm_s[a] == 0.0
     assert p.parsed_s[2] == pytest.approx(p.block_end_s[a])            # M5 answered as the cut ends
     assert p.block_start_s[b] == pytest.approx(p.block_end_s[a] + 0.0037)
     assert p.stalls == [] and short_queues(p) == []
@@ -397,7 +395,7 @@ def test_grbl_stops_at_a_laser_change_and_parses_the_next_line_after_it():
     assert q.block_start_s[b] == pytest.approx(q.block_end_s[a])        # one stream: no stop
     assert q.block_exit_mm_s[a] > 1.0
     fw = predict_stalls(job, load_machine("labkit-diode").replace(waits_for_lookahead=False))
-    assert fw.block_exit_mm_s[a] <= fw.block_rest_mm_s[a] * (1 + 1e-9)  # stops at the M5
+    assert fw.block_exit_mm_s[a] <= fw.block_floor_mm_s[a] * (1 + 1e-9)  # stops at the M5
     assert fw.block_start_s[b] > fw.block_end_s[a]                      # the M5's answer first
     assert load_machine("labkit-diode").laser_change_syncs == CBR40.laser_change_syncs == FIRMWARE_LASER_CHANGE_SYNCS
     assert FIRMWARE_LASER_CHANGE_SYNCS

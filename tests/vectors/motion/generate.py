@@ -26,9 +26,14 @@ from labkit.motion.timer import block_points, step_blocks, tick_power_mw, tick_r
 HERE = Path(__file__).resolve().parent
 SCHEMA = "labkit-motion-vector/1"
 
+#: The labkit firmware plans every ramp from and to its start rate: it has no
+#: ``MachineSpec.rest_at_zero`` (GRBL's planner rests at 0), so every case is made with it false
+#: and the vectors leave the key out (the firmware's tests read them).
+FIRMWARE_REST = dict(rest_at_zero=False)
+
 #: The grbl-diode description with the 250 Hz start/stop floor it had until issue 29 (it has
 #: GRBL's 31 Hz since): the floor regressions below need a rest speed that high to arise.
-FLOOR_250_HZ = dict(start_rate_hz=250, prescaler=0)
+FLOOR_250_HZ = dict(start_rate_hz=250, prescaler=0, **FIRMWARE_REST)
 
 CASES = {
     "lines_2d_hq": dict(
@@ -57,7 +62,7 @@ CASES = {
               "G1 X0 S300\nG1 Y0.01 S0\nG1 X0.06 S600\nM5\n"),
     "dwell_rapid_grbl_diode": dict(
         description="Rapids, a dwell and cuts on the GRBL diode machine (80 steps/mm, 16 MHz timer)",
-        machine="grbl-diode", planner="junction",
+        machine="grbl-diode", machine_fields=FIRMWARE_REST, planner="junction",
         gcode="G21 G90\nG0 X1 Y0.5\nM3 S1000\nG1 X1.5 Y0.5 F1500\nG4 P0.05\nG1 X1.5 Y1.0\nM5\nG0 X0 Y0\n"),
     "short_blocks_buffer1_fast": dict(
         description="Short blocks through a one-block look-ahead, fast MBLA on the GRBL diode "
@@ -117,6 +122,8 @@ def make_vector(name: str) -> dict:
     """Build one vector from the reference."""
     case = CASES[name]
     m = load_machine(case["machine"]).replace(**case.get("machine_fields", {}))
+    if m.rest_at_zero:
+        raise ValueError(f"{name}: the firmware plans from its start rate; give rest_at_zero=False")
     moves = parse(case["gcode"], dialect="grbl")
     # the machine stops where GRBL syncs (a laser or coolant switch between moves), as the
     # firmware's grbl dialect does
@@ -173,9 +180,10 @@ def make_vector(name: str) -> dict:
         "name": name,
         "description": case["description"],
         "generated_by": "tests/vectors/motion/generate.py (labkit.motion reference)",
-        # the motion fields only: grbl_settings are what a sender reads from the controller
+        # the motion fields only: grbl_settings are what a sender reads from the controller,
+        # rest_at_zero is false in every vector (FIRMWARE_REST)
         "machine": {k: v for k, v in m.to_dict().items()
-                    if k not in ("description", "grbl_settings")},
+                    if k not in ("description", "grbl_settings", "rest_at_zero")},
         "planner": case["planner"], "law": p.law, "buffer_blocks": p.lookahead.buffer_blocks,
         "dialect": "grbl",
         "gcode": case["gcode"],
