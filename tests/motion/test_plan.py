@@ -326,3 +326,35 @@ def test_sync_lines_and_stops_rest_the_machine(planner):
     assert math.isclose(p.job_time_s, ref.job_time_s, rel_tol=1e-12)
     free = plan(parse(text.replace("M0\n", "")), planner=planner)
     assert free.job_time_s < p.job_time_s
+
+
+def test_a_planner_resting_at_zero_ramps_from_zero_and_ticks_at_the_timer_floor():
+    """grbl-diode (GRBL's planner rests at 0, its timer ticks no slower than 31 Hz): a 10 mm cut
+    at 600 mm/min ramps 0 -> 10 mm/s -> 0 at 1000 mm/s² (closed form: 2 x 10 ms over 0.05 mm,
+    9.9 mm at 10 mm/s: 1.01 s); planned from the 31 Hz floor v0 = 0.3875 mm/s each ramp is
+    v0 / a shorter and v0² / 2a shorter in length, which the cruise at 10 mm/s takes back:
+    2 (v0 / a - v0² / (2 a · 10)) = 0.760 ms in all. The step blocks are the same integers either way: a stop enters and leaves
+    at the timer's floor, f_min = 31 Hz, and no tick runs slower."""
+    from labkit.motion import load_machine
+    from labkit.motion.timer import step_blocks, tick_rates
+
+    grbl = load_machine("grbl-diode")
+    b = MovesBuilder(feed_mm_min=600)
+    b.line(x=10)
+    moves = b.build()
+    zero, floor = plan(moves, grbl), plan(moves, grbl.replace(rest_at_zero=False))
+    assert zero.profiles.entry_mm_s[0] == zero.profiles.exit_mm_s[0] == 0.0
+    assert zero.job_time_s == pytest.approx(2 * 0.01 + 9.9 / 10, rel=1e-12)
+    v0 = 31 / 80
+    assert zero.job_time_s - floor.job_time_s == pytest.approx(2 * (v0 / 1000 - v0 ** 2 / 2000 / 10), rel=1e-9)
+    sz, sf = step_blocks(zero), step_blocks(floor)
+    for name in ("ticks", "f_entry", "f_peak", "f_exit", "f_min", "up", "down"):
+        assert sz.row(0)[name] == sf.row(0)[name], name
+    row = sz.row(0)
+    assert row["f_entry"] == row["f_exit"] == row["f_min"] == 31
+    rates = tick_rates(row["ticks"], row["f_entry"], row["f_peak"], row["f_exit"], row["f_min"],
+                       row["up"], row["down"], row["law"])
+    assert rates.min() == 31
+    # [CBR40]'s linear ramps cannot start from 0: with them the floor is the rest
+    lin = plan(moves, grbl, planner="hq")
+    assert lin.profiles.entry_mm_s[0] == pytest.approx(31 / 80)

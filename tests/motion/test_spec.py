@@ -57,6 +57,7 @@ def test_scalars_broadcast_and_replace_validates():
     (dict(prescaler=1000), "lower the prescaler"),
     (dict(step_pulse_us=10.0), "10 µs step pulses do not fit twice in a tick at 54972 Hz"),
     (dict(timer_clock_hz=True), "timer_clock_hz must be an integer"),
+    (dict(rest_at_zero="yes"), "rest_at_zero must be true or false"),
 ])
 def test_bad_values_are_rejected_with_the_field_name(changes, match):
     with pytest.raises(MotionError, match=match):
@@ -114,3 +115,15 @@ def test_laser_maximum_is_stated_only_in_the_machine_description():
     assert offenders == []
     for fn in (units.s_to_mw, units.mw_to_s):
         assert inspect.signature(fn).parameters["max_power_mw"].default is inspect.Parameter.empty
+
+
+def test_only_grbls_planner_rests_at_zero():
+    """grbl-diode plans every stop from and to 0 as GRBL's planner does, its step timer still
+    clamped at 31 Hz; the labkit firmware's descriptions and [CBR40]'s plan from the start rate,
+    and a linear (Hz per step) ramp always does."""
+    grbl = load_machine("grbl-diode")
+    assert grbl.rest_at_zero and grbl.start_rate_hz == 31
+    assert (grbl.rest_rate_hz("accel"), grbl.rest_rate_hz("linear")) == (0, 31)
+    for name in ("cbr40-laser", "labkit-diode"):
+        m = load_machine(name)
+        assert not m.rest_at_zero and m.rest_rate_hz("accel") == m.start_rate_hz
