@@ -259,7 +259,7 @@ def parse_with_states(text, *, dialect: str | Dialect = "grbl", filename: str | 
     return moves, out.trace[:_line_count(data)]
 
 
-def grbl_sync_lines(text, *, dialect: str | Dialect = "grbl") -> list[int]:
+def grbl_sync_lines(text, *, dialect: str | Dialect = "grbl", trace=None) -> list[int]:
     """The lines GRBL runs only once the moves before them have ended, so that the machine
     stops before their moves: every accepted line with a
     :func:`~labkit.gcode.state.grbl_sync_reasons` (a laser or coolant switch, an offset or
@@ -272,6 +272,10 @@ def grbl_sync_lines(text, *, dialect: str | Dialect = "grbl") -> list[int]:
     text : str or bytes
         The program.
     dialect : str or Dialect
+    trace : ndarray, optional
+        What :func:`parse_with_states` returned for ``text`` in strict mode (no line
+        refused), when the caller has it: the lines are read from it instead of running
+        the interpreter again.
 
     Returns
     -------
@@ -298,7 +302,7 @@ def grbl_sync_lines(text, *, dialect: str | Dialect = "grbl") -> list[int]:
     key = (hashlib.blake2b(data, digest_size=16).digest(), len(data), d)
     lines = _SYNC_LINES_SEEN.get(key)
     if lines is None:
-        lines = _SYNC_LINES_SEEN[key] = tuple(_grbl_sync_lines(data, d))
+        lines = _SYNC_LINES_SEEN[key] = tuple(_grbl_sync_lines(data, d, trace))
         while len(_SYNC_LINES_SEEN) > 4:
             del _SYNC_LINES_SEEN[next(iter(_SYNC_LINES_SEEN))]
     return list(lines)
@@ -307,13 +311,18 @@ def grbl_sync_lines(text, *, dialect: str | Dialect = "grbl") -> list[int]:
 _SYNC_LINES_SEEN: dict[tuple, tuple[int, ...]] = {}
 
 
-def _grbl_sync_lines(data: bytes, d: Dialect) -> list[int]:
+def _grbl_sync_lines(data: bytes, d: Dialect, trace=None) -> list[int]:
     from labkit.gcode.state import ModalState, grbl_sync_reasons
 
-    out = _run(data, d, lenient=True, trace=True)
-    refused = set(out.errors["line"].tolist())
     texts = _text_lines(data)
-    trace = out.trace[:len(texts)]
+    if trace is None:
+        out = _run(data, d, lenient=True, trace=True)
+        refused = set(out.errors["line"].tolist())
+        trace = out.trace[:len(texts)]
+    else:
+        refused = set()
+        if len(trace) != len(texts):
+            raise ValueError(f"grbl_sync_lines: the trace has {len(trace)} rows for {len(texts)} lines")
     # only a line that changes the state the rule reads, or writes an offset or stored position
     # or probes whatever it changes, can wait: the rule runs on those lines only
     before = np.concatenate([K.initial_state(), trace[:-1]]) if len(trace) else trace

@@ -172,9 +172,14 @@ class Job:
         done_at: dict[int, float] = {}
         job_time = 0.0
         try:
-            from labkit.motion import plan
+            from labkit.motion import load_machine, plan
+            from labkit.motion.stall import controller_sync_lines
 
-            p = plan(moves, machine)
+            # the motion stops where the controller waits for its planner to empty (read
+            # from this reading's trace; later asks for the same program find it kept)
+            spec = load_machine(machine)
+            sync = controller_sync_lines(text, spec, dialect, trace=trace)
+            p = plan(moves, spec, sync_lines=sync)
             ends = p.block_start_s + p.block_time_s
             for ln, t in zip(p.blocks.line.tolist(), ends.tolist()):
                 done_at[ln] = max(done_at.get(ln, 0.0), t)

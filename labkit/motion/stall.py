@@ -445,7 +445,7 @@ def _plan_text(text: str, machine, dialect: str, sync_lines=None):
     return plan(parse(text, dialect=dialect), machine, planner="junction", sync_lines=sync_lines)
 
 
-def controller_sync_lines(text, machine, dialect: str = "grbl") -> np.ndarray:
+def controller_sync_lines(text, machine, dialect: str = "grbl", trace=None) -> np.ndarray:
     """The lines at which ``machine``'s controller empties its planner before it goes on, so
     that the motion stops there (``plan``'s ``sync_lines``): when the description says it
     waits (``laser_change_syncs``), every line GRBL syncs on in the grbl dialect
@@ -459,6 +459,9 @@ def controller_sync_lines(text, machine, dialect: str = "grbl") -> np.ndarray:
     machine : MachineSpec or str
     dialect : str
         The program's dialect; other dialects than grbl keep power in the step stream.
+    trace : ndarray, optional
+        The program's strict :func:`~labkit.gcode.parse_with_states` trace, when the caller
+        has read it (see :func:`~labkit.gcode.grbl_sync_lines`).
 
     Returns
     -------
@@ -477,7 +480,7 @@ def controller_sync_lines(text, machine, dialect: str = "grbl") -> np.ndarray:
     if not m.laser_change_syncs:
         return np.zeros(0, np.int64)
 
-    return np.asarray(grbl_sync_lines(text, dialect=dialect), np.int64)
+    return np.asarray(grbl_sync_lines(text, dialect=dialect, trace=trace), np.int64)
 
 
 def _synced(p, machine, sync: np.ndarray):

@@ -1,6 +1,7 @@
 """Look-ahead planners and whole-job plans: rules, invariants and independent references."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -358,3 +359,27 @@ def test_a_planner_resting_at_zero_ramps_from_zero_and_ticks_at_the_timer_floor(
     # [CBR40]'s linear ramps cannot start from 0: with them the floor is the rest
     lin = plan(moves, grbl, planner="hq")
     assert lin.profiles.entry_mm_s[0] == pytest.approx(31 / 80)
+
+
+def test_sync_lines_read_from_a_trace_are_the_parsed_ones():
+    """A caller that has the program's strict trace (``labkit stream``'s job) gets the same sync
+    lines from it as from the interpreter's own traced run, and the job's ETA plan stops there
+    as ``labkit plan`` does (the stream read the program twice before)."""
+    from labkit.gcode import grbl_sync_lines, parse, parse_with_states, reader
+    from labkit.machine.stream import Job
+    from labkit.motion.stall import controller_sync_lines
+
+    texts = ["G21 G90\nM3 S100\nG1 X3 F1200\nS300\nG1 X6\nG1 X9 S500\nM8\nG1 X12\nG92 X0\n"
+             "G1 X3\nM0\nG1 X6\nM5\nG0 X0\n",
+             (Path(__file__).resolve().parents[2] / "data/gcode/cncjs/jsdc-laser.gcode").read_text()]
+    for text in texts:
+        reader._SYNC_LINES_SEEN.clear()
+        parsed = grbl_sync_lines(text)
+        reader._SYNC_LINES_SEEN.clear()
+        assert grbl_sync_lines(text, trace=parse_with_states(text)[1]) == parsed
+        assert parsed                       # both programs switch the laser
+        reader._SYNC_LINES_SEEN.clear()
+        job = Job.from_text(text, machine="grbl-diode")
+        want = plan(parse(text), "grbl-diode", sync_lines=controller_sync_lines(text, "grbl-diode"))
+        assert math.isclose(job.job_time_s, want.job_time_s, rel_tol=1e-12)
+        assert want.job_time_s > plan(parse(text), "grbl-diode").job_time_s

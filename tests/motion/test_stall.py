@@ -416,7 +416,7 @@ def test_plan_reads_a_programs_sync_lines_once(tmp_path, monkeypatch, capsys):
 
     calls = []
     real = reader._grbl_sync_lines
-    monkeypatch.setattr(reader, "_grbl_sync_lines", lambda data, d: calls.append(len(data)) or real(data, d))
+    monkeypatch.setattr(reader, "_grbl_sync_lines", lambda data, d, *trace: calls.append(len(data)) or real(data, d, *trace))
     job = tmp_path / "job.gcode"
     job.write_text("G21 G90\nM3 S200\nG1 X10 F600\nM5\nG0 X0\nM3 S400\nG1 Y10\nM5\n")
     assert main(["plan", str(job), "--machine", "grbl-diode"]) == 0
