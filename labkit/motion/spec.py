@@ -194,7 +194,6 @@ class MachineSpec:
     accel_hz_per_step: int = 40
     decel_hz_per_step: int = 40
     start_rate_hz: int = 1000
-    rest_at_zero: bool = False
     junction_deviation_mm: float = 0.01
     arc_tolerance_mm: float = 0.002
     buffer_blocks: int = 16
@@ -211,6 +210,7 @@ class MachineSpec:
     block_parse_s: float = 20e-6
     waits_for_lookahead: bool = True
     laser_change_syncs: bool = FIRMWARE_LASER_CHANGE_SYNCS
+    rest_at_zero: bool = False
     description: str = dataclasses.field(default="", compare=False)
 
     def __post_init__(self):
