@@ -150,8 +150,12 @@ class Blocks(ColumnTable):
     def with_rest(self, machine: MachineSpec, law: str) -> "Blocks":
         """The blocks with the rest speed ``machine``'s planner starts and stops them at
         under the ramp ``law`` (``"linear"`` or ``"accel"``): the driver at
-        :meth:`MachineSpec.rest_rate_hz` (0 on GRBL with constant acceleration)."""
-        return replace(self, rest_mm_s=self.speed_at_rate(machine.rest_rate_hz(law)))
+        :meth:`MachineSpec.rest_rate_hz` (0 on GRBL with constant acceleration). Blocks
+        built for ``machine`` rest at its start rate already: those come back as they are."""
+        rate = machine.rest_rate_hz(law)
+        if rate == machine.start_rate_hz:
+            return self
+        return replace(self, rest_mm_s=self.speed_at_rate(rate))
 
     @property
     def dir_bits(self) -> np.ndarray:
