@@ -47,6 +47,17 @@ def test_navigation_replaces_the_old_line_keeps_the_rule_and_adds_a_missing_last
     assert nav.with_navigation(bare, "[← index](00-index.ipynb)")
     assert bare.cells[0].source == "# 08 · T\n\n[← index](00-index.ipynb)\n\nText."
     assert bare.cells[-1].source == "[← index](00-index.ipynb)" and len(bare.cells) == 3
+    # a closing line that is no longer in the last cell (a navigation cell came after it) goes:
+    # chapter 14 showed two closing lines, the older naming another title
+    stale = nbformat.v4.new_notebook()
+    stale.cells = [nbformat.v4.new_markdown_cell("# 14 · T\n\n[← index](00-index.ipynb) · old"),
+                   nbformat.v4.new_markdown_cell("## What to take away\n\n* x\n\n---\n[← index](00-index.ipynb) · old"),
+                   nbformat.v4.new_markdown_cell("[← index](00-index.ipynb) · old")]
+    assert nav.with_navigation(stale, "[← index](00-index.ipynb) · NEW")
+    assert stale.cells[1].source == "## What to take away\n\n* x"
+    assert [c.source for c in (stale.cells[0], stale.cells[2])] == ["# 14 · T\n\n[← index](00-index.ipynb) · NEW",
+                                                                   "[← index](00-index.ipynb) · NEW"]
+    assert not nav.with_navigation(stale, "[← index](00-index.ipynb) · NEW")
 
 
 def test_index_entries_carry_their_own_numbers_in_list_order():

@@ -80,6 +80,14 @@ def with_navigation(nb, line: str) -> bool:
     if "\n".join(new_lines) != first.source:
         first.source = "\n".join(new_lines)
         changed = True
+    # a navigation line anywhere between (a closing cell that lost its place as the last
+    # one) goes stale: the chapter has one at its top and one at its end
+    for cell in nb.cells[1:-1]:
+        if cell.cell_type == "markdown" and NAV_START in cell.source:
+            kept = "\n".join(text for text in cell.source.split("\n") if not text.startswith(NAV_START))
+            kept = kept.rstrip("\n")
+            cell.source = kept[:-3].rstrip("\n") if kept.endswith("\n---") else kept   # its rule too
+            changed = True
     last = nb.cells[-1]
     tail = last.source.split("\n")
     at = [i for i, text in enumerate(tail) if text.startswith(NAV_START)] if last is not first else []
