@@ -68,7 +68,7 @@ import types
 from pathlib import Path
 
 __all__ = ["Kernel", "jit", "compile_all", "mode", "forced", "job_units", "expecting", "LOAD_COST_S",
-           "cache_folders", "warm"]
+           "cache_folders", "warm", "rule_state"]
 
 # Depth of kernels running as Python. Shared by threads on purpose (a plain list is the
 # cheapest check on the hot path of nested calls): a thread that starts a kernel while
@@ -258,6 +258,22 @@ class Kernel:
                     self.dispatcher = numba.njit(**self.options)(self.py_func)
                     _numba_loaded[0] = True
         return self.dispatcher
+
+
+def rule_state() -> tuple:
+    """What the rule has settled in this process so far: whether numba is loaded, the
+    kernels that run compiled, and the CPU seconds spent running kernels as Python. Equal
+    before and after some work, that work neither loaded code nor ran a kernel as Python:
+    the process has paid its one-time costs for such work (benchmarks time it from then on).
+
+    Returns
+    -------
+    tuple
+        ``(numba loaded, names of compiled kernels, CPU s spent as Python)``.
+    """
+    compiled = tuple(sorted(k.name for kernels in _registry.values() for k in kernels
+                            if k.dispatcher is not None))
+    return _numba_loaded[0], compiled, _spent[0]
 
 
 def runs_as_python(n: int, python_below: int, spent_since_load: float = 0.0) -> bool:

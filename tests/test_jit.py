@@ -162,6 +162,23 @@ def test_a_kernel_whose_machine_code_is_loaded_runs_compiled_at_once(fresh_proce
     assert calls == ["py", "nb", "nb"]
 
 
+def test_rule_state_changes_until_the_work_neither_loads_code_nor_runs_as_python(fresh_process, monkeypatch):
+    """What benchmarks wait for before timing a warm process: the state moves while the rule
+    still runs a kernel as Python or loads one, and holds once every call runs compiled."""
+    fresh_process.step = 0.01
+    total, calls = _recording_kernel(monkeypatch, python_below=10**9)
+    start = _jit.rule_state()
+    total(np.ones(3))                                   # as Python: the tally moves
+    after_python = _jit.rule_state()
+    assert after_python != start and after_python[2] == pytest.approx(start[2] + 0.01)
+    _jit._numba_loaded[0] = True                        # its machine code loaded
+    monkeypatch.setattr(total, "dispatcher", lambda *a: calls.append("nb") or float(np.sum(a[0])))
+    loaded = _jit.rule_state()
+    assert loaded[0] and total.name in loaded[1] and loaded != after_python
+    total(np.ones(3))
+    assert calls == ["py", "nb"] and _jit.rule_state() == loaded
+
+
 def test_once_numba_is_loaded_only_tiny_inputs_run_as_python(fresh_process, monkeypatch):
     count, calls = _recording_kernel(monkeypatch, python_below=100_000)
     count(np.zeros(50_000))
