@@ -26,18 +26,52 @@ def process_time(argv: list[str], repeat: int, clock: str = "wall", settle_s: fl
     runs add up to this many seconds (at most ten runs in all): one run of a 0.2 s command
     moves by a third with what else the machine does, the best of ten does not.
     """
+    return process_times({"": (argv, {})}, repeat, clock, settle_s)[""]
+
+
+def process_times(runs: dict, repeat: int, clock: str = "wall", settle_s: float = 0.0) -> dict:
+    """:func:`process_time` of several commands compared with each other, run in turns
+    (each once a round, after one warm-up round): what else the machine does in a minute
+    then weighs on all of them alike, where one command timed after the other met another
+    load (the same command, timed twice a minute apart, moved by a quarter).
+
+    Parameters
+    ----------
+    runs : dict
+        name → ``(argv, environment variables set for it)``; a variable set to None is removed.
+    repeat, clock, settle_s
+        As :func:`process_time`; the rounds go on until every command's runs add up to
+        ``settle_s`` (at most ten measured rounds, at least ``repeat``).
+
+    Returns
+    -------
+    dict
+        name → its best time, s.
+    """
     # the checkout first; a PYTHONPATH already set (peers installed with pip --target) after it
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
-    env.pop("PYTHONDONTWRITEBYTECODE", None)
-    best, total, k = float("inf"), 0.0, 0
-    while k <= repeat or (total < settle_s and k <= max(repeat, 10)):
-        t, used = time.perf_counter(), _children_cpu()
-        done = subprocess.run(argv, env=env, cwd=ROOT, capture_output=True, text=True)
-        elapsed = time.perf_counter() - t if clock == "wall" else _children_cpu() - used
-        if done.returncode != 0:
-            raise SystemExit(f"{' '.join(argv)} failed:\n{done.stderr}")
-        if k:
-            best, total = min(best, elapsed), total + elapsed
+    base = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
+    base.pop("PYTHONDONTWRITEBYTECODE", None)
+    envs = {}
+    for name, (_, extra) in runs.items():
+        env = dict(base)
+        for key, value in extra.items():
+            if value is None:
+                env.pop(key, None)
+            else:
+                env[key] = value
+        envs[name] = env
+    best = dict.fromkeys(runs, float("inf"))
+    total = dict.fromkeys(runs, 0.0)
+    k = 0
+    while k <= repeat or (min(total.values()) < settle_s and k <= max(repeat, 10)):
+        for name, (argv, _) in runs.items():
+            t, used = time.perf_counter(), _children_cpu()
+            done = subprocess.run(argv, env=envs[name], cwd=ROOT, capture_output=True, text=True)
+            elapsed = time.perf_counter() - t if clock == "wall" else _children_cpu() - used
+            if done.returncode != 0:
+                raise SystemExit(f"{' '.join(argv)} failed:\n{done.stderr}")
+            if k:
+                best[name], total[name] = min(best[name], elapsed), total[name] + elapsed
         k += 1
     return best
 
