@@ -40,8 +40,8 @@ def process_times(runs: dict, repeat: int, clock: str = "wall", settle_s: float 
     runs : dict
         name → ``(argv, environment variables set for it)``; a variable set to None is removed.
     repeat, clock, settle_s
-        As :func:`process_time`; the rounds go on until every command's runs add up to
-        ``settle_s`` (at most ten measured rounds, at least ``repeat``).
+        As :func:`process_time`: a command takes its turn in every round until its own runs
+        add up to ``settle_s`` (at most ten measured runs, at least ``repeat``).
 
     Returns
     -------
@@ -63,8 +63,12 @@ def process_times(runs: dict, repeat: int, clock: str = "wall", settle_s: float 
     best = dict.fromkeys(runs, float("inf"))
     total = dict.fromkeys(runs, 0.0)
     k = 0
-    while k <= repeat or (min(total.values()) < settle_s and k <= max(repeat, 10)):
-        for name, (argv, _) in runs.items():
+    while True:
+        due = [name for name in runs if k <= repeat or (total[name] < settle_s and k <= max(repeat, 10))]
+        if not due:
+            break
+        for name in due:
+            argv = runs[name][0]
             t, used = time.perf_counter(), _children_cpu()
             done = subprocess.run(argv, env=envs[name], cwd=ROOT, capture_output=True, text=True)
             elapsed = time.perf_counter() - t if clock == "wall" else _children_cpu() - used
