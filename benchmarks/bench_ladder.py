@@ -25,7 +25,8 @@ written by this benchmark) converted in one process at 0.1 and 0.01 mm, against 
 in one process — as issue 29 measures it (``bench_vector.py``'s Part 1b: both imported, the
 set converted again in the same process, CPU time) and as fresh processes (start-up, imports
 and numba's load included); one command per file against svg-to-gcode's process per file; the small
-drawing ``data/svg/cncjs/jsdc.svg`` against the numpy floor.
+drawing ``data/svg/cncjs/jsdc.svg`` against the numpy floor. Last, "no regression elsewhere":
+the parse, edge and planner benchmarks' own measures (``--only elsewhere``).
 
 Inputs: real files where they exist (cncjs's G-code jobs, data/dxf, data/svg); the larger
 G-code rungs repeat a real job, the SVG rungs are written by ``_svgset.py``, the images are
@@ -270,6 +271,21 @@ def svg_targets(tmp, repeat):
           f"-> {t_small / t_numpy:4.2f}× the numpy floor (target ≤ 2.5×)")
 
 
+def elsewhere():
+    """Issue 29's "no regression elsewhere", in the ladder's run: the parse of 1 M lines against
+    gcodeparser (≥ 10×), the edge detectors on 4096² against scikit-image (≤ 0.15× its time),
+    the planners on a 1 M-move raster job (≥ 2 M blocks/s) — each benchmark's own measure."""
+    print("\nno regression elsewhere (bench_gcode.py, bench_raster.py edges, bench_motion.py planning):")
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    env.pop("LABKIT_JIT", None)
+    for argv in (["bench_gcode.py"], ["bench_raster.py", "edges"], ["bench_motion.py", "--lines", "10000"]):
+        done = subprocess.run([PY, str(ROOT / "benchmarks" / argv[0]), *argv[1:]], cwd=ROOT, env=env,
+                              capture_output=True, text=True)
+        print("\n".join("  " + line for line in done.stdout.splitlines() if line.strip()), flush=True)
+        if done.returncode not in (0, 1):          # 1: bench_gcode's "targets not met", printed
+            raise SystemExit(f"{argv[0]} failed:\n{done.stderr}")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=1)
@@ -278,7 +294,7 @@ def main() -> int:
                          "steadier on a loaded machine)")
     ap.add_argument("--only", nargs="*", default=[],
                     help="parts to run: gcode (or check, info, plan, preview, stream), svg, dxf, img, "
-                         "targets")
+                         "targets, elsewhere")
     args = ap.parse_args()
     only = set(args.only)
     CLOCK[0] = args.clock
@@ -299,6 +315,8 @@ def main() -> int:
             ladder_img(tmp, args.repeat)
         if not only or "targets" in only:
             svg_targets(tmp, args.repeat)
+        if not only or "elsewhere" in only:
+            elsewhere()
     print(f"load average at end: {os.getloadavg()[0]:.1f}; {time.perf_counter() - start:.0f} s")
     return 0
 
