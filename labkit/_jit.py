@@ -18,7 +18,8 @@ Every kernel is written once, as plain Python over numpy arrays, and decorated w
   code costs. The projection is the job's when one is open
   (:func:`job_units`: the Python time per unit of the units done so far, times the units
   left; with jobs inside jobs — files of a batch, shapes of a file — the largest), and at
-  least the call's own: ``n / python_below`` loads for ``n`` array elements
+  least the call's own: ``n / python_below`` loads for ``n`` array elements (or the call's
+  ``work``, for a kernel whose cost an element depends on an argument)
   (``python_below`` is set where the kernel is declared, from its measured cost per
   element; 0 means always compiled). The tally carries across jobs, so a process that
   converts many small files pays for numba once its Python time would have paid for it.
@@ -161,10 +162,14 @@ class Kernel:
         The plain Python function (as on a numba dispatcher).
     python_below : int
         Below this many array elements in all, an uncompiled module runs ``py_func``.
+    work : callable or None
+        The size of a call for the rule, from its arguments (:func:`jit`); None: its array
+        elements.
     """
 
-    def __init__(self, func, options: dict, python_below: int, python=None, views=False):
+    def __init__(self, func, options: dict, python_below: int, python=None, views=False, work=None):
         self.py_func = func
+        self.work = work
         self.views = bool(views)
         self.options = options
         self.python_below = int(python_below)
@@ -204,7 +209,8 @@ class Kernel:
             return self.run_python(*args)
         for declared in _ahead:                    # from now on its calls count themselves
             declared.pop(self, None)
-        if how == "auto" and runs_as_python(_elements(args), self.python_below,
+        n = self.work(*args) if self.work is not None else _elements(args)
+        if how == "auto" and runs_as_python(n, self.python_below,
                                             self.spent_since_load):
             return self.run_python(*args, tally=True)
         return self.compiled()(*args)
@@ -402,7 +408,7 @@ def forced(how: str):
         _forced[0] = previous
 
 
-def jit(func=None, *, python_below: int = 0, python=None, views: bool = False, **options):
+def jit(func=None, *, python_below: int = 0, python=None, views: bool = False, work=None, **options):
     """Declare a kernel: ``@jit`` or ``@jit(python_below=N, **numba_options)``.
 
     ``python`` gives a plain-Python twin that runs instead of the kernel's own code when it
@@ -412,6 +418,11 @@ def jit(func=None, *, python_below: int = 0, python=None, views: bool = False, *
 
     ``views=True`` hands the array arguments to Python as ``memoryview`` objects (see the
     module docstring): only for a kernel that indexes them element by element.
+
+    ``work`` gives a call's size for the rule instead of its arguments' array elements: a
+    function of the call's arguments returning elements at the kernel's ordinary cost, for a
+    kernel whose cost per element depends on an argument (a parse that records the modal state
+    of every line costs six times a plain parse as Python).
 
     ``cache=True`` is the default (numba's cache folder is set by :mod:`labkit`).
 
@@ -431,7 +442,7 @@ def jit(func=None, *, python_below: int = 0, python=None, views: bool = False, *
     options.setdefault("cache", True)
 
     def wrap(f):
-        kernel = Kernel(f, options, python_below, python, views)
+        kernel = Kernel(f, options, python_below, python, views, work)
         _registry.setdefault(f.__module__, []).append(kernel)
         return kernel
 

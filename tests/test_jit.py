@@ -179,6 +179,31 @@ def test_rule_state_changes_until_the_work_neither_loads_code_nor_runs_as_python
     assert calls == ["py", "nb"] and _jit.rule_state() == loaded
 
 
+def test_a_kernel_sized_by_its_work_decides_by_that_work(fresh_process):
+    """``work=``: a call's size for the rule from its arguments (a traced parse costs six times
+    a plain one as Python), not its array elements alone."""
+    calls = []
+
+    @_jit.jit(python_below=100, work=lambda a, heavy: len(a) * (6 if heavy else 1))
+    def total(a, heavy):
+        return float(np.sum(a))
+
+    total.run_python = lambda *a, **k: calls.append("py") or 0.0
+    total.compiled = lambda: _jit._numba_loaded.__setitem__(0, True) or (lambda *a: calls.append("nb") or 0.0)
+    total(np.ones(50), False)                      # 50 < 100: Python
+    assert calls == ["py"]
+    total(np.ones(50), True)                       # 300 ≥ 100: compiled
+    assert calls == ["py", "nb"]
+
+
+def test_the_parse_counts_a_traced_reading_as_six_plain_ones():
+    from labkit.gcode import _kernel as K
+
+    buf = np.zeros(1000, np.uint8)
+    assert K.interpret.work(buf, None, False, 1, False) == 1000
+    assert K.interpret.work(buf, None, False, 1, True) == 6000
+
+
 def test_once_numba_is_loaded_only_tiny_inputs_run_as_python(fresh_process, monkeypatch):
     count, calls = _recording_kernel(monkeypatch, python_below=100_000)
     count(np.zeros(50_000))

@@ -1324,7 +1324,15 @@ def _commit(buf, rows, recs, nrows, nrec, ls, le, lineno, is_system, is_jog, dec
 
 
 
-@jit(python_below=150_000)  # bytes of text: ~3 µs each as Python vs ~0.6 s to load compiled
+def _interpret_work(buf, options, lenient, max_errors, trace):
+    # as Python on cncjs's tball job (5,000 and 20,000 lines): 1.0-1.3 µs a byte, 5.2-7.3 µs
+    # with every line's state recorded (5.3-5.6 times as much)
+    return len(buf) * (6 if trace else 1)
+
+
+# bytes of text: 1.2-1.7 µs each as Python; numba and the parser's cached code load in ~1 s
+# (labkit check, info, preview: Python and compiled meet near 35,000 lines, 770 kB, of that job)
+@jit(python_below=750_000, work=_interpret_work)
 def interpret(buf, options, lenient, max_errors, trace):
     """Interpret G-code bytes from the modal state ``options.start``; returns an
     :class:`Interpretation`.
