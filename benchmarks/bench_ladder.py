@@ -9,7 +9,9 @@ turns (one run of each a round), as do labkit and its peer where a target is the
 the command's peer measured in the same run and the ratio labkit / peer (below 1: labkit is
 faster), or peer / labkit where the target is a speed-up (marked ×):
 
-- ``check``, ``info``: gcodeparser's ``parse_gcode_lines`` over the file, as a process;
+- ``check``, ``info``: gcodeparser's ``parse_gcode_lines`` over the file, as a process (also
+  at four rungs between 2,418 and 40,299 lines, where the rule switches, with ``plan`` and
+  ``preview``: part ``between``);
 - ``plan``, ``preview``, ``stream`` (to the virtual machine): starting Python and importing
   numpy, the floor any numpy-based command pays;
 - ``dxf2gcode``: vpype (vpype-dxf's ``dread``, ``linesort``, vpype-gcode's ``gwrite``) on the
@@ -145,6 +147,22 @@ def ladder_gcode(tmp, repeat, only):
             # the stall prediction (issue 30 §2) against plan without it: target ≤ 1.5×
             t_no_link = timed([PY, "-m", "labkit", "plan", str(f), "--no-link"], repeat)
             labkit_row("plan: link", lines_of(f), ["plan", str(f)], t_no_link, "plan --no-link", repeat)
+
+
+def ladder_between(tmp, repeat):
+    """The rungs between the G-code ladder's 2,418 and 40,299 lines, where the rule of
+    labkit/_jit.py switches (the parse compiles near 35,000 lines, plan far earlier): the
+    first 5,000 / 10,000 / 20,000 / 30,000 lines of the real 40,299-line job. Four rungs
+    passed the rule while `info` of 10,000 lines ran 3× the better path between them."""
+    lines = (GCODE / "tball-pocket-laser.gcode").read_text().splitlines(keepends=True)
+    for n in (5_000, 10_000, 20_000, 30_000):
+        f = tmp / f"tball-first{n}.gcode"
+        f.write_text("".join(lines[:n]))
+        peer = timed([PY, "-c", GCODEPARSER, str(f)], repeat)
+        for cmd, extra, peer_name in (("check", [], "gcodeparser"), ("info", [], "gcodeparser"),
+                                      ("plan", [], "gcodeparser"),
+                                      ("preview", ["-o", str(tmp / "p.png")], "gcodeparser")):
+            labkit_row(cmd, lines_of(f), [cmd, str(f), *extra], peer, peer_name, repeat)
 
 
 def svg_rungs(tmp: Path):
@@ -293,8 +311,8 @@ def main() -> int:
                     help="time each process by the wall clock or by its CPU time (user + system; "
                          "steadier on a loaded machine)")
     ap.add_argument("--only", nargs="*", default=[],
-                    help="parts to run: gcode (or check, info, plan, preview, stream), svg, dxf, img, "
-                         "targets, elsewhere")
+                    help="parts to run: gcode (or check, info, plan, preview, stream), between, svg, dxf, "
+                         "img, targets, elsewhere")
     args = ap.parse_args()
     only = set(args.only)
     CLOCK[0] = args.clock
@@ -307,6 +325,8 @@ def main() -> int:
         gcode_parts = only & {"check", "info", "plan", "preview", "stream"}
         if not only or "gcode" in only or gcode_parts:
             ladder_gcode(tmp, args.repeat, gcode_parts)
+        if not only or "between" in only:
+            ladder_between(tmp, args.repeat)
         if not only or "svg" in only:
             ladder_svg(tmp, args.repeat)
         if not only or "dxf" in only:

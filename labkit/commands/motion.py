@@ -48,6 +48,24 @@ def _controller_syncs(args):
         return controller_sync_lines(fh.read(), args.machine, args.dialect)
 
 
+def _read_program(args):
+    """The program's moves and the lines its controller syncs at. Where the machine syncs,
+    from one strict reading that records every line's state (a plain parse and then a traced
+    one read the file twice; the traced one alone costs six plain ones as Python)."""
+    from labkit._files import check_input_file
+    from labkit.gcode import parse_file, parse_with_states
+    from labkit.motion.spec import load_machine
+    from labkit.motion.stall import controller_sync_lines
+
+    if args.lenient or not load_machine(args.machine).laser_change_syncs:
+        return parse_file(args.file, dialect=args.dialect, lenient=args.lenient), _controller_syncs(args)
+    check_input_file(args.file, what="G-code file")
+    with open(args.file, "rb") as fh:
+        data = fh.read()
+    moves, trace = parse_with_states(data, dialect=args.dialect, filename=args.file)
+    return moves, controller_sync_lines(data, args.machine, args.dialect, trace=trace)
+
+
 def _plan(args, moves=None, sync_lines=None):
     from labkit.gcode import parse_file
     from labkit.motion import plan
@@ -153,10 +171,8 @@ def run_plan(args) -> int:
         check_output_file(args.trace, args.file)
     if args.fill:
         check_output_file(args.fill, args.file)
-    from labkit.gcode import parse_file
-
-    moves = parse_file(args.file, dialect=args.dialect, lenient=args.lenient)
-    p = _plan(args, moves, sync_lines=_controller_syncs(args))
+    moves, sync_lines = _read_program(args)
+    p = _plan(args, moves, sync_lines=sync_lines)
     s = p.summary()
     link, link_note = None, None
     if not args.no_link:
@@ -231,12 +247,10 @@ def run_steps(args) -> int:
     from labkit.motion.timer import iter_step_chunks
 
     check_output_file(args.output, args.file)
-    from labkit.gcode import parse_file
-
-    moves = parse_file(args.file, dialect=args.dialect, lenient=args.lenient)   # checks the file
     # the steps of the firmware's twin: the machine stops where the controller syncs (GRBL's
     # laser, coolant and offset lines; firmware/README.md), decided where plan decides it
-    p = _plan(args, moves, sync_lines=_controller_syncs(args))
+    moves, sync_lines = _read_program(args)                     # checks the file
+    p = _plan(args, moves, sync_lines=sync_lines)
     ticks = 0
     last_t = 0.0
     with atomic_output(args.output, newline="") as fh:
