@@ -20,7 +20,7 @@ after the other in this process, both converters imported, at 0.1 and 0.01 mm: C
 whole set, best of three passes for labkit and of two for svg-to-gcode. Imports are not
 counted, and neither is labkit's warm-up (printed beside): its passes until one leaves the
 kernels' rule as it found it — its kernels run as Python, then numba and their cached machine
-code load, a one-time cost of the process as imports are; at 0.1 mm that takes three passes.
+code load, a one-time cost of the process as imports are; at 0.1 mm two or three passes.
 
 Part 2 — ordering 100,000 random segments (uniform in a 1000 mm square,
 lengths up to 10 mm, random directions): vpype ``linesort`` (greedy, with
