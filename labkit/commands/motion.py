@@ -49,15 +49,17 @@ def _controller_syncs(args):
 
 
 def _read_program(args):
-    """The program's moves and the lines its controller syncs at. Where the machine syncs,
-    from one strict reading that records every line's state (a plain parse and then a traced
-    one read the file twice; the traced one alone costs six plain ones as Python)."""
+    """The program's moves and the lines its controller syncs at. Where the machine syncs on
+    a grbl program, from one strict reading that records every line's state (a plain parse and
+    then a traced one read the file twice; the traced one alone costs six plain ones as
+    Python); other dialects sync on no line, so their trace would be read for nothing."""
     from labkit._files import check_input_file
-    from labkit.gcode import parse_file, parse_with_states
+    from labkit.gcode import get_dialect, parse_file, parse_with_states
     from labkit.motion.spec import load_machine
     from labkit.motion.stall import controller_sync_lines
 
-    if args.lenient or not load_machine(args.machine).laser_change_syncs:
+    if (args.lenient or get_dialect(args.dialect).name != "grbl"
+            or not load_machine(args.machine).laser_change_syncs):
         return parse_file(args.file, dialect=args.dialect, lenient=args.lenient), _controller_syncs(args)
     check_input_file(args.file, what="G-code file")
     with open(args.file, "rb") as fh:

@@ -84,3 +84,32 @@ def test_plan_lenient_says_why_it_predicts_no_stalls(tmp_path, capsys):
     doc = json.loads(capsys.readouterr().out)
     assert doc["stalls"] is None and "line 3" in doc["stall_prediction"] and doc["job_time_s"] > 0
     assert main(["plan", str(prog)]) == 1                  # without --lenient: the parse error itself
+
+
+@pytest.mark.parametrize("machine,dialect,lenient,traced", [
+    ("grbl-diode", "grbl", False, True),          # syncs on a grbl program: one traced reading
+    ("grbl-diode", "grbl", True, False),          # lenient: the trace would not be the strict one
+    ("grbl-diode", "labkit-fw", False, False),    # no sync lines in that dialect: no trace read
+    ("no-sync", "grbl", False, False)])           # a machine that does not sync
+def test_plan_reads_the_program_once_and_traced_only_where_sync_lines_come_from_it(
+        job, monkeypatch, machine, dialect, lenient, traced):
+    import argparse
+    import dataclasses
+
+    import labkit.gcode as gcode
+    from labkit.commands import motion as cmd
+    from labkit.motion.spec import load_machine
+    from labkit.motion.stall import controller_sync_lines
+
+    if machine == "no-sync":
+        machine = dataclasses.replace(load_machine("grbl-diode"), laser_change_syncs=False)
+
+    calls = []
+    real = gcode.parse_with_states
+    monkeypatch.setattr(gcode, "parse_with_states", lambda *a, **k: calls.append(1) or real(*a, **k))
+    args = argparse.Namespace(file=str(job), machine=machine, dialect=dialect, lenient=lenient)
+    moves, sync = cmd._read_program(args)
+    assert bool(calls) == traced
+    ref = parse_file(job, dialect=dialect, lenient=lenient)
+    assert np.array_equal(moves.end, ref.end) and np.array_equal(moves.laser, ref.laser)
+    assert sync.tolist() == controller_sync_lines(job.read_bytes(), machine, dialect).tolist()
