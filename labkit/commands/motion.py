@@ -40,40 +40,30 @@ def _add_common(parser):
                         help="skip rejected lines (as a controller would) instead of failing")
 
 
-def _controller_syncs(args):
-    """The lines the machine's controller stops at to empty its planner (GRBL's syncs)."""
-    from labkit.motion.stall import controller_sync_lines
-
-    with open(args.file, "rb") as fh:
-        return controller_sync_lines(fh.read(), args.machine, args.dialect)
-
-
 def _read_program(args):
     """The program's moves and the lines its controller syncs at. Where the machine syncs on
     a grbl program, from one strict reading that records every line's state (a plain parse and
     then a traced one read the file twice; the traced one alone costs six plain ones as
     Python); other dialects sync on no line, so their trace would be read for nothing."""
     from labkit._files import check_input_file
-    from labkit.gcode import get_dialect, parse_file, parse_with_states
+    from labkit.gcode import get_dialect, parse, parse_with_states
     from labkit.motion.spec import load_machine
     from labkit.motion.stall import controller_sync_lines
 
-    if (args.lenient or get_dialect(args.dialect).name != "grbl"
-            or not load_machine(args.machine).laser_change_syncs):
-        return parse_file(args.file, dialect=args.dialect, lenient=args.lenient), _controller_syncs(args)
     check_input_file(args.file, what="G-code file")
     with open(args.file, "rb") as fh:
         data = fh.read()
-    moves, trace = parse_with_states(data, dialect=args.dialect, filename=args.file)
+    if (args.lenient or get_dialect(args.dialect).name != "grbl"
+            or not load_machine(args.machine).laser_change_syncs):
+        moves, trace = parse(data, dialect=args.dialect, filename=args.file, lenient=args.lenient), None
+    else:
+        moves, trace = parse_with_states(data, dialect=args.dialect, filename=args.file)
     return moves, controller_sync_lines(data, args.machine, args.dialect, trace=trace)
 
 
-def _plan(args, moves=None, sync_lines=None):
-    from labkit.gcode import parse_file
+def _plan(args, moves, sync_lines):
     from labkit.motion import plan
 
-    if moves is None:
-        moves = parse_file(args.file, dialect=args.dialect, lenient=args.lenient)
     return plan(moves, args.machine, planner=args.planner, buffer_blocks=args.buffer, law=args.law,
                 arc_tol_mm=args.arc_tol, sync_lines=sync_lines)
 
