@@ -16,8 +16,9 @@ Every kernel is written once, as plain Python over numpy arrays, and decorated w
   (and below the kernel's ``python_below``), which still run as Python until that kernel
   has spent :data:`MODULE_LOAD_COST_S` on them, what loading one more module's cached
   code costs. The projection is the job's when one is open
-  (:func:`job_units`: the Python time per unit of the units done so far, times the units
-  left; with jobs inside jobs — files of a batch, shapes of a file — the largest), and at
+  (:func:`job_units`, or :func:`job` for units that end outside a loop, such as a stream's
+  lines as they are answered: the Python time per unit of the units done so far, times the
+  units left; with jobs inside jobs — files of a batch, shapes of a file — the largest), and at
   least the call's own: ``n / python_below`` loads for ``n`` array elements (or the call's
   ``work``, for a kernel whose cost an element depends on an argument)
   (``python_below`` is set where the kernel is declared, from its measured cost per
@@ -29,7 +30,10 @@ Every kernel is written once, as plain Python over numpy arrays, and decorated w
   Work a job knows it will do later in kernels it has not called yet (a dithered image's
   moves, written once the dots are made) is declared with :func:`expecting` and added to
   every projection until those kernels run, so the first kernel of the job decides for
-  the whole of it.
+  the whole of it (``later=True``: until the block ends, for work that begins after it in
+  a kernel the block calls for other work, as a stream's file is read before the virtual
+  machine reads each line again). The tally's clock is the CPU time of the thread that
+  runs the kernel, so another thread's work (a sender polling) is not charged to it.
   One-dimensional ``uint8`` arguments are handed to Python as ``memoryview``
   objects: indexing them gives Python ints, which is both faster than numpy scalars and
   keeps numba's integer arithmetic (numpy 2 keeps ``uint8 - 48`` a wrapping ``uint8``,
@@ -68,7 +72,7 @@ import time
 import types
 from pathlib import Path
 
-__all__ = ["Kernel", "jit", "compile_all", "mode", "forced", "job_units", "expecting", "LOAD_COST_S",
+__all__ = ["Kernel", "jit", "compile_all", "mode", "forced", "job", "job_units", "expecting", "LOAD_COST_S",
            "cache_folders", "warm", "rule_state"]
 
 # Depth of kernels running as Python. Shared by threads on purpose (a plain list is the
@@ -96,7 +100,11 @@ MODULE_LOAD_COST_S = 0.03
 _spent = [0.0]                      # CPU s this process has spent in kernels run as Python
 _jobs: list["_Job"] = []            # the open jobs, innermost last
 _ahead: list[dict] = []             # work declared by open expecting() blocks: Kernel → elements
-_cpu_clock = time.process_time      # the clock of the tally (tests set their own)
+_after: list[dict] = []             # the same, declared to begin after the block (later=True)
+# The tally's clock is the calling thread's CPU time: a stream's virtual machine runs its
+# kernels in the reader thread while the sender polls in the main one, and the process's
+# clock charged the sender's time to the kernels (tests set their own clock).
+_cpu_clock = time.thread_time
 _hooks_installed = False
 
 
@@ -293,7 +301,7 @@ def runs_as_python(n: int, python_below: int, spent_since_load: float = 0.0) -> 
     inner = _jobs[1:] + [None]
     projected = max([n / python_below * LOAD_COST_S]
                     + [j.projected_rest(k) for j, k in zip(_jobs, inner)])
-    for declared in _ahead:                        # kernels the job will call later
+    for declared in _ahead + _after:               # kernels the job will call later
         for kernel, elements in declared.items():
             projected += (elements / kernel.python_below * LOAD_COST_S if kernel.python_below
                           else LOAD_COST_S)        # always compiled: numba will be loaded
@@ -326,10 +334,47 @@ class _Job:
         left = self.units - done                # the unit under way is one of them
         return max(per_unit * left - (_spent[0] - self.spent_at_done), per_unit * (left - 1), 0.0)
 
+    def advance(self, count: int = 1) -> None:
+        """``count`` more units are done."""
+        self.done += count
+        self.spent_at_done = _spent[0]
+
+
+@contextlib.contextmanager
+def job(units: int):
+    """Declare a job of ``units`` like units of work, done as :meth:`_Job.advance` says, so
+    that the rule of the module docstring projects the job's Python time from the units
+    done so far. For work whose units end outside a loop over them: a stream's lines end
+    when the controller acknowledges them, and the virtual machine runs their kernels in
+    another thread.
+
+    Parameters
+    ----------
+    units : int
+        The job's size: lines, shapes, files.
+
+    Yields
+    ------
+    _Job
+        Call its ``advance(count=1)`` as units end.
+
+    Examples
+    --------
+    >>> with job(3) as lines:
+    ...     for _ in range(3):
+    ...         lines.advance()
+    """
+    current = _Job(int(units))
+    _jobs.append(current)
+    try:
+        yield current
+    finally:
+        _jobs.remove(current)
+
 
 def job_units(items):
-    """Iterate over ``items``, the units of one job, so that the rule of the module
-    docstring projects the job's Python time from the units done so far.
+    """Iterate over ``items``, the units of one job (:func:`job`), each done when the loop
+    asks for the next one.
 
     Parameters
     ----------
@@ -349,19 +394,14 @@ def job_units(items):
     >>> [x * 2 for x in job_units([1, 2, 3])]
     [2, 4, 6]
     """
-    current = _Job(len(items))
-    _jobs.append(current)
-    try:
+    with job(len(items)) as current:
         for item in items:
             yield item
-            current.done += 1
-            current.spent_at_done = _spent[0]
-    finally:
-        _jobs.remove(current)
+            current.advance()
 
 
 @contextlib.contextmanager
-def expecting(work):
+def expecting(work, later: bool = False):
     """Declare work the job will do after the block, in kernels it has not called yet.
 
     Inside the block the rule of the module docstring adds each declared kernel's
@@ -376,6 +416,11 @@ def expecting(work):
         ``{kernel: array elements}``, the elements as the kernel will be called with them
         (in all, when it is called in parts); e.g.
         :func:`labkit.gcode.writer.emit_work` for the program the job will write.
+    later : bool
+        The declared work begins after the block, so a call of its kernel inside the block
+        is other work and the declaration stands until the block ends: a stream's reading
+        of the file, before the virtual machine reads each line again
+        (:func:`labkit.machine.virtual.stream_work`).
 
     Examples
     --------
@@ -386,11 +431,12 @@ def expecting(work):
     ...     pass                                # a kernel called here would run compiled
     """
     declared = {kernel: int(n) for kernel, n in dict(work).items() if n > 0}
-    _ahead.append(declared)
+    where = _after if later else _ahead
+    where.append(declared)
     try:
         yield
     finally:
-        _ahead.remove(declared)
+        where.remove(declared)
 
 
 @contextlib.contextmanager

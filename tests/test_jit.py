@@ -4,6 +4,8 @@ small job from the command line imports neither numba nor scipy."""
 import os
 import subprocess
 import sys
+import threading
+import time
 import types
 from pathlib import Path
 
@@ -109,6 +111,8 @@ def fresh_process(monkeypatch):
     monkeypatch.setattr(_jit, "_numba_loaded", [False])
     monkeypatch.setattr(_jit, "_spent", [0.0])
     monkeypatch.setattr(_jit, "_jobs", [])
+    monkeypatch.setattr(_jit, "_ahead", [])
+    monkeypatch.setattr(_jit, "_after", [])
     monkeypatch.setattr(_jit, "_cpu_clock", read)
     return clock
 
@@ -321,6 +325,85 @@ def test_a_declaration_ends_when_its_kernel_runs(fresh_process, monkeypatch):
         assert _jit._ahead == [{}]
         b(np.ones(10))
     assert calls == ["py", "py"] and _jit._ahead == []
+
+
+@pytest.mark.parametrize("units", [5, 30])
+def test_a_job_advanced_as_its_units_end_projects_like_a_loop_over_them(fresh_process, monkeypatch, units):
+    """job(): a stream's lines end when the controller answers them, not in a loop over them,
+    and the virtual machine runs their kernels in another thread. 0.1 s a unit as Python
+    against a 1 s load: 5 units stay Python; of 30, the first runs as Python and the
+    projection (0.1 s + 29 × 0.1 s) sends the rest compiled."""
+    monkeypatch.setattr(_jit, "LOAD_COST_S", 1.0)
+    fresh_process.step = 0.1
+    total, calls = _recording_kernel(monkeypatch, python_below=10**9)
+    with _jit.job(units) as lines:
+        for _ in range(units):
+            worker = threading.Thread(target=total, args=(np.ones(5000),))
+            worker.start()
+            worker.join()
+            lines.advance()
+    assert calls == (["py"] * units if units < 10 else ["py"] + ["nb"] * (units - 1))
+    assert _jit._jobs == []
+
+
+def test_the_tally_counts_the_kernels_own_thread_not_the_process(monkeypatch):
+    """A kernel run as Python while another thread works (a stream's sender polling beside
+    the virtual machine) adds its own CPU time to the tally, not the other thread's."""
+    monkeypatch.setattr(_jit, "_spent", [0.0])
+
+    @_jit.jit(python_below=10**9, cache=False)
+    def spin(n):
+        s = 0
+        for i in range(n):
+            s += i
+        return s
+
+    stop = threading.Event()
+
+    def busy():
+        while not stop.is_set():
+            sum(range(1000))
+
+    other = threading.Thread(target=busy)
+    other.start()
+    try:
+        process_before = time.process_time()
+        spin.run_python(3_000_000, tally=True)
+        process_used = time.process_time() - process_before
+    finally:
+        stop.set()
+        other.join()
+    assert 0 < _jit._spent[0] < 0.75 * process_used
+
+
+@pytest.mark.parametrize("declared, expected", [(5_000, "py"), (50_000, "nb")])
+def test_work_declared_to_begin_after_the_block_stands_through_calls_inside_it(fresh_process, monkeypatch,
+                                                                                declared, expected):
+    """expecting(later=True): a stream reads its file with the kernel the virtual machine will
+    call again for every line. That reading is other work: the declaration stands through
+    it (half a load: the reading runs as Python; five loads: compiled) and ends with the block."""
+    b, calls = _recording_kernel(monkeypatch, python_below=10_000)
+    with _jit.expecting({b: declared}, later=True):
+        b(np.ones(10))
+        assert _jit._after == [{b: declared}] and _jit._ahead == []
+    assert _jit._after == []
+    assert calls == [expected]
+
+
+@pytest.mark.parametrize("lines, python", [(300, True), (700, True), (1_500, False), (2_418, False)])
+def test_a_stream_to_the_virtual_machine_reads_its_file_as_its_measured_crossover_says(fresh_process,
+                                                                                     lines, python):
+    """``labkit stream`` of the first N lines of cncjs's tball job (22 bytes a line), CPU s
+    Python only / compiled only, measured when the stream's work was declared: 0.63 / 1.13 at
+    300 lines, 1.27 / 1.56 at 700, 2.66 / 2.52 at 1,500, 3.99 / 3.49 at jsdc's 2,418. The
+    file's traced reading, with the stream's declared work, runs on the better side."""
+    from labkit.machine.virtual import stream_work
+
+    buf = np.zeros(22 * lines, np.uint8)
+    with _jit.expecting(stream_work(lines), later=True):
+        as_python = _jit.runs_as_python(K._interpret_work(buf, None, False, 1, True),
+                                        K.interpret.python_below)
+    assert as_python == python
 
 
 def test_kernels_call_kernels_in_both_modes():

@@ -173,7 +173,10 @@ def run_stream(args) -> int:
     from labkit.machine.stream import Job, run_job
 
     dialect = args.dialect or ("labkit-fw" if protocol == "labkit-fw" else "grbl")
-    job = Job.from_file(args.file, dialect=dialect, machine=args.machine or "grbl-diode")
+    from labkit.machine.link import is_virtual_port
+
+    job = Job.from_file(args.file, dialect=dialect, machine=args.machine or "grbl-diode",
+                        virtual_machine=is_virtual_port(port))
     from labkit.record import stream_record_target, utc_now
 
     started = utc_now()

@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from labkit._jit import expecting, job
 from labkit.errors import AlarmCode, InputError, LabkitError, MachineError
 from labkit.gcode.reader import strip_comments
 from labkit.gcode.state import line_states
@@ -120,11 +121,16 @@ class Job:
 
     @classmethod
     def from_text(cls, text: str, *, filename: str | None = None, dialect: str = "grbl",
-                  machine=None, arc_tol_mm: float = 0.002, max_line: int | None = None) -> "Job":
+                  machine=None, arc_tol_mm: float = 0.002, max_line: int | None = None,
+                  virtual_machine: bool = False) -> "Job":
         """Parse and plan a program; refuse it before anything moves when it is bad.
 
         ``max_line`` is the longest line the controller takes once comments and spaces are
         removed; by default GRBL 1.1's 79 (its 80-byte line buffer answers error:11 to 80).
+        ``virtual_machine``: the job will stream to labkit's virtual machine, which reads
+        and plans each line again; that work is declared to the rule of :mod:`labkit._jit`
+        while the program is read (:func:`labkit.machine.virtual.stream_work`), so a job
+        whose stream will load numba reads its file compiled too.
 
         Raises
         ------
@@ -133,6 +139,12 @@ class Job:
         InputError
             A line longer than the controller accepts.
         """
+        if virtual_machine:
+            from labkit.machine.virtual import stream_work
+
+            with expecting(stream_work(text.count("\n") + 1), later=True):
+                return cls.from_text(text, filename=filename, dialect=dialect, machine=machine,
+                                     arc_tol_mm=arc_tol_mm, max_line=max_line)
         from labkit.gcode import parse_with_states
         from labkit.geometry.circle import grbl_segments
 
@@ -710,6 +722,13 @@ class JobRunner:
 
     def send_all(self) -> None:
         """Send every line and account for every answer; raise :class:`_Fault` on any fault."""
+        # The lines are one job for labkit._jit's rule: a virtual machine parses and plans each
+        # line in kernels of its own (in the reader thread), and their Python time per line
+        # answered, projected over the lines left, decides whether numba is worth loading.
+        with job(len(self.lines) - self.next_index) as lines_job:
+            self._send_lines(lines_job)
+
+    def _send_lines(self, lines_job) -> None:
         grbl = self.grbl
         while self.next_index < len(self.lines) or self.inflight:
             now = time.monotonic()
@@ -722,6 +741,7 @@ class JobRunner:
             self.stall_since = None
             if ev.kind in ("ok", "error"):
                 self.acknowledge(ev)
+                lines_job.advance()
             elif ev.kind == "alarm":
                 raise _Fault(f"ALARM:{ev.code}: {alarm_message(ev.code)}", reset=True)
             elif ev.kind == "reset":

@@ -111,6 +111,34 @@ _SEGMENT_LEAD_S = 0.046
 _INCH_PER_MM = 0.0393701
 
 
+#: What streaming one line to the virtual machine costs its kernels as Python more than
+#: compiled (its reading of the line, the planner's passes), in the parse's units of work
+#: (bytes; :func:`labkit.gcode._kernel.interpret`). Measured with ``labkit stream`` on the
+#: first N lines of cncjs's tball job (22 bytes a line; CPU s, Python only / compiled only):
+#: 1.73 / 1.73 at 1,000 lines, 8.21 / 6.23 at 5,000. With the file's own traced reading
+#: (6 × 22 units a line) this puts the rule's switch at those 1,000 lines.
+STREAM_LINE_WORK = 620
+
+
+def stream_work(lines: int) -> dict:
+    """The kernels' work of streaming ``lines`` lines to the virtual machine, for
+    :func:`labkit._jit.expecting` (``later=True``) while the job's file is read.
+
+    Parameters
+    ----------
+    lines : int
+        Lines of the program.
+
+    Returns
+    -------
+    dict
+        ``{kernel: units of work}``.
+    """
+    from labkit.gcode import _kernel as K
+
+    return {K.interpret: int(lines) * STREAM_LINE_WORK}
+
+
 def _grbl_number(value: float, decimals: int) -> str:
     """A number as GRBL's printFloat writes it: a minus sign for any negative value, then
     rounded half up at ``decimals`` places.

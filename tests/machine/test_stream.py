@@ -445,3 +445,43 @@ def test_resume_refuses_a_job_placed_at_the_current_position():
         run_job(g, job, resume_from=5)
     assert vm.laser_output() == 0 and vm.executed == []     # nothing was sent, nothing moved
     g.close()
+
+
+def test_the_streamed_lines_are_one_job_for_the_kernels_rule():
+    """labkit._jit's rule sees a stream's lines as one job (its units: the lines to send), a
+    line done when it is answered: the virtual machine's per-line kernels are then projected
+    over the lines left, whichever thread runs them."""
+    from labkit import _jit
+
+    vm, g = machine()
+    job = Job.from_text(raster_text())
+    seen = []
+
+    def progress(executed, acked, total, eta_s):
+        current = _jit._jobs[-1]
+        seen.append((current.units, current.done))
+
+    report = run_job(g, job, progress=progress)
+    g.close()
+    assert report.ok
+    assert seen == [(len(job.send), k) for k in range(len(job.send))]
+    assert _jit._jobs == []
+
+
+def test_a_job_for_the_virtual_machine_declares_the_streams_work_while_its_file_is_read(monkeypatch):
+    """Job.from_text(virtual_machine=True): the file's reading runs with the work the virtual
+    machine will do per line declared (labkit.machine.virtual.stream_work), and only then."""
+    import labkit.gcode
+    from labkit import _jit
+    from labkit.machine.virtual import stream_work
+
+    real = labkit.gcode.parse_with_states
+    declared = []
+    monkeypatch.setattr(labkit.gcode, "parse_with_states",
+                        lambda *a, **k: declared.append(list(_jit._after)) or real(*a, **k))
+    text = raster_text()
+    plain = Job.from_text(text)
+    for_vm = Job.from_text(text, virtual_machine=True)
+    lines = text.count("\n") + 1
+    assert declared == [[], [stream_work(lines)]] and _jit._after == []
+    assert for_vm.send == plain.send and for_vm.job_time_s == plain.job_time_s
