@@ -157,6 +157,7 @@ def ladder_between(tmp, repeat):
     The stream to the virtual machine switches near 1,000 lines: its rungs between are the
     first 1,000 / 5,000 / 10,000 lines."""
     lines = (GCODE / "tball-pocket-laser.gcode").read_text().splitlines(keepends=True)
+    t_numpy = timed([PY, "-c", "import numpy"], repeat)       # the stream's peer
     for n in (1_000, 5_000, 10_000, 20_000, 30_000):
         f = tmp / f"tball-first{n}.gcode"
         f.write_text("".join(lines[:n]))
@@ -167,7 +168,6 @@ def ladder_between(tmp, repeat):
                                           ("preview", ["-o", str(tmp / "p.png")], "gcodeparser")):
                 labkit_row(cmd, lines_of(f), [cmd, str(f), *extra], peer, peer_name, repeat)
         if n <= 10_000:
-            t_numpy = timed([PY, "-c", "import numpy"], repeat)
             labkit_row("stream", lines_of(f), ["stream", str(f), "--no-record"], t_numpy,
                        "import numpy", repeat)
 

@@ -431,6 +431,9 @@ def expecting(work, later: bool = False):
     ...     pass                                # a kernel called here would run compiled
     """
     declared = {kernel: int(n) for kernel, n in dict(work).items() if n > 0}
+    if not declared:                   # nothing ahead: every projection stays as it is
+        yield
+        return
     where = _after if later else _ahead
     where.append(declared)
     try:

@@ -46,19 +46,19 @@ def _read_program(args):
     then a traced one read the file twice; the traced one alone costs six plain ones as
     Python); other dialects sync on no line, so their trace would be read for nothing."""
     from labkit._files import check_input_file
-    from labkit.gcode import get_dialect, parse, parse_with_states
+    from labkit.gcode import parse, parse_with_states
     from labkit.motion.spec import load_machine
-    from labkit.motion.stall import controller_sync_lines
+    from labkit.motion.stall import controller_sync_lines, controller_syncs
 
     check_input_file(args.file, what="G-code file")
     with open(args.file, "rb") as fh:
         data = fh.read()
-    if (args.lenient or get_dialect(args.dialect).name != "grbl"
-            or not load_machine(args.machine).laser_change_syncs):
+    machine = load_machine(args.machine)
+    if args.lenient or not controller_syncs(machine, args.dialect):
         moves, trace = parse(data, dialect=args.dialect, filename=args.file, lenient=args.lenient), None
     else:
         moves, trace = parse_with_states(data, dialect=args.dialect, filename=args.file)
-    return moves, controller_sync_lines(data, args.machine, args.dialect, trace=trace)
+    return moves, controller_sync_lines(data, machine, args.dialect, trace=trace)
 
 
 def _plan(args, moves, sync_lines):

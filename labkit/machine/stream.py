@@ -139,68 +139,68 @@ class Job:
         InputError
             A line longer than the controller accepts.
         """
-        if virtual_machine:
-            from labkit.machine.virtual import stream_work
-
-            with expecting(stream_work(text.count("\n") + 1), later=True):
-                return cls.from_text(text, filename=filename, dialect=dialect, machine=machine,
-                                     arc_tol_mm=arc_tol_mm, max_line=max_line)
         from labkit.gcode import parse_with_states
         from labkit.geometry.circle import grbl_segments
 
-        # one reading gives the moves (to plan) and what each line states (trace, below)
-        moves, trace = parse_with_states(text, dialect=dialect, filename=filename)
-        source = text.split("\n")
-        if source and source[-1] == "":
-            source.pop()
-        if max_line is None:
-            from labkit.gcode.writer import LINE_CHARS
+        ahead = {}          # nothing for another controller
+        if virtual_machine:  # it reads and plans every line again: declared for this reading and plan
+            from labkit.machine.virtual import stream_work
 
-            max_line = LINE_CHARS
-        send = []
-        for k, raw in enumerate(source, 1):
-            s = strip_line(raw.rstrip("\r"))
-            if s.startswith("%"):
-                continue
-            if s:
-                if len(s) > max_line:
-                    shown = s if len(s) <= 40 else s[:37] + "..."
-                    raise InputError(f"{filename or '<string>'}:{k}:1: line {k} ({shown}) has "
-                                     f"{len(s)} characters after removing comments and spaces; "
-                                     f"the controller takes at most {max_line} (write fewer "
-                                     f"decimals or split the block)")
-                send.append((k, s))
-        blocks: dict[int, int] = {}
-        lengths = moves.lengths_mm()
-        arcs = moves.is_arc
-        for i in range(len(moves)):
-            if lengths[i] <= 1e-9 and moves.kind[i] != 4:
-                continue
-            n = 1
-            if arcs[i] and moves.plane[i] == 17:
-                n = int(grbl_segments(float(moves.radius_mm()[i]), float(moves.sweep_rad()[i]),
-                                      arc_tol_mm))
-            blocks[int(moves.line[i])] = blocks.get(int(moves.line[i]), 0) + n
-        done_at: dict[int, float] = {}
-        job_time = 0.0
-        try:
-            from labkit.motion import load_machine, plan
-            from labkit.motion.stall import controller_sync_lines
+            ahead = stream_work(text.count("\n") + 1)
+        with expecting(ahead, later=True):
+            # one reading gives the moves (to plan) and what each line states (trace, below)
+            moves, trace = parse_with_states(text, dialect=dialect, filename=filename)
+            source = text.split("\n")
+            if source and source[-1] == "":
+                source.pop()
+            if max_line is None:
+                from labkit.gcode.writer import LINE_CHARS
 
-            # the motion stops where the controller waits for its planner to empty (read
-            # from this reading's trace; later asks for the same program find it kept)
-            spec = load_machine(machine)
-            sync = controller_sync_lines(text, spec, dialect, trace=trace)
-            p = plan(moves, spec, sync_lines=sync)
-            ends = p.block_start_s + p.block_time_s
-            for ln, t in zip(p.blocks.line.tolist(), ends.tolist()):
-                done_at[ln] = max(done_at.get(ln, 0.0), t)
-            job_time = p.job_time_s
-        except (LabkitError, ValueError) as exc:
-            raise MachineError(f"cannot plan the job for its ETA: {exc}") from exc
-        rows = trace[[k - 1 for k, _ in send]]      # the interpreter numbers lines as split here
-        return cls(source, send, moves, blocks, done_at, job_time, filename, dialect,
-                   _syncing([t for _, t in send], rows), [bool(v) for v in rows["axis_words"]], rows)
+                max_line = LINE_CHARS
+            send = []
+            for k, raw in enumerate(source, 1):
+                s = strip_line(raw.rstrip("\r"))
+                if s.startswith("%"):
+                    continue
+                if s:
+                    if len(s) > max_line:
+                        shown = s if len(s) <= 40 else s[:37] + "..."
+                        raise InputError(f"{filename or '<string>'}:{k}:1: line {k} ({shown}) has "
+                                         f"{len(s)} characters after removing comments and spaces; "
+                                         f"the controller takes at most {max_line} (write fewer "
+                                         f"decimals or split the block)")
+                    send.append((k, s))
+            blocks: dict[int, int] = {}
+            lengths = moves.lengths_mm()
+            arcs = moves.is_arc
+            for i in range(len(moves)):
+                if lengths[i] <= 1e-9 and moves.kind[i] != 4:
+                    continue
+                n = 1
+                if arcs[i] and moves.plane[i] == 17:
+                    n = int(grbl_segments(float(moves.radius_mm()[i]), float(moves.sweep_rad()[i]),
+                                          arc_tol_mm))
+                blocks[int(moves.line[i])] = blocks.get(int(moves.line[i]), 0) + n
+            done_at: dict[int, float] = {}
+            job_time = 0.0
+            try:
+                from labkit.motion import load_machine, plan
+                from labkit.motion.stall import controller_sync_lines
+
+                # the motion stops where the controller waits for its planner to empty (read
+                # from this reading's trace; later asks for the same program find it kept)
+                spec = load_machine(machine)
+                sync = controller_sync_lines(text, spec, dialect, trace=trace)
+                p = plan(moves, spec, sync_lines=sync)
+                ends = p.block_start_s + p.block_time_s
+                for ln, t in zip(p.blocks.line.tolist(), ends.tolist()):
+                    done_at[ln] = max(done_at.get(ln, 0.0), t)
+                job_time = p.job_time_s
+            except (LabkitError, ValueError) as exc:
+                raise MachineError(f"cannot plan the job for its ETA: {exc}") from exc
+            rows = trace[[k - 1 for k, _ in send]]      # the interpreter numbers lines as split here
+            return cls(source, send, moves, blocks, done_at, job_time, filename, dialect,
+                       _syncing([t for _, t in send], rows), [bool(v) for v in rows["axis_words"]], rows)
 
     @classmethod
     def from_file(cls, path, **kw) -> "Job":
@@ -723,32 +723,29 @@ class JobRunner:
     def send_all(self) -> None:
         """Send every line and account for every answer; raise :class:`_Fault` on any fault."""
         # The lines are one job for labkit._jit's rule: a virtual machine parses and plans each
-        # line in kernels of its own (in the reader thread), and their Python time per line
+        # line in kernels of its own (in the thread that reads the link), and their Python time per line
         # answered, projected over the lines left, decides whether numba is worth loading.
-        with job(len(self.lines) - self.next_index) as lines_job:
-            self._send_lines(lines_job)
-
-    def _send_lines(self, lines_job) -> None:
         grbl = self.grbl
-        while self.next_index < len(self.lines) or self.inflight:
-            now = time.monotonic()
-            self.poll(now)
-            sent_any = self.send()
-            ev = grbl.next_event(0.0 if sent_any else 0.01)
-            if ev is None:
-                self.check_stall(now)
-                continue
-            self.stall_since = None
-            if ev.kind in ("ok", "error"):
-                self.acknowledge(ev)
-                lines_job.advance()
-            elif ev.kind == "alarm":
-                raise _Fault(f"ALARM:{ev.code}: {alarm_message(ev.code)}", reset=True)
-            elif ev.kind == "reset":
-                raise _Fault("the machine reset during the job (power, cable, or a reset)",
-                             reset=False, hold=False)
-            elif ev.kind == "disconnect":
-                raise _Fault(f"link lost: {ev.text}", reset=False, hold=False)
+        with job(len(self.lines) - self.next_index) as lines_job:
+            while self.next_index < len(self.lines) or self.inflight:
+                now = time.monotonic()
+                self.poll(now)
+                sent_any = self.send()
+                ev = grbl.next_event(0.0 if sent_any else 0.01)
+                if ev is None:
+                    self.check_stall(now)
+                    continue
+                self.stall_since = None
+                if ev.kind in ("ok", "error"):
+                    self.acknowledge(ev)
+                    lines_job.advance()
+                elif ev.kind == "alarm":
+                    raise _Fault(f"ALARM:{ev.code}: {alarm_message(ev.code)}", reset=True)
+                elif ev.kind == "reset":
+                    raise _Fault("the machine reset during the job (power, cable, or a reset)",
+                                 reset=False, hold=False)
+                elif ev.kind == "disconnect":
+                    raise _Fault(f"link lost: {ev.text}", reset=False, hold=False)
 
     def poll(self, now: float) -> None:
         """Stop requests and pause, a status request every ``status_interval_s``, and what a

@@ -52,7 +52,7 @@ from labkit.motion._stall import stream_lines
 
 __all__ = ["Starvation", "LinkPrediction", "StallFreeFeed", "predict_stalls", "stall_free_feed",
            "sent_line_bytes", "with_feed", "program_feeds", "read_starvation_log", "may_starve",
-           "block_time_bounds", "motion_line_numbers", "short_queues", "controller_sync_lines",
+           "block_time_bounds", "motion_line_numbers", "short_queues", "controller_sync_lines", "controller_syncs",
            "FLUSH_QUIET_S"]
 
 #: Quiet input after which the labkit firmware runs what its look-ahead holds back, s
@@ -474,13 +474,36 @@ def controller_sync_lines(text, machine, dialect: str = "grbl", trace=None) -> n
     [1, 3]
     """
     from labkit.gcode import grbl_sync_lines
+
+    if not controller_syncs(machine, dialect):
+        return np.zeros(0, np.int64)
+    return np.asarray(grbl_sync_lines(text, dialect=dialect, trace=trace), np.int64)
+
+
+def controller_syncs(machine, dialect: str = "grbl") -> bool:
+    """Whether ``machine``'s controller empties its planner at some lines of a program in
+    ``dialect`` (:func:`controller_sync_lines` finds them): its description says it waits
+    (``laser_change_syncs``) and the program is GRBL's; other dialects keep power in the step
+    stream. A caller that reads the program only for those lines asks this first.
+
+    Parameters
+    ----------
+    machine : MachineSpec or str
+    dialect : str
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> controller_syncs("grbl-diode"), controller_syncs("grbl-diode", "labkit-fw")
+    (True, False)
+    """
+    from labkit.gcode import get_dialect
     from labkit.motion.spec import load_machine
 
-    m = load_machine(machine)
-    if not m.laser_change_syncs:
-        return np.zeros(0, np.int64)
-
-    return np.asarray(grbl_sync_lines(text, dialect=dialect, trace=trace), np.int64)
+    return bool(load_machine(machine).laser_change_syncs) and get_dialect(dialect).name == "grbl"
 
 
 def _synced(p, machine, sync: np.ndarray):
